@@ -1,0 +1,554 @@
+//! The sampling interface and its three implementations.
+//!
+//! Every consumer of samples goes through [`VoxelSource`] (shared, `Sync`)
+//! and the per-thread [`Cursor`] it hands out. A cursor may keep state, such
+//! as the last decoded brick, so that sampling compressed volumes costs a
+//! cache lookup only when a ray moves to another brick.
+//!
+//! Sampling rules, identical for every layout so that all layouts give the
+//! same bits:
+//! - Coordinates are in voxels: voxel `(i, j, k)` sits at point `(i, j, k)`.
+//! - A point is first clamped to the box `[0, dims − 1]` (NaN clamps to 0).
+//! - Trilinear interpolation reads the cell at `floor(p)`; a neighbour past
+//!   the far face repeats the edge voxel (clamp to edge). Each axis is
+//!   blended as `a + (b − a)·t`, x first, then y, then z.
+//! - Nearest picks `round(p)` (halves away from zero) of the clamped point.
+//! - The gradient is the central difference of the interpolant with unit
+//!   offsets, `(f(p + e) − f(p − e)) / 2` per axis, each point clamped.
+
+use crate::brick::BrickGeometry;
+use crate::cache::BrickCache;
+use crate::dims::Dims;
+use crate::sample::Sample;
+use crate::storage::Data;
+use std::sync::{Arc, OnceLock};
+
+/// Read access to the samples of one volume of sample type `Self::Sample`.
+pub trait VoxelSource: Sync {
+    /// The stored sample type.
+    type Sample: Sample;
+    /// A per-thread sampler.
+    type Cursor<'a>: Cursor
+    where
+        Self: 'a;
+
+    /// The volume's dimensions.
+    fn dims(&self) -> Dims;
+
+    /// A new sampler; create one per thread (cursors are cheap).
+    fn cursor(&self) -> Self::Cursor<'_>;
+
+    /// Copy voxels `x0 .. x0 + out.len()` of row `(y, z)` into `out`.
+    /// The row must lie inside the volume.
+    fn read_row(&self, x0: u64, y: u64, z: u64, out: &mut [Self::Sample]);
+
+    /// The first error met while decoding stored data, if any. Cursors
+    /// cannot fail mid-sample; a brick that fails to decode reads as zeros
+    /// and its error is kept here for the caller to report after the job.
+    fn error(&self) -> Option<String> {
+        None
+    }
+}
+
+/// A sampler over one volume, used from one thread.
+pub trait Cursor {
+    /// The volume's dimensions.
+    fn dims(&self) -> Dims;
+
+    /// The voxel at integer coordinates inside the volume.
+    fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32;
+
+    /// The eight values of the cell at base `(i, j, k)` (each inside the
+    /// volume), neighbours past the far face clamped to the edge, ordered
+    /// `dx + 2·dy + 4·dz`.
+    fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8];
+
+    /// Trilinear interpolation at a point in voxel coordinates.
+    #[inline]
+    fn trilinear(&mut self, p: [f32; 3]) -> f32 {
+        let (base, t) = locate(p, self.dims());
+        let c = self.cell(base[0], base[1], base[2]);
+        blend(&c, t)
+    }
+
+    /// The nearest voxel's value at a point in voxel coordinates.
+    #[inline]
+    fn nearest(&mut self, p: [f32; 3]) -> f32 {
+        let d = self.dims().as_array();
+        let i: [u64; 3] = std::array::from_fn(|a| clamp_axis(p[a], d[a]).round() as u64);
+        self.voxel(i[0], i[1], i[2])
+    }
+
+    /// Central-difference gradient of the interpolant, per voxel.
+    #[inline]
+    fn gradient(&mut self, p: [f32; 3]) -> [f32; 3] {
+        let mut g = [0.0; 3];
+        for (a, ga) in g.iter_mut().enumerate() {
+            let mut hi = p;
+            let mut lo = p;
+            hi[a] += 1.0;
+            lo[a] -= 1.0;
+            *ga = (self.trilinear(hi) - self.trilinear(lo)) * 0.5;
+        }
+        g
+    }
+}
+
+/// Clamp one coordinate to `[0, d − 1]`, mapping NaN to 0.
+#[inline(always)]
+pub fn clamp_axis(p: f32, d: u64) -> f32 {
+    let hi = (d - 1) as f32;
+    if p > 0.0 {
+        p.min(hi)
+    } else {
+        0.0
+    }
+}
+
+/// The cell base and fractional offsets of a point (see the module rules).
+#[inline(always)]
+pub fn locate(p: [f32; 3], dims: Dims) -> ([u64; 3], [f32; 3]) {
+    let d = dims.as_array();
+    let mut base = [0u64; 3];
+    let mut t = [0f32; 3];
+    for a in 0..3 {
+        let c = clamp_axis(p[a], d[a]);
+        let i = c as u64; // c >= 0, so this is floor
+        base[a] = i;
+        t[a] = c - i as f32;
+    }
+    (base, t)
+}
+
+/// Trilinear blend of cell values `c` with offsets `t`.
+#[inline(always)]
+pub fn blend(c: &[f32; 8], t: [f32; 3]) -> f32 {
+    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+    let x00 = lerp(c[0], c[1], t[0]);
+    let x10 = lerp(c[2], c[3], t[0]);
+    let x01 = lerp(c[4], c[5], t[0]);
+    let x11 = lerp(c[6], c[7], t[0]);
+    let y0 = lerp(x00, x10, t[1]);
+    let y1 = lerp(x01, x11, t[1]);
+    lerp(y0, y1, t[2])
+}
+
+#[inline(always)]
+fn cell_from<T: Sample>(s: &[T], base: usize, ox: usize, oy: usize, oz: usize) -> [f32; 8] {
+    [
+        s[base].to_f32(),
+        s[base + ox].to_f32(),
+        s[base + oy].to_f32(),
+        s[base + ox + oy].to_f32(),
+        s[base + oz].to_f32(),
+        s[base + ox + oz].to_f32(),
+        s[base + oy + oz].to_f32(),
+        s[base + ox + oy + oz].to_f32(),
+    ]
+}
+
+// ---------------------------------------------------------------- sliced --
+
+/// Samples in one x-fastest array (owned or mapped).
+pub struct SlicedGrid<T: Sample> {
+    dims: Dims,
+    data: Data<T>,
+}
+
+impl<T: Sample> SlicedGrid<T> {
+    /// Wrap `data`, which must hold exactly `dims.count()` samples.
+    pub fn new(dims: Dims, data: Data<T>) -> crate::Result<SlicedGrid<T>> {
+        if data.len() as u64 != dims.count() {
+            return Err(crate::Error::Corrupt(format!(
+                "sliced data has {} samples, {dims} needs {}",
+                data.len(),
+                dims.count()
+            )));
+        }
+        Ok(SlicedGrid { dims, data })
+    }
+
+    /// All samples, x fastest.
+    pub fn samples(&self) -> &[T] {
+        &self.data
+    }
+
+    /// Whether the samples are memory-mapped.
+    pub fn is_mapped(&self) -> bool {
+        self.data.is_mapped()
+    }
+}
+
+/// Cursor over a [`SlicedGrid`].
+pub struct SlicedCursor<'a, T: Sample> {
+    dims: Dims,
+    data: &'a [T],
+}
+
+impl<T: Sample> VoxelSource for SlicedGrid<T> {
+    type Sample = T;
+    type Cursor<'a> = SlicedCursor<'a, T>;
+
+    fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    fn cursor(&self) -> SlicedCursor<'_, T> {
+        SlicedCursor {
+            dims: self.dims,
+            data: &self.data,
+        }
+    }
+
+    fn read_row(&self, x0: u64, y: u64, z: u64, out: &mut [T]) {
+        let start = self.dims.index(x0, y, z) as usize;
+        out.copy_from_slice(&self.data[start..start + out.len()]);
+    }
+}
+
+impl<T: Sample> Cursor for SlicedCursor<'_, T> {
+    #[inline(always)]
+    fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    #[inline(always)]
+    fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
+        self.data[self.dims.index(x, y, z) as usize].to_f32()
+    }
+
+    #[inline(always)]
+    fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8] {
+        let d = self.dims;
+        let ox = (i + 1 < d.x) as usize;
+        let oy = if j + 1 < d.y { d.x as usize } else { 0 };
+        let oz = if k + 1 < d.z { (d.x * d.y) as usize } else { 0 };
+        cell_from(self.data, d.index(i, j, k) as usize, ox, oy, oz)
+    }
+}
+
+// --------------------------------------------------------------- bricked --
+
+/// Uncompressed bricks, stored back to back `stride` samples apart
+/// (owned or mapped). See [`crate::brick`] for the geometry.
+pub struct BrickedGrid<T: Sample> {
+    geom: BrickGeometry,
+    stride: usize,
+    data: Data<T>,
+}
+
+impl<T: Sample> BrickedGrid<T> {
+    /// Wrap `data` holding `geom.brick_count()` bricks, brick `n` starting
+    /// at sample `n · stride` (`stride >= geom.stored_len()`).
+    pub fn new(geom: BrickGeometry, stride: usize, data: Data<T>) -> crate::Result<Self> {
+        let need = (geom.brick_count() as usize)
+            .checked_mul(stride)
+            .ok_or_else(|| crate::Error::Corrupt("brick data size overflows".into()))?;
+        if stride < geom.stored_len() || data.len() < need {
+            return Err(crate::Error::Corrupt(format!(
+                "brick data has {} samples, {} bricks of stride {stride} need {need}",
+                data.len(),
+                geom.brick_count()
+            )));
+        }
+        Ok(BrickedGrid { geom, stride, data })
+    }
+
+    /// The brick geometry.
+    pub fn geometry(&self) -> &BrickGeometry {
+        &self.geom
+    }
+
+    /// The stored samples of brick `index` (apron included).
+    pub fn brick(&self, index: u64) -> &[T] {
+        let s = index as usize * self.stride;
+        &self.data[s..s + self.geom.stored_len()]
+    }
+
+    /// Whether the samples are memory-mapped.
+    pub fn is_mapped(&self) -> bool {
+        self.data.is_mapped()
+    }
+}
+
+/// Where voxel coordinates fall in the bricked layout.
+#[derive(Clone, Copy)]
+struct BrickAddr {
+    brick: u64,
+    local: usize,
+}
+
+#[inline(always)]
+fn brick_addr(g: &BrickGeometry, i: u64, j: u64, k: u64) -> BrickAddr {
+    let b = g.brick() as u64;
+    let (bx, by, bz) = (i / b, j / b, k / b);
+    let e = g.stored_edge() as usize;
+    let lo = crate::brick::APRON_LO as u64;
+    let li = (i - bx * b + lo) as usize;
+    let lj = (j - by * b + lo) as usize;
+    let lk = (k - bz * b + lo) as usize;
+    BrickAddr {
+        brick: g.brick_index(bx, by, bz),
+        local: li + e * (lj + e * lk),
+    }
+}
+
+/// Cursor over a [`BrickedGrid`].
+pub struct BrickedCursor<'a, T: Sample> {
+    grid: &'a BrickedGrid<T>,
+}
+
+impl<T: Sample> VoxelSource for BrickedGrid<T> {
+    type Sample = T;
+    type Cursor<'a> = BrickedCursor<'a, T>;
+
+    fn dims(&self) -> Dims {
+        self.geom.dims()
+    }
+
+    fn cursor(&self) -> BrickedCursor<'_, T> {
+        BrickedCursor { grid: self }
+    }
+
+    fn read_row(&self, x0: u64, y: u64, z: u64, out: &mut [T]) {
+        read_row_bricked(&self.geom, x0, y, z, out, |id| Some(self.brick(id)));
+    }
+}
+
+/// Copy a row out of bricks, one brick-sized run at a time.
+fn read_row_bricked<'b, T: Sample>(
+    g: &BrickGeometry,
+    x0: u64,
+    y: u64,
+    z: u64,
+    out: &mut [T],
+    mut brick: impl FnMut(u64) -> Option<&'b [T]>,
+) where
+    T: 'b,
+{
+    let b = g.brick() as u64;
+    let mut x = x0;
+    let mut done = 0usize;
+    while done < out.len() {
+        let run = ((b - x % b) as usize).min(out.len() - done);
+        let a = brick_addr(g, x, y, z);
+        match brick(a.brick) {
+            Some(s) => out[done..done + run].copy_from_slice(&s[a.local..a.local + run]),
+            None => out[done..done + run].fill(T::default()),
+        }
+        done += run;
+        x += run as u64;
+    }
+}
+
+impl<T: Sample> Cursor for BrickedCursor<'_, T> {
+    #[inline(always)]
+    fn dims(&self) -> Dims {
+        self.grid.geom.dims()
+    }
+
+    #[inline(always)]
+    fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
+        let a = brick_addr(&self.grid.geom, x, y, z);
+        self.grid.data[a.brick as usize * self.grid.stride + a.local].to_f32()
+    }
+
+    #[inline(always)]
+    fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8] {
+        let g = &self.grid.geom;
+        let a = brick_addr(g, i, j, k);
+        let e = g.stored_edge() as usize;
+        let base = a.brick as usize * self.grid.stride + a.local;
+        cell_from(&self.grid.data, base, 1, e, e * e)
+    }
+}
+
+// ------------------------------------------------------------ compressed --
+
+/// Where one compressed brick lies in the source bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BrickEntry {
+    /// Byte offset in the source.
+    pub offset: u64,
+    /// Compressed length in bytes.
+    pub length: u64,
+    /// CRC-32 (IEEE) of the compressed bytes.
+    pub crc32: u32,
+}
+
+/// zstd-compressed bricks, decoded on demand into a bounded [`BrickCache`].
+pub struct CompressedGrid<T: Sample> {
+    geom: BrickGeometry,
+    source: Data<u8>,
+    entries: Vec<BrickEntry>,
+    cache: BrickCache<T>,
+    error: OnceLock<String>,
+}
+
+impl<T: Sample> CompressedGrid<T> {
+    /// Wrap compressed bricks found at `entries` in `source`, caching up to
+    /// `cache_bytes` of decoded samples.
+    pub fn new(
+        geom: BrickGeometry,
+        source: Data<u8>,
+        entries: Vec<BrickEntry>,
+        cache_bytes: usize,
+    ) -> crate::Result<Self> {
+        if entries.len() as u64 != geom.brick_count() {
+            return Err(crate::Error::Corrupt(format!(
+                "{} brick entries for {} bricks",
+                entries.len(),
+                geom.brick_count()
+            )));
+        }
+        for (n, e) in entries.iter().enumerate() {
+            let end = e.offset.checked_add(e.length);
+            if end.is_none_or(|end| end > source.len() as u64) {
+                return Err(crate::Error::Corrupt(format!(
+                    "brick {n} lies outside the data ({} bytes at {})",
+                    e.length, e.offset
+                )));
+            }
+        }
+        let brick_bytes = geom.stored_len() * std::mem::size_of::<T>();
+        Ok(CompressedGrid {
+            geom,
+            source,
+            entries,
+            cache: BrickCache::new((cache_bytes / brick_bytes).max(64)),
+            error: OnceLock::new(),
+        })
+    }
+
+    /// The brick geometry.
+    pub fn geometry(&self) -> &BrickGeometry {
+        &self.geom
+    }
+
+    /// The brick table.
+    pub fn entries(&self) -> &[BrickEntry] {
+        &self.entries
+    }
+
+    /// The compressed bytes of brick `index`.
+    pub fn compressed(&self, index: u64) -> &[u8] {
+        let e = self.entries[index as usize];
+        &self.source[e.offset as usize..(e.offset + e.length) as usize]
+    }
+
+    /// Decode brick `index` without the cache, checking its CRC and size.
+    pub fn decode(&self, index: u64) -> Result<Vec<T>, String> {
+        let bytes = self.compressed(index);
+        let e = self.entries[index as usize];
+        let crc = crc32fast::hash(bytes);
+        if crc != e.crc32 {
+            return Err(format!(
+                "brick {index}: checksum {crc:08x} does not match {:08x}",
+                e.crc32
+            ));
+        }
+        let n = self.geom.stored_len();
+        let mut out = vec![T::default(); n];
+        let target: &mut [u8] = bytemuck::cast_slice_mut(&mut out);
+        let got = zstd::bulk::decompress_to_buffer(bytes, target)
+            .map_err(|err| format!("brick {index}: zstd: {err}"))?;
+        if got != target.len() {
+            return Err(format!(
+                "brick {index}: decoded {got} bytes, expected {}",
+                target.len()
+            ));
+        }
+        T::slice_from_le(&mut out);
+        Ok(out)
+    }
+
+    /// Brick `index` from the cache, decoding it on a miss. A brick that
+    /// fails to decode reads as zeros and records the error.
+    pub fn brick(&self, index: u64) -> Arc<[T]> {
+        match self.cache.get_or_load(index, || self.decode(index)) {
+            Ok(b) => b,
+            Err(msg) => {
+                let _ = self.error.set(msg);
+                vec![T::default(); self.geom.stored_len()].into()
+            }
+        }
+    }
+}
+
+/// Cursor over a [`CompressedGrid`]; remembers the last brick it used.
+pub struct CompressedCursor<'a, T: Sample> {
+    grid: &'a CompressedGrid<T>,
+    current: Option<(u64, Arc<[T]>)>,
+}
+
+impl<T: Sample> CompressedCursor<'_, T> {
+    #[inline(always)]
+    fn brick(&mut self, id: u64) -> &[T] {
+        let hit = matches!(&self.current, Some((cur, _)) if *cur == id);
+        if !hit {
+            self.current = Some((id, self.grid.brick(id)));
+        }
+        match &self.current {
+            Some((_, b)) => b,
+            None => &[],
+        }
+    }
+}
+
+impl<T: Sample> VoxelSource for CompressedGrid<T> {
+    type Sample = T;
+    type Cursor<'a> = CompressedCursor<'a, T>;
+
+    fn dims(&self) -> Dims {
+        self.geom.dims()
+    }
+
+    fn cursor(&self) -> CompressedCursor<'_, T> {
+        CompressedCursor {
+            grid: self,
+            current: None,
+        }
+    }
+
+    fn read_row(&self, x0: u64, y: u64, z: u64, out: &mut [T]) {
+        let mut held: Vec<Arc<[T]>> = Vec::new();
+        let ids: Vec<u64> = {
+            let b = self.geom.brick() as u64;
+            let last = x0 + out.len() as u64 - 1;
+            (x0 / b..=last / b)
+                .map(|bx| brick_addr(&self.geom, bx * b, y, z).brick)
+                .collect()
+        };
+        for &id in &ids {
+            held.push(self.brick(id));
+        }
+        read_row_bricked(&self.geom, x0, y, z, out, |id| {
+            ids.iter().position(|&i| i == id).map(|p| &held[p][..])
+        });
+    }
+
+    fn error(&self) -> Option<String> {
+        self.error.get().cloned()
+    }
+}
+
+impl<T: Sample> Cursor for CompressedCursor<'_, T> {
+    #[inline(always)]
+    fn dims(&self) -> Dims {
+        self.grid.geom.dims()
+    }
+
+    #[inline(always)]
+    fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
+        let a = brick_addr(&self.grid.geom, x, y, z);
+        self.brick(a.brick)[a.local].to_f32()
+    }
+
+    #[inline(always)]
+    fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8] {
+        let g = self.grid.geom;
+        let a = brick_addr(&g, i, j, k);
+        let e = g.stored_edge() as usize;
+        cell_from(self.brick(a.brick), a.local, 1, e, e * e)
+    }
+}

@@ -1,0 +1,186 @@
+//! Sample types and their conversions.
+
+use std::fmt;
+use std::str::FromStr;
+
+/// The type of one stored sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SampleType {
+    /// Unsigned 8-bit integer.
+    U8,
+    /// Unsigned 16-bit integer.
+    U16,
+    /// Signed 16-bit integer (CT Hounsfield units).
+    I16,
+    /// 32-bit IEEE float.
+    F32,
+}
+
+impl SampleType {
+    /// Every supported type, in code order.
+    pub const ALL: [SampleType; 4] = [
+        SampleType::U8,
+        SampleType::U16,
+        SampleType::I16,
+        SampleType::F32,
+    ];
+
+    /// Bytes per sample.
+    pub fn size(self) -> usize {
+        match self {
+            SampleType::U8 => 1,
+            SampleType::U16 | SampleType::I16 => 2,
+            SampleType::F32 => 4,
+        }
+    }
+
+    /// Short lowercase name used on command lines and in JSON (`u8`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            SampleType::U8 => "u8",
+            SampleType::U16 => "u16",
+            SampleType::I16 => "i16",
+            SampleType::F32 => "f32",
+        }
+    }
+
+    /// Numeric code stored in file headers.
+    pub fn code(self) -> u8 {
+        match self {
+            SampleType::U8 => 1,
+            SampleType::U16 => 2,
+            SampleType::I16 => 3,
+            SampleType::F32 => 4,
+        }
+    }
+
+    /// Inverse of [`SampleType::code`].
+    pub fn from_code(code: u8) -> Option<SampleType> {
+        SampleType::ALL.into_iter().find(|t| t.code() == code)
+    }
+
+    /// The range a type can represent, or `None` for floats.
+    pub fn integer_range(self) -> Option<(f64, f64)> {
+        match self {
+            SampleType::U8 => Some((0.0, 255.0)),
+            SampleType::U16 => Some((0.0, 65535.0)),
+            SampleType::I16 => Some((-32768.0, 32767.0)),
+            SampleType::F32 => None,
+        }
+    }
+}
+
+impl fmt::Display for SampleType {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for SampleType {
+    type Err = String;
+    /// Accepts `u8 u16 i16 f32` and the Open SciVis spellings
+    /// `uint8 uint16 int16 float32` (and `float`).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "u8" | "uint8" => Ok(SampleType::U8),
+            "u16" | "uint16" => Ok(SampleType::U16),
+            "i16" | "int16" => Ok(SampleType::I16),
+            "f32" | "float32" | "float" => Ok(SampleType::F32),
+            other => Err(format!(
+                "unknown sample type '{other}' (expected u8, u16, i16 or f32)"
+            )),
+        }
+    }
+}
+
+/// A stored sample: plain old data with lossless widening to `f32`
+/// (every supported type is exact in `f32`) and a defined narrowing.
+pub trait Sample:
+    bytemuck::Pod + Copy + Default + Send + Sync + PartialEq + fmt::Debug + 'static
+{
+    /// The matching runtime tag.
+    const TYPE: SampleType;
+    /// Exact widening conversion.
+    fn to_f32(self) -> f32;
+    /// Narrowing from `f32`: round half away from zero, clamp to the type's
+    /// range; NaN becomes 0 for integer types and stays NaN for `f32`.
+    fn from_f32(v: f32) -> Self;
+    /// Whether this sample is NaN (always false for integers).
+    fn is_nan(self) -> bool {
+        false
+    }
+    /// Convert a little-endian byte slice in place to native order.
+    fn slice_from_le(data: &mut [Self]);
+}
+
+macro_rules! int_sample {
+    ($t:ty, $tag:expr) => {
+        impl Sample for $t {
+            const TYPE: SampleType = $tag;
+            #[inline(always)]
+            fn to_f32(self) -> f32 {
+                self as f32
+            }
+            #[inline(always)]
+            fn from_f32(v: f32) -> Self {
+                // `as` saturates and maps NaN to 0, which is the documented rule.
+                v.round() as $t
+            }
+            fn slice_from_le(data: &mut [Self]) {
+                for v in data {
+                    *v = <$t>::from_le(*v);
+                }
+            }
+        }
+    };
+}
+
+int_sample!(u8, SampleType::U8);
+int_sample!(u16, SampleType::U16);
+int_sample!(i16, SampleType::I16);
+
+impl Sample for f32 {
+    const TYPE: SampleType = SampleType::F32;
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn from_f32(v: f32) -> Self {
+        v
+    }
+    fn is_nan(self) -> bool {
+        f32::is_nan(self)
+    }
+    fn slice_from_le(data: &mut [Self]) {
+        for v in data {
+            *v = f32::from_bits(u32::from_le(v.to_bits()));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn narrowing_rounds_clamps_and_maps_nan() {
+        assert_eq!(u8::from_f32(2.5), 3);
+        assert_eq!(u8::from_f32(-4.0), 0);
+        assert_eq!(u8::from_f32(300.0), 255);
+        assert_eq!(u8::from_f32(f32::NAN), 0);
+        assert_eq!(i16::from_f32(-40000.0), -32768);
+        assert_eq!(u16::from_f32(65535.4), 65535);
+        assert!(f32::from_f32(f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn names_parse_back() {
+        for t in SampleType::ALL {
+            assert_eq!(t.name().parse::<SampleType>().unwrap(), t);
+            assert_eq!(SampleType::from_code(t.code()), Some(t));
+        }
+        assert_eq!("uint16".parse::<SampleType>().unwrap(), SampleType::U16);
+        assert!("u32".parse::<SampleType>().is_err());
+    }
+}

@@ -1,0 +1,180 @@
+//! The thesis's `shapes` scene: random cuboids and ellipsoids on an empty
+//! background.
+//!
+//! N shapes, each a cuboid or an ellipsoid with equal odds; each axis extent
+//! drawn uniformly from `[S − S/3, S + S/3]` (at most the volume's extent),
+//! placed so the shape lies inside the volume. Voxels inside a shape take a
+//! value drawn uniformly from the integers `value − 10 ..= value + 10`
+//! (hashed from the seed and the voxel index); where shapes overlap, the
+//! first one drawn wins; the background is 0.
+
+use super::{clip, hash64, Scene};
+use crate::dims::Dims;
+
+/// Cuboid or ellipsoid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShapeKind {
+    /// Axis-aligned box filling its extent.
+    Cuboid,
+    /// Axis-aligned ellipsoid inscribed in its extent.
+    Ellipsoid,
+}
+
+/// One placed shape.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shape {
+    /// Cuboid or ellipsoid.
+    pub kind: ShapeKind,
+    /// Lowest voxel of its bounding box.
+    pub lo: [u64; 3],
+    /// Bounding box extent in voxels.
+    pub ext: [u64; 3],
+}
+
+impl Shape {
+    /// The covered x range `[a, b)` on row `(y, z)`, if any.
+    #[inline]
+    fn row_span(&self, y: u64, z: u64) -> Option<(i64, i64)> {
+        let inside = |c: u64, a: usize| c >= self.lo[a] && c < self.lo[a] + self.ext[a];
+        if !inside(y, 1) || !inside(z, 2) {
+            return None;
+        }
+        match self.kind {
+            ShapeKind::Cuboid => Some((self.lo[0] as i64, (self.lo[0] + self.ext[0]) as i64)),
+            ShapeKind::Ellipsoid => {
+                let centre = |a: usize| self.lo[a] as f64 + (self.ext[a] as f64 - 1.0) / 2.0;
+                let semi = |a: usize| self.ext[a] as f64 / 2.0;
+                let dy = (y as f64 - centre(1)) / semi(1);
+                let dz = (z as f64 - centre(2)) / semi(2);
+                let q = 1.0 - dy * dy - dz * dz;
+                if q < 0.0 {
+                    return None;
+                }
+                let half = semi(0) * q.sqrt();
+                let a = (centre(0) - half).ceil() as i64;
+                let b = (centre(0) + half).floor() as i64 + 1;
+                (a < b).then_some((a, b))
+            }
+        }
+    }
+}
+
+/// Random shapes on an empty background (see the module docs).
+pub struct ShapesScene {
+    dims: Dims,
+    seed: u64,
+    value: f32,
+    shapes: Vec<Shape>,
+}
+
+impl ShapesScene {
+    /// `count` shapes of nominal size `size` and value `value`, placed by
+    /// `seed`.
+    pub fn new(dims: Dims, seed: u64, count: usize, size: u64, value: f32) -> Self {
+        let mut rng = fastrand::Rng::with_seed(seed);
+        let d = dims.as_array();
+        let spread = size / 3;
+        let shapes = (0..count)
+            .map(|_| {
+                let kind = if rng.bool() {
+                    ShapeKind::Cuboid
+                } else {
+                    ShapeKind::Ellipsoid
+                };
+                let ext: [u64; 3] = std::array::from_fn(|a| {
+                    let e = rng.u64(size.saturating_sub(spread)..=size + spread);
+                    e.clamp(1, d[a])
+                });
+                let lo = std::array::from_fn(|a| rng.u64(0..=d[a] - ext[a]));
+                Shape { kind, lo, ext }
+            })
+            .collect();
+        ShapesScene {
+            dims,
+            seed,
+            value,
+            shapes,
+        }
+    }
+
+    /// The placed shapes, in draw order.
+    pub fn shapes(&self) -> &[Shape] {
+        &self.shapes
+    }
+}
+
+impl Scene for ShapesScene {
+    fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) {
+        out.fill(0.0);
+        // Paint in reverse so the first shape drawn ends on top.
+        for s in self.shapes.iter().rev() {
+            let Some((a, b)) = s.row_span(y, z) else {
+                continue;
+            };
+            let Some((a, b)) = clip(a, b, x0, out.len()) else {
+                continue;
+            };
+            let row = self.dims.index(x0, y, z);
+            for (i, o) in out[a..b].iter_mut().enumerate() {
+                let h = hash64(self.seed, row + (a + i) as u64);
+                *o = self.value + (h % 21) as f32 - 10.0;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shapes_fit_and_values_stay_in_band() {
+        let d = Dims::new(64, 50, 40).unwrap();
+        let s = ShapesScene::new(d, 2, 20, 30, 100.0);
+        for sh in s.shapes() {
+            for a in 0..3 {
+                assert!(sh.lo[a] + sh.ext[a] <= d.as_array()[a]);
+                assert!(sh.ext[a] >= 20 && sh.ext[a] <= 40 || sh.ext[a] == d.as_array()[a]);
+            }
+        }
+        let mut row = vec![0f32; 64];
+        let mut filled = 0;
+        for z in 0..40 {
+            for y in 0..50 {
+                s.fill_row(0, y, z, &mut row);
+                for &v in &row {
+                    assert!(v == 0.0 || (90.0..=110.0).contains(&v));
+                    filled += (v != 0.0) as usize;
+                }
+            }
+        }
+        assert!(filled > 1000);
+    }
+
+    #[test]
+    fn first_shape_wins() {
+        let d = Dims::new(16, 16, 16).unwrap();
+        let mut s = ShapesScene::new(d, 0, 0, 4, 100.0);
+        s.shapes = vec![
+            Shape {
+                kind: ShapeKind::Cuboid,
+                lo: [0, 0, 0],
+                ext: [4, 4, 4],
+            },
+            Shape {
+                kind: ShapeKind::Cuboid,
+                lo: [2, 0, 0],
+                ext: [4, 4, 4],
+            },
+        ];
+        s.value = 50.0;
+        let mut row = vec![0f32; 8];
+        s.fill_row(0, 1, 1, &mut row);
+        assert!(row[..6].iter().all(|&v| v >= 40.0));
+        assert_eq!(row[6], 0.0);
+    }
+}
