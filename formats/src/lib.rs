@@ -1,1 +1,26 @@
-//! placeholder
+//! volformats: reading and writing volume files.
+//!
+//! - [`vvol`]: volkit's native format (sliced or bricked, optional zstd per
+//!   brick, memory-mappable, streamable through pipes); see `FORMAT.md`.
+//! - [`thesis`]: the `.vol` format of the thesis generator (`vol_gen`).
+//! - [`raw`]: headerless sample arrays, Open SciVis naming.
+//!
+//! Writers pull samples from a [`volcore::RegionSource`] and produce them in
+//! parallel batches that one thread writes in file order
+//! ([`pipeline::ordered`]), so memory stays bounded whatever the volume size.
+//! Output files go through [`output::AtomicFile`]: written under a temporary
+//! name and renamed into place only on success.
+
+pub mod detect;
+pub mod error;
+pub mod output;
+pub mod pipeline;
+pub mod raw;
+pub mod thesis;
+pub mod vvol;
+
+pub use detect::{open_volume, FileKind};
+pub use error::{Error, Result};
+
+#[cfg(test)]
+mod tests;

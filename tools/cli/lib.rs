@@ -1,1 +1,8 @@
-//! placeholder
+//! Shared plumbing for the volkit command-line tools: argument parsers,
+//! progress bars, JSON output and the error-reporting `main` wrapper.
+
+pub mod args;
+pub mod progress;
+pub mod run;
+
+pub use run::run;

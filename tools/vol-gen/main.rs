@@ -1,1 +1,328 @@
-fn main() {}
+//! vol-gen: procedural test volumes, generated in parallel and streamed to
+//! disk (or stdout) with bounded memory.
+
+use anyhow::{bail, Context, Result};
+use clap::{Parser, ValueEnum};
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+use volcore::scene::{
+    BoxScene, NoiseKind, NoiseScene, RampScene, Scene, SceneSource, ShapesScene, SolidScene,
+    SphereScene, SpheresScene,
+};
+use volcore::{BrickGeometry, Compression, Dims, Layout, Sample, SampleType, VolumeMeta};
+use volformats::output::{AtomicFile, Sink};
+use volformats::{thesis, vvol, FileKind};
+use volkit_cli::args::{self, LayoutArg};
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum SceneName {
+    /// The thesis test scene: random cuboids and ellipsoids, values value±10.
+    Shapes,
+    /// Soft ellipsoids with smooth falloff and varying peaks.
+    Spheres,
+    /// Fractal value or gradient noise.
+    Noise,
+    /// Constant value with a 5-voxel border of zeros.
+    Solid,
+    /// Analytic: constant-density box (--margin empty voxels around it).
+    Box,
+    /// Analytic: linear ramp from 0 to --value along --axis.
+    Ramp,
+    /// Analytic: one sphere, value·max(0, 1 − r/radius), at the centre.
+    Sphere,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum NoiseArg {
+    Value,
+    Gradient,
+}
+
+/// Generate a procedural test volume.
+///
+/// The output format follows the extension: .vvol (native, sliced or
+/// bricked, optional zstd per brick), .vol (the thesis format, u8 only),
+/// .raw (x fastest, little-endian), or - for a sliced .vvol stream on stdout.
+/// The same arguments and seed always give the same bytes, whatever the
+/// number of threads.
+#[derive(Parser, Debug)]
+#[command(name = "vol-gen", version, after_help = EXAMPLES)]
+struct Cli {
+    /// Which scene to generate.
+    #[arg(value_enum)]
+    scene: SceneName,
+    /// Dimensions X,Y,Z in voxels.
+    #[arg(long, value_parser = args::dims3)]
+    dims: [u64; 3],
+    /// Sample type.
+    #[arg(long = "type", default_value = "u8", value_parser = parse_type)]
+    sample_type: SampleType,
+    /// Voxel spacing x,y,z (world units between voxel centres).
+    #[arg(long, default_value = "1,1,1", value_parser = args::spacing3)]
+    spacing: [f32; 3],
+    /// Storage layout: sliced, or bricked:B (cubic bricks of edge B).
+    #[arg(long, default_value = "sliced", value_parser = args::layout)]
+    layout: LayoutArg,
+    /// Per-brick compression for bricked .vvol: none, zstd or zstd:LEVEL.
+    #[arg(long, default_value = "none", value_parser = args::compression)]
+    compress: Compression,
+    /// Random seed; the same seed gives the same volume.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// shapes/spheres: number of objects.
+    #[arg(long, default_value_t = 70)]
+    count: usize,
+    /// shapes: nominal object size in voxels; spheres: nominal semi-axis.
+    #[arg(long, default_value_t = 70)]
+    size: u64,
+    /// Peak or inside value (default: 100 for shapes, solid and box, 255 otherwise).
+    #[arg(long)]
+    value: Option<f32>,
+    /// noise: kind of lattice noise.
+    #[arg(long, value_enum, default_value = "gradient")]
+    noise: NoiseArg,
+    /// noise: lattice period of the first octave, in voxels.
+    #[arg(long, default_value_t = 64.0)]
+    period: f64,
+    /// noise: number of octaves (1-16).
+    #[arg(long, default_value_t = 4)]
+    octaves: u32,
+    /// box: empty voxels between the box and each face.
+    #[arg(long, default_value_t = 0)]
+    margin: u64,
+    /// ramp: the axis the value grows along.
+    #[arg(long, value_enum, default_value = "x")]
+    axis: Axis,
+    /// sphere: outer radius in voxels (default: half the smallest dimension).
+    #[arg(long)]
+    radius: Option<f32>,
+    /// Output path (.vvol, .vol, .raw) or - for a sliced .vvol on stdout.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Print one JSON object with the figures (to stderr when -o -).
+    #[arg(long)]
+    json: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+const EXAMPLES: &str = "Examples:
+  vol-gen shapes --dims 800,800,800 --seed 2 --count 70 --size 70 --value 100 -o shapes.vvol
+  vol-gen noise --dims 256,256,256 --layout bricked:32 --compress zstd -o noise.vvol
+  vol-gen sphere --dims 64,64,64 --type f32 --radius 30 -o sphere.vvol
+  vol-gen shapes --dims 256,256,256 --layout bricked:16 -o thesis.vol
+  vol-gen shapes --dims 128,128,128 -o - | vol-info -";
+
+fn parse_type(s: &str) -> Result<SampleType, String> {
+    s.parse()
+}
+
+fn build_scene(cli: &Cli, dims: Dims) -> Box<dyn Scene> {
+    let value = |d: f32| cli.value.unwrap_or(d);
+    match cli.scene {
+        SceneName::Shapes => Box::new(ShapesScene::new(
+            dims,
+            cli.seed,
+            cli.count,
+            cli.size,
+            value(100.0),
+        )),
+        SceneName::Spheres => Box::new(SpheresScene::new(
+            dims,
+            cli.seed,
+            cli.count,
+            cli.size,
+            value(255.0),
+        )),
+        SceneName::Noise => Box::new(NoiseScene::new(
+            dims,
+            cli.seed,
+            match cli.noise {
+                NoiseArg::Value => NoiseKind::Value,
+                NoiseArg::Gradient => NoiseKind::Gradient,
+            },
+            cli.period,
+            cli.octaves,
+            value(255.0),
+        )),
+        SceneName::Solid => Box::new(SolidScene::new(dims, value(100.0))),
+        SceneName::Box => Box::new(BoxScene::new(dims, cli.margin, value(100.0))),
+        SceneName::Ramp => Box::new(RampScene::new(dims, cli.axis as usize, value(255.0))),
+        SceneName::Sphere => {
+            let smallest = dims.x.min(dims.y).min(dims.z) as f32;
+            let r = cli.radius.unwrap_or(smallest / 2.0);
+            Box::new(SphereScene::new(dims, r, value(255.0)))
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    volkit_cli::run("vol-gen", || generate(&cli))
+}
+
+fn generate(cli: &Cli) -> Result<()> {
+    let start = Instant::now();
+    let [x, y, z] = cli.dims;
+    let dims = Dims::new(x, y, z)?;
+    let scene = build_scene(cli, dims);
+    let stats = match cli.sample_type {
+        SampleType::U8 => write_as::<u8>(cli, dims, scene.as_ref()),
+        SampleType::U16 => write_as::<u16>(cli, dims, scene.as_ref()),
+        SampleType::I16 => write_as::<i16>(cli, dims, scene.as_ref()),
+        SampleType::F32 => write_as::<f32>(cli, dims, scene.as_ref()),
+    }
+    .with_context(|| cli.output.display().to_string())?;
+    let seconds = start.elapsed().as_secs_f64();
+    if cli.json {
+        let v = serde_json::json!({
+            "tool": "vol-gen",
+            "scene": format!("{:?}", cli.scene).to_lowercase(),
+            "path": cli.output.display().to_string(),
+            "dims": cli.dims,
+            "type": cli.sample_type.name(),
+            "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
+            "compression": match cli.compress { Compression::None => "none".to_string(), Compression::Zstd(l) => format!("zstd:{l}") },
+            "seed": cli.seed,
+            "bytes": stats.bytes,
+            "min": stats.min,
+            "max": stats.max,
+            "seconds": seconds,
+            "threads": rayon::current_num_threads(),
+        });
+        if cli.output.as_os_str() == "-" {
+            eprintln!("{v}");
+        } else {
+            println!("{v}");
+        }
+    } else if !cli.quiet && cli.output.as_os_str() != "-" {
+        eprintln!(
+            "vol-gen: wrote {} ({} bytes) in {:.2} s",
+            cli.output.display(),
+            stats.bytes,
+            seconds
+        );
+    }
+    Ok(())
+}
+
+/// Standard output as an unbuffered file (a duplicate of descriptor 1).
+fn stdout_file() -> Result<std::fs::File> {
+    use std::os::fd::AsFd;
+    let fd = std::io::stdout().as_fd().try_clone_to_owned()?;
+    Ok(std::fs::File::from(fd))
+}
+
+struct Written {
+    bytes: u64,
+    min: Option<f64>,
+    max: Option<f64>,
+}
+
+fn write_as<T: Sample>(cli: &Cli, dims: Dims, scene: &dyn Scene) -> Result<Written> {
+    let src = SceneSource::<T>::new(scene);
+    let total = dims.checked_bytes(T::TYPE.size() as u64)?;
+    let bar = volkit_cli::progress::bytes_bar(total, "vol-gen", cli.quiet);
+    let progress = |n: u64| bar.set_position(n);
+    let to_stdout = cli.output.as_os_str() == "-";
+    let kind = FileKind::of(&cli.output).with_context(|| {
+        "unknown output type: use a .vvol, .vol or .raw file name, or - for stdout"
+    })?;
+    let layout = match cli.layout {
+        LayoutArg::Sliced => Layout::Sliced,
+        LayoutArg::Bricked(b) => Layout::Bricked(BrickGeometry::new(dims, b)?),
+    };
+    if kind != FileKind::Vvol && cli.compress != Compression::None {
+        bail!("--compress applies to .vvol output only");
+    }
+    if matches!(layout, Layout::Sliced) && cli.compress != Compression::None {
+        bail!("--compress needs --layout bricked:B (compression is per brick)");
+    }
+    if to_stdout && !matches!(layout, Layout::Sliced) {
+        bail!("stdout takes a sliced stream only: drop --layout or write to a file");
+    }
+    let meta = VolumeMeta {
+        dims,
+        spacing: cli.spacing,
+        sample_type: T::TYPE,
+        range: volcore::ValueRange::EMPTY,
+        layout,
+        compression: cli.compress,
+    };
+    let range_of = |r: volcore::ValueRange| {
+        if r.is_empty() {
+            (None, None)
+        } else {
+            (Some(r.min), Some(r.max))
+        }
+    };
+    if to_stdout {
+        // Write to the descriptor directly: Rust's stdout is line-buffered
+        // and would scan every binary chunk for newlines.
+        let mut out = stdout_file()?;
+        let s = vvol::write(&src, meta, Sink::Stream(&mut out), &progress)?;
+        out.flush()?;
+        bar.finish_and_clear();
+        let (min, max) = range_of(s.range);
+        return Ok(Written {
+            bytes: s.bytes,
+            min,
+            max,
+        });
+    }
+    let mut file = AtomicFile::create(&cli.output)?;
+    let written = match kind {
+        FileKind::Vvol => {
+            let s = vvol::write(&src, meta, Sink::File(file.file()), &progress)?;
+            let (min, max) = range_of(s.range);
+            Written {
+                bytes: s.bytes,
+                min,
+                max,
+            }
+        }
+        FileKind::ThesisVol => {
+            if T::TYPE != SampleType::U8 {
+                bail!("the thesis .vol format holds u8 samples only: use --type u8");
+            }
+            let src8 = SceneSource::<u8>::new(scene);
+            let tl = match cli.layout {
+                LayoutArg::Sliced => thesis::ThesisLayout::Sliced,
+                LayoutArg::Bricked(b) if b <= 255 => thesis::ThesisLayout::Bricked(b as u8),
+                LayoutArg::Bricked(b) => {
+                    bail!("the thesis .vol format takes bricks up to 255, not {b}")
+                }
+            };
+            let bytes = thesis::write(&src8, cli.spacing, tl, file.file(), &progress)?;
+            Written {
+                bytes,
+                min: None,
+                max: None,
+            }
+        }
+        FileKind::Raw => {
+            if !matches!(layout, Layout::Sliced) {
+                bail!(".raw output is sliced only: drop --layout");
+            }
+            let bytes = volformats::raw::write(&src, file.file(), &progress)?;
+            Written {
+                bytes,
+                min: None,
+                max: None,
+            }
+        }
+    };
+    file.commit()?;
+    bar.finish_and_clear();
+    Ok(written)
+}

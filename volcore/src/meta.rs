@@ -76,14 +76,7 @@ impl ValueRange {
 
     /// Range of a slice of samples, ignoring NaN.
     pub fn of<T: crate::Sample>(data: &[T]) -> ValueRange {
-        let mut lo = f32::INFINITY;
-        let mut hi = f32::NEG_INFINITY;
-        for &v in data {
-            let f = v.to_f32();
-            // NaN compares false both ways and is skipped.
-            lo = if f < lo { f } else { lo };
-            hi = if f > hi { f } else { hi };
-        }
+        let (lo, hi) = T::min_max(data);
         ValueRange {
             min: lo as f64,
             max: hi as f64,

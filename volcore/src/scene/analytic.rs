@@ -25,17 +25,19 @@ impl Scene for SolidScene {
     fn dims(&self) -> Dims {
         self.dims
     }
-    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) {
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool {
         out.fill(0.0);
         let d = self.dims;
         let inside = |c: u64, n: u64| c >= border(n) && c < n - border(n);
         if !inside(y, d.y) || !inside(z, d.z) {
-            return;
+            return false;
         }
         let b = border(d.x) as i64;
         if let Some((a, e)) = clip(b, d.x as i64 - b, x0, out.len()) {
             out[a..e].fill(self.value);
+            return true;
         }
+        false
     }
 }
 
@@ -63,16 +65,18 @@ impl Scene for BoxScene {
     fn dims(&self) -> Dims {
         self.dims
     }
-    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) {
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool {
         out.fill(0.0);
         let (d, m) = (self.dims, self.margin);
         let inside = |c: u64, n: u64| c >= m && c + m < n;
         if !inside(y, d.y) || !inside(z, d.z) {
-            return;
+            return false;
         }
         if let Some((a, e)) = clip(m as i64, d.x as i64 - m as i64, x0, out.len()) {
             out[a..e].fill(self.value);
+            return true;
         }
+        false
     }
 }
 
@@ -109,7 +113,7 @@ impl Scene for RampScene {
     fn dims(&self) -> Dims {
         self.dims
     }
-    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) {
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool {
         match self.axis {
             0 => {
                 for (i, o) in out.iter_mut().enumerate() {
@@ -119,6 +123,7 @@ impl Scene for RampScene {
             1 => out.fill(self.at(y)),
             _ => out.fill(self.at(z)),
         }
+        true
     }
 }
 
@@ -152,7 +157,7 @@ impl Scene for SphereScene {
     fn dims(&self) -> Dims {
         self.dims
     }
-    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) {
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool {
         let c = self.centre();
         let dy = y as f64 - c[1];
         let dz = z as f64 - c[2];
@@ -162,5 +167,6 @@ impl Scene for SphereScene {
             let dist = (dx * dx + dy * dy + dz * dz).sqrt();
             *o = (self.value as f64 * (1.0 - dist / r).max(0.0)) as f32;
         }
+        true
     }
 }

@@ -21,8 +21,10 @@ use std::marker::PhantomData;
 pub trait Scene: Sync {
     /// The volume's dimensions.
     fn dims(&self) -> Dims;
-    /// Fill voxels `x0 .. x0 + out.len()` of row `(y, z)`.
-    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]);
+    /// Fill voxels `x0 .. x0 + out.len()` of row `(y, z)`. Returns `false`
+    /// when every value written is zero, which lets callers skip converting
+    /// empty rows (most rows of sparse scenes).
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool;
 }
 
 /// A scene as a [`RegionSource`] of sample type `T`, converting with
@@ -49,7 +51,24 @@ impl<T: Sample> RegionSource for SceneSource<'_, T> {
     }
     fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [T]) {
         const CHUNK: usize = 512;
-        let mut buf = [0f32; CHUNK];
+        thread_local! {
+            // One scratch row per thread: zeroing a fresh array on every
+            // call costs more than filling the short rows of a brick.
+            static SCRATCH: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        SCRATCH.with(|cell| {
+            let mut scratch = cell.borrow_mut();
+            if scratch.len() < CHUNK {
+                scratch.resize(CHUNK, 0.0);
+            }
+            self.convert_row(x0, y, z, out, &mut scratch[..CHUNK]);
+        });
+    }
+}
+
+impl<T: Sample> SceneSource<'_, T> {
+    fn convert_row(&self, x0: u64, y: u64, z: u64, out: &mut [T], buf: &mut [f32]) {
+        const CHUNK: usize = 512;
         let mut done = 0;
         while done < out.len() {
             let n = CHUNK.min(out.len() - done);
@@ -106,8 +125,10 @@ mod tests {
                 for y in 0..d.y {
                     let mut a = vec![0f32; 13];
                     let mut b = vec![0f32; 24];
-                    s.fill_row(0, y, z, &mut a);
-                    s.fill_row(13, y, z, &mut b);
+                    let any_a = s.fill_row(0, y, z, &mut a);
+                    let any_b = s.fill_row(13, y, z, &mut b);
+                    assert!(any_a || a.iter().all(|&v| v == 0.0));
+                    assert!(any_b || b.iter().all(|&v| v == 0.0));
                     a.extend(b);
                     let i = d.index(0, y, z) as usize;
                     assert_eq!(&whole[i..i + 37], &a[..]);

@@ -145,7 +145,7 @@ impl Scene for NoiseScene {
         self.dims
     }
 
-    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) {
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool {
         let mut acc = vec![0f64; out.len()];
         let mut amp = 1.0;
         let mut norm = 0.0;
@@ -158,5 +158,6 @@ impl Scene for NoiseScene {
             let n = (0.5 + 0.5 * a / norm).clamp(0.0, 1.0);
             *o = (n * self.value as f64) as f32;
         }
+        true
     }
 }

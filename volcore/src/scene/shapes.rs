@@ -59,12 +59,18 @@ impl Shape {
     }
 }
 
+/// Slices of z per bucket in the shape lookup.
+const Z_BUCKET: u64 = 16;
+
 /// Random shapes on an empty background (see the module docs).
 pub struct ShapesScene {
     dims: Dims,
     seed: u64,
     value: f32,
     shapes: Vec<Shape>,
+    /// For each bucket of `Z_BUCKET` slices, the shapes reaching into it,
+    /// in reverse draw order (the painting order).
+    by_z: Vec<Vec<u32>>,
 }
 
 impl ShapesScene {
@@ -89,11 +95,26 @@ impl ShapesScene {
                 Shape { kind, lo, ext }
             })
             .collect();
-        ShapesScene {
+        let mut scene = ShapesScene {
             dims,
             seed,
             value,
             shapes,
+            by_z: Vec::new(),
+        };
+        scene.index_shapes();
+        scene
+    }
+
+    fn index_shapes(&mut self) {
+        let buckets = self.dims.z.div_ceil(Z_BUCKET) as usize;
+        self.by_z = vec![Vec::new(); buckets];
+        for (i, s) in self.shapes.iter().enumerate().rev() {
+            let first = s.lo[2] / Z_BUCKET;
+            let last = (s.lo[2] + s.ext[2] - 1) / Z_BUCKET;
+            for b in first..=last {
+                self.by_z[b as usize].push(i as u32);
+            }
         }
     }
 
@@ -108,10 +129,12 @@ impl Scene for ShapesScene {
         self.dims
     }
 
-    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) {
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool {
         out.fill(0.0);
+        let mut any = false;
         // Paint in reverse so the first shape drawn ends on top.
-        for s in self.shapes.iter().rev() {
+        let bucket = &self.by_z[(z / Z_BUCKET) as usize];
+        for s in bucket.iter().map(|&i| &self.shapes[i as usize]) {
             let Some((a, b)) = s.row_span(y, z) else {
                 continue;
             };
@@ -123,7 +146,9 @@ impl Scene for ShapesScene {
                 let h = hash64(self.seed, row + (a + i) as u64);
                 *o = self.value + (h % 21) as f32 - 10.0;
             }
+            any = true;
         }
+        any
     }
 }
 
@@ -172,6 +197,7 @@ mod tests {
             },
         ];
         s.value = 50.0;
+        s.index_shapes();
         let mut row = vec![0f32; 8];
         s.fill_row(0, 1, 1, &mut row);
         assert!(row[..6].iter().all(|&v| v >= 40.0));

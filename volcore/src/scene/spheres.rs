@@ -43,8 +43,9 @@ impl Scene for SpheresScene {
         self.dims
     }
 
-    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) {
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool {
         out.fill(0.0);
+        let mut any = false;
         for b in &self.blobs {
             let dy = (y as f64 - b.centre[1]) / b.semi[1];
             let dz = (z as f64 - b.centre[2]) / b.semi[2];
@@ -58,6 +59,7 @@ impl Scene for SpheresScene {
             let Some((a, e)) = clip(a, e, x0, out.len()) else {
                 continue;
             };
+            any = true;
             for (i, o) in out[a..e].iter_mut().enumerate() {
                 let dx = ((x0 + (a + i) as u64) as f64 - b.centre[0]) / b.semi[0];
                 let r2 = dx * dx + dy * dy + dz * dz;
@@ -70,5 +72,6 @@ impl Scene for SpheresScene {
                 }
             }
         }
+        any
     }
 }

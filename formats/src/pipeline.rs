@@ -1,0 +1,183 @@
+//! Parallel production, in-order writing.
+
+use crate::error::{Error, Result};
+use rayon::prelude::*;
+use std::sync::mpsc::sync_channel;
+
+/// Produce items `0..count` in parallel batches of `batch` and hand them to
+/// `consume` strictly in index order, on a separate thread, so that
+/// producing the next batch overlaps writing the last. At most about three
+/// batches are alive at once. The first error from either side stops both.
+pub fn ordered<I, P, C>(count: u64, batch: usize, produce: P, mut consume: C) -> Result<()>
+where
+    I: Send,
+    P: Fn(u64) -> Result<I> + Sync,
+    C: FnMut(I) -> Result<()> + Send,
+{
+    let batch = batch.max(1) as u64;
+    let (tx, rx) = sync_channel::<Vec<I>>(1);
+    std::thread::scope(|scope| {
+        let writer = scope.spawn(move || -> Result<()> {
+            for items in rx {
+                for item in items {
+                    consume(item)?;
+                }
+            }
+            Ok(())
+        });
+        let mut start = 0;
+        let mut produced: Result<()> = Ok(());
+        while start < count {
+            let end = (start + batch).min(count);
+            match (start..end)
+                .into_par_iter()
+                .map(&produce)
+                .collect::<Result<Vec<I>>>()
+            {
+                Ok(items) => {
+                    if tx.send(items).is_err() {
+                        break; // the writer failed; its error is reported below
+                    }
+                }
+                Err(e) => {
+                    produced = Err(e);
+                    break;
+                }
+            }
+            start = end;
+        }
+        drop(tx);
+        let written = writer
+            .join()
+            .unwrap_or_else(|_| Err(Error::invalid("writer thread panicked")));
+        produced.and(written)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keeps_order_and_reports_errors() {
+        let mut seen = Vec::new();
+        ordered(
+            1000,
+            7,
+            |i| Ok(i * 2),
+            |v| {
+                seen.push(v);
+                Ok(())
+            },
+        )
+        .unwrap();
+        assert_eq!(seen, (0..1000).map(|i| i * 2).collect::<Vec<_>>());
+
+        let r = ordered(
+            100,
+            3,
+            |i| {
+                if i == 50 {
+                    Err(Error::invalid("boom"))
+                } else {
+                    Ok(i)
+                }
+            },
+            |_| Ok(()),
+        );
+        assert!(r.is_err());
+        let r = ordered(100, 3, Ok, |v| {
+            if v == 10 {
+                Err(Error::invalid("disk full"))
+            } else {
+                Ok(())
+            }
+        });
+        assert!(r.unwrap_err().to_string().contains("disk full"));
+    }
+}
+
+/// Target bytes produced per work item.
+pub const ITEM_BYTES: u64 = 1 << 20;
+/// Items per parallel batch.
+pub const BATCH_ITEMS: usize = 16;
+
+/// What [`write_rows`] wrote.
+#[derive(Clone, Copy, Debug)]
+pub struct RowsWritten {
+    /// Sample bytes written.
+    pub bytes: u64,
+    /// CRC-32 of those bytes.
+    pub crc32: u32,
+    /// Value range of the samples (NaN ignored).
+    pub range: volcore::ValueRange,
+}
+
+struct Chunk<T> {
+    samples: Vec<T>,
+    crc: crc32fast::Hasher,
+    range: volcore::ValueRange,
+}
+
+/// Write every sample of `src` in sliced order (x fastest), little-endian,
+/// produced in parallel and written in order. `progress` gets bytes so far.
+pub fn write_rows<R, W>(
+    src: &R,
+    out: &mut W,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RowsWritten>
+where
+    R: volcore::RegionSource,
+    W: std::io::Write + Send + ?Sized,
+{
+    use volcore::Sample;
+    let d = src.dims();
+    let row_bytes = d.x * R::Sample::TYPE.size() as u64;
+    let rows = d.y * d.z;
+    let rows_per_item = (ITEM_BYTES / row_bytes).max(1);
+    let items = rows.div_ceil(rows_per_item);
+    let mut crc = crc32fast::Hasher::new();
+    let mut range = volcore::ValueRange::EMPTY;
+    let mut written = 0u64;
+    // Written buffers come back here for reuse: fresh allocations of this
+    // size are new pages each time, and faulting them in costs more than
+    // the generation itself for simple scenes.
+    let pool: std::sync::Mutex<Vec<Vec<R::Sample>>> = std::sync::Mutex::new(Vec::new());
+    let produce = |item: u64| -> Result<Chunk<R::Sample>> {
+        let first = item * rows_per_item;
+        let n = rows_per_item.min(rows - first);
+        let len = (n * d.x) as usize;
+        let reused = pool.lock().ok().and_then(|mut p| p.pop());
+        let mut samples = reused.unwrap_or_default();
+        samples.resize(len, R::Sample::default());
+        samples.truncate(len);
+        for (r, row) in samples.chunks_exact_mut(d.x as usize).enumerate() {
+            let row_id = first + r as u64;
+            src.fill_row(0, row_id % d.y, row_id / d.y, row);
+        }
+        let mut h = crc32fast::Hasher::new();
+        h.update(bytemuck::cast_slice(&samples));
+        let range = volcore::ValueRange::of(&samples);
+        Ok(Chunk {
+            samples,
+            crc: h,
+            range,
+        })
+    };
+    ordered(items, BATCH_ITEMS, produce, |c: Chunk<R::Sample>| {
+        out.write_all(bytemuck::cast_slice(&c.samples))?;
+        crc.combine(&c.crc);
+        range = range.merge(c.range);
+        written += std::mem::size_of_val(c.samples.as_slice()) as u64;
+        progress(written);
+        if let Ok(mut p) = pool.lock() {
+            p.push(c.samples);
+        }
+        Ok(())
+    })?;
+    Ok(RowsWritten {
+        bytes: written,
+        crc32: crc.finalize(),
+        range,
+    })
+}

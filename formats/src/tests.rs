@@ -1,0 +1,421 @@
+//! Round trips and malformed-input checks across the formats.
+
+use crate::output::Sink;
+use crate::{raw, thesis, vvol};
+use std::io::{Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use volcore::scene::{NoiseKind, NoiseScene, SceneSource, ShapesScene};
+use volcore::{
+    BrickGeometry, Compression, Dims, Layout, RegionSource, Sample, SampleType, Volume, VolumeMeta,
+};
+
+fn no_progress(_: u64) {}
+
+fn meta(dims: Dims, t: SampleType, layout: Layout, c: Compression) -> VolumeMeta {
+    VolumeMeta {
+        dims,
+        spacing: [1.0, 0.5, 2.0],
+        sample_type: t,
+        range: volcore::ValueRange::EMPTY,
+        layout,
+        compression: c,
+    }
+}
+
+fn write_file<R: RegionSource>(src: &R, m: VolumeMeta, path: &Path) {
+    let mut f = std::fs::File::create(path).unwrap();
+    vvol::write(src, m, Sink::File(&mut f), &no_progress).unwrap();
+}
+
+/// Writes the same scene in the three storage forms and returns them.
+fn three_copies<T: Sample>(dir: &Path, dims: Dims, brick: u32) -> Vec<Volume> {
+    let scene = NoiseScene::new(dims, 9, NoiseKind::Gradient, 5.0, 3, 1000.0);
+    let src = SceneSource::<T>::new(&scene);
+    let g = BrickGeometry::new(dims, brick).unwrap();
+    let forms = [
+        (Layout::Sliced, Compression::None),
+        (Layout::Bricked(g), Compression::None),
+        (Layout::Bricked(g), Compression::Zstd(3)),
+    ];
+    forms
+        .iter()
+        .enumerate()
+        .map(|(i, &(l, c))| {
+            let p = dir.join(format!("v{i}-{}-{dims}-{brick}.vvol", T::TYPE));
+            write_file(&src, meta(dims, T::TYPE, l, c), &p);
+            vvol::open(
+                &p,
+                vvol::OpenOptions {
+                    verify: true,
+                    ..Default::default()
+                },
+            )
+            .unwrap()
+        })
+        .collect()
+}
+
+fn random_points(dims: Dims, n: usize, seed: u64) -> Vec<[f32; 3]> {
+    let mut rng = fastrand::Rng::with_seed(seed);
+    let d = dims.as_array().map(|v| v as f32);
+    let mut pts: Vec<[f32; 3]> = (0..n)
+        .map(|_| std::array::from_fn(|a| rng.f32() * (d[a] + 2.0) - 1.0))
+        .collect();
+    // Far faces, corners and brick seams exactly.
+    pts.push([d[0] - 1.0, d[1] - 1.0, d[2] - 1.0]);
+    pts.push([0.0, 0.0, 0.0]);
+    for s in [3.0, 4.0, 7.0, 8.0, 7.5, 3.999] {
+        pts.push([s, s.min(d[1] - 1.0), s.min(d[2] - 1.0)]);
+    }
+    pts
+}
+
+#[test]
+fn layouts_sample_identically_for_every_type() {
+    let dir = tempfile::tempdir().unwrap();
+    for (dims, brick) in [
+        (Dims::new(19, 13, 11).unwrap(), 4),
+        (Dims::new(1, 9, 9).unwrap(), 4),
+        (Dims::new(1, 1, 1).unwrap(), 2),
+        (Dims::new(33, 17, 8).unwrap(), 16),
+    ] {
+        let vols: Vec<Vec<Volume>> = vec![
+            three_copies::<u8>(dir.path(), dims, brick),
+            three_copies::<u16>(dir.path(), dims, brick),
+            three_copies::<i16>(dir.path(), dims, brick),
+            three_copies::<f32>(dir.path(), dims, brick),
+        ];
+        for copies in &vols {
+            let reference = copies[0].to_f32_vec();
+            assert_eq!(reference.len() as u64, dims.count());
+            for v in &copies[1..] {
+                let got = v.to_f32_vec();
+                let bad = got
+                    .iter()
+                    .zip(&reference)
+                    .position(|(a, b)| a.to_bits() != b.to_bits());
+                assert!(
+                    bad.is_none(),
+                    "{}: first difference at sample {bad:?}",
+                    v.meta
+                );
+                assert_eq!(v.meta.range, copies[0].meta.range);
+                for p in random_points(dims, 500, 1) {
+                    let a = copies[0].trilinear(p);
+                    let b = v.trilinear(p);
+                    assert_eq!(a.to_bits(), b.to_bits(), "{} at {p:?}", v.meta);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn headers_round_trip() {
+    let dims = Dims::new(40, 30, 20).unwrap();
+    let g = BrickGeometry::new(dims, 8).unwrap();
+    for t in SampleType::ALL {
+        for (l, c) in [
+            (Layout::Sliced, Compression::None),
+            (Layout::Bricked(g), Compression::None),
+            (Layout::Bricked(g), Compression::Zstd(-3)),
+        ] {
+            let mut m = meta(dims, t, l, c);
+            m.range = volcore::ValueRange {
+                min: -2.0,
+                max: 9.5,
+            };
+            let h = vvol::Header::for_meta(m).unwrap();
+            assert_eq!(vvol::Header::decode(&h.encode()).unwrap(), h);
+        }
+    }
+    let th = thesis::ThesisHeader {
+        dims,
+        spacing: [1.0, 2.0, 3.0],
+        layout: thesis::ThesisLayout::Bricked(16),
+    };
+    assert_eq!(thesis::ThesisHeader::decode(&th.encode()).unwrap(), th);
+}
+
+#[test]
+fn stream_round_trip_and_stats() {
+    let dims = Dims::new(31, 7, 5).unwrap();
+    let scene = ShapesScene::new(dims, 3, 4, 5, 100.0);
+    let src = SceneSource::<u8>::new(&scene);
+    let mut buf: Vec<u8> = Vec::new();
+    let stats = vvol::write(
+        &src,
+        meta(dims, SampleType::U8, Layout::Sliced, Compression::None),
+        Sink::Stream(&mut buf),
+        &no_progress,
+    )
+    .unwrap();
+    assert_eq!(stats.bytes, buf.len() as u64);
+    let v = vvol::read_stream(&mut buf.as_slice()).unwrap();
+    assert_eq!(v.meta.range, stats.range);
+    let want: Vec<f32> = volcore::region::pack_sliced(&src)
+        .iter()
+        .map(|&s| s as f32)
+        .collect();
+    assert_eq!(v.to_f32_vec(), want);
+    // A truncated stream is an error, not a short volume.
+    let cut = &buf[..buf.len() - 40];
+    let e = vvol::read_stream(&mut &cut[..]).err().unwrap().to_string();
+    assert!(e.contains("truncated"), "{e}");
+}
+
+#[test]
+fn bricked_cannot_go_to_a_stream() {
+    let dims = Dims::new(8, 8, 8).unwrap();
+    let scene = ShapesScene::new(dims, 3, 4, 5, 100.0);
+    let g = BrickGeometry::new(dims, 4).unwrap();
+    let mut buf: Vec<u8> = Vec::new();
+    let r = vvol::write(
+        &SceneSource::<u8>::new(&scene),
+        meta(dims, SampleType::U8, Layout::Bricked(g), Compression::None),
+        Sink::Stream(&mut buf),
+        &no_progress,
+    );
+    assert!(r.is_err());
+}
+
+fn sample_file(dir: &Path, layout: Layout, c: Compression) -> PathBuf {
+    let dims = Dims::new(20, 20, 20).unwrap();
+    let scene = ShapesScene::new(dims, 1, 6, 8, 100.0);
+    let p = dir.join("s.vvol");
+    write_file(
+        &SceneSource::<u8>::new(&scene),
+        meta(dims, SampleType::U8, layout, c),
+        &p,
+    );
+    p
+}
+
+fn open_err(p: &Path, verify: bool) -> String {
+    match vvol::open(
+        p,
+        vvol::OpenOptions {
+            verify,
+            ..Default::default()
+        },
+    ) {
+        Ok(_) => panic!("{} opened but should not", p.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn patch(p: &Path, at: u64, bytes: &[u8]) {
+    let mut f = std::fs::OpenOptions::new().write(true).open(p).unwrap();
+    f.seek(SeekFrom::Start(at)).unwrap();
+    f.write_all(bytes).unwrap();
+}
+
+fn reseal_header(p: &Path) {
+    let mut b = std::fs::read(p).unwrap();
+    let crc = crc32fast::hash(&b[..124]);
+    b[124..128].copy_from_slice(&crc.to_le_bytes());
+    std::fs::write(p, b).unwrap();
+}
+
+#[test]
+fn malformed_vvol_files_are_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = BrickGeometry::new(Dims::new(20, 20, 20).unwrap(), 8).unwrap();
+
+    // Truncated.
+    let p = sample_file(dir.path(), Layout::Sliced, Compression::None);
+    let len = std::fs::metadata(&p).unwrap().len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&p)
+        .unwrap()
+        .set_len(len - 100)
+        .unwrap();
+    assert!(open_err(&p, false).contains("file has"));
+    std::fs::write(&p, b"\x89VVOL").unwrap();
+    assert!(open_err(&p, false).contains("truncated"));
+
+    // A lying header: bigger dims than the file holds (resealed so only the
+    // length check can catch it).
+    let p = sample_file(dir.path(), Layout::Sliced, Compression::None);
+    patch(&p, 16, &4000u64.to_le_bytes());
+    patch(&p, 88, &(4000u64 * 20 * 20).to_le_bytes());
+    reseal_header(&p);
+    assert!(open_err(&p, false).contains("file has"));
+
+    // Dimensions whose product overflows, and zero dimensions.
+    for (x, y, z) in [(1u64 << 24, 1 << 24, 1 << 24), (0, 20, 20)] {
+        let p = sample_file(dir.path(), Layout::Sliced, Compression::None);
+        for (a, v) in [x, y, z].iter().enumerate() {
+            patch(&p, 16 + 8 * a as u64, &v.to_le_bytes());
+        }
+        reseal_header(&p);
+        assert!(open_err(&p, false).contains("dimensions"));
+    }
+
+    // A damaged header without resealing.
+    let p = sample_file(dir.path(), Layout::Sliced, Compression::None);
+    patch(&p, 40, &3.0f32.to_le_bytes());
+    assert!(open_err(&p, false).contains("header is damaged"));
+
+    // Flipped sample byte: found only with verification.
+    let p = sample_file(dir.path(), Layout::Sliced, Compression::None);
+    patch(&p, 128 + 4000, &[0xAB]);
+    assert!(vvol::open(&p, Default::default()).is_ok());
+    assert!(open_err(&p, true).contains("checksum"));
+
+    // Brick table pointing outside the file.
+    for c in [Compression::None, Compression::Zstd(1)] {
+        let p = sample_file(dir.path(), Layout::Bricked(g), c);
+        patch(&p, 128 + 24, &(1u64 << 40).to_le_bytes());
+        assert!(open_err(&p, false).contains("outside"));
+    }
+
+    // A damaged compressed brick: caught by verification.
+    let p = sample_file(dir.path(), Layout::Bricked(g), Compression::Zstd(1));
+    let (h, _) = vvol::read_header(&p).unwrap();
+    patch(&p, h.data_offset + 5, &[0x55, 0x66]);
+    assert!(open_err(&p, true).contains("checksum"));
+    // Without verification, sampling reads zeros there and reports it.
+    let v = vvol::open(&p, Default::default()).unwrap();
+    let _ = v.to_f32_vec();
+    assert!(v.error().is_some());
+
+    // Not a vvol at all.
+    std::fs::write(&p, vec![7u8; 300]).unwrap();
+    assert!(open_err(&p, false).contains("bad magic"));
+}
+
+#[test]
+fn thesis_vol_round_trips_both_layouts() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = Dims::new(23, 17, 9).unwrap();
+    let scene = ShapesScene::new(dims, 2, 8, 7, 100.0);
+    let src = SceneSource::<u8>::new(&scene);
+    let want = volcore::region::pack_sliced(&src);
+    for layout in [
+        thesis::ThesisLayout::Sliced,
+        thesis::ThesisLayout::Bricked(4),
+        thesis::ThesisLayout::Bricked(16),
+    ] {
+        let p = dir.path().join("t.vol");
+        let mut f = std::fs::File::create(&p).unwrap();
+        thesis::write(&src, [1.0, 1.0, 2.0], layout, &mut f, &no_progress).unwrap();
+        drop(f);
+        let t = thesis::open(&p).unwrap();
+        assert_eq!(t.header().layout, layout);
+        let v = t.load().unwrap();
+        assert_eq!(v.meta.spacing, [1.0, 1.0, 2.0]);
+        let got: Vec<u8> = v.to_f32_vec().iter().map(|&f| f as u8).collect();
+        assert_eq!(got, want, "{layout:?}");
+        // Truncated file is rejected by length.
+        let len = std::fs::metadata(&p).unwrap().len();
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(&p)
+            .unwrap()
+            .set_len(len - 1)
+            .unwrap();
+        assert!(thesis::open(&p).is_err());
+    }
+}
+
+#[test]
+fn thesis_layout_matches_the_documented_offsets() {
+    // Hand-built 3x3x3 bricked file with B = 2: n = ceil(2/1) = 2 per axis,
+    // eight bricks of 8 bytes; voxel (x,y,z) stored at brick (x∧1..) etc.
+    let dir = tempfile::tempdir().unwrap();
+    let dims = Dims::new(3, 3, 3).unwrap();
+    let value = |x: u64, y: u64, z: u64| (x * 9 + y * 3 + z) as u8;
+    let h = thesis::ThesisHeader {
+        dims,
+        spacing: [1.0; 3],
+        layout: thesis::ThesisLayout::Bricked(2),
+    };
+    let mut bytes = h.encode().to_vec();
+    for bx in 0..2u64 {
+        for by in 0..2u64 {
+            for bz in 0..2u64 {
+                for i in 0..2u64 {
+                    for j in 0..2u64 {
+                        for k in 0..2u64 {
+                            bytes.push(value(bx + i, by + j, bz + k));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let p = dir.path().join("h.vol");
+    std::fs::write(&p, &bytes).unwrap();
+    let v = thesis::open(&p).unwrap().load().unwrap();
+    let got = v.to_f32_vec();
+    for z in 0..3 {
+        for y in 0..3 {
+            for x in 0..3 {
+                assert_eq!(got[dims.index(x, y, z) as usize], value(x, y, z) as f32);
+            }
+        }
+    }
+    // The sliced variant: z fastest.
+    let h = thesis::ThesisHeader {
+        dims,
+        spacing: [1.0; 3],
+        layout: thesis::ThesisLayout::Sliced,
+    };
+    let mut bytes = h.encode().to_vec();
+    for x in 0..3 {
+        for y in 0..3 {
+            for z in 0..3 {
+                bytes.push(value(x, y, z));
+            }
+        }
+    }
+    std::fs::write(&p, &bytes).unwrap();
+    let v = thesis::open(&p).unwrap().load().unwrap();
+    assert_eq!(
+        v.to_f32_vec()[dims.index(2, 1, 0) as usize],
+        value(2, 1, 0) as f32
+    );
+}
+
+#[test]
+fn raw_round_trips_and_reads_big_endian() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = Dims::new(6, 5, 4).unwrap();
+    let scene = NoiseScene::new(dims, 1, NoiseKind::Value, 3.0, 2, 3000.0);
+    let src = SceneSource::<u16>::new(&scene);
+    let want = volcore::region::pack_sliced(&src);
+    let p = dir.path().join("n_6x5x4_uint16.raw");
+    let mut f = std::fs::File::create(&p).unwrap();
+    raw::write(&src, &mut f, &no_progress).unwrap();
+    drop(f);
+    let v = crate::open_volume(&p, Default::default(), None).unwrap();
+    let got: Vec<u16> = v.to_f32_vec().iter().map(|&f| f as u16).collect();
+    assert_eq!(got, want);
+    // Big-endian with a 3-byte header (unaligned, so read and swapped).
+    let mut be = vec![1u8, 2, 3];
+    for s in &want {
+        be.extend_from_slice(&s.to_be_bytes());
+    }
+    let q = dir.path().join("be.raw");
+    std::fs::write(&q, &be).unwrap();
+    let spec = raw::RawSpec {
+        dims,
+        sample_type: SampleType::U16,
+        big_endian: true,
+        skip: 3,
+    };
+    let v = raw::open(&q, spec).unwrap();
+    let got: Vec<u16> = v.to_f32_vec().iter().map(|&f| f as u16).collect();
+    assert_eq!(got, want);
+    let v = raw::read_stream(&mut be.as_slice(), spec).unwrap();
+    assert_eq!(v.to_f32_vec().len(), want.len());
+    // Wrong length.
+    std::fs::write(&q, &be[..be.len() - 1]).unwrap();
+    assert!(raw::open(&q, spec)
+        .err()
+        .unwrap()
+        .to_string()
+        .contains("file has"));
+}

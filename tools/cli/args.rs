@@ -1,0 +1,105 @@
+//! Parsers for the argument forms the tools share.
+
+use volcore::Compression;
+
+/// Parse `X,Y,Z` (also `XxYxZ`) into three positive integers.
+pub fn dims3(s: &str) -> Result<[u64; 3], String> {
+    let parts: Vec<&str> = s.split([',', 'x']).collect();
+    let v: Vec<u64> = parts
+        .iter()
+        .map(|p| p.trim().parse::<u64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not X,Y,Z with whole numbers"))?;
+    match v[..] {
+        [x, y, z] if x > 0 && y > 0 && z > 0 => Ok([x, y, z]),
+        [_, _, _] => Err(format!("'{s}': every dimension must be at least 1")),
+        _ => Err(format!("'{s}' is not X,Y,Z")),
+    }
+}
+
+/// Parse `x,y,z` into three positive finite floats.
+pub fn spacing3(s: &str) -> Result<[f32; 3], String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not x,y,z with numbers"))?;
+    match v[..] {
+        [x, y, z] if [x, y, z].iter().all(|v| v.is_finite() && *v > 0.0) => Ok([x, y, z]),
+        [_, _, _] => Err(format!("'{s}': spacing must be positive and finite")),
+        _ => Err(format!("'{s}' is not x,y,z")),
+    }
+}
+
+/// A requested layout: sliced, or bricked with edge B.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LayoutArg {
+    /// x-fastest slices.
+    Sliced,
+    /// Cubic bricks of this edge.
+    Bricked(u32),
+}
+
+/// Parse `sliced` or `bricked:B` (`bricked` alone means B = 32).
+pub fn layout(s: &str) -> Result<LayoutArg, String> {
+    match s.split_once(':') {
+        None if s == "sliced" => Ok(LayoutArg::Sliced),
+        None if s == "bricked" => Ok(LayoutArg::Bricked(32)),
+        Some(("bricked", b)) => {
+            let b: u32 = b
+                .parse()
+                .map_err(|_| format!("'{s}': brick edge must be a whole number"))?;
+            if !(volcore::brick::MIN_BRICK..=volcore::brick::MAX_BRICK).contains(&b) {
+                return Err(format!(
+                    "'{s}': brick edge must be {}..={}",
+                    volcore::brick::MIN_BRICK,
+                    volcore::brick::MAX_BRICK
+                ));
+            }
+            Ok(LayoutArg::Bricked(b))
+        }
+        _ => Err(format!("'{s}' is not sliced or bricked:B")),
+    }
+}
+
+/// Parse `none`, `zstd` or `zstd:LEVEL` (level -7..=22; default 3).
+pub fn compression(s: &str) -> Result<Compression, String> {
+    match s.split_once(':') {
+        None if s == "none" => Ok(Compression::None),
+        None if s == "zstd" => Ok(Compression::Zstd(3)),
+        Some(("zstd", l)) => {
+            let l: i32 = l
+                .parse()
+                .map_err(|_| format!("'{s}': zstd level must be a whole number"))?;
+            if !(-7..=22).contains(&l) {
+                return Err(format!("'{s}': zstd level must be -7..=22"));
+            }
+            Ok(Compression::Zstd(l))
+        }
+        _ => Err(format!("'{s}' is not none, zstd or zstd:LEVEL")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_and_rejects() {
+        assert_eq!(dims3("800,800,800").unwrap(), [800, 800, 800]);
+        assert_eq!(dims3("2x3x4").unwrap(), [2, 3, 4]);
+        assert!(dims3("0,1,1").is_err());
+        assert!(dims3("1,1").is_err());
+        assert!(dims3("a,b,c").is_err());
+        assert_eq!(spacing3("1,0.5,2").unwrap(), [1.0, 0.5, 2.0]);
+        assert!(spacing3("1,0,1").is_err());
+        assert!(spacing3("1,nan,1").is_err());
+        assert_eq!(layout("bricked:16").unwrap(), LayoutArg::Bricked(16));
+        assert_eq!(layout("sliced").unwrap(), LayoutArg::Sliced);
+        assert!(layout("bricked:1").is_err());
+        assert!(layout("tiled").is_err());
+        assert_eq!(compression("zstd:19").unwrap(), Compression::Zstd(19));
+        assert!(compression("zstd:99").is_err());
+        assert!(compression("gzip").is_err());
+    }
+}
