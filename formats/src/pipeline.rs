@@ -103,12 +103,12 @@ pub const ITEM_BYTES: u64 = 1 << 20;
 pub const BATCH_ITEMS: usize = 16;
 
 /// What [`write_rows`] wrote.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct RowsWritten {
     /// Sample bytes written.
     pub bytes: u64,
-    /// CRC-32 of those bytes.
-    pub crc32: u32,
+    /// CRC-32 state over those bytes (combinable with other runs).
+    pub crc: crc32fast::Hasher,
     /// Value range of the samples (NaN ignored).
     pub range: volcore::ValueRange,
 }
@@ -119,10 +119,12 @@ struct Chunk<T> {
     range: volcore::ValueRange,
 }
 
-/// Write every sample of `src` in sliced order (x fastest), little-endian,
-/// produced in parallel and written in order. `progress` gets bytes so far.
+/// Write rows `rows` of `src` (row `r` is `(y, z) = (r % Y, r / Y)`) in
+/// sliced order (x fastest), little-endian, produced in parallel and written
+/// in order. `progress` gets the bytes written so far by this call.
 pub fn write_rows<R, W>(
     src: &R,
+    rows: std::ops::Range<u64>,
     out: &mut W,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RowsWritten>
@@ -133,7 +135,8 @@ where
     use volcore::Sample;
     let d = src.dims();
     let row_bytes = d.x * R::Sample::TYPE.size() as u64;
-    let rows = d.y * d.z;
+    let row0 = rows.start;
+    let rows = rows.end.saturating_sub(rows.start);
     let rows_per_item = (ITEM_BYTES / row_bytes).max(1);
     let items = rows.div_ceil(rows_per_item);
     let mut crc = crc32fast::Hasher::new();
@@ -152,7 +155,7 @@ where
         samples.resize(len, R::Sample::default());
         samples.truncate(len);
         for (r, row) in samples.chunks_exact_mut(d.x as usize).enumerate() {
-            let row_id = first + r as u64;
+            let row_id = row0 + first + r as u64;
             src.fill_row(0, row_id % d.y, row_id / d.y, row);
         }
         let mut h = crc32fast::Hasher::new();
@@ -177,7 +180,7 @@ where
     })?;
     Ok(RowsWritten {
         bytes: written,
-        crc32: crc.finalize(),
+        crc,
         range,
     })
 }

@@ -177,7 +177,8 @@ pub fn write<R: RegionSource>(
     out: &mut (dyn Write + Send),
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<u64> {
-    let rows = write_rows(src, out, progress)?;
+    let d = src.dims();
+    let rows = write_rows(src, 0..d.y * d.z, out, progress)?;
     out.flush()?;
     Ok(rows.bytes)
 }

@@ -1,0 +1,300 @@
+//! The native `.vvol` format (specified in `FORMAT.md` beside this crate):
+//! the header and trailer codecs here, writing in [`write`], reading in
+//! [`read`].
+
+mod read;
+mod write;
+
+pub use read::{from_bytes, open, parallel_crc, read_header, read_stream, OpenOptions};
+pub use write::{write, VvolWriter, WriteStats};
+
+use crate::error::{Error, Result};
+use volcore::grid::BrickEntry;
+use volcore::{BrickGeometry, Compression, Dims, Layout, SampleType, ValueRange, VolumeMeta};
+
+/// First eight bytes of every `.vvol` file.
+pub const MAGIC: [u8; 8] = *b"\x89VVOL\r\n\x1a";
+/// First eight bytes of the trailer.
+pub const TRAILER_MAGIC: [u8; 8] = *b"VVOLEND\0";
+/// The format version this code writes and reads.
+pub const VERSION: u16 = 1;
+/// Size of the fixed header.
+pub const HEADER_LEN: u64 = 128;
+/// Size of one brick table entry.
+pub const ENTRY_LEN: u64 = 24;
+/// Size of the trailer.
+pub const TRAILER_LEN: u64 = 32;
+/// Alignment of the data section and of uncompressed bricks.
+pub const ALIGN: u64 = 64;
+
+const FLAG_RANGE: u32 = 1;
+
+/// The decoded fixed header.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Header {
+    /// Volume metadata (range may be empty when the writer streamed).
+    pub meta: VolumeMeta,
+    /// Byte offset of the data section.
+    pub data_offset: u64,
+    /// Length of the data section in bytes.
+    pub data_len: u64,
+    /// Number of bricks (0 for sliced).
+    pub brick_count: u64,
+    /// Bytes from one uncompressed brick to the next (0 otherwise).
+    pub brick_stride: u64,
+}
+
+/// The decoded trailer.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Trailer {
+    /// CRC-32 of the samples (sliced) or of the brick table (bricked).
+    pub crc32: u32,
+    /// Exact value range of the samples.
+    pub range: ValueRange,
+}
+
+fn align_up(v: u64) -> u64 {
+    v.div_ceil(ALIGN) * ALIGN
+}
+
+impl Header {
+    /// The header a writer uses for `meta` (range as given, may be empty).
+    pub fn for_meta(meta: VolumeMeta) -> Result<Header> {
+        let size = meta.sample_type.size() as u64;
+        match meta.layout {
+            Layout::Sliced => {
+                if meta.compression != Compression::None {
+                    return Err(Error::invalid("sliced volumes cannot be compressed"));
+                }
+                Ok(Header {
+                    meta,
+                    data_offset: HEADER_LEN,
+                    data_len: meta.dims.checked_bytes(size)?,
+                    brick_count: 0,
+                    brick_stride: 0,
+                })
+            }
+            Layout::Bricked(g) => {
+                let n = g.brick_count();
+                let table = n
+                    .checked_mul(ENTRY_LEN)
+                    .ok_or_else(|| Error::invalid("brick table size overflows"))?;
+                let data_offset = align_up(HEADER_LEN + table);
+                let (stride, data_len) = match meta.compression {
+                    Compression::None => {
+                        let stride = align_up(g.stored_len() as u64 * size);
+                        (stride, stride * n)
+                    }
+                    Compression::Zstd(_) => (0, 0), // known after writing
+                };
+                Ok(Header {
+                    meta,
+                    data_offset,
+                    data_len,
+                    brick_count: n,
+                    brick_stride: stride,
+                })
+            }
+        }
+    }
+
+    /// Total file length this header implies.
+    pub fn file_len(&self) -> Option<u64> {
+        self.data_offset
+            .checked_add(self.data_len)?
+            .checked_add(TRAILER_LEN)
+    }
+
+    /// Encode as the 128-byte header.
+    pub fn encode(&self) -> [u8; HEADER_LEN as usize] {
+        let m = &self.meta;
+        let mut b = [0u8; HEADER_LEN as usize];
+        b[0..8].copy_from_slice(&MAGIC);
+        b[8..10].copy_from_slice(&VERSION.to_le_bytes());
+        b[10..12].copy_from_slice(&(HEADER_LEN as u16).to_le_bytes());
+        let flags = if m.range.is_empty() { 0 } else { FLAG_RANGE };
+        b[12..16].copy_from_slice(&flags.to_le_bytes());
+        for (a, v) in m.dims.as_array().iter().enumerate() {
+            b[16 + 8 * a..24 + 8 * a].copy_from_slice(&v.to_le_bytes());
+        }
+        for (a, v) in m.spacing.iter().enumerate() {
+            b[40 + 4 * a..44 + 4 * a].copy_from_slice(&v.to_le_bytes());
+        }
+        b[52] = m.sample_type.code();
+        if let Layout::Bricked(g) = m.layout {
+            b[53] = 1;
+            b[56..60].copy_from_slice(&g.brick().to_le_bytes());
+            b[60] = volcore::brick::APRON_LO as u8;
+            b[61] = volcore::brick::APRON_HI as u8;
+        }
+        if let Compression::Zstd(level) = m.compression {
+            b[54] = 1;
+            b[55] = level.clamp(-128, 127) as i8 as u8;
+        }
+        b[64..72].copy_from_slice(&m.range.min.to_le_bytes());
+        b[72..80].copy_from_slice(&m.range.max.to_le_bytes());
+        b[80..88].copy_from_slice(&self.data_offset.to_le_bytes());
+        b[88..96].copy_from_slice(&self.data_len.to_le_bytes());
+        b[96..104].copy_from_slice(&self.brick_count.to_le_bytes());
+        b[104..112].copy_from_slice(&self.brick_stride.to_le_bytes());
+        let crc = crc32fast::hash(&b[..124]);
+        b[124..128].copy_from_slice(&crc.to_le_bytes());
+        b
+    }
+
+    /// Decode and validate a 128-byte header (not yet against a file length).
+    pub fn decode(b: &[u8]) -> Result<Header> {
+        if b.len() < HEADER_LEN as usize {
+            return Err(Error::invalid(
+                "file is truncated (shorter than the 128-byte header)",
+            ));
+        }
+        if b[0..8] != MAGIC {
+            return Err(Error::invalid("not a .vvol file (bad magic)"));
+        }
+        let u16_at = |o: usize| u16::from_le_bytes([b[o], b[o + 1]]);
+        let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().unwrap_or_default());
+        let u64_at = |o: usize| u64::from_le_bytes(b[o..o + 8].try_into().unwrap_or_default());
+        let f32_at = |o: usize| f32::from_bits(u32_at(o));
+        let f64_at = |o: usize| f64::from_bits(u64_at(o));
+        let version = u16_at(8);
+        if version != VERSION {
+            return Err(Error::invalid(format!(
+                "unsupported .vvol version {version} (this build reads {VERSION})"
+            )));
+        }
+        if u16_at(10) as u64 != HEADER_LEN {
+            return Err(Error::invalid("header size field is not 128"));
+        }
+        let crc = crc32fast::hash(&b[..124]);
+        if crc != u32_at(124) {
+            return Err(Error::Checksum("header is damaged".into()));
+        }
+        let dims = Dims::new(u64_at(16), u64_at(24), u64_at(32))?;
+        let spacing = [f32_at(40), f32_at(44), f32_at(48)];
+        if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err(Error::invalid(format!(
+                "spacing {:?} is not positive and finite",
+                spacing
+            )));
+        }
+        let sample_type = SampleType::from_code(b[52])
+            .ok_or_else(|| Error::invalid(format!("unknown sample type code {}", b[52])))?;
+        let layout = match b[53] {
+            0 => Layout::Sliced,
+            1 => {
+                if b[60] as u32 != volcore::brick::APRON_LO
+                    || b[61] as u32 != volcore::brick::APRON_HI
+                {
+                    return Err(Error::invalid(format!(
+                        "brick apron {}/{} is not the supported 1/2",
+                        b[60], b[61]
+                    )));
+                }
+                Layout::Bricked(BrickGeometry::new(dims, u32_at(56))?)
+            }
+            other => return Err(Error::invalid(format!("unknown layout code {other}"))),
+        };
+        let compression = match b[54] {
+            0 => Compression::None,
+            1 => Compression::Zstd(b[55] as i8 as i32),
+            other => return Err(Error::invalid(format!("unknown compression code {other}"))),
+        };
+        let range = if u32_at(12) & FLAG_RANGE != 0 {
+            ValueRange {
+                min: f64_at(64),
+                max: f64_at(72),
+            }
+        } else {
+            ValueRange::EMPTY
+        };
+        let meta = VolumeMeta {
+            dims,
+            spacing,
+            sample_type,
+            range,
+            layout,
+            compression,
+        };
+        let h = Header {
+            meta,
+            data_offset: u64_at(80),
+            data_len: u64_at(88),
+            brick_count: u64_at(96),
+            brick_stride: u64_at(104),
+        };
+        // The layout fixes everything but the compressed data length.
+        let expect = Header::for_meta(meta)?;
+        let consistent = h.data_offset == expect.data_offset
+            && h.brick_count == expect.brick_count
+            && h.brick_stride == expect.brick_stride
+            && (meta.compression != Compression::None || h.data_len == expect.data_len);
+        if !consistent {
+            return Err(Error::invalid(format!(
+                "header fields disagree with {}: data offset {} / length {} / {} bricks",
+                meta, h.data_offset, h.data_len, h.brick_count
+            )));
+        }
+        if h.file_len().is_none() {
+            return Err(Error::invalid("data length overflows"));
+        }
+        Ok(h)
+    }
+}
+
+impl Trailer {
+    /// Encode as 32 bytes.
+    pub fn encode(&self) -> [u8; TRAILER_LEN as usize] {
+        let mut b = [0u8; TRAILER_LEN as usize];
+        b[0..8].copy_from_slice(&TRAILER_MAGIC);
+        b[8..12].copy_from_slice(&self.crc32.to_le_bytes());
+        let flags = if self.range.is_empty() { 0 } else { FLAG_RANGE };
+        b[12..16].copy_from_slice(&flags.to_le_bytes());
+        b[16..24].copy_from_slice(&self.range.min.to_le_bytes());
+        b[24..32].copy_from_slice(&self.range.max.to_le_bytes());
+        b
+    }
+
+    /// Decode 32 bytes.
+    pub fn decode(b: &[u8]) -> Result<Trailer> {
+        if b.len() < TRAILER_LEN as usize || b[0..8] != TRAILER_MAGIC {
+            return Err(Error::invalid(
+                "trailer is missing or damaged (file truncated?)",
+            ));
+        }
+        let f = |o: usize| f64::from_le_bytes(b[o..o + 8].try_into().unwrap_or_default());
+        let flags = u32::from_le_bytes([b[12], b[13], b[14], b[15]]);
+        Ok(Trailer {
+            crc32: u32::from_le_bytes([b[8], b[9], b[10], b[11]]),
+            range: if flags & FLAG_RANGE != 0 {
+                ValueRange {
+                    min: f(16),
+                    max: f(24),
+                }
+            } else {
+                ValueRange::EMPTY
+            },
+        })
+    }
+}
+
+pub(crate) fn encode_table(entries: &[BrickEntry]) -> Vec<u8> {
+    let mut t = Vec::with_capacity(entries.len() * ENTRY_LEN as usize);
+    for e in entries {
+        t.extend_from_slice(&e.offset.to_le_bytes());
+        t.extend_from_slice(&e.length.to_le_bytes());
+        t.extend_from_slice(&e.crc32.to_le_bytes());
+        t.extend_from_slice(&0u32.to_le_bytes());
+    }
+    t
+}
+
+pub(crate) fn decode_table(b: &[u8]) -> Vec<BrickEntry> {
+    b.chunks_exact(ENTRY_LEN as usize)
+        .map(|c| BrickEntry {
+            offset: u64::from_le_bytes(c[0..8].try_into().unwrap_or_default()),
+            length: u64::from_le_bytes(c[8..16].try_into().unwrap_or_default()),
+            crc32: u32::from_le_bytes(c[16..20].try_into().unwrap_or_default()),
+        })
+        .collect()
+}
