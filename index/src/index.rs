@@ -1,0 +1,189 @@
+//! The index itself: metadata, global statistics and the level pyramid,
+//! with the queries renderers use while marching rays.
+
+use crate::build::{self, BuildOptions};
+use crate::error::IndexError;
+use crate::histogram::Histogram;
+use crate::level::{level_shapes, Level};
+use volcore::{Dims, SampleType, Volume, VoxelSource};
+
+/// Min/max macrocell pyramid of one volume, plus its value range and
+/// histogram (see the crate docs).
+#[derive(Clone, Debug)]
+pub struct MajorantIndex {
+    dims: Dims,
+    sample_type: SampleType,
+    fingerprint: u64,
+    range: (f32, f32),
+    histogram: Histogram,
+    levels: Vec<Level>,
+}
+
+/// Summary figures of an index.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IndexStats {
+    /// Smallest and largest non-NaN sample (`(+inf, −inf)` if none).
+    pub value_range: (f32, f32),
+    /// Fraction of level-0 cells that are empty for threshold 0: their
+    /// maximum is `<= 0` or their range is empty.
+    pub empty_fraction: f64,
+    /// Level-0 cells.
+    pub cells: u64,
+    /// Number of levels.
+    pub levels: usize,
+    /// NaN samples in the volume.
+    pub nan_count: u64,
+}
+
+impl MajorantIndex {
+    /// Build the index of `src` (see [`crate::build`]) on the current rayon
+    /// pool; `fingerprint` identifies the volume and is stored as given.
+    pub fn build<S: VoxelSource>(
+        src: &S,
+        opts: &BuildOptions,
+        fingerprint: u64,
+    ) -> Result<MajorantIndex, IndexError> {
+        build::build_source(src, opts, fingerprint)
+    }
+
+    /// Build the index of an open volume of any layout and sample type.
+    pub fn build_volume(
+        vol: &Volume,
+        opts: &BuildOptions,
+        fingerprint: u64,
+    ) -> Result<MajorantIndex, IndexError> {
+        build::build_volume(vol, opts, fingerprint)
+    }
+
+    /// An index from its parts, checking that the levels form the pyramid
+    /// `dims` and the level-0 edge call for.
+    pub(crate) fn from_parts(
+        dims: Dims,
+        sample_type: SampleType,
+        fingerprint: u64,
+        range: (f32, f32),
+        histogram: Histogram,
+        levels: Vec<Level>,
+    ) -> Result<MajorantIndex, IndexError> {
+        let edge = levels.first().map_or(0, |l| l.edge());
+        let edge32 = u32::try_from(edge).unwrap_or(0);
+        let shapes = level_shapes(dims, edge32);
+        let consistent = edge32 > 0
+            && shapes.len() == levels.len()
+            && levels
+                .iter()
+                .zip(&shapes)
+                .enumerate()
+                .all(|(l, (lv, s))| lv.cells() == *s && lv.edge() == edge << l);
+        if !consistent {
+            return Err(IndexError::Corrupt(format!(
+                "levels do not form the pyramid of a {dims} volume with cell edge {edge}"
+            )));
+        }
+        Ok(MajorantIndex {
+            dims,
+            sample_type,
+            fingerprint,
+            range,
+            histogram,
+            levels,
+        })
+    }
+
+    /// Dimensions of the indexed volume.
+    pub fn dims(&self) -> Dims {
+        self.dims
+    }
+
+    /// Sample type of the indexed volume.
+    pub fn sample_type(&self) -> SampleType {
+        self.sample_type
+    }
+
+    /// The caller's fingerprint of the indexed volume.
+    pub fn fingerprint(&self) -> u64 {
+        self.fingerprint
+    }
+
+    /// Level-0 cell edge in voxels.
+    pub fn cell_edge(&self) -> u32 {
+        // Checked to fit a u32 in `from_parts`.
+        self.levels[0].edge() as u32
+    }
+
+    /// Smallest and largest non-NaN sample (`(+inf, −inf)` if none).
+    pub fn value_range(&self) -> (f32, f32) {
+        self.range
+    }
+
+    /// The sample histogram.
+    pub fn histogram(&self) -> &Histogram {
+        &self.histogram
+    }
+
+    /// Number of levels (level 0 finest, the last a single cell).
+    pub fn level_count(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// All levels, finest first.
+    pub fn levels(&self) -> &[Level] {
+        &self.levels
+    }
+
+    /// Level `l`. Panics if `l >= level_count()`.
+    pub fn level(&self, l: usize) -> &Level {
+        &self.levels[l]
+    }
+
+    /// Cell edge in voxels at level `l` (`cell_edge · 2^l`).
+    pub fn level_edge(&self, l: usize) -> u64 {
+        self.levels[l].edge()
+    }
+
+    /// `(min, max)` of cell `(cx, cy, cz)` of level `l`; `(+inf, −inf)` for
+    /// an empty cell. Panics if the cell is outside the level.
+    #[inline]
+    pub fn cell_range(&self, level: usize, cx: u64, cy: u64, cz: u64) -> (f32, f32) {
+        self.levels[level].range(cx, cy, cz)
+    }
+
+    /// Fraction of level-0 cells that are empty for `threshold`: maximum
+    /// `<= threshold`, or empty range (only NaNs).
+    pub fn empty_fraction(&self, threshold: f32) -> f64 {
+        let l = &self.levels[0];
+        let empty = (0..l.len())
+            .filter(|&i| l.is_empty_cell(i, threshold))
+            .count();
+        empty as f64 / l.len() as f64
+    }
+
+    /// Summary figures (empty fraction for threshold 0).
+    pub fn stats(&self) -> IndexStats {
+        IndexStats {
+            value_range: self.range,
+            empty_fraction: self.empty_fraction(0.0),
+            cells: self.levels[0].len() as u64,
+            levels: self.levels.len(),
+            nan_count: self.histogram.nan_count(),
+        }
+    }
+
+    /// Check that this index was built for a volume of `dims` and
+    /// `sample_type`.
+    pub fn check_volume(&self, dims: Dims, sample_type: SampleType) -> Result<(), IndexError> {
+        if self.dims != dims {
+            return Err(IndexError::Dims {
+                found: self.dims,
+                expected: dims,
+            });
+        }
+        if self.sample_type != sample_type {
+            return Err(IndexError::SampleType {
+                found: self.sample_type,
+                expected: sample_type,
+            });
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,222 @@
+//! One level of the macrocell pyramid and the reduction to the next one.
+//!
+//! Level 0 has cells of `N` voxels per axis; level `l` has cells of
+//! `N·2^l` voxels, each the union of the (up to) 2×2×2 level `l − 1` cells
+//! it covers. Along an axis of `d` voxels level 0 has `ceil(d / N)` cells and
+//! each coarser level `ceil(previous / 2)`, down to a single cell. Cells are
+//! stored x fastest: index = cx + nx·(cy + ny·cz).
+
+use crate::error::IndexError;
+use crate::rangemax::RangeMaxTable;
+use rayon::prelude::*;
+use volcore::grid::clamp_axis;
+use volcore::Dims;
+
+/// The cell ranges of one pyramid level.
+#[derive(Clone, Debug)]
+pub struct Level {
+    cells: [u64; 3],
+    edge: u64,
+    min: Vec<f32>,
+    max: Vec<f32>,
+}
+
+/// Cells per axis of every level for `dims` and level-0 cell edge `edge`,
+/// finest first, ending with `[1, 1, 1]`.
+pub fn level_shapes(dims: Dims, edge: u32) -> Vec<[u64; 3]> {
+    let e = u64::from(edge.max(1));
+    let mut cells = dims.as_array().map(|d| d.div_ceil(e));
+    let mut out = vec![cells];
+    while cells != [1, 1, 1] {
+        cells = cells.map(|c| c.div_ceil(2));
+        out.push(cells);
+    }
+    out
+}
+
+/// Number of cells in a level of shape `cells`, checked to fit a `usize`.
+pub(crate) fn cell_count(cells: [u64; 3]) -> Result<usize, IndexError> {
+    cells[0]
+        .checked_mul(cells[1])
+        .and_then(|n| n.checked_mul(cells[2]))
+        .and_then(|n| usize::try_from(n).ok())
+        .ok_or_else(|| {
+            IndexError::TooLarge(format!(
+                "{}x{}x{} cells overflow the address space",
+                cells[0], cells[1], cells[2]
+            ))
+        })
+}
+
+/// A vector of `len` copies of `v`, or an error instead of an abort when
+/// the memory is not available.
+pub(crate) fn try_filled(len: usize, v: f32) -> Result<Vec<f32>, IndexError> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(len)
+        .map_err(|e| IndexError::TooLarge(format!("{len} cells: {e}")))?;
+    out.resize(len, v);
+    Ok(out)
+}
+
+impl Level {
+    /// A level from its parts; `min` and `max` hold one value per cell.
+    pub(crate) fn from_parts(
+        cells: [u64; 3],
+        edge: u64,
+        min: Vec<f32>,
+        max: Vec<f32>,
+    ) -> Result<Level, IndexError> {
+        let n = cell_count(cells)?;
+        if min.len() != n || max.len() != n {
+            return Err(IndexError::Corrupt(format!(
+                "level of {n} cells given {} minima and {} maxima",
+                min.len(),
+                max.len()
+            )));
+        }
+        Ok(Level {
+            cells,
+            edge,
+            min,
+            max,
+        })
+    }
+
+    /// Cells along x, y, z.
+    pub fn cells(&self) -> [u64; 3] {
+        self.cells
+    }
+
+    /// Edge of one cell in voxels (`N·2^level`).
+    pub fn edge(&self) -> u64 {
+        self.edge
+    }
+
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        self.min.len()
+    }
+
+    /// Whether the level has no cells (never true for a built index).
+    pub fn is_empty(&self) -> bool {
+        self.min.is_empty()
+    }
+
+    /// Per-cell minima, x fastest (`+inf` for an empty cell).
+    pub fn min(&self) -> &[f32] {
+        &self.min
+    }
+
+    /// Per-cell maxima, x fastest (`−inf` for an empty cell).
+    pub fn max(&self) -> &[f32] {
+        &self.max
+    }
+
+    /// Linear index of cell `(cx, cy, cz)`.
+    #[inline(always)]
+    pub fn index(&self, cx: u64, cy: u64, cz: u64) -> usize {
+        (cx + self.cells[0] * (cy + self.cells[1] * cz)) as usize
+    }
+
+    /// `(min, max)` of cell `(cx, cy, cz)`. Panics if the cell is outside
+    /// the level.
+    #[inline(always)]
+    pub fn range(&self, cx: u64, cy: u64, cz: u64) -> (f32, f32) {
+        let i = self.index(cx, cy, cz);
+        (self.min[i], self.max[i])
+    }
+
+    /// The cell holding a point in voxel coordinates, after the sampler's
+    /// clamping to the volume `dims` (NaN clamps to 0): the cell whose range
+    /// bounds the trilinear value at `p`.
+    #[inline]
+    pub fn cell_of(&self, p: [f32; 3], dims: Dims) -> [u64; 3] {
+        let d = dims.as_array();
+        std::array::from_fn(|a| {
+            let base = clamp_axis(p[a], d[a]) as u64;
+            (base / self.edge).min(self.cells[a] - 1)
+        })
+    }
+
+    /// Whether cell `i` (linear index) holds no value above `threshold`:
+    /// its maximum is `<= threshold` or its range is empty.
+    #[inline]
+    pub fn is_empty_cell(&self, i: usize, threshold: f32) -> bool {
+        self.max[i] <= threshold || self.min[i] > self.max[i]
+    }
+
+    /// The largest table value over each cell's range, x fastest: the
+    /// per-cell majorant for the transfer function behind `table` (0 for
+    /// empty cells).
+    pub fn majorants(&self, table: &RangeMaxTable) -> Vec<f32> {
+        self.min
+            .par_iter()
+            .zip(&self.max)
+            .map(|(&lo, &hi)| table.max_over(lo, hi))
+            .collect()
+    }
+
+    /// The next coarser level: each cell the union of its 2×2×2 children
+    /// (fewer at the far faces).
+    pub(crate) fn coarsen(&self) -> Result<Level, IndexError> {
+        let cells = self.cells.map(|c| c.div_ceil(2));
+        let n = cell_count(cells)?;
+        let mut min = try_filled(n, f32::INFINITY)?;
+        let mut max = try_filled(n, f32::NEG_INFINITY)?;
+        let plane = (cells[0] * cells[1]) as usize;
+        min.par_chunks_mut(plane)
+            .zip(max.par_chunks_mut(plane))
+            .enumerate()
+            .for_each(|(k, (mn, mx))| self.coarsen_plane(cells, k as u64, mn, mx));
+        Level::from_parts(cells, self.edge * 2, min, max)
+    }
+
+    /// Fill parent plane `k` of shape `cells` from this level.
+    fn coarsen_plane(&self, cells: [u64; 3], k: u64, mn: &mut [f32], mx: &mut [f32]) {
+        let c = self.cells;
+        let kids = |p: u64, a: usize| 2 * p..(2 * p + 2).min(c[a]);
+        for j in 0..cells[1] {
+            for i in 0..cells[0] {
+                let o = (i + cells[0] * j) as usize;
+                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                for z in kids(k, 2) {
+                    for y in kids(j, 1) {
+                        for x in kids(i, 0) {
+                            let (a, b) = self.range(x, y, z);
+                            lo = lo.min(a);
+                            hi = hi.max(b);
+                        }
+                    }
+                }
+                mn[o] = lo;
+                mx[o] = hi;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shapes_halve_down_to_one_cell() {
+        let d = Dims::new(17, 8, 1).unwrap();
+        assert_eq!(level_shapes(d, 8), vec![[3, 1, 1], [2, 1, 1], [1, 1, 1]]);
+        assert_eq!(
+            level_shapes(Dims::new(1, 1, 1).unwrap(), 8),
+            vec![[1, 1, 1]]
+        );
+        assert_eq!(level_shapes(Dims::new(9, 9, 9).unwrap(), 8).len(), 2);
+    }
+
+    #[test]
+    fn cell_of_clamps_like_the_sampler() {
+        let d = Dims::new(17, 8, 1).unwrap();
+        let l = Level::from_parts([3, 1, 1], 8, vec![0.0; 3], vec![0.0; 3]).unwrap();
+        assert_eq!(l.cell_of([7.99, 3.0, 0.0], d), [0, 0, 0]);
+        assert_eq!(l.cell_of([8.0, 3.0, 0.0], d), [1, 0, 0]);
+        assert_eq!(l.cell_of([16.0, 99.0, 5.0], d), [2, 0, 0]);
+        assert_eq!(l.cell_of([f32::NAN, -3.0, 0.5], d), [0, 0, 0]);
+    }
+}
