@@ -116,7 +116,7 @@ fn range_of(v: &Volume) -> volcore::ValueRange {
 
 fn typed<T: IntoVolumeData>(map: Arc<Mmap>, spec: RawSpec) -> Result<volcore::VolumeData> {
     let n = spec.dims.count() as usize;
-    let aligned = (spec.skip as usize) % std::mem::align_of::<T>() == 0;
+    let aligned = (spec.skip as usize).is_multiple_of(std::mem::align_of::<T>());
     let data = if !spec.big_endian && aligned {
         Data::mapped(map, spec.skip as usize, n)?
     } else {

@@ -316,16 +316,14 @@ impl<T: Sample> VoxelSource for BrickedGrid<T> {
 }
 
 /// Copy a row out of bricks, one brick-sized run at a time.
-fn read_row_bricked<'b, T: Sample>(
+fn read_row_bricked<'b, T: Sample + 'b>(
     g: &BrickGeometry,
     x0: u64,
     y: u64,
     z: u64,
     out: &mut [T],
     mut brick: impl FnMut(u64) -> Option<&'b [T]>,
-) where
-    T: 'b,
-{
+) {
     let b = g.brick() as u64;
     let mut x = x0;
     let mut done = 0usize;
