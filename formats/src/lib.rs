@@ -4,6 +4,8 @@
 //!   brick, memory-mappable, streamable through pipes); see `FORMAT.md`.
 //! - [`thesis`]: the `.vol` format of the thesis generator (`vol_gen`).
 //! - [`raw`]: headerless sample arrays, Open SciVis naming.
+//! - [`tiff`], [`nrrd`], [`mhd`]: TIFF stacks, NRRD and MetaImage, and
+//!   [`convert`], which turns any input into any output slice by slice.
 //!
 //! Writers pull samples from a [`volcore::RegionSource`] and produce them in
 //! parallel batches that one thread writes in file order
@@ -11,12 +13,16 @@
 //! Output files go through [`output::AtomicFile`]: written under a temporary
 //! name and renamed into place only on success.
 
+pub mod convert;
 pub mod detect;
 pub mod error;
+pub mod mhd;
+pub mod nrrd;
 pub mod output;
 pub mod pipeline;
 pub mod raw;
 pub mod thesis;
+pub mod tiff;
 pub mod vvol;
 
 pub use detect::{open_volume, FileKind};

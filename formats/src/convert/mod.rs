@@ -1,0 +1,500 @@
+//! Converting volumes between formats, slice by slice, with bounded memory.
+//!
+//! An input is a [`SliceReader`] (TIFF stacks, raw files and streams,
+//! NRRD, MetaImage, `.vvol`, `.vol`). [`convert`] crops, flips and converts
+//! the sample type of each slice as it is read ([`Plan`]) and keeps only the
+//! slices the output's next unit needs in a [`SliceWindow`]: a slab of
+//! slices for sliced outputs, one layer of bricks plus the apron for
+//! bricked ones. Random-access inputs decode the slices of a unit in
+//! parallel; bricks are compressed in parallel by the `.vvol` writer.
+//!
+//! Every output file is written under a temporary name and renamed into
+//! place only when complete, so a failed conversion leaves nothing behind.
+
+pub mod input;
+pub mod open;
+pub mod slice;
+pub mod window;
+mod writers;
+
+pub use input::{Access, InputInfo, SliceReader};
+pub use open::{open_input, InputOptions, RawArgs};
+pub use slice::{SliceData, SliceSample};
+pub use window::{Histogram, Mapper, ValueMap, Window};
+pub use writers::Target;
+
+use crate::error::Error;
+use rayon::prelude::*;
+use std::fmt;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use volcore::{Dims, RegionSource, Sample, SampleType, ValueRange};
+
+/// An error tied to the file it concerns (the input, one slice file of a
+/// stack, or the output). Displays as `path: problem`, on one line.
+#[derive(Debug)]
+pub struct ConvertError {
+    /// The file the problem is about.
+    pub path: PathBuf,
+    /// What went wrong.
+    pub error: Error,
+}
+
+impl ConvertError {
+    /// An error about `path`.
+    pub fn new(path: &Path, error: impl Into<Error>) -> ConvertError {
+        ConvertError {
+            path: path.to_path_buf(),
+            error: error.into(),
+        }
+    }
+}
+
+impl fmt::Display for ConvertError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let msg = self.error.to_string().replace('\n', " ");
+        write!(f, "{}: {}", self.path.display(), msg)
+    }
+}
+
+impl std::error::Error for ConvertError {}
+
+/// Result of conversion steps.
+pub type CResult<T> = std::result::Result<T, ConvertError>;
+
+/// Attach a path to an error.
+pub trait At<T> {
+    /// The error, located at `path`.
+    fn at(self, path: &Path) -> CResult<T>;
+}
+
+impl<T, E: Into<Error>> At<T> for std::result::Result<T, E> {
+    fn at(self, path: &Path) -> CResult<T> {
+        self.map_err(|e| ConvertError::new(path, e))
+    }
+}
+
+/// What to do to the samples on the way.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// Keep only voxels `x0..x1, y0..y1, z0..z1` (input coordinates).
+    pub crop: Option<[Range<u64>; 3]>,
+    /// Mirror the (cropped) volume along x, y, z.
+    pub flip: [bool; 3],
+    /// Output sample type (`None`: the input's).
+    pub sample_type: Option<SampleType>,
+    /// How to map values when the type changes.
+    pub window: Option<Window>,
+    /// Output spacing (`None`: the input's, or 1,1,1).
+    pub spacing: Option<[f32; 3]>,
+    /// Directory for temporary files (spooled streams); `None`: the
+    /// output's directory.
+    pub temp_dir: Option<PathBuf>,
+}
+
+impl Default for Plan {
+    fn default() -> Plan {
+        Plan {
+            crop: None,
+            flip: [false; 3],
+            sample_type: None,
+            window: None,
+            spacing: None,
+            temp_dir: None,
+        }
+    }
+}
+
+/// Parse `x0:x1,y0:y1,z0:z1` (half-open voxel ranges; an empty bound is
+/// the volume's edge, `:` alone is the whole axis).
+pub fn parse_crop(s: &str) -> std::result::Result<[Option<(Option<u64>, Option<u64>)>; 3], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!("'{s}' is not x0:x1,y0:y1,z0:z1"));
+    }
+    let mut out = [None; 3];
+    for (a, p) in parts.iter().enumerate() {
+        let p = p.trim();
+        if p.is_empty() {
+            continue;
+        }
+        let (lo, hi) = p
+            .split_once(':')
+            .ok_or_else(|| format!("'{s}': '{p}' is not lo:hi"))?;
+        let num = |v: &str| -> std::result::Result<Option<u64>, String> {
+            let v = v.trim();
+            if v.is_empty() {
+                Ok(None)
+            } else {
+                v.parse()
+                    .map(Some)
+                    .map_err(|_| format!("'{s}': '{v}' is not a whole number"))
+            }
+        };
+        out[a] = Some((num(lo)?, num(hi)?));
+    }
+    Ok(out)
+}
+
+/// Resolve a parsed crop against the input dimensions.
+pub fn resolve_crop(
+    crop: &[Option<(Option<u64>, Option<u64>)>; 3],
+    dims: Dims,
+) -> std::result::Result<[Range<u64>; 3], String> {
+    let d = dims.as_array();
+    let mut r: [Range<u64>; 3] = [0..d[0], 0..d[1], 0..d[2]];
+    for a in 0..3 {
+        if let Some((lo, hi)) = crop[a] {
+            let lo = lo.unwrap_or(0);
+            let hi = hi.unwrap_or(d[a]);
+            let axis = ["x", "y", "z"][a];
+            if lo >= hi {
+                return Err(format!("crop {axis} range {lo}:{hi} is empty"));
+            }
+            if hi > d[a] {
+                return Err(format!(
+                    "crop {axis} range {lo}:{hi} goes past the volume ({dims})"
+                ));
+            }
+            r[a] = lo..hi;
+        }
+    }
+    Ok(r)
+}
+
+/// What a conversion did.
+#[derive(Clone, Debug)]
+pub struct Report {
+    /// Output dimensions.
+    pub dims: Dims,
+    /// Output sample type.
+    pub sample_type: SampleType,
+    /// Output spacing.
+    pub spacing: [f32; 3],
+    /// Input bytes read.
+    pub bytes_in: u64,
+    /// Output bytes written.
+    pub bytes_out: u64,
+    /// Value range of the output samples, when the writer computed it.
+    pub range: Option<ValueRange>,
+    /// The value map used.
+    pub map: ValueMap,
+    /// Input description.
+    pub input_format: String,
+    /// Whether the input was copied to a temporary file first.
+    pub spooled: bool,
+}
+
+/// Decodes input slices and turns them into output slices (crop, flip,
+/// type conversion).
+struct Loader<'a, T: Sample> {
+    reader: &'a dyn SliceReader,
+    crop: [Range<u64>; 3],
+    flip: [bool; 3],
+    mapper: Mapper<T>,
+    in_dims: Dims,
+}
+
+impl<T: SliceSample> Loader<'_, T> {
+    fn out_dims(&self) -> Dims {
+        let c = &self.crop;
+        Dims {
+            x: c[0].end - c[0].start,
+            y: c[1].end - c[1].start,
+            z: c[2].end - c[2].start,
+        }
+    }
+
+    fn input_z(&self, z: u64) -> u64 {
+        let nz = self.crop[2].end - self.crop[2].start;
+        self.crop[2].start + if self.flip[2] { nz - 1 - z } else { z }
+    }
+
+    fn load(&self, z: u64) -> CResult<Vec<T>> {
+        let zi = self.input_z(z);
+        let s = self.reader.read_slice(zi)?;
+        let d = self.in_dims;
+        if s.len() as u64 != d.slice_len() || s.sample_type() != self.reader.info().sample_type {
+            return Err(ConvertError::new(
+                &self.reader.info().path,
+                Error::invalid(format!("slice {zi} has the wrong size or type (internal error)")),
+            ));
+        }
+        let od = self.out_dims();
+        let whole_xy = od.x == d.x && od.y == d.y && !self.flip[0] && !self.flip[1];
+        if whole_xy && self.mapper.is_identity() {
+            if let Ok(v) = T::unwrap(s) {
+                return Ok(v);
+            }
+            unreachable_type()
+        } else {
+            let mut out = vec![T::default(); od.slice_len() as usize];
+            let (nx, ny) = (od.x as usize, od.y as usize);
+            for (yo, row) in out.chunks_exact_mut(nx).enumerate() {
+                let yi = self.crop[1].start as usize + if self.flip[1] { ny - 1 - yo } else { yo };
+                let base = yi * d.x as usize + self.crop[0].start as usize;
+                if self.flip[0] {
+                    self.mapper.map_indexed(&s, (base..base + nx).rev(), row);
+                } else {
+                    self.mapper.map_indexed(&s, base..base + nx, row);
+                }
+            }
+            Ok(out)
+        }
+    }
+}
+
+#[cold]
+fn unreachable_type<T>() -> CResult<T> {
+    Err(ConvertError::new(
+        Path::new("-"),
+        Error::invalid("slice type changed (internal error)"),
+    ))
+}
+
+/// The output slices one unit of a writer needs, held in memory: a
+/// [`RegionSource`] over slices `first .. first + len`.
+pub struct SliceWindow<T: Sample> {
+    dims: Dims,
+    first: u64,
+    slices: Vec<Vec<T>>,
+    missed: AtomicBool,
+}
+
+impl<T: SliceSample> SliceWindow<T> {
+    fn new(dims: Dims) -> SliceWindow<T> {
+        SliceWindow {
+            dims,
+            first: 0,
+            slices: Vec::new(),
+            missed: AtomicBool::new(false),
+        }
+    }
+
+    /// Slice `z` (output coordinates), if held.
+    pub fn slice(&self, z: u64) -> Option<&[T]> {
+        let i = z.checked_sub(self.first)? as usize;
+        self.slices.get(i).map(|v| v.as_slice())
+    }
+
+    /// Hold exactly slices `zs`: drop those before, load those missing.
+    fn advance(&mut self, zs: Range<u64>, loader: &Loader<'_, T>) -> CResult<()> {
+        let end = self.first + self.slices.len() as u64;
+        if zs.start >= end || zs.start < self.first {
+            self.slices.clear();
+            self.first = zs.start;
+        } else {
+            self.slices.drain(..(zs.start - self.first) as usize);
+            self.first = zs.start;
+        }
+        let have = self.first + self.slices.len() as u64;
+        let need = have.max(zs.start)..zs.end;
+        if need.is_empty() {
+            return Ok(());
+        }
+        let loaded: Vec<Vec<T>> = match loader.reader.access() {
+            Access::Random => need
+                .into_par_iter()
+                .map(|z| loader.load(z))
+                .collect::<CResult<_>>()?,
+            Access::Sequential => need.map(|z| loader.load(z)).collect::<CResult<_>>()?,
+        };
+        self.slices.extend(loaded);
+        Ok(())
+    }
+
+    fn check(&self) -> std::result::Result<(), Error> {
+        if self.missed.load(Ordering::Relaxed) {
+            return Err(Error::invalid(
+                "a writer read a slice outside its window (internal error)",
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl<T: SliceSample> RegionSource for SliceWindow<T> {
+    type Sample = T;
+    fn dims(&self) -> Dims {
+        self.dims
+    }
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [T]) {
+        match self.slice(z) {
+            Some(s) => {
+                let start = (y * self.dims.x + x0) as usize;
+                out.copy_from_slice(&s[start..start + out.len()]);
+            }
+            None => {
+                self.missed.store(true, Ordering::Relaxed);
+                out.fill(T::default());
+            }
+        }
+    }
+}
+
+/// Crop one input slice to the plan's x and y ranges (for statistics).
+fn crop_xy(s: SliceData, dims: Dims, crop: &[Range<u64>; 3]) -> SliceData {
+    if crop[0] == (0..dims.x) && crop[1] == (0..dims.y) {
+        return s;
+    }
+    fn pick<T: Copy>(v: &[T], dims: Dims, crop: &[Range<u64>; 3]) -> Vec<T> {
+        let mut out = Vec::new();
+        for y in crop[1].clone() {
+            let b = (y * dims.x) as usize;
+            out.extend_from_slice(&v[b + crop[0].start as usize..b + crop[0].end as usize]);
+        }
+        out
+    }
+    match s {
+        SliceData::U8(v) => SliceData::U8(pick(&v, dims, crop)),
+        SliceData::U16(v) => SliceData::U16(pick(&v, dims, crop)),
+        SliceData::I16(v) => SliceData::I16(pick(&v, dims, crop)),
+        SliceData::F32(v) => SliceData::F32(pick(&v, dims, crop)),
+    }
+}
+
+/// Convert everything `reader` holds to `target` following `plan`.
+/// `progress` gets the output sample bytes done so far.
+pub fn convert(
+    reader: Box<dyn SliceReader>,
+    plan: &Plan,
+    target: Target,
+    progress: &(dyn Fn(u64) + Sync),
+) -> CResult<Report> {
+    let info = reader.info().clone();
+    let in_path = info.path.clone();
+    let d = info.dims;
+    let crop = plan
+        .crop
+        .clone()
+        .unwrap_or([0..d.x, 0..d.y, 0..d.z]);
+    let out_type = plan.sample_type.unwrap_or(info.sample_type);
+    let needs_stats = match plan.window {
+        Some(Window::Auto(_)) => true,
+        Some(Window::Full) => info.sample_type == SampleType::F32,
+        _ => false,
+    };
+    // Fail early on a narrowing conversion without a window.
+    if plan.window.is_none() {
+        ValueMap::plan(info.sample_type, out_type, None, None).at(target.path())?;
+    }
+    let temp_dir = plan
+        .temp_dir
+        .clone()
+        .unwrap_or_else(|| target.temp_dir());
+    let z_sel = crop[2].clone();
+    let mut hist = needs_stats.then(|| Histogram::new(info.sample_type));
+    let mut reader = reader;
+    let mut spooled = false;
+    if reader.access() == Access::Sequential && (plan.flip[2] || needs_stats) {
+        let h = &mut hist;
+        let mut z = 0u64;
+        let sp = input::Spooled::new(reader.as_ref(), &temp_dir, |s| {
+            if let Some(h) = h.as_mut() {
+                if z_sel.contains(&z) {
+                    h.add(&crop_xy(s.clone(), d, &crop));
+                }
+            }
+            z += 1;
+        })?;
+        reader = Box::new(sp);
+        spooled = true;
+    } else if let Some(h) = hist.take() {
+        let t = info.sample_type;
+        let r = reader.as_ref();
+        let merged = z_sel
+            .clone()
+            .into_par_iter()
+            .map(|z| {
+                let mut one = Histogram::new(t);
+                one.add(&crop_xy(r.read_slice(z)?, d, &crop));
+                Ok(one)
+            })
+            .try_reduce(|| Histogram::new(t), |a, b| Ok(a.merge(b)))?;
+        hist = Some(h.merge(merged));
+    }
+    let map = ValueMap::plan(info.sample_type, out_type, plan.window, hist.as_ref())
+        .at(&in_path)?;
+    let spacing = plan.spacing.or(info.spacing).unwrap_or([1.0; 3]);
+    let args = RunArgs {
+        reader: reader.as_ref(),
+        crop,
+        flip: plan.flip,
+        map,
+        spacing,
+        temp_dir,
+    };
+    let mut report = match out_type {
+        SampleType::U8 => run::<u8>(&args, target, progress)?,
+        SampleType::U16 => run::<u16>(&args, target, progress)?,
+        SampleType::I16 => run::<i16>(&args, target, progress)?,
+        SampleType::F32 => run::<f32>(&args, target, progress)?,
+    };
+    report.bytes_in = reader.bytes_in();
+    report.input_format = info.format.clone();
+    report.spooled = spooled;
+    Ok(report)
+}
+
+struct RunArgs<'a> {
+    reader: &'a dyn SliceReader,
+    crop: [Range<u64>; 3],
+    flip: [bool; 3],
+    map: ValueMap,
+    spacing: [f32; 3],
+    temp_dir: PathBuf,
+}
+
+fn run<T: SliceSample>(
+    args: &RunArgs<'_>,
+    target: Target,
+    progress: &(dyn Fn(u64) + Sync),
+) -> CResult<Report> {
+    let info = args.reader.info();
+    let loader = Loader::<T> {
+        reader: args.reader,
+        crop: args.crop.clone(),
+        flip: args.flip,
+        mapper: Mapper::new(info.sample_type, args.map),
+        in_dims: info.dims,
+    };
+    let dims = loader.out_dims();
+    let out_path = target.path().to_path_buf();
+    let mut drive = |sink: &mut dyn writers::SlabSink<T>| -> CResult<()> {
+        let mut window = SliceWindow::<T>::new(dims);
+        loop {
+            let zs = sink.next_slices();
+            if zs.is_empty() {
+                break;
+            }
+            window.advance(zs, &loader)?;
+            sink.write_next(&window)?;
+            window.check().at(&out_path)?;
+        }
+        // Read what is left of a stream (and check its trailer) before the
+        // output is committed: a damaged input must leave no output.
+        args.reader.finish()
+    };
+    let spec = writers::OutSpec {
+        dims,
+        spacing: args.spacing,
+        temp_dir: &args.temp_dir,
+        progress,
+    };
+    let (bytes_out, range) = writers::run_target::<T>(target, &spec, &mut drive)?;
+    Ok(Report {
+        dims,
+        sample_type: T::TYPE,
+        spacing: args.spacing,
+        bytes_in: 0,
+        bytes_out,
+        range,
+        map: args.map,
+        input_format: String::new(),
+        spooled: false,
+    })
+}
+
+#[cfg(test)]
+mod tests;

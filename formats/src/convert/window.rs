@@ -1,0 +1,474 @@
+//! Sample type conversion with explicit windowing.
+//!
+//! Rules (also in `vol-convert --help`):
+//! - Without a window, only exact conversions are allowed: the same type,
+//!   or a widening one (`u8` to anything; `u16` or `i16` to `f32`). Every
+//!   other conversion narrows and is an error unless a window is given.
+//! - `--window lo:hi` maps `lo` to the bottom and `hi` to the top of the
+//!   output type (0..255, 0..65535, -32768..32767, or 0..1 for `f32`)
+//!   linearly; values outside `[lo, hi]` clamp. `lo` must be below `hi`.
+//! - `--window auto[:P]` takes `lo` and `hi` from the P-th and (100−P)-th
+//!   percentiles of the input histogram (P = 0.5 by default); NaN samples
+//!   are left out of the histogram.
+//! - `--window full` maps the input type's whole range (for `f32` input,
+//!   the volume's actual min..max) onto the output range.
+//! - Float to integer rounds half away from zero after the linear map.
+//! - NaN maps to the bottom of the output range for integer outputs (0 for
+//!   `u8`/`u16`, -32768 for `i16`) and stays NaN for `f32` output.
+
+use super::slice::SliceData;
+use crate::error::{Error, Result};
+use std::str::FromStr;
+use volcore::{Sample, SampleType};
+
+/// How to choose the value window of a type conversion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Window {
+    /// Map `[lo, hi]` onto the output range.
+    Range(f64, f64),
+    /// From the histogram: the given tail percentile on each side.
+    Auto(f64),
+    /// The input type's whole range (the data range for `f32` input).
+    Full,
+}
+
+/// Default tail percentile of `--window auto`.
+pub const AUTO_TAIL_PERCENT: f64 = 0.5;
+
+impl FromStr for Window {
+    type Err = String;
+    /// `lo:hi`, `auto`, `auto:P` or `full`.
+    fn from_str(s: &str) -> Result<Window, String> {
+        match s {
+            "full" => return Ok(Window::Full),
+            "auto" => return Ok(Window::Auto(AUTO_TAIL_PERCENT)),
+            _ => {}
+        }
+        if let Some(p) = s.strip_prefix("auto:") {
+            let p: f64 = p
+                .parse()
+                .map_err(|_| format!("'{s}': auto percentile must be a number"))?;
+            if !(0.0..50.0).contains(&p) {
+                return Err(format!("'{s}': auto percentile must be in 0..50"));
+            }
+            return Ok(Window::Auto(p));
+        }
+        let (lo, hi) = s
+            .split_once(':')
+            .ok_or_else(|| format!("'{s}' is not lo:hi, auto or full"))?;
+        let lo: f64 = lo
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}': '{lo}' is not a number"))?;
+        let hi: f64 = hi
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}': '{hi}' is not a number"))?;
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Err(format!("'{s}': window bounds must be finite"));
+        }
+        if lo == hi {
+            return Err(format!("'{s}': window is empty (lo == hi)"));
+        }
+        if lo > hi {
+            return Err(format!("'{s}': window lo must be below hi"));
+        }
+        Ok(Window::Range(lo, hi))
+    }
+}
+
+/// Whether every value of `from` is exactly representable in `to`.
+pub fn is_exact(from: SampleType, to: SampleType) -> bool {
+    use SampleType::*;
+    from == to || matches!((from, to), (U8, _) | (U16, F32) | (I16, F32))
+}
+
+/// The output range a window maps onto.
+fn out_range(t: SampleType) -> (f64, f64) {
+    t.integer_range().unwrap_or((0.0, 1.0))
+}
+
+/// How input values become output values: exact, or a clamped linear map.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ValueMap {
+    /// The value is kept (same type or widening).
+    Exact,
+    /// `[lo, hi]` maps linearly onto the output range and clamps.
+    Linear {
+        /// Input value mapped to the bottom of the output range.
+        lo: f64,
+        /// Input value mapped to the top of the output range.
+        hi: f64,
+    },
+}
+
+impl ValueMap {
+    /// Decide the map for converting `from` to `to` with an optional window;
+    /// `stats` must be given for `Auto` and for `Full` with `f32` input.
+    pub fn plan(
+        from: SampleType,
+        to: SampleType,
+        window: Option<Window>,
+        stats: Option<&Histogram>,
+    ) -> Result<ValueMap> {
+        let (lo, hi) = match window {
+            None if is_exact(from, to) => return Ok(ValueMap::Exact),
+            None => {
+                return Err(Error::invalid(format!(
+                    "converting {from} to {to} loses values: pass --window lo:hi, --window auto or --window full"
+                )))
+            }
+            Some(Window::Range(lo, hi)) => {
+                if !(lo.is_finite() && hi.is_finite()) || lo >= hi {
+                    return Err(Error::invalid(format!(
+                        "window {lo}:{hi} is empty or reversed (lo must be below hi)"
+                    )));
+                }
+                (lo, hi)
+            }
+            Some(Window::Auto(p)) => {
+                let h = stats.ok_or_else(|| Error::invalid("auto window needs a histogram"))?;
+                h.percentiles(p)
+                    .ok_or_else(|| Error::invalid("auto window: the volume has no non-NaN sample"))?
+            }
+            Some(Window::Full) => match from.integer_range() {
+                Some(r) => r,
+                None => {
+                    let h = stats.ok_or_else(|| Error::invalid("full window needs the range"))?;
+                    h.range().ok_or_else(|| {
+                        Error::invalid("full window: the volume has no non-NaN sample")
+                    })?
+                }
+            },
+        };
+        // A constant volume gives an empty automatic window: widen it so the
+        // constant maps to the bottom of the output range.
+        let hi = if hi > lo { hi } else { lo + 1.0 };
+        Ok(ValueMap::Linear { lo, hi })
+    }
+
+    /// The output value of one input value (`f64` in, rounded and clamped
+    /// output sample out).
+    #[inline]
+    pub fn apply<T: Sample>(&self, v: f64) -> T {
+        match *self {
+            ValueMap::Exact => T::from_f32(v as f32),
+            ValueMap::Linear { lo, hi } => {
+                let (a, b) = out_range(T::TYPE);
+                if v.is_nan() {
+                    return if T::TYPE == SampleType::F32 {
+                        T::from_f32(f32::NAN)
+                    } else {
+                        T::from_f32(a as f32)
+                    };
+                }
+                let m = (a + (v - lo) * (b - a) / (hi - lo)).clamp(a, b);
+                if T::TYPE == SampleType::F32 {
+                    T::from_f32(m as f32)
+                } else {
+                    // Round half away from zero in f64, then the value is an
+                    // integer well inside f32's exact range.
+                    T::from_f32(m.round() as f32)
+                }
+            }
+        }
+    }
+}
+
+/// Converts slices of any input type to output samples of type `T`,
+/// using a lookup table for integer inputs.
+pub struct Mapper<T: Sample> {
+    map: ValueMap,
+    lut: Option<Vec<T>>,
+    from: SampleType,
+}
+
+impl<T: Sample> Mapper<T> {
+    /// A mapper for input of type `from`.
+    pub fn new(from: SampleType, map: ValueMap) -> Mapper<T> {
+        let lut = match from {
+            SampleType::U8 => Some((0..=255u32).map(|v| map.apply(v as f64)).collect()),
+            SampleType::U16 => Some((0..=65535u32).map(|v| map.apply(v as f64)).collect()),
+            SampleType::I16 => Some(
+                (0..=65535u32)
+                    .map(|v| map.apply((v as u16 as i16) as f64))
+                    .collect(),
+            ),
+            SampleType::F32 => None,
+        };
+        Mapper { map, lut, from }
+    }
+
+    /// The value map.
+    pub fn map(&self) -> ValueMap {
+        self.map
+    }
+
+    /// Whether input samples are passed through unchanged (same type, exact).
+    pub fn is_identity(&self) -> bool {
+        self.map == ValueMap::Exact && self.from == T::TYPE
+    }
+
+    /// Map `src[i]` for each `i` in `idx` (an index iterator) into `out`.
+    #[inline]
+    pub fn map_indexed(
+        &self,
+        src: &SliceData,
+        idx: impl Iterator<Item = usize> + Clone,
+        out: &mut [T],
+    ) {
+        match (src, &self.lut) {
+            (SliceData::U8(s), Some(l)) => {
+                for (o, i) in out.iter_mut().zip(idx) {
+                    *o = l[s[i] as usize];
+                }
+            }
+            (SliceData::U16(s), Some(l)) => {
+                for (o, i) in out.iter_mut().zip(idx) {
+                    *o = l[s[i] as usize];
+                }
+            }
+            (SliceData::I16(s), Some(l)) => {
+                for (o, i) in out.iter_mut().zip(idx) {
+                    *o = l[s[i] as u16 as usize];
+                }
+            }
+            (SliceData::F32(s), _) => {
+                for (o, i) in out.iter_mut().zip(idx) {
+                    *o = self.map.apply(s[i] as f64);
+                }
+            }
+            // A slice of another type than planned: cannot happen, readers
+            // check every slice's type; convert through f64 regardless.
+            (other, _) => {
+                for (o, i) in out.iter_mut().zip(idx) {
+                    *o = self.map.apply(value_at(other, i));
+                }
+            }
+        }
+    }
+}
+
+fn value_at(s: &SliceData, i: usize) -> f64 {
+    match s {
+        SliceData::U8(v) => v[i] as f64,
+        SliceData::U16(v) => v[i] as f64,
+        SliceData::I16(v) => v[i] as f64,
+        SliceData::F32(v) => v[i] as f64,
+    }
+}
+
+/// A histogram of sample values: exact bins for integer types, and for
+/// `f32` 65536 bins over the order-preserving top 16 bits of the float
+/// (sign, exponent and 7 mantissa bits: relative bin width 2^-7).
+#[derive(Clone, Debug)]
+pub struct Histogram {
+    t: SampleType,
+    counts: Vec<u64>,
+    min: f64,
+    max: f64,
+    nan: u64,
+}
+
+fn f32_key(v: f32) -> usize {
+    let b = v.to_bits();
+    let k = if b >> 31 == 1 { !b } else { b | 0x8000_0000 };
+    (k >> 16) as usize
+}
+
+fn f32_of_key(k: usize, upper: bool) -> f64 {
+    let k = ((k as u32) << 16) | if upper { 0xffff } else { 0 };
+    let b = if k >> 31 == 1 { k & 0x7fff_ffff } else { !k };
+    f32::from_bits(b) as f64
+}
+
+impl Histogram {
+    /// An empty histogram for samples of type `t`.
+    pub fn new(t: SampleType) -> Histogram {
+        let bins = if t == SampleType::U8 { 256 } else { 65536 };
+        Histogram {
+            t,
+            counts: vec![0; bins],
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            nan: 0,
+        }
+    }
+
+    /// Count the samples of a slice (of the histogram's type).
+    pub fn add(&mut self, s: &SliceData) {
+        let c = &mut self.counts;
+        match s {
+            SliceData::U8(v) => v.iter().for_each(|&x| c[x as usize] += 1),
+            SliceData::U16(v) => v.iter().for_each(|&x| c[x as usize] += 1),
+            SliceData::I16(v) => v.iter().for_each(|&x| c[x as u16 as usize ^ 0x8000] += 1),
+            SliceData::F32(v) => {
+                for &x in v {
+                    if x.is_nan() {
+                        self.nan += 1;
+                    } else {
+                        c[f32_key(x)] += 1;
+                        self.min = self.min.min(x as f64);
+                        self.max = self.max.max(x as f64);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Add another histogram of the same type.
+    pub fn merge(mut self, o: Histogram) -> Histogram {
+        for (a, b) in self.counts.iter_mut().zip(&o.counts) {
+            *a += b;
+        }
+        self.min = self.min.min(o.min);
+        self.max = self.max.max(o.max);
+        self.nan += o.nan;
+        self
+    }
+
+    /// Number of non-NaN samples counted.
+    pub fn total(&self) -> u64 {
+        self.counts.iter().sum()
+    }
+
+    fn bin_value(&self, k: usize, upper: bool) -> f64 {
+        match self.t {
+            SampleType::U8 | SampleType::U16 => k as f64,
+            SampleType::I16 => (k as i64 - 32768) as f64,
+            SampleType::F32 => f32_of_key(k, upper).clamp(self.min, self.max),
+        }
+    }
+
+    /// Smallest and largest non-NaN value, if any.
+    pub fn range(&self) -> Option<(f64, f64)> {
+        let first = self.counts.iter().position(|&c| c > 0)?;
+        let last = self.counts.iter().rposition(|&c| c > 0)?;
+        Some((self.bin_value(first, false), self.bin_value(last, true)))
+    }
+
+    /// The values at the `p`-th and `(100 − p)`-th percentiles.
+    pub fn percentiles(&self, p: f64) -> Option<(f64, f64)> {
+        let n = self.total();
+        if n == 0 {
+            return None;
+        }
+        let rank_lo = ((p / 100.0) * (n - 1) as f64).floor() as u64;
+        let rank_hi = (((100.0 - p) / 100.0) * (n - 1) as f64).ceil() as u64;
+        let at = |rank: u64, upper: bool| {
+            let mut seen = 0u64;
+            for (k, &c) in self.counts.iter().enumerate() {
+                seen += c;
+                if seen > rank {
+                    return self.bin_value(k, upper);
+                }
+            }
+            self.bin_value(self.counts.len() - 1, upper)
+        };
+        Some((at(rank_lo, false), at(rank_hi, true)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_windows() {
+        assert_eq!("0:255".parse::<Window>(), Ok(Window::Range(0.0, 255.0)));
+        assert_eq!(
+            "-1000.5:3000".parse::<Window>(),
+            Ok(Window::Range(-1000.5, 3000.0))
+        );
+        assert_eq!("auto".parse::<Window>(), Ok(Window::Auto(0.5)));
+        assert_eq!("auto:2".parse::<Window>(), Ok(Window::Auto(2.0)));
+        assert_eq!("full".parse::<Window>(), Ok(Window::Full));
+        assert!("5:5".parse::<Window>().unwrap_err().contains("lo == hi"));
+        assert!("6:5".parse::<Window>().is_err());
+        assert!("a:5".parse::<Window>().is_err());
+        assert!("auto:60".parse::<Window>().is_err());
+        assert!("nan:5".parse::<Window>().is_err());
+    }
+
+    #[test]
+    fn narrowing_needs_a_window() {
+        use SampleType::*;
+        assert_eq!(ValueMap::plan(U8, U16, None, None).unwrap(), ValueMap::Exact);
+        assert_eq!(ValueMap::plan(I16, F32, None, None).unwrap(), ValueMap::Exact);
+        let e = ValueMap::plan(U16, U8, None, None).unwrap_err().to_string();
+        assert!(e.contains("--window"), "{e}");
+        assert!(ValueMap::plan(F32, I16, None, None).is_err());
+        assert!(ValueMap::plan(I16, U16, None, None).is_err());
+        assert!(ValueMap::plan(U8, U8, Some(Window::Range(3.0, 3.0)), None).is_err());
+        assert_eq!(
+            ValueMap::plan(U16, U8, Some(Window::Full), None).unwrap(),
+            ValueMap::Linear {
+                lo: 0.0,
+                hi: 65535.0
+            }
+        );
+    }
+
+    #[test]
+    fn linear_map_clamps_rounds_and_maps_nan() {
+        let m = ValueMap::Linear {
+            lo: 100.0,
+            hi: 200.0,
+        };
+        assert_eq!(m.apply::<u8>(100.0), 0);
+        assert_eq!(m.apply::<u8>(200.0), 255);
+        assert_eq!(m.apply::<u8>(50.0), 0);
+        assert_eq!(m.apply::<u8>(1e9), 255);
+        assert_eq!(m.apply::<u8>(150.0), 128); // 127.5 rounds up
+        assert_eq!(m.apply::<u8>(f64::NAN), 0);
+        assert_eq!(m.apply::<i16>(f64::NAN), -32768);
+        assert_eq!(m.apply::<i16>(200.0), 32767);
+        assert!(m.apply::<f32>(f64::NAN).is_nan());
+        assert_eq!(m.apply::<f32>(150.0), 0.5);
+        assert_eq!(m.apply::<f32>(-5.0), 0.0);
+        // Exact float to int never happens without a window, but widening
+        // keeps values.
+        assert_eq!(ValueMap::Exact.apply::<f32>(-3.0), -3.0);
+    }
+
+    #[test]
+    fn mapper_lut_matches_direct() {
+        let m = ValueMap::Linear {
+            lo: -1000.0,
+            hi: 1000.0,
+        };
+        let mapper = Mapper::<u8>::new(SampleType::I16, m);
+        let src = SliceData::I16(vec![-32768, -1000, 0, 1000, 32767, 3]);
+        let mut out = [0u8; 6];
+        mapper.map_indexed(&src, 0..6, &mut out);
+        assert_eq!(out, [0, 0, 128, 255, 255, 128]);
+        let mut rev = [0u8; 3];
+        mapper.map_indexed(&src, [2usize, 1, 0].into_iter(), &mut rev);
+        assert_eq!(rev, [128, 0, 0]);
+    }
+
+    #[test]
+    fn histogram_percentiles() {
+        let mut h = Histogram::new(SampleType::U8);
+        h.add(&SliceData::U8((0..=99).collect()));
+        assert_eq!(h.percentiles(0.0), Some((0.0, 99.0)));
+        assert_eq!(h.percentiles(10.0), Some((9.0, 90.0)));
+        let mut h = Histogram::new(SampleType::I16);
+        h.add(&SliceData::I16(vec![-1000, -1000, 5, 2000]));
+        assert_eq!(h.range(), Some((-1000.0, 2000.0)));
+        let mut f = Histogram::new(SampleType::F32);
+        f.add(&SliceData::F32(vec![f32::NAN, -2.5, 0.0, 1.0, 3.25]));
+        let g = f.clone().merge(Histogram::new(SampleType::F32));
+        assert_eq!(g.total(), 4);
+        assert_eq!(f.range(), Some((-2.5, 3.25)));
+        let (lo, hi) = f.percentiles(0.0).unwrap();
+        assert_eq!((lo, hi), (-2.5, 3.25));
+        let (lo, _) = f.percentiles(30.0).unwrap();
+        assert!((-2.6..=0.0).contains(&lo), "{lo}");
+        // Ordering of the float keys.
+        let vals = [-1e30f32, -2.0, -0.5, 0.0, 1e-20, 0.5, 7.0, 1e30];
+        for w in vals.windows(2) {
+            assert!(f32_key(w[0]) <= f32_key(w[1]));
+        }
+    }
+}

@@ -1,0 +1,297 @@
+//! MetaImage headers (`.mhd` with a separate data file, `.mha` with the
+//! data after the header), parsed with `nom`.
+//!
+//! Supported: `NDims` 2 or 3, one channel, `ElementType` `MET_UCHAR`,
+//! `MET_USHORT`, `MET_SHORT`, `MET_FLOAT`; `BinaryDataByteOrderMSB` (or
+//! `ByteOrderMSB`); `CompressedData` (zlib); `HeaderSize` (including -1:
+//! data at the end of the file); `ElementSpacing` (or `ElementSize`);
+//! `ElementDataFile` as `LOCAL` or one file name. File lists and patterns
+//! are reported as unsupported.
+
+use crate::convert::input::{DataSpec, DataStart, Encoding};
+use crate::error::{Error, Result};
+use nom::bytes::complete::{tag, take_till1};
+use nom::character::complete::space0;
+use nom::combinator::rest;
+use nom::{IResult, Parser};
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+use volcore::{Dims, SampleType};
+
+/// The fields of a MetaImage header volkit uses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MhdHeader {
+    /// Voxels per axis.
+    pub dims: Dims,
+    /// Sample type.
+    pub sample_type: SampleType,
+    /// Byte order.
+    pub big_endian: bool,
+    /// zlib-compressed data.
+    pub compressed: bool,
+    /// Voxel spacing.
+    pub spacing: Option<[f32; 3]>,
+    /// `ElementDataFile` (`LOCAL` for data after the header).
+    pub data_file: String,
+    /// `HeaderSize` (-1: data at the end of the file).
+    pub header_size: i64,
+}
+
+/// `Key = Value` (spaces around `=` optional).
+fn key_value(i: &str) -> IResult<&str, (&str, &str)> {
+    (
+        space0,
+        take_till1(|c: char| c == '=' || c == ' ' || c == '\t'),
+        space0,
+        tag("="),
+        space0,
+        rest,
+    )
+        .map(|(_, k, _, _, _, v): (&str, &str, &str, &str, &str, &str)| (k, v.trim()))
+        .parse(i)
+}
+
+fn element_type(v: &str) -> Result<SampleType> {
+    match v {
+        "MET_UCHAR" => Ok(SampleType::U8),
+        "MET_USHORT" => Ok(SampleType::U16),
+        "MET_SHORT" => Ok(SampleType::I16),
+        "MET_FLOAT" => Ok(SampleType::F32),
+        other => Err(Error::invalid(format!(
+            "MetaImage ElementType {other} is not supported (volkit stores MET_UCHAR, MET_USHORT, MET_SHORT and MET_FLOAT)"
+        ))),
+    }
+}
+
+fn is_true(v: &str) -> bool {
+    v.eq_ignore_ascii_case("true") || v == "1"
+}
+
+/// Parse header lines; stops after `ElementDataFile`, which must be the
+/// last field. Returns the header and the byte length of the text parsed.
+pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
+    let mut ndims = None;
+    let mut size: Option<Vec<u64>> = None;
+    let mut ty = None;
+    let mut msb = false;
+    let mut compressed = false;
+    let mut spacing: Option<Vec<f64>> = None;
+    let mut element_size: Option<Vec<f64>> = None;
+    let mut header_size = 0i64;
+    let mut channels = 1u64;
+    let mut data_file = None;
+    let mut len = 0u64;
+    for (n, raw) in text.split_inclusive('\n').enumerate() {
+        len += raw.len() as u64;
+        let l = raw.trim_end_matches(['\n', '\r']);
+        if l.trim().is_empty() || l.trim_start().starts_with('#') {
+            continue;
+        }
+        let (_, (k, v)) = key_value(l).map_err(|_| {
+            Error::invalid(format!("header line {} is not 'Key = Value': '{l}'", n + 1))
+        })?;
+        let bad = |what: &str| Error::invalid(format!("bad MetaImage {what}: '{v}'"));
+        let floats = |what: &str| -> Result<Vec<f64>> {
+            v.split_whitespace()
+                .map(|s| s.parse::<f64>().map_err(|_| bad(what)))
+                .collect()
+        };
+        match k {
+            "ObjectType" if v != "Image" => {
+                return Err(Error::invalid(format!("MetaImage ObjectType {v} is not Image")))
+            }
+            "NDims" => ndims = Some(v.parse::<u64>().map_err(|_| bad("NDims"))?),
+            "DimSize" => {
+                size = Some(
+                    v.split_whitespace()
+                        .map(|s| s.parse::<u64>().map_err(|_| bad("DimSize")))
+                        .collect::<Result<_>>()?,
+                )
+            }
+            "ElementType" => ty = Some(element_type(v)?),
+            "BinaryDataByteOrderMSB" | "ByteOrderMSB" | "ElementByteOrderMSB" => msb = is_true(v),
+            "BinaryData" if !is_true(v) => {
+                return Err(Error::invalid("MetaImage ASCII data is not supported"))
+            }
+            "CompressedData" => compressed = is_true(v),
+            "ElementSpacing" => spacing = Some(floats("ElementSpacing")?),
+            "ElementSize" => element_size = Some(floats("ElementSize")?),
+            "HeaderSize" => header_size = v.parse().map_err(|_| bad("HeaderSize"))?,
+            "ElementNumberOfChannels" => {
+                channels = v.parse().map_err(|_| bad("ElementNumberOfChannels"))?
+            }
+            "ElementDataFile" => {
+                if v.starts_with("LIST") || v.split_whitespace().count() > 1 || v.contains('%') {
+                    return Err(Error::invalid(
+                        "MetaImage data file lists and patterns are not supported (one data file only)",
+                    ));
+                }
+                data_file = Some(v.to_string());
+                break;
+            }
+            _ => {}
+        }
+    }
+    let data_file =
+        data_file.ok_or_else(|| Error::invalid("MetaImage header has no ElementDataFile"))?;
+    let sample_type = ty.ok_or_else(|| Error::invalid("MetaImage header has no ElementType"))?;
+    let size = size.ok_or_else(|| Error::invalid("MetaImage header has no DimSize"))?;
+    if let Some(nd) = ndims {
+        if nd != size.len() as u64 {
+            return Err(Error::invalid(format!(
+                "MetaImage NDims {nd} does not match DimSize {size:?}"
+            )));
+        }
+    }
+    if channels != 1 {
+        return Err(Error::invalid(format!(
+            "MetaImage with {channels} channels: only scalar data is supported"
+        )));
+    }
+    let dims = match size[..] {
+        [x, y] => Dims::new(x, y, 1)?,
+        [x, y, z] => Dims::new(x, y, z)?,
+        _ => {
+            return Err(Error::invalid(format!(
+                "MetaImage with {} dimensions: only 2D and 3D data is supported",
+                size.len()
+            )))
+        }
+    };
+    let spacing = spacing.or(element_size).map(|s| {
+        let v = |i: usize| {
+            s.get(i)
+                .copied()
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .unwrap_or(1.0) as f32
+        };
+        [v(0), v(1), v(2)]
+    });
+    if header_size < -1 {
+        return Err(Error::invalid("MetaImage HeaderSize must be -1 or more"));
+    }
+    if header_size == -1 && compressed {
+        return Err(Error::invalid(
+            "MetaImage HeaderSize -1 works with uncompressed data only",
+        ));
+    }
+    Ok((
+        MhdHeader {
+            dims,
+            sample_type,
+            big_endian: msb,
+            compressed,
+            spacing,
+            data_file,
+            header_size,
+        },
+        len,
+    ))
+}
+
+/// Read a `.mhd` or `.mha` header and locate its samples.
+pub fn open(path: &Path) -> Result<DataSpec> {
+    let f = std::fs::File::open(path)?;
+    let mut r = std::io::BufReader::new(f);
+    // Read lines up to ElementDataFile (binary data may follow in .mha).
+    let mut text = String::new();
+    loop {
+        let mut l = Vec::new();
+        let n = r.take_line(&mut l)?;
+        if n == 0 {
+            break;
+        }
+        let s = String::from_utf8_lossy(&l).into_owned();
+        let last = s.trim_start().starts_with("ElementDataFile");
+        text.push_str(&s);
+        if last || text.len() > 1 << 20 {
+            break;
+        }
+    }
+    let (h, header_len) = parse(&text)?;
+    let local = h.data_file == "LOCAL";
+    let (data_file, base) = if local {
+        (path.to_path_buf(), header_len)
+    } else {
+        let p = PathBuf::from(&h.data_file);
+        let p = if p.is_absolute() {
+            p
+        } else {
+            path.parent().unwrap_or(Path::new("")).join(p)
+        };
+        (p, 0)
+    };
+    let start = if h.header_size == -1 {
+        DataStart::AtEnd
+    } else {
+        DataStart::At(base + h.header_size as u64)
+    };
+    Ok(DataSpec {
+        dims: h.dims,
+        sample_type: h.sample_type,
+        big_endian: h.big_endian,
+        spacing: h.spacing,
+        data_file,
+        start,
+        encoding: if h.compressed {
+            Encoding::Zlib
+        } else {
+            Encoding::Raw
+        },
+        skip_after_decode: 0,
+        format: format!(
+            "metaimage ({}{})",
+            if local { "mha" } else { "mhd" },
+            if h.compressed { ", zlib" } else { "" }
+        ),
+    })
+}
+
+trait TakeLine {
+    fn take_line(&mut self, out: &mut Vec<u8>) -> std::io::Result<usize>;
+}
+
+impl<R: BufRead> TakeLine for R {
+    fn take_line(&mut self, out: &mut Vec<u8>) -> std::io::Result<usize> {
+        use std::io::Read;
+        self.take(64 * 1024).read_until(b'\n', out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_mhd_and_mha() {
+        let text = "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\nCompressedData = False\nTransformMatrix = 1 0 0 0 1 0 0 0 1\nElementSpacing = 0.5 0.5 1.25\nDimSize = 10 20 30\nElementType = MET_SHORT\nElementDataFile = scan.raw\n";
+        let (h, len) = parse(text).unwrap();
+        assert_eq!(len, text.len() as u64);
+        assert_eq!(h.dims, Dims::new(10, 20, 30).unwrap());
+        assert_eq!(h.sample_type, SampleType::I16);
+        assert_eq!(h.spacing, Some([0.5, 0.5, 1.25]));
+        assert_eq!(h.data_file, "scan.raw");
+        let mha = "NDims=2\nDimSize=4 4\nElementType=MET_UCHAR\nCompressedData=True\nElementDataFile=LOCAL\n\x00\x01binary";
+        let (h, len) = parse(mha).unwrap();
+        assert!(h.compressed);
+        assert_eq!(h.dims.z, 1);
+        assert_eq!(len, mha.find('\x00').unwrap() as u64);
+    }
+
+    #[test]
+    fn rejects_clearly() {
+        let e = parse("NDims = 3\nDimSize = 2 2 2\nElementType = MET_DOUBLE\nElementDataFile = a.raw\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("MET_DOUBLE"), "{e}");
+        let e = parse("NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("ElementDataFile"), "{e}");
+        let e = parse("NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementDataFile = LIST\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("lists"), "{e}");
+        assert!(parse("what is this\n").is_err());
+    }
+}

@@ -1,0 +1,423 @@
+//! NRRD headers (`.nrrd` with attached data, `.nhdr` with a detached data
+//! file), parsed with `nom`.
+//!
+//! Supported: 2 or 3 dimensions; types `uchar`/`uint8`, `short`/`int16`,
+//! `ushort`/`uint16` and `float` (with their NRRD aliases); `raw` and
+//! `gzip` encodings; `endian`; `byte skip` (including -1 for raw data at
+//! the end of the file) and `line skip`; `spacings` or `space directions`
+//! for the voxel spacing; one detached `data file`. File lists, format
+//! strings, `ascii`, `hex` and `bzip2` data are reported as unsupported.
+
+use crate::convert::input::{DataSpec, DataStart, Encoding};
+use crate::error::{Error, Result};
+use nom::bytes::complete::{tag, take_until};
+use nom::combinator::rest;
+use nom::{IResult, Parser};
+use std::io::{BufRead, Read};
+use std::path::{Path, PathBuf};
+use volcore::{Dims, SampleType};
+
+/// The fields of a NRRD header volkit uses.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NrrdHeader {
+    /// Voxels per axis (a 2D image has z = 1).
+    pub dims: Dims,
+    /// Sample type.
+    pub sample_type: SampleType,
+    /// Byte order (little-endian when absent).
+    pub big_endian: bool,
+    /// Raw or gzip.
+    pub encoding: Encoding,
+    /// Voxel spacing from `spacings` or `space directions`.
+    pub spacing: Option<[f32; 3]>,
+    /// Detached data file, as written.
+    pub data_file: Option<String>,
+    /// `byte skip` (-1: raw data at the end of the file).
+    pub byte_skip: i64,
+    /// `line skip`.
+    pub line_skip: u64,
+}
+
+/// One header line.
+#[derive(Debug, PartialEq)]
+enum Line<'a> {
+    Comment,
+    Field(&'a str, &'a str),
+    KeyValue,
+}
+
+fn field(i: &str) -> IResult<&str, (&str, &str)> {
+    (take_until(": "), tag(": "), rest)
+        .map(|(k, _, v): (&str, &str, &str)| (k, v))
+        .parse(i)
+}
+
+fn key_value(i: &str) -> IResult<&str, ()> {
+    (take_until(":="), tag(":="), rest).map(|_| ()).parse(i)
+}
+
+fn line(i: &str) -> Option<Line<'_>> {
+    if i.starts_with('#') {
+        return Some(Line::Comment);
+    }
+    // `key:=value` is checked first: keys may not hold ": ", values may.
+    let kv = key_value(i).ok();
+    let f = field(i).ok();
+    match (kv, f) {
+        (Some(_), Some((_, (k, _)))) if !k.contains(":=") => f.map(|(_, (k, v))| Line::Field(k, v)),
+        (Some(_), _) => Some(Line::KeyValue),
+        (None, Some((_, (k, v)))) => Some(Line::Field(k, v)),
+        (None, None) => None,
+    }
+}
+
+fn magic(i: &str) -> IResult<&str, &str> {
+    (tag("NRRD000"), nom::character::complete::one_of("12345"))
+        .map(|(m, _): (&str, char)| m)
+        .parse(i)
+}
+
+fn sample_type(t: &str) -> Result<SampleType> {
+    match t.trim() {
+        "uchar" | "unsigned char" | "uint8" | "uint8_t" => Ok(SampleType::U8),
+        "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
+            Ok(SampleType::I16)
+        }
+        "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => {
+            Ok(SampleType::U16)
+        }
+        "float" => Ok(SampleType::F32),
+        other => Err(Error::invalid(format!(
+            "NRRD type '{other}' is not supported (volkit stores uchar, short, ushort and float)"
+        ))),
+    }
+}
+
+fn numbers(v: &str) -> Vec<Option<f64>> {
+    v.split_whitespace().map(|s| s.parse::<f64>().ok()).collect()
+}
+
+/// Spacing from `space directions: (a,b,c) (d,e,f) (g,h,i)` (vector norms).
+fn directions(v: &str) -> Option<[f32; 3]> {
+    let vecs: Vec<f64> = v
+        .split_whitespace()
+        .filter(|s| *s != "none")
+        .map(|s| {
+            let inner = s.trim_start_matches('(').trim_end_matches(')');
+            let c: Vec<f64> = inner.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+            c.iter().map(|x| x * x).sum::<f64>().sqrt()
+        })
+        .collect();
+    match vecs[..] {
+        [a, b] => Some([a as f32, b as f32, 1.0]),
+        [a, b, c] => Some([a as f32, b as f32, c as f32]),
+        _ => None,
+    }
+}
+
+/// Parse the header text (up to, not including, the blank line).
+pub fn parse(text: &str) -> Result<NrrdHeader> {
+    let mut lines = text.lines();
+    let first = lines.next().unwrap_or("");
+    if magic(first).is_err() {
+        return Err(Error::invalid("not a NRRD file (no NRRD000x magic line)"));
+    }
+    let mut ty = None;
+    let mut dimension = None;
+    let mut sizes: Option<Vec<u64>> = None;
+    let mut endian = None;
+    let mut encoding = None;
+    let mut spacings = None;
+    let mut dirs = None;
+    let mut data_file = None;
+    let mut byte_skip = 0i64;
+    let mut line_skip = 0u64;
+    for (n, l) in lines.enumerate() {
+        let l = l.trim_end_matches('\r');
+        if l.is_empty() {
+            break;
+        }
+        let (k, v) = match line(l) {
+            Some(Line::Field(k, v)) => (k.trim().to_ascii_lowercase(), v.trim()),
+            Some(_) => continue,
+            None => {
+                return Err(Error::invalid(format!(
+                    "header line {} is not 'field: value': '{l}'",
+                    n + 2
+                )))
+            }
+        };
+        let bad = |what: &str| Error::invalid(format!("bad NRRD {what}: '{v}'"));
+        match k.as_str() {
+            "type" => ty = Some(sample_type(v)?),
+            "dimension" => dimension = Some(v.parse::<u64>().map_err(|_| bad("dimension"))?),
+            "sizes" => {
+                sizes = Some(
+                    v.split_whitespace()
+                        .map(|s| s.parse::<u64>())
+                        .collect::<std::result::Result<_, _>>()
+                        .map_err(|_| bad("sizes"))?,
+                )
+            }
+            "endian" => {
+                endian = Some(match v {
+                    "big" => true,
+                    "little" => false,
+                    _ => return Err(bad("endian")),
+                })
+            }
+            "encoding" => {
+                encoding = Some(match v {
+                    "raw" => Encoding::Raw,
+                    "gzip" | "gz" => Encoding::Gzip,
+                    other => {
+                        return Err(Error::invalid(format!(
+                            "NRRD encoding '{other}' is not supported (use raw or gzip)"
+                        )))
+                    }
+                })
+            }
+            "spacings" => spacings = Some(numbers(v)),
+            "space directions" => dirs = directions(v),
+            "data file" | "datafile" => {
+                if v.starts_with("LIST") || v.contains('%') || v.split_whitespace().count() > 1 {
+                    return Err(Error::invalid(
+                        "NRRD data file lists and patterns are not supported (one data file only)",
+                    ));
+                }
+                data_file = Some(v.to_string());
+            }
+            "byte skip" | "byteskip" => byte_skip = v.parse().map_err(|_| bad("byte skip"))?,
+            "line skip" | "lineskip" => line_skip = v.parse().map_err(|_| bad("line skip"))?,
+            _ => {}
+        }
+    }
+    let sample_type = ty.ok_or_else(|| Error::invalid("NRRD header has no type"))?;
+    let sizes = sizes.ok_or_else(|| Error::invalid("NRRD header has no sizes"))?;
+    let dim = dimension.unwrap_or(sizes.len() as u64);
+    if dim != sizes.len() as u64 {
+        return Err(Error::invalid(format!(
+            "NRRD dimension {dim} does not match {} sizes",
+            sizes.len()
+        )));
+    }
+    let dims = match sizes[..] {
+        [x, y] => Dims::new(x, y, 1)?,
+        [x, y, z] => Dims::new(x, y, z)?,
+        _ => {
+            return Err(Error::invalid(format!(
+                "NRRD with {dim} dimensions: only 2D and 3D scalar data is supported"
+            )))
+        }
+    };
+    let encoding = encoding.ok_or_else(|| Error::invalid("NRRD header has no encoding"))?;
+    let big_endian = match endian {
+        Some(b) => b,
+        None if sample_type.size() > 1 => {
+            return Err(Error::invalid("NRRD header has no endian for multi-byte samples"))
+        }
+        None => false,
+    };
+    let spacing = spacings
+        .map(|s| {
+            let v = |i: usize| {
+                s.get(i)
+                    .copied()
+                    .flatten()
+                    .filter(|v| v.is_finite() && *v > 0.0)
+                    .unwrap_or(1.0) as f32
+            };
+            [v(0), v(1), if s.len() > 2 { v(2) } else { 1.0 }]
+        })
+        .or(dirs.filter(|d| d.iter().all(|v| v.is_finite() && *v > 0.0)));
+    if byte_skip < -1 {
+        return Err(Error::invalid("NRRD byte skip must be -1 or more"));
+    }
+    if byte_skip == -1 && encoding != Encoding::Raw {
+        return Err(Error::invalid("NRRD byte skip -1 works with raw encoding only"));
+    }
+    Ok(NrrdHeader {
+        dims,
+        sample_type,
+        big_endian,
+        encoding,
+        spacing,
+        data_file,
+        byte_skip,
+        line_skip,
+    })
+}
+
+/// Read header lines from `r` up to and including the blank line that
+/// ends them (or the end of input). Returns the text and its byte length.
+pub fn read_header_text(r: &mut dyn BufRead) -> Result<(String, u64)> {
+    let mut text = String::new();
+    let mut len = 0u64;
+    loop {
+        let mut l = Vec::new();
+        let n = Read::take(&mut *r, 64 * 1024).read_until(b'\n', &mut l)?;
+        if n == 0 {
+            break;
+        }
+        len += n as u64;
+        if len > 16 << 20 {
+            return Err(Error::invalid("header is longer than 16 MiB: not a header?"));
+        }
+        let s = String::from_utf8_lossy(&l);
+        let blank = s.trim_end_matches(['\n', '\r']).is_empty();
+        text.push_str(&s);
+        if blank {
+            break;
+        }
+    }
+    Ok((text, len))
+}
+
+/// Byte offset after `lines` lines of a file from `offset`.
+fn skip_lines(path: &Path, offset: u64, lines: u64) -> Result<u64> {
+    if lines == 0 {
+        return Ok(offset);
+    }
+    let mut f = std::fs::File::open(path)?;
+    use std::io::{Seek, SeekFrom};
+    f.seek(SeekFrom::Start(offset))?;
+    let mut r = std::io::BufReader::new(f);
+    let mut pos = offset;
+    for _ in 0..lines {
+        let mut l = Vec::new();
+        let n = r.read_until(b'\n', &mut l)?;
+        if n == 0 {
+            return Err(Error::invalid("data file ends inside the lines to skip"));
+        }
+        pos += n as u64;
+    }
+    Ok(pos)
+}
+
+/// Read a `.nrrd` or `.nhdr` file's header and locate its samples.
+pub fn open(path: &Path) -> Result<DataSpec> {
+    let f = std::fs::File::open(path)?;
+    let mut r = std::io::BufReader::new(f);
+    let (text, header_len) = read_header_text(&mut r)?;
+    let h = parse(&text)?;
+    spec_for(path, &h, header_len)
+}
+
+/// Where the samples of header `h` (read from `path`, `header_len` bytes
+/// long) are.
+pub fn spec_for(path: &Path, h: &NrrdHeader, header_len: u64) -> Result<DataSpec> {
+    let (data_file, base, detached) = match &h.data_file {
+        Some(name) => {
+            let p = PathBuf::from(name);
+            let p = if p.is_absolute() {
+                p
+            } else {
+                path.parent().unwrap_or(Path::new("")).join(p)
+            };
+            (p, 0, true)
+        }
+        None => (path.to_path_buf(), header_len, false),
+    };
+    let start = skip_lines(&data_file, base, h.line_skip)?;
+    let (start, skip_after) = match (h.encoding, h.byte_skip) {
+        (Encoding::Raw, -1) => (DataStart::AtEnd, 0),
+        (Encoding::Raw, s) => (DataStart::At(start + s as u64), 0),
+        (_, s) => (DataStart::At(start), s.max(0) as u64),
+    };
+    let enc = match h.encoding {
+        Encoding::Raw => "raw",
+        _ => "gzip",
+    };
+    Ok(DataSpec {
+        dims: h.dims,
+        sample_type: h.sample_type,
+        big_endian: h.big_endian,
+        spacing: h.spacing,
+        data_file,
+        start,
+        encoding: h.encoding,
+        skip_after_decode: skip_after,
+        format: format!(
+            "nrrd ({}, {enc})",
+            if detached { "detached" } else { "attached" }
+        ),
+    })
+}
+
+/// Whether bytes start like a NRRD file.
+pub fn sniff(b: &[u8]) -> bool {
+    b.starts_with(b"NRRD000")
+}
+
+/// Read a NRRD header from a stream and skip the lines and (raw) bytes it
+/// asks to; the samples (attached) follow in `r`. For gzip data the byte
+/// skip applies to the decompressed stream and is left to the caller.
+pub fn read_stream_header(r: &mut dyn BufRead) -> Result<NrrdHeader> {
+    let (text, _) = read_header_text(r)?;
+    let h = parse(&text)?;
+    if h.data_file.is_some() {
+        return Err(Error::invalid(
+            "a NRRD header on standard input must have its data attached",
+        ));
+    }
+    for _ in 0..h.line_skip {
+        let mut l = Vec::new();
+        r.read_until(b'\n', &mut l)?;
+    }
+    if h.encoding == Encoding::Raw {
+        if h.byte_skip < 0 {
+            return Err(Error::invalid("byte skip -1 cannot be used on standard input"));
+        }
+        crate::convert::input::skip_bytes(r, h.byte_skip as u64)?;
+    }
+    Ok(h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_a_typical_header() {
+        let text = "NRRD0004\n# Complete NRRD file format specification at:\ntype: short\ndimension: 3\nspace: left-posterior-superior\nsizes: 64 32 16\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,2)\nkinds: domain domain domain\nendian: big\nencoding: gzip\nspace origin: (0,0,0)\nmy key:=a: b\n\n";
+        let h = parse(text).unwrap();
+        assert_eq!(h.dims, Dims::new(64, 32, 16).unwrap());
+        assert_eq!(h.sample_type, SampleType::I16);
+        assert!(h.big_endian);
+        assert_eq!(h.encoding, Encoding::Gzip);
+        assert_eq!(h.spacing, Some([0.5, 0.5, 2.0]));
+        assert_eq!(h.data_file, None);
+    }
+
+    #[test]
+    fn detached_and_spacings() {
+        let text = "NRRD0005\ntype: unsigned char\nsizes: 4 4\nspacings: 0.25 nan\nencoding: raw\ndata file: ./vol.raw\nbyte skip: -1\n";
+        let h = parse(text).unwrap();
+        assert_eq!(h.dims, Dims::new(4, 4, 1).unwrap());
+        assert_eq!(h.spacing, Some([0.25, 1.0, 1.0]));
+        assert_eq!(h.data_file.as_deref(), Some("./vol.raw"));
+        assert_eq!(h.byte_skip, -1);
+    }
+
+    #[test]
+    fn rejects_clearly() {
+        assert!(parse("P5\n").unwrap_err().to_string().contains("NRRD"));
+        let e = parse("NRRD0004\ntype: double\nsizes: 2 2 2\nencoding: raw\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("double"), "{e}");
+        let e = parse("NRRD0004\ntype: short\nsizes: 2 2 2\nencoding: raw\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("endian"), "{e}");
+        let e = parse("NRRD0004\ntype: uchar\nsizes: 2 2 2\nencoding: bzip2\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("bzip2"), "{e}");
+        let e = parse("NRRD0004\ntype: uchar\nsizes: 2 2 2\nencoding: raw\ndata file: LIST\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("lists"), "{e}");
+        assert!(parse("NRRD0004\ngarbage line\n").is_err());
+    }
+}

@@ -1,0 +1,496 @@
+//! Reading TIFF pages as z slices.
+
+use super::ChannelSel;
+use crate::convert::input::{Access, InputInfo, SliceReader};
+use crate::convert::{At, CResult, ConvertError, SliceData};
+use crate::error::Error;
+use ::tiff::decoder::{Decoder, DecodingResult, Limits};
+use ::tiff::tags::Tag;
+use ::tiff::TiffError;
+use memmap2::Mmap;
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use volcore::{Dims, SampleType};
+
+/// What one page holds, as far as a stack must agree on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PageInfo {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Bits per sample.
+    pub bits: u16,
+    /// 1 unsigned, 2 signed, 3 float (the SampleFormat tag).
+    pub format: u16,
+    /// Samples per pixel.
+    pub channels: u16,
+}
+
+impl PageInfo {
+    fn describe(&self) -> String {
+        let kind = match self.format {
+            2 => "signed",
+            3 => "float",
+            _ => "unsigned",
+        };
+        format!(
+            "{}x{} {}-bit {kind}, {} channel{}",
+            self.width,
+            self.height,
+            self.bits,
+            self.channels,
+            if self.channels == 1 { "" } else { "s" }
+        )
+    }
+
+    /// The volcore sample type slices of this page become.
+    pub fn sample_type(&self) -> Result<SampleType, String> {
+        match (self.format, self.bits) {
+            (1, 8) => Ok(SampleType::U8),
+            (2, 8) => Ok(SampleType::I16), // widened
+            (1, 16) => Ok(SampleType::U16),
+            (2, 16) => Ok(SampleType::I16),
+            (3, 32) => Ok(SampleType::F32),
+            _ => Err(format!(
+                "{} samples are not supported (volkit stores 8/16-bit integers and 32-bit floats)",
+                self.describe()
+            )),
+        }
+    }
+}
+
+/// Turn a decoder error into one line, naming truncation plainly.
+fn tiff_err(e: TiffError) -> Error {
+    match e {
+        TiffError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            Error::invalid("file is truncated (it ends before the image data does)")
+        }
+        TiffError::IoError(io) => Error::Io(io),
+        other => Error::invalid(format!("not a readable TIFF: {other}")),
+    }
+}
+
+/// Bytes of a file (or map) shared by decoders.
+#[derive(Clone)]
+struct Bytes(Arc<Mmap>);
+
+impl AsRef<[u8]> for Bytes {
+    fn as_ref(&self) -> &[u8] {
+        &self.0
+    }
+}
+
+type Dec<R> = Decoder<Cursor<R>>;
+
+fn limits() -> Limits {
+    // Pages are checked against the first page's size before decoding.
+    Limits::unlimited()
+}
+
+fn page_info<R: AsRef<[u8]>>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
+    let (width, height) = d.dimensions().map_err(tiff_err)?;
+    let tag = |d: &mut Dec<R>, t: Tag, default: u16| -> Result<u16, Error> {
+        Ok(d.find_tag_unsigned::<u16>(t).map_err(tiff_err)?.unwrap_or(default))
+    };
+    let channels = tag(d, Tag::SamplesPerPixel, 1)?;
+    let bits = match d.find_tag(Tag::BitsPerSample).map_err(tiff_err)? {
+        Some(v) => {
+            let all = v.into_u16_vec().map_err(tiff_err)?;
+            let first = all.first().copied().unwrap_or(1);
+            if all.iter().any(|&b| b != first) {
+                return Err(Error::invalid(format!(
+                    "channels have different bit depths {all:?}"
+                )));
+            }
+            first
+        }
+        None => 1,
+    };
+    let format = match d.find_tag(Tag::SampleFormat).map_err(tiff_err)? {
+        Some(v) => v
+            .into_u16_vec()
+            .map_err(tiff_err)?
+            .first()
+            .copied()
+            .unwrap_or(1),
+        None => 1,
+    };
+    Ok(PageInfo {
+        width,
+        height,
+        bits,
+        format,
+        channels,
+    })
+}
+
+/// Spacing from the resolution tags and an ImageJ description.
+fn spacing_of<R: AsRef<[u8]>>(d: &mut Dec<R>) -> Option<[f32; 3]> {
+    let res = |d: &mut Dec<R>, t: Tag| -> Option<f32> {
+        match d.find_tag(t).ok()?? {
+            ::tiff::decoder::ifd::Value::Rational(n, den) if n > 0 && den > 0 => {
+                Some((den as f64 / n as f64) as f32)
+            }
+            v => {
+                let r = v.into_f64().ok()?;
+                (r > 0.0).then(|| (1.0 / r) as f32)
+            }
+        }
+    };
+    let sx = res(d, Tag::XResolution);
+    let sy = res(d, Tag::YResolution);
+    let sz = d
+        .find_tag(Tag::ImageDescription)
+        .ok()
+        .flatten()
+        .and_then(|v| v.into_string().ok())
+        .and_then(|s| imagej_spacing(&s));
+    if sx.is_none() && sy.is_none() && sz.is_none() {
+        return None;
+    }
+    let ok = |v: Option<f32>| v.filter(|s| s.is_finite() && *s > 0.0).unwrap_or(1.0);
+    Some([ok(sx), ok(sy.or(sx)), ok(sz)])
+}
+
+/// The `spacing=` value of an ImageJ image description.
+pub fn imagej_spacing(desc: &str) -> Option<f32> {
+    if !desc.starts_with("ImageJ") {
+        return None;
+    }
+    desc.lines()
+        .find_map(|l| l.trim().strip_prefix("spacing="))
+        .and_then(|v| v.trim().parse().ok())
+}
+
+/// Whether the current page is a reduced-resolution image (a thumbnail).
+fn is_thumbnail<R: AsRef<[u8]>>(d: &mut Dec<R>) -> bool {
+    matches!(d.find_tag_unsigned::<u32>(Tag::NewSubfileType), Ok(Some(v)) if v & 1 == 1)
+}
+
+/// Decode the current page into one channel of samples.
+fn decode<R: AsRef<[u8]>>(
+    d: &mut Dec<R>,
+    expect: &PageInfo,
+    chan: ChannelSel,
+) -> Result<SliceData, Error> {
+    let got = page_info(d)?;
+    if got != *expect {
+        return Err(Error::invalid(format!(
+            "slice is {} but the first slice is {}",
+            got.describe(),
+            expect.describe()
+        )));
+    }
+    let planar = d
+        .find_tag_unsigned::<u16>(Tag::PlanarConfiguration)
+        .map_err(tiff_err)?
+        .unwrap_or(1)
+        == 2;
+    let white_is_zero = d
+        .find_tag_unsigned::<u16>(Tag::PhotometricInterpretation)
+        .map_err(tiff_err)?
+        == Some(0);
+    let mut buf = DecodingResult::U8(Vec::new());
+    d.read_image_to_buffer(&mut buf).map_err(tiff_err)?;
+    let n = expect.width as usize * expect.height as usize;
+    let c = expect.channels as usize;
+    let pick = ChannelPick { n, c, planar, sel: chan };
+    let mut s = match buf {
+        DecodingResult::U8(v) => SliceData::U8(pick.apply(&v)?),
+        DecodingResult::I8(v) => {
+            SliceData::I16(pick.apply(&v.iter().map(|&x| x as i16).collect::<Vec<_>>())?)
+        }
+        DecodingResult::U16(v) => SliceData::U16(pick.apply(&v)?),
+        DecodingResult::I16(v) => SliceData::I16(pick.apply(&v)?),
+        DecodingResult::F32(v) => SliceData::F32(pick.apply(&v)?),
+        _ => {
+            return Err(Error::invalid(format!(
+                "{} samples are not supported",
+                expect.describe()
+            )))
+        }
+    };
+    if white_is_zero {
+        match &mut s {
+            SliceData::U8(v) => v.iter_mut().for_each(|x| *x = 255 - *x),
+            SliceData::U16(v) => v.iter_mut().for_each(|x| *x = 65535 - *x),
+            _ => {}
+        }
+    }
+    Ok(s)
+}
+
+struct ChannelPick {
+    n: usize,
+    c: usize,
+    planar: bool,
+    sel: ChannelSel,
+}
+
+/// Samples that can be averaged into a luma value.
+trait Luma: Copy {
+    fn luma(r: Self, g: Self, b: Self) -> Self;
+}
+
+macro_rules! luma_int {
+    ($t:ty) => {
+        impl Luma for $t {
+            fn luma(r: $t, g: $t, b: $t) -> $t {
+                (0.299 * r as f64 + 0.587 * g as f64 + 0.114 * b as f64).round() as $t
+            }
+        }
+    };
+}
+luma_int!(u8);
+luma_int!(u16);
+luma_int!(i16);
+impl Luma for f32 {
+    fn luma(r: f32, g: f32, b: f32) -> f32 {
+        (0.299 * r as f64 + 0.587 * g as f64 + 0.114 * b as f64) as f32
+    }
+}
+
+impl ChannelPick {
+    fn at<T: Copy>(&self, v: &[T], i: usize, ch: usize) -> T {
+        if self.planar {
+            v[ch * self.n + i]
+        } else {
+            v[i * self.c + ch]
+        }
+    }
+
+    fn apply<T: Luma>(&self, v: &[T]) -> Result<Vec<T>, Error> {
+        if v.len() < self.n * self.c {
+            return Err(Error::invalid(format!(
+                "decoded {} samples, expected {}",
+                v.len(),
+                self.n * self.c
+            )));
+        }
+        match self.sel {
+            _ if self.c == 1 => Ok(v[..self.n].to_vec()),
+            ChannelSel::Single => Err(Error::invalid(format!(
+                "slices have {} channels (colour?): pick one with --channel N or use --luma",
+                self.c
+            ))),
+            ChannelSel::Channel(k) if k as usize >= self.c => Err(Error::invalid(format!(
+                "--channel {k} asked for, but slices have channels 0..{}",
+                self.c - 1
+            ))),
+            ChannelSel::Channel(k) => Ok((0..self.n).map(|i| self.at(v, i, k as usize)).collect()),
+            ChannelSel::Luma if self.c < 3 => Err(Error::invalid(format!(
+                "--luma needs RGB slices, these have {} channels",
+                self.c
+            ))),
+            ChannelSel::Luma => Ok((0..self.n)
+                .map(|i| T::luma(self.at(v, i, 0), self.at(v, i, 1), self.at(v, i, 2)))
+                .collect()),
+        }
+    }
+}
+
+/// Where the pages of a stack are.
+enum Pages {
+    /// One page (the first full-resolution one) of each file.
+    Files(Vec<PathBuf>),
+    /// The full-resolution pages (IFD indices) of one file, decoded by a
+    /// pool of decoders over a shared map.
+    Multi {
+        path: PathBuf,
+        bytes: Bytes,
+        ifds: Vec<usize>,
+        pool: Mutex<Vec<Dec<Bytes>>>,
+    },
+}
+
+/// A TIFF stack as a [`SliceReader`]: random access, pages decoded in
+/// parallel.
+pub struct TiffStackReader {
+    info: InputInfo,
+    page: PageInfo,
+    chan: ChannelSel,
+    pages: Pages,
+    bytes_in: u64,
+}
+
+fn map_file(path: &Path) -> CResult<Bytes> {
+    let f = std::fs::File::open(path).at(path)?;
+    // SAFETY: read-only map; the file must not be truncated meanwhile.
+    let m = unsafe { Mmap::map(&f) }.at(path)?;
+    Ok(Bytes(Arc::new(m)))
+}
+
+fn open_decoder<R: AsRef<[u8]>>(r: R) -> Result<Dec<R>, Error> {
+    Ok(Decoder::new(Cursor::new(r))
+        .map_err(tiff_err)?
+        .with_limits(limits()))
+}
+
+/// Open a stack of files (one file may be a multipage TIFF; several files
+/// each give their first full-resolution page).
+pub fn open_files(
+    input: &Path,
+    files: Vec<PathBuf>,
+    chan: ChannelSel,
+) -> CResult<TiffStackReader> {
+    let first = files
+        .first()
+        .ok_or_else(|| ConvertError::new(input, Error::invalid("no slices")))?
+        .clone();
+    let bytes = map_file(&first)?;
+    let mut d = open_decoder(bytes.clone()).at(&first)?;
+    // Full-resolution pages of the first file.
+    let mut ifds = Vec::new();
+    let mut idx = 0usize;
+    loop {
+        if !is_thumbnail(&mut d) {
+            ifds.push(idx);
+        }
+        if files.len() > 1 || !d.more_images() {
+            break;
+        }
+        d.next_image().map_err(tiff_err).at(&first)?;
+        idx += 1;
+    }
+    if ifds.is_empty() {
+        return Err(ConvertError::new(
+            &first,
+            Error::invalid("file holds only reduced-resolution images"),
+        ));
+    }
+    d.seek_to_image(ifds[0]).map_err(tiff_err).at(&first)?;
+    let page = page_info(&mut d).at(&first)?;
+    let sample_type = page.sample_type().map_err(Error::invalid).at(&first)?;
+    if page.channels > 1 && chan == ChannelSel::Single {
+        return Err(ConvertError::new(
+            &first,
+            Error::invalid(format!(
+                "slices have {} channels (colour?): pick one with --channel N or use --luma",
+                page.channels
+            )),
+        ));
+    }
+    let spacing = spacing_of(&mut d);
+    let (z, pages, format, bytes_in) = if files.len() == 1 {
+        let z = ifds.len() as u64;
+        let len = bytes.0.len() as u64;
+        let bigtiff = bytes.0.get(2..4) == Some(&[43, 0]) || bytes.0.get(2..4) == Some(&[0, 43]);
+        let format = format!(
+            "{} ({} page{})",
+            if bigtiff { "bigtiff" } else { "tiff" },
+            z,
+            if z == 1 { "" } else { "s" }
+        );
+        // The probing decoder has walked the whole chain: keep it.
+        if let Some(&last) = ifds.last() {
+            d.seek_to_image(last).map_err(tiff_err).at(&first)?;
+        }
+        (
+            z,
+            Pages::Multi {
+                path: first.clone(),
+                bytes,
+                ifds,
+                pool: Mutex::new(vec![d]),
+            },
+            format,
+            len,
+        )
+    } else {
+        let total: u64 = files
+            .iter()
+            .map(|f| std::fs::metadata(f).map(|m| m.len()).unwrap_or(0))
+            .sum();
+        let z = files.len() as u64;
+        (z, Pages::Files(files), format!("tiff stack ({z} files)"), total)
+    };
+    let dims = Dims::new(page.width as u64, page.height as u64, z).at(&first)?;
+    Ok(TiffStackReader {
+        info: InputInfo {
+            path: input.to_path_buf(),
+            dims,
+            sample_type,
+            spacing,
+            format,
+        },
+        page,
+        chan,
+        pages,
+        bytes_in,
+    })
+}
+
+impl TiffStackReader {
+    fn read_multi(
+        &self,
+        path: &Path,
+        bytes: &Bytes,
+        ifds: &[usize],
+        pool: &Mutex<Vec<Dec<Bytes>>>,
+        z: u64,
+    ) -> CResult<SliceData> {
+        let taken = pool.lock().ok().and_then(|mut p| p.pop());
+        let mut d = match taken {
+            Some(d) => d,
+            None => {
+                let mut d = open_decoder(bytes.clone()).at(path)?;
+                // Walk the chain once so later seeks go straight to a page.
+                if let Some(&last) = ifds.last() {
+                    d.seek_to_image(last).map_err(tiff_err).at(path)?;
+                }
+                d
+            }
+        };
+        let ifd = ifds[z as usize];
+        let r = d
+            .seek_to_image(ifd)
+            .map_err(tiff_err)
+            .and_then(|_| decode(&mut d, &self.page, self.chan))
+            .map_err(|e| ConvertError::new(path, page_err(e, z)));
+        if let Ok(mut p) = pool.lock() {
+            p.push(d);
+        }
+        r
+    }
+}
+
+fn page_err(e: Error, z: u64) -> Error {
+    match e {
+        Error::Invalid(m) => Error::Invalid(format!("page {z}: {m}")),
+        other => other,
+    }
+}
+
+impl SliceReader for TiffStackReader {
+    fn info(&self) -> &InputInfo {
+        &self.info
+    }
+    fn access(&self) -> Access {
+        Access::Random
+    }
+    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        match &self.pages {
+            Pages::Files(files) => {
+                let path = &files[z as usize];
+                let bytes = std::fs::read(path).at(path)?;
+                let mut d = open_decoder(bytes.as_slice()).at(path)?;
+                if is_thumbnail(&mut d) {
+                    // The full-resolution page follows a leading thumbnail.
+                    d.next_image().map_err(tiff_err).at(path)?;
+                }
+                decode(&mut d, &self.page, self.chan).at(path)
+            }
+            Pages::Multi {
+                path,
+                bytes,
+                ifds,
+                pool,
+            } => self.read_multi(path, bytes, ifds, pool, z),
+        }
+    }
+    fn bytes_in(&self) -> u64 {
+        self.bytes_in
+    }
+}
