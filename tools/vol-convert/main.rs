@@ -1,0 +1,322 @@
+//! vol-convert: TIFF stacks, raw, NRRD, MetaImage, .vol and .vvol into
+//! sliced or bricked .vvol (or back to TIFF, raw and .vol), streaming with
+//! bounded memory.
+
+use anyhow::{anyhow, bail, Result};
+use clap::Parser;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+use volcore::{Compression, Dims, SampleType};
+use volformats::convert::{
+    self, open_input, InputOptions, Plan, RawArgs, Target, ValueMap, Window,
+};
+use volformats::thesis::ThesisLayout;
+use volformats::tiff::ChannelSel;
+use volkit_cli::args::{self, LayoutArg};
+
+/// Convert a volume between formats, slice by slice.
+///
+/// INPUT is a TIFF file (multipage or BigTIFF), a directory of TIFF slices
+/// (natural order: slice2 before slice10), a glob such as 'scan/*.tif'
+/// (quote it), a .txt/.lst file listing slices, a .raw file (dims and type
+/// from flags or from NAME_XxYxZ_TYPE.raw), NRRD (.nrrd/.nhdr, raw or gzip),
+/// MetaImage (.mhd/.mha), a thesis .vol, a .vvol, or - for standard input
+/// (a .vvol stream, a NRRD with attached data, or raw with --raw-dims).
+///
+/// The output format follows OUTPUT: .vvol (sliced or bricked, optional
+/// zstd per brick), .vol (thesis format, u8), .raw (little-endian, x
+/// fastest), .tif/.tiff (one multipage file), a path ending in / (a
+/// directory of TIFF slices), or - (a sliced .vvol stream on stdout).
+///
+/// Type conversion never loses values silently: a narrowing --type needs
+/// --window lo:hi (linear, clamped), auto[:P] (P-th and (100-P)-th
+/// percentiles of the histogram, P = 0.5) or full (the input type's range;
+/// for f32 input the data's min..max). Float to int rounds half away from
+/// zero; NaN becomes the bottom of the output range (0 for u8/u16, -32768
+/// for i16) and stays NaN for f32. With a window, f32 output spans 0..1.
+///
+/// The output appears only when complete: a failed conversion leaves no
+/// file behind.
+#[derive(Parser, Debug)]
+#[command(name = "vol-convert", version, after_help = EXAMPLES)]
+struct Cli {
+    /// Input file, directory of slices, glob, list file, or -.
+    input: PathBuf,
+    /// Output path (.vvol, .vol, .raw, .tif, DIR/, or -).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Output layout: sliced, or bricked:B (.vvol and .vol).
+    #[arg(long, default_value = "sliced", value_parser = args::layout)]
+    layout: LayoutArg,
+    /// Per-brick compression for bricked .vvol: none, zstd or zstd:LEVEL.
+    #[arg(long, default_value = "none", value_parser = args::compression)]
+    compress: Compression,
+    /// Output sample type: u8, u16, i16, f32 (default: the input's).
+    #[arg(long = "type", value_parser = parse_type)]
+    sample_type: Option<SampleType>,
+    /// Value window for --type: lo:hi, auto, auto:P or full.
+    #[arg(long, value_parser = parse_window, allow_hyphen_values = true)]
+    window: Option<Window>,
+    /// Voxel spacing x,y,z (default: from the input, else 1,1,1).
+    #[arg(long, value_parser = args::spacing3)]
+    spacing: Option<[f32; 3]>,
+    /// Keep x0:x1,y0:y1,z0:z1 (half-open voxel ranges; empty bounds are the edges).
+    #[arg(long)]
+    crop: Option<String>,
+    /// Mirror along these axes, e.g. z or x,y.
+    #[arg(long, value_delimiter = ',', value_parser = ["x", "y", "z"])]
+    flip: Vec<String>,
+    /// Colour TIFF: keep this channel (0 = red).
+    #[arg(long, conflicts_with = "luma")]
+    channel: Option<u16>,
+    /// Colour TIFF: keep the luma 0.299 R + 0.587 G + 0.114 B.
+    #[arg(long)]
+    luma: bool,
+    /// Raw input: dimensions X,Y,Z (otherwise from NAME_XxYxZ_TYPE.raw).
+    #[arg(long, value_parser = args::dims3)]
+    raw_dims: Option<[u64; 3]>,
+    /// Raw input: sample type.
+    #[arg(long, value_parser = parse_type)]
+    raw_type: Option<SampleType>,
+    /// Raw input: byte order.
+    #[arg(long, default_value = "little", value_parser = ["little", "big"])]
+    raw_endian: String,
+    /// Raw input: bytes to skip before the samples.
+    #[arg(long, default_value_t = 0)]
+    raw_skip: u64,
+    /// Print one JSON object with what was done (to stderr when -o -).
+    #[arg(long)]
+    json: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+const EXAMPLES: &str = "Examples:
+  vol-convert scan/ -o scan.vvol
+  vol-convert 'scan/*.tif' --layout bricked:32 --compress zstd -o scan.vvol
+  vol-convert ct.tif --type u8 --window -1000:2000 --crop 0:512,0:512,100:400 -o ct.vvol
+  vol-convert bonsai_256x256x256_uint8.raw --flip z -o bonsai.vvol
+  vol-convert head.nrrd --type u8 --window auto -o head.vol
+  vol-convert scan.vvol -o slices/
+  vol-gen shapes --dims 256,256,256 -o - | vol-convert - --layout bricked:32 -o out.vvol";
+
+fn parse_type(s: &str) -> Result<SampleType, String> {
+    s.parse()
+}
+
+fn parse_window(s: &str) -> Result<Window, String> {
+    s.parse()
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    volkit_cli::run("vol-convert", || convert_cmd(&cli))
+}
+
+/// An error about `path`, as `path: message`.
+fn at(path: &Path, msg: impl std::fmt::Display) -> anyhow::Error {
+    anyhow!("{}: {msg}", path.display())
+}
+
+/// Standard output as an unbuffered file (a duplicate of descriptor 1).
+fn stdout_file() -> Result<std::fs::File> {
+    use std::os::fd::AsFd;
+    let fd = std::io::stdout().as_fd().try_clone_to_owned()?;
+    Ok(std::fs::File::from(fd))
+}
+
+fn target(cli: &Cli) -> Result<Target> {
+    let out = &cli.output;
+    let text = out.to_string_lossy();
+    let sliced_only = |what: &str| -> Result<()> {
+        if cli.layout != LayoutArg::Sliced {
+            return Err(at(out, format!("{what} output is sliced only: drop --layout")));
+        }
+        Ok(())
+    };
+    let no_compress = |what: &str| -> Result<()> {
+        if cli.compress != Compression::None {
+            return Err(at(out, format!("--compress applies to bricked .vvol output, not {what}")));
+        }
+        Ok(())
+    };
+    if text == "-" {
+        sliced_only("stdout (a .vvol stream)")?;
+        no_compress("a stream")?;
+        return Ok(Target::VvolStream(Box::new(stdout_file()?)));
+    }
+    if text.ends_with('/') {
+        sliced_only("TIFF directory")?;
+        no_compress("TIFF")?;
+        return Ok(Target::TiffDir { path: out.clone() });
+    }
+    let ext = out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "vvol" => {
+            let brick = match cli.layout {
+                LayoutArg::Sliced => None,
+                LayoutArg::Bricked(b) => Some(b),
+            };
+            if brick.is_none() && cli.compress != Compression::None {
+                return Err(at(
+                    out,
+                    "--compress needs --layout bricked:B (compression is per brick)",
+                ));
+            }
+            Ok(Target::Vvol {
+                path: out.clone(),
+                brick,
+                compression: cli.compress,
+            })
+        }
+        "vol" => {
+            no_compress(".vol")?;
+            let layout = match cli.layout {
+                LayoutArg::Sliced => ThesisLayout::Sliced,
+                LayoutArg::Bricked(b) if b <= 255 => ThesisLayout::Bricked(b as u8),
+                LayoutArg::Bricked(b) => {
+                    return Err(at(out, format!("the .vol format takes bricks up to 255, not {b}")))
+                }
+            };
+            Ok(Target::Thesis {
+                path: out.clone(),
+                layout,
+            })
+        }
+        "raw" => {
+            sliced_only(".raw")?;
+            no_compress(".raw")?;
+            Ok(Target::Raw { path: out.clone() })
+        }
+        "tif" | "tiff" => {
+            sliced_only("TIFF")?;
+            no_compress("TIFF")?;
+            Ok(Target::Tiff { path: out.clone() })
+        }
+        _ => Err(at(
+            out,
+            "unknown output type: use .vvol, .vol, .raw, .tif, a directory ending in /, or -",
+        )),
+    }
+}
+
+fn input_options(cli: &Cli) -> Result<InputOptions> {
+    let raw_given = cli.raw_dims.is_some()
+        || cli.raw_type.is_some()
+        || cli.raw_skip != 0
+        || cli.raw_endian != "little";
+    let raw = if raw_given {
+        let dims = match cli.raw_dims {
+            Some([x, y, z]) => Some(Dims::new(x, y, z).map_err(|e| at(&cli.input, e))?),
+            None => None,
+        };
+        Some(RawArgs {
+            dims,
+            sample_type: cli.raw_type,
+            big_endian: cli.raw_endian == "big",
+            skip: cli.raw_skip,
+        })
+    } else {
+        None
+    };
+    let channel = match (cli.channel, cli.luma) {
+        (Some(c), _) => ChannelSel::Channel(c),
+        (None, true) => ChannelSel::Luma,
+        (None, false) => ChannelSel::Single,
+    };
+    Ok(InputOptions { raw, channel })
+}
+
+fn convert_cmd(cli: &Cli) -> Result<()> {
+    let start = Instant::now();
+    if cli.window.is_some() && cli.sample_type.is_none() {
+        return Err(at(&cli.input, "--window needs --type (the output sample type)"));
+    }
+    // Check the output first: a bad output name should not cost a scan.
+    let target = target(cli)?;
+    let opts = input_options(cli)?;
+    let reader = open_input(&cli.input, &opts)?;
+    let info = reader.info().clone();
+    let crop = match &cli.crop {
+        Some(s) => {
+            let parsed = convert::parse_crop(s).map_err(|e| at(&cli.input, e))?;
+            Some(convert::resolve_crop(&parsed, info.dims).map_err(|e| at(&cli.input, e))?)
+        }
+        None => None,
+    };
+    let flip = ["x", "y", "z"].map(|a| cli.flip.iter().any(|f| f == a));
+    let out_type = cli.sample_type.unwrap_or(info.sample_type);
+    let out_dims = match &crop {
+        Some(c) => Dims::new(c[0].end - c[0].start, c[1].end - c[1].start, c[2].end - c[2].start)
+            .map_err(|e| at(&cli.input, e))?,
+        None => info.dims,
+    };
+    let plan = Plan {
+        crop,
+        flip,
+        sample_type: cli.sample_type,
+        window: cli.window,
+        spacing: cli.spacing,
+        temp_dir: None,
+    };
+    let total = out_dims.count() * out_type.size() as u64;
+    let bar = volkit_cli::progress::bytes_bar(total, "vol-convert", cli.quiet);
+    let progress = |n: u64| bar.set_position(n);
+    let report = convert::convert(reader, &plan, target, &progress)?;
+    bar.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+    let to_stdout = cli.output.as_os_str() == "-";
+    if cli.json {
+        let window = match report.map {
+            ValueMap::Exact => serde_json::Value::Null,
+            ValueMap::Linear { lo, hi } => serde_json::json!([lo, hi]),
+        };
+        let (min, max) = match report.range {
+            Some(r) if !r.is_empty() => (Some(r.min), Some(r.max)),
+            _ => (None, None),
+        };
+        let d = report.dims;
+        let v = serde_json::json!({
+            "tool": "vol-convert",
+            "input": cli.input.display().to_string(),
+            "input_format": report.input_format,
+            "output": cli.output.display().to_string(),
+            "dims": [d.x, d.y, d.z],
+            "type": report.sample_type.name(),
+            "spacing": report.spacing,
+            "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
+            "compression": match cli.compress { Compression::None => "none".to_string(), Compression::Zstd(l) => format!("zstd:{l}") },
+            "window": window,
+            "bytes_in": report.bytes_in,
+            "bytes_out": report.bytes_out,
+            "min": min,
+            "max": max,
+            "spooled": report.spooled,
+            "seconds": seconds,
+            "threads": rayon::current_num_threads(),
+        });
+        if to_stdout {
+            eprintln!("{v}");
+        } else {
+            println!("{v}");
+        }
+    } else if !cli.quiet && !to_stdout {
+        eprintln!(
+            "vol-convert: wrote {} ({} {}, {} bytes) in {:.2} s",
+            cli.output.display(),
+            report.dims,
+            report.sample_type,
+            report.bytes_out,
+            seconds
+        );
+    }
+    if report.bytes_out == 0 {
+        bail!("{}: nothing was written", cli.output.display());
+    }
+    Ok(())
+}
