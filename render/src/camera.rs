@@ -1,0 +1,249 @@
+//! Pinhole and orthographic cameras, rays through pixel centres.
+
+use crate::error::RenderError;
+use crate::ray::Ray;
+use glam::Vec3;
+
+/// How the image plane maps to rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Perspective with this vertical field of view in degrees (0, 180).
+    Perspective(f32),
+    /// Orthographic with this image-plane height in world units.
+    Orthographic(f32),
+}
+
+/// A camera with an orthonormal frame and an image size.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    eye: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    projection: Projection,
+    width: u32,
+    height: u32,
+    /// Half extents of the image plane at unit distance (perspective) or in
+    /// world units (orthographic).
+    half: (f32, f32),
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `target`. `up` need only be roughly up:
+    /// when it is parallel to the view direction (looking straight up or
+    /// down) the world axis least aligned with the view is used instead, so
+    /// the frame is always well defined.
+    pub fn look_at(
+        eye: Vec3,
+        target: Vec3,
+        up: Vec3,
+        projection: Projection,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera, RenderError> {
+        let bad = |m: &str| Err(RenderError::Camera(m.into()));
+        if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
+            return bad("eye, look-at and up must be finite");
+        }
+        if width == 0 || height == 0 || width > 1 << 15 || height > 1 << 15 {
+            return bad("image size must be 1..=32768 pixels per side");
+        }
+        let forward = (target - eye).normalize_or_zero();
+        if forward == Vec3::ZERO {
+            return bad("eye and look-at are the same point");
+        }
+        let half_plane = match projection {
+            Projection::Perspective(fov) if fov > 0.0 && fov < 180.0 => {
+                (fov.to_radians() * 0.5).tan()
+            }
+            Projection::Perspective(fov) => {
+                return bad(&format!(
+                    "field of view {fov} is not between 0 and 180 degrees"
+                ))
+            }
+            Projection::Orthographic(h) if h > 0.0 && h.is_finite() => h * 0.5,
+            Projection::Orthographic(h) => {
+                return bad(&format!("orthographic height {h} must be positive"))
+            }
+        };
+        let mut right = forward.cross(up);
+        if right.length() < 1e-6 * up.length().max(1e-30) || up == Vec3::ZERO {
+            // Looking along the up vector: fall back to the world axis least
+            // aligned with the view direction.
+            let a = forward.abs();
+            let alt = if a.x <= a.y && a.x <= a.z {
+                Vec3::X
+            } else if a.y <= a.z {
+                Vec3::Y
+            } else {
+                Vec3::Z
+            };
+            right = forward.cross(alt);
+        }
+        let right = right.normalize();
+        let up = right.cross(forward).normalize();
+        let aspect = width as f32 / height as f32;
+        Ok(Camera {
+            eye,
+            forward,
+            right,
+            up,
+            projection,
+            width,
+            height,
+            half: (half_plane * aspect, half_plane),
+        })
+    }
+
+    /// A camera orbiting `centre` at `distance`, at `azimuth` degrees around
+    /// the y axis (0 looks along −z) and `elevation` degrees above the xz
+    /// plane, with y up.
+    pub fn orbit(
+        centre: Vec3,
+        azimuth: f32,
+        elevation: f32,
+        distance: f32,
+        projection: Projection,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera, RenderError> {
+        if !(distance > 0.0 && distance.is_finite()) {
+            return Err(RenderError::Camera(format!(
+                "orbit distance {distance} must be positive"
+            )));
+        }
+        let (az, el) = (azimuth.to_radians(), elevation.to_radians());
+        let offset = Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos()) * distance;
+        Camera::look_at(centre + offset, centre, Vec3::Y, projection, width, height)
+    }
+
+    /// Image width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Image height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// The eye position.
+    pub fn eye(&self) -> Vec3 {
+        self.eye
+    }
+
+    /// The unit view direction.
+    pub fn forward(&self) -> Vec3 {
+        self.forward
+    }
+
+    /// The ray through the centre of pixel `(x, y)`, row 0 at the top.
+    #[inline]
+    pub fn ray(&self, x: u32, y: u32) -> Ray {
+        let u = ((x as f32 + 0.5) / self.width as f32) * 2.0 - 1.0;
+        let v = 1.0 - ((y as f32 + 0.5) / self.height as f32) * 2.0;
+        let offset = self.right * (u * self.half.0) + self.up * (v * self.half.1);
+        match self.projection {
+            Projection::Perspective(_) => Ray {
+                origin: self.eye,
+                dir: (self.forward + offset).normalize(),
+            },
+            Projection::Orthographic(_) => Ray {
+                origin: self.eye + offset,
+                dir: self.forward,
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_ray_looks_at_target_and_frame_is_orthonormal() {
+        let c = Camera::look_at(
+            Vec3::new(0.0, 0.0, 10.0),
+            Vec3::ZERO,
+            Vec3::Y,
+            Projection::Perspective(60.0),
+            101,
+            51,
+        )
+        .unwrap();
+        let r = c.ray(50, 25);
+        assert!((r.dir - Vec3::NEG_Z).length() < 1e-6);
+        // Top row points up, right column points right.
+        assert!(c.ray(50, 0).dir.y > 0.0 && c.ray(100, 25).dir.x > 0.0);
+    }
+
+    #[test]
+    fn looking_along_up_is_well_defined() {
+        for up in [Vec3::Y, Vec3::NEG_Y, Vec3::new(0.0, 1e-9, 0.0)] {
+            let c = Camera::look_at(
+                Vec3::new(1.0, 10.0, 1.0),
+                Vec3::new(1.0, 0.0, 1.0),
+                up,
+                Projection::Perspective(45.0),
+                8,
+                8,
+            )
+            .unwrap();
+            for (x, y) in [(0, 0), (7, 7), (3, 4)] {
+                assert!(c.ray(x, y).dir.is_finite());
+            }
+        }
+        assert!(Camera::look_at(
+            Vec3::ONE,
+            Vec3::ONE,
+            Vec3::Y,
+            Projection::Perspective(45.0),
+            8,
+            8
+        )
+        .is_err());
+        assert!(Camera::look_at(
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Projection::Perspective(180.0),
+            8,
+            8
+        )
+        .is_err());
+        assert!(Camera::look_at(
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Projection::Orthographic(0.0),
+            8,
+            8
+        )
+        .is_err());
+        assert!(Camera::look_at(
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Projection::Perspective(60.0),
+            0,
+            8
+        )
+        .is_err());
+    }
+
+    #[test]
+    fn orthographic_rays_are_parallel() {
+        let c = Camera::orbit(
+            Vec3::splat(5.0),
+            30.0,
+            20.0,
+            50.0,
+            Projection::Orthographic(10.0),
+            16,
+            16,
+        )
+        .unwrap();
+        assert!((c.ray(0, 0).dir - c.ray(15, 15).dir).length() < 1e-7);
+        assert!((c.ray(0, 0).origin - c.ray(15, 0).origin).length() > 8.0);
+    }
+}

@@ -1,0 +1,81 @@
+//! Emission-absorption compositing, front to back.
+
+use super::sample::{central_gradient, value, value_and_analytic_gradient};
+use super::{RayCtx, RayResult, Walk};
+use crate::ray::Ray;
+use glam::Vec3;
+use volcore::Cursor;
+
+/// Composite `C += (1 − A)·α·c`, `A += (1 − A)·α` over the samples in
+/// `[t0, t1]`. `SHADE` applies Blinn-Phong where the gradient is longer
+/// than the threshold, with the `ANALYTIC` or central-difference gradient;
+/// `ESS` skips cells whose opacity is zero under the table; `ERT` stops at
+/// the termination threshold.
+#[allow(clippy::too_many_arguments)]
+pub fn dvr<
+    C: Cursor,
+    const TRI: bool,
+    const SHADE: bool,
+    const ANALYTIC: bool,
+    const ESS: bool,
+    const ERT: bool,
+>(
+    ctx: &RayCtx,
+    cur: &mut C,
+    ray: &Ray,
+    t0: f32,
+    t1: f32,
+) -> RayResult {
+    let mut out = RayResult::empty();
+    let Some(table) = ctx.table else {
+        return out;
+    };
+    let w = Walk::new(ctx, ray, t0, t1);
+    let mut colour = Vec3::ZERO;
+    let mut alpha = 0.0f32;
+    let mut k = w.k0;
+    while k <= w.k1 {
+        let t = w.t(k);
+        let p = w.at(t);
+        if ESS {
+            if let Some(skip) = ctx.skip {
+                if let Some(u) = skip.skip_until(p, w.o, w.d, |_, _, f| f != 0) {
+                    if let Some(kn) = w.after_skip(k, u) {
+                        k = kn;
+                        out.skips += 1;
+                        continue;
+                    }
+                }
+            }
+        }
+        let (v, grad) = if SHADE && ANALYTIC {
+            value_and_analytic_gradient::<C, TRI>(cur, p)
+        } else {
+            (value::<C, TRI>(cur, p), Vec3::ZERO)
+        };
+        out.samples += 1;
+        let e = table.lookup(v);
+        if e[3] > 0.0 {
+            let mut c = Vec3::new(e[0], e[1], e[2]);
+            if SHADE {
+                let g = if ANALYTIC {
+                    grad
+                } else {
+                    central_gradient(cur, p)
+                } * ctx.inv_spacing;
+                if g.length() > ctx.gradient_threshold {
+                    c = ctx.lighting.shade(c, g, ray.dir);
+                }
+            }
+            let weight = (1.0 - alpha) * e[3];
+            colour += c * weight;
+            alpha += weight;
+            if ERT && alpha >= ctx.ert {
+                break;
+            }
+        }
+        k += 1;
+    }
+    out.rgba = [colour.x, colour.y, colour.z, alpha];
+    out
+}

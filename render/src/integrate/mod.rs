@@ -1,0 +1,150 @@
+//! The integrators: what happens along one ray, per mode.
+//!
+//! Each mode is a generic function whose options (interpolation, gradient
+//! method, shading, skipping, early termination) are const parameters, so
+//! the frame picks one specialised loop and an option that is off costs
+//! nothing: with shading off no gradient is ever computed, and MIP, MinIP
+//! and X-ray never touch a transfer function.
+
+mod dvr;
+mod iso;
+mod project;
+mod sample;
+
+pub use dvr::dvr;
+pub use iso::iso;
+pub use project::{mip, xray};
+
+use crate::light::Lighting;
+use crate::ray::Ray;
+use crate::skip::SkipGrid;
+use crate::tf::TfTable;
+use glam::Vec3;
+
+/// What a ray computes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mode {
+    /// Emission-absorption, front to back, through a transfer function.
+    Dvr,
+    /// Maximum intensity projection.
+    Mip,
+    /// Minimum intensity projection.
+    Minip,
+    /// X-ray: the integral of the value along the ray (value × length).
+    XraySum,
+    /// X-ray: the mean sample value along the ray.
+    XrayMean,
+    /// The first crossing of this iso value, refined by bisection, shaded.
+    Iso(f32),
+}
+
+/// How values between voxels are reconstructed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interp {
+    /// The nearest voxel.
+    Nearest,
+    /// Trilinear interpolation.
+    Trilinear,
+}
+
+/// How gradients for shading are computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GradientMethod {
+    /// Central differences of the interpolant (six more samples).
+    Central,
+    /// The exact gradient of the trilinear cell (no extra samples).
+    Analytic,
+}
+
+/// Everything a ray needs that is the same for the whole frame.
+pub struct RayCtx<'a> {
+    /// Distance between samples, world units.
+    pub step: f32,
+    /// 1 / spacing, to go from world to voxel coordinates.
+    pub inv_spacing: Vec3,
+    /// The transfer function table (DVR).
+    pub table: Option<&'a TfTable>,
+    /// Shading model.
+    pub lighting: Lighting,
+    /// Shade only where the world-space gradient is longer than this.
+    pub gradient_threshold: f32,
+    /// Stop DVR rays at this accumulated opacity.
+    pub ert: f32,
+    /// Skipping data (when skipping is on).
+    pub skip: Option<&'a SkipGrid<'a>>,
+    /// The volume's largest and smallest values (MIP/MinIP termination).
+    pub value_range: (f32, f32),
+    /// Linear surface colour (iso).
+    pub iso_colour: Vec3,
+}
+
+/// What one ray produced.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayResult {
+    /// Linear colour, premultiplied by alpha, and alpha.
+    pub rgba: [f32; 4],
+    /// The mode's scalar: MIP/MinIP value, X-ray sum or mean (NaN when no
+    /// sample was taken).
+    pub value: f32,
+    /// Ray parameter of the iso hit or MIP maximum (NaN when none).
+    pub depth: f32,
+    /// Samples taken.
+    pub samples: u32,
+    /// Skips made.
+    pub skips: u32,
+}
+
+impl RayResult {
+    fn empty() -> RayResult {
+        RayResult {
+            value: f32::NAN,
+            depth: f32::NAN,
+            ..Default::default()
+        }
+    }
+}
+
+/// The ray in voxel coordinates and its sample range `k0 ..= k1`
+/// (samples at `t = k·step`).
+#[derive(Clone, Copy)]
+pub(crate) struct Walk {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub k0: i64,
+    pub k1: i64,
+    pub step: f64,
+}
+
+impl Walk {
+    pub fn new(ctx: &RayCtx, ray: &Ray, t0: f32, t1: f32) -> Walk {
+        let step = ctx.step as f64;
+        Walk {
+            o: ray.origin * ctx.inv_spacing,
+            d: ray.dir * ctx.inv_spacing,
+            k0: (t0 as f64 / step).ceil() as i64,
+            k1: (t1 as f64 / step).floor() as i64,
+            step,
+        }
+    }
+
+    /// Ray parameter of sample `k` (always this expression, so a sample
+    /// lands at the same place whatever skipped or refined around it).
+    #[inline(always)]
+    pub fn t(&self, k: i64) -> f32 {
+        (k as f64 * self.step) as f32
+    }
+
+    /// Voxel-space position at ray parameter `t`.
+    #[inline(always)]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.o + self.d * t
+    }
+
+    /// The first sample index not covered by a skip up to parameter `u`,
+    /// if it moves past `k`.
+    #[inline(always)]
+    pub fn after_skip(&self, k: i64, u: f32) -> Option<i64> {
+        let kn = (u as f64 / self.step).floor() as i64;
+        (kn > k).then_some(kn)
+    }
+}

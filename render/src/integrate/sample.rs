@@ -1,0 +1,115 @@
+//! Reconstruction and gradients at a point, specialised per option.
+
+use glam::Vec3;
+use volcore::grid::{blend, locate};
+use volcore::Cursor;
+
+/// The value at voxel-space `p`: trilinear or nearest (rounding halves up,
+/// as `Cursor::nearest` does for the clamped, non-negative coordinates).
+#[inline(always)]
+pub fn value<C: Cursor, const TRI: bool>(cur: &mut C, p: Vec3) -> f32 {
+    let (base, t) = locate(p.into(), cur.dims());
+    if TRI {
+        let c = cur.cell(base[0], base[1], base[2]);
+        blend(&c, t)
+    } else {
+        let d = cur.dims().as_array();
+        let pick = |a: usize| (base[a] + (t[a] >= 0.5) as u64).min(d[a] - 1);
+        cur.voxel(pick(0), pick(1), pick(2))
+    }
+}
+
+/// The value at `p` and the gradient (per voxel) of the trilinear cell
+/// around it, from one cell fetch.
+#[inline(always)]
+pub fn value_and_analytic_gradient<C: Cursor, const TRI: bool>(
+    cur: &mut C,
+    p: Vec3,
+) -> (f32, Vec3) {
+    let (base, t) = locate(p.into(), cur.dims());
+    let c = cur.cell(base[0], base[1], base[2]);
+    let v = if TRI {
+        blend(&c, t)
+    } else {
+        let i = (t[0] >= 0.5) as usize + 2 * (t[1] >= 0.5) as usize + 4 * (t[2] >= 0.5) as usize;
+        c[i]
+    };
+    (v, cell_gradient(&c, t))
+}
+
+/// The exact gradient of the trilinear interpolant of cell `c` at offsets
+/// `t` (corners ordered `dx + 2·dy + 4·dz`).
+#[inline(always)]
+pub fn cell_gradient(c: &[f32; 8], t: [f32; 3]) -> Vec3 {
+    let (tx, ty, tz) = (t[0], t[1], t[2]);
+    let lerp = |a: f32, b: f32, s: f32| a + (b - a) * s;
+    let gx = lerp(
+        lerp(c[1] - c[0], c[3] - c[2], ty),
+        lerp(c[5] - c[4], c[7] - c[6], ty),
+        tz,
+    );
+    let gy = lerp(
+        lerp(c[2] - c[0], c[3] - c[1], tx),
+        lerp(c[6] - c[4], c[7] - c[5], tx),
+        tz,
+    );
+    let gz = lerp(
+        lerp(c[4] - c[0], c[5] - c[1], tx),
+        lerp(c[6] - c[2], c[7] - c[3], tx),
+        ty,
+    );
+    Vec3::new(gx, gy, gz)
+}
+
+/// The central-difference gradient of the interpolant (per voxel).
+#[inline(always)]
+pub fn central_gradient<C: Cursor>(cur: &mut C, p: Vec3) -> Vec3 {
+    Vec3::from(cur.gradient(p.into()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volcore::region::pack_sliced;
+    use volcore::scene::{NoiseKind, NoiseScene, RampScene, SceneSource};
+    use volcore::{Dims, VoxelSource};
+
+    #[test]
+    fn analytic_gradient_of_a_ramp_is_exact() {
+        let d = Dims::new(9, 7, 5).unwrap();
+        let scene = RampScene::new(d, 0, 80.0);
+        let v = volcore::SlicedGrid::new(
+            d,
+            volcore::Data::Owned(pack_sliced(&SceneSource::<f32>::new(&scene))),
+        )
+        .unwrap();
+        let mut cur = v.cursor();
+        let (val, g) = value_and_analytic_gradient::<_, true>(&mut cur, Vec3::new(3.25, 2.5, 1.5));
+        assert!((val - 80.0 * 3.25 / 8.0).abs() < 1e-4);
+        assert!((g - Vec3::new(10.0, 0.0, 0.0)).length() < 1e-5);
+        let c = central_gradient(&mut cur, Vec3::new(3.25, 2.5, 1.5));
+        assert!((c - g).length() < 1e-4);
+    }
+
+    #[test]
+    fn nearest_matches_the_cursor() {
+        let d = Dims::new(6, 5, 4).unwrap();
+        let scene = NoiseScene::new(d, 1, NoiseKind::Value, 2.0, 2, 100.0);
+        let v = volcore::SlicedGrid::new(
+            d,
+            volcore::Data::Owned(pack_sliced(&SceneSource::<u8>::new(&scene))),
+        )
+        .unwrap();
+        let mut cur = v.cursor();
+        let mut rng = fastrand::Rng::with_seed(2);
+        for _ in 0..2000 {
+            let p = Vec3::new(
+                rng.f32() * 7.0 - 0.5,
+                rng.f32() * 6.0 - 0.5,
+                rng.f32() * 5.0 - 0.5,
+            );
+            assert_eq!(value::<_, false>(&mut cur, p), cur.nearest(p.into()), "{p}");
+            assert_eq!(value::<_, true>(&mut cur, p), cur.trilinear(p.into()));
+        }
+    }
+}

@@ -1,0 +1,164 @@
+//! Transfer functions: value → colour and opacity.
+//!
+//! A [`TransferFunction`] is a list of piecewise-constant ranges (checked
+//! first, the first match wins) over a piecewise-linear function through
+//! control points. Colours are sRGB components in `[0, 1]` (converted to
+//! linear light for compositing); opacity is per unit of world length at
+//! the reference step `s0`, so a step `Δs` sees `1 − (1 − α)^(Δs/s0)`.
+//! Text format in [`parse`]; per-frame lookup tables in [`table`].
+
+pub mod parse;
+pub mod table;
+
+pub use table::TfTable;
+
+/// A colour and opacity at one value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TfPoint {
+    /// The sample value.
+    pub value: f32,
+    /// sRGB colour, components in `[0, 1]`.
+    pub rgb: [f32; 3],
+    /// Opacity per unit length at the reference step, in `[0, 1]`.
+    pub alpha: f32,
+}
+
+/// Constant colour and opacity over `[lo, hi)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TfRange {
+    /// First value of the range.
+    pub lo: f32,
+    /// First value past the range.
+    pub hi: f32,
+    /// sRGB colour, components in `[0, 1]`.
+    pub rgb: [f32; 3],
+    /// Opacity per unit length at the reference step.
+    pub alpha: f32,
+}
+
+/// A 1D transfer function (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TransferFunction {
+    /// Control points, sorted by value.
+    pub points: Vec<TfPoint>,
+    /// Constant ranges, checked in order before the points.
+    pub ranges: Vec<TfRange>,
+    /// Value domain the lookup table covers (default: the volume's range).
+    pub domain: Option<(f32, f32)>,
+    /// The step at which opacities are given, in world units.
+    pub reference_step: f32,
+}
+
+/// Names of the built-in presets.
+pub const PRESETS: [&str; 3] = ["grey", "ct", "shapes"];
+
+impl TransferFunction {
+    /// Colour and opacity at `v` (transparent black where nothing applies,
+    /// and for NaN).
+    pub fn eval(&self, v: f32) -> ([f32; 3], f32) {
+        if v.is_nan() {
+            return ([0.0; 3], 0.0);
+        }
+        if let Some(r) = self.ranges.iter().find(|r| v >= r.lo && v < r.hi) {
+            return (r.rgb, r.alpha);
+        }
+        let p = &self.points;
+        match p.iter().position(|q| q.value > v) {
+            None => p.last().map_or(([0.0; 3], 0.0), |q| (q.rgb, q.alpha)),
+            Some(0) => (p[0].rgb, p[0].alpha),
+            Some(i) => {
+                let (a, b) = (&p[i - 1], &p[i]);
+                let span = b.value - a.value;
+                let t = if span > 0.0 {
+                    (v - a.value) / span
+                } else {
+                    1.0
+                };
+                let mix = |x: f32, y: f32| x + (y - x) * t;
+                (
+                    [
+                        mix(a.rgb[0], b.rgb[0]),
+                        mix(a.rgb[1], b.rgb[1]),
+                        mix(a.rgb[2], b.rgb[2]),
+                    ],
+                    mix(a.alpha, b.alpha),
+                )
+            }
+        }
+    }
+
+    /// A built-in transfer function by name, for a volume whose values span
+    /// `range`: `grey` (a greyscale ramp over the range), `ct` (soft tissue
+    /// and bone, in Hounsfield units), `shapes` (the thesis test scene's).
+    pub fn preset(name: &str, range: (f32, f32)) -> Option<TransferFunction> {
+        let pt = |value: f32, rgb: [f32; 3], alpha: f32| TfPoint { value, rgb, alpha };
+        let rg = |lo: f32, hi: f32, rgb: [u8; 3], alpha: f32| TfRange {
+            lo,
+            hi,
+            rgb: rgb.map(|c| c as f32 / 255.0),
+            alpha,
+        };
+        let (lo, hi) = if range.0.is_finite() && range.1.is_finite() && range.0 < range.1 {
+            range
+        } else {
+            (0.0, 1.0)
+        };
+        let tf = match name {
+            "grey" | "gray" | "greyscale" => TransferFunction {
+                points: vec![pt(lo, [0.0; 3], 0.0), pt(hi, [1.0; 3], 0.1)],
+                ranges: vec![],
+                domain: Some((lo, hi)),
+                reference_step: 1.0,
+            },
+            "ct" => TransferFunction {
+                points: vec![
+                    pt(-1000.0, [0.0; 3], 0.0),
+                    pt(-300.0, [0.0; 3], 0.0),
+                    pt(-100.0, [0.75, 0.35, 0.25], 0.004),
+                    pt(150.0, [0.9, 0.55, 0.45], 0.015),
+                    pt(300.0, [0.95, 0.9, 0.8], 0.08),
+                    pt(1500.0, [1.0, 1.0, 0.98], 0.6),
+                ],
+                ranges: vec![],
+                domain: Some((-1024.0, 3071.0)),
+                reference_step: 1.0,
+            },
+            "shapes" => TransferFunction {
+                points: vec![],
+                ranges: vec![
+                    rg(85.0, 95.0, [255, 0, 0], 0.02),
+                    rg(95.0, 100.0, [0, 0, 255], 0.3),
+                    rg(100.0, 115.0, [0, 255, 0], 0.6),
+                ],
+                domain: Some((0.0, 255.0)),
+                reference_step: 1.0,
+            },
+            _ => return None,
+        };
+        Some(tf)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shapes_preset_matches_the_thesis() {
+        let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+        assert_eq!(tf.eval(84.9).1, 0.0);
+        assert_eq!(tf.eval(85.0), ([1.0, 0.0, 0.0], 0.02));
+        assert_eq!(tf.eval(97.0), ([0.0, 0.0, 1.0], 0.3));
+        assert_eq!(tf.eval(100.0), ([0.0, 1.0, 0.0], 0.6));
+        assert_eq!(tf.eval(115.0).1, 0.0);
+        assert_eq!(tf.eval(f32::NAN).1, 0.0);
+    }
+
+    #[test]
+    fn points_interpolate_and_clamp() {
+        let tf = TransferFunction::preset("grey", (0.0, 100.0)).unwrap();
+        assert_eq!(tf.eval(50.0).1, 0.05);
+        assert_eq!(tf.eval(-5.0).1, 0.0);
+        assert_eq!(tf.eval(500.0).1, 0.1);
+    }
+}

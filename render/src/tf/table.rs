@@ -1,0 +1,140 @@
+//! Per-frame lookup tables with opacity corrected for the step.
+
+use super::TransferFunction;
+
+/// A transfer function sampled into bins over a value domain, with each
+/// bin's opacity already corrected for the frame's step, so the inner loop
+/// does one lookup and no `powf`. Colours are linear light.
+#[derive(Clone, Debug)]
+pub struct TfTable {
+    lo: f32,
+    scale: f32,
+    /// `[r, g, b, alpha]` per bin.
+    entries: Vec<[f32; 4]>,
+}
+
+/// Step-corrected opacity `1 − (1 − α)^ratio`, computed as
+/// `−expm1(ratio · ln(1 − α))`, which stays accurate for small α and
+/// small ratios; exact at α = 0 (gives 0) and α = 1 (gives 1).
+pub fn correct_opacity(alpha: f32, ratio: f64) -> f32 {
+    if alpha <= 0.0 || alpha.is_nan() {
+        return 0.0;
+    }
+    if alpha >= 1.0 {
+        return 1.0;
+    }
+    let a = -((ratio * (-(alpha as f64)).ln_1p()).exp_m1());
+    a.clamp(0.0, 1.0) as f32
+}
+
+/// sRGB transfer curve to linear light.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl TfTable {
+    /// Bins for a domain: four per unit of value when that gives at most
+    /// 4096 (so integer-valued range edges fall on bin edges), else 4096.
+    pub fn default_bins(lo: f32, hi: f32) -> usize {
+        let span = (hi - lo) as f64;
+        if span > 0.0 && span * 4.0 <= 4096.0 && span.fract() == 0.0 {
+            (span * 4.0) as usize
+        } else {
+            4096
+        }
+    }
+
+    /// Sample `tf` at the centres of `bins` bins over `[lo, hi]` and correct
+    /// opacities for a step of `step` world units.
+    pub fn new(tf: &TransferFunction, lo: f32, hi: f32, bins: usize, step: f32) -> TfTable {
+        let bins = bins.max(1);
+        let width = ((hi - lo) / bins as f32).max(f32::MIN_POSITIVE);
+        let ratio = step as f64 / tf.reference_step as f64;
+        let entries = (0..bins)
+            .map(|i| {
+                let v = lo + (i as f32 + 0.5) * width;
+                let (rgb, alpha) = tf.eval(v);
+                let lin = rgb.map(srgb_to_linear);
+                [lin[0], lin[1], lin[2], correct_opacity(alpha, ratio)]
+            })
+            .collect();
+        TfTable {
+            lo,
+            scale: 1.0 / width,
+            entries,
+        }
+    }
+
+    /// Number of bins.
+    pub fn bins(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// The value domain.
+    pub fn domain(&self) -> (f32, f32) {
+        (self.lo, self.lo + self.entries.len() as f32 / self.scale)
+    }
+
+    /// The bin of value `v` (values outside the domain clamp to the end
+    /// bins). NaN must be handled by the caller.
+    #[inline(always)]
+    pub fn bin(&self, v: f32) -> usize {
+        let i = (v - self.lo) * self.scale;
+        // Saturating casts: negative → 0, huge → usize::MAX, then clamp.
+        (i as usize).min(self.entries.len() - 1)
+    }
+
+    /// `[r, g, b, alpha]` for value `v`; NaN is transparent.
+    #[inline(always)]
+    pub fn lookup(&self, v: f32) -> [f32; 4] {
+        if v.is_nan() {
+            return [0.0; 4];
+        }
+        self.entries[self.bin(v)]
+    }
+
+    /// Corrected opacity per bin, for building skipping tables.
+    pub fn alphas(&self) -> Vec<f32> {
+        self.entries.iter().map(|e| e[3]).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn opacity_correction_is_stable_at_the_edges() {
+        assert_eq!(correct_opacity(0.0, 0.2), 0.0);
+        assert_eq!(correct_opacity(1.0, 0.2), 1.0);
+        assert_eq!(correct_opacity(1.0, 1e-9), 1.0);
+        assert_eq!(correct_opacity(f32::NAN, 1.0), 0.0);
+        assert!((correct_opacity(0.6, 1.0) - 0.6).abs() < 1e-7);
+        // 1 - (1 - 0.6)^0.2, and two half steps compose to one step.
+        assert!((correct_opacity(0.6, 0.2) - (1.0 - 0.4f64.powf(0.2)) as f32).abs() < 1e-7);
+        let half = correct_opacity(0.3, 0.5) as f64;
+        assert!((1.0 - (1.0 - half) * (1.0 - half) - 0.3).abs() < 1e-6);
+        // Tiny opacity and tiny ratio keep their precision.
+        let tiny = correct_opacity(1e-6, 1e-3);
+        assert!((tiny as f64 - 1e-9).abs() < 1e-14, "{tiny}");
+        // Alpha near one: no overflow, stays below one for a short step.
+        let near = correct_opacity(0.999_999_9, 0.01);
+        assert!(near > 0.1 && near < 1.0);
+    }
+
+    #[test]
+    fn bins_align_with_integer_values_for_u8() {
+        let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+        let t = TfTable::new(&tf, 0.0, 255.0, TfTable::default_bins(0.0, 255.0), 1.0);
+        assert_eq!(t.bins(), 1020);
+        assert_eq!(t.lookup(84.99)[3], 0.0);
+        assert!(t.lookup(85.0)[3] > 0.0);
+        assert_eq!(t.lookup(-3.0)[3], 0.0);
+        assert_eq!(t.lookup(1e30)[3], 0.0);
+        assert_eq!(t.lookup(f32::NAN), [0.0; 4]);
+    }
+}

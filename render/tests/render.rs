@@ -1,0 +1,529 @@
+//! Renderer correctness: closed forms, exactness of the optimisations,
+//! determinism, and the hard cases.
+
+use glam::Vec3;
+use volcore::region::pack_sliced;
+use volcore::scene::{
+    BoxScene, NoiseKind, NoiseScene, Scene, SceneSource, ShapesScene, SphereScene,
+};
+use volcore::{Dims, Sample, Volume};
+use volindex::{BuildOptions, MajorantIndex};
+use volrender::tf::{TfPoint, TransferFunction};
+use volrender::{render, Camera, Frame, GradientMethod, Interp, Mode, Projection, RenderSettings};
+
+fn volume<T: Sample + volcore::volume::IntoVolumeData>(scene: &dyn Scene) -> Volume {
+    Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<T>::new(scene))).unwrap()
+}
+
+fn index(v: &Volume) -> MajorantIndex {
+    MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
+}
+
+fn constant_tf(alpha: f32) -> TransferFunction {
+    let p = |value| TfPoint {
+        value,
+        rgb: [1.0; 3],
+        alpha,
+    };
+    TransferFunction {
+        points: vec![p(0.0), p(255.0)],
+        ranges: vec![],
+        domain: Some((0.0, 255.0)),
+        reference_step: 1.0,
+    }
+}
+
+fn bits(f: &Frame) -> Vec<u32> {
+    f.rgba
+        .iter()
+        .flat_map(|p| p.map(f32::to_bits))
+        .chain(f.value.iter().map(|v| v.to_bits()))
+        .collect()
+}
+
+fn assert_finite(f: &Frame, what: &str) {
+    assert!(
+        f.rgba.iter().flatten().all(|c| c.is_finite()),
+        "{what}: non-finite pixel"
+    );
+}
+
+fn orbit(v: &Volume, az: f32, el: f32, w: u32) -> Camera {
+    let d = v.dims().as_array();
+    let c = Vec3::new((d[0] - 1) as f32, (d[1] - 1) as f32, (d[2] - 1) as f32) * 0.5;
+    Camera::orbit(
+        c,
+        az,
+        el,
+        c.length() * 3.0 + 5.0,
+        Projection::Perspective(40.0),
+        w,
+        w,
+    )
+    .unwrap()
+}
+
+#[test]
+fn constant_box_matches_beer_lambert_and_xray_matches_path_length() {
+    let v = volume::<u8>(&BoxScene::new(Dims::new(32, 32, 32).unwrap(), 0, 100.0));
+    let tf = constant_tf(0.02);
+    let cam = Camera::look_at(
+        Vec3::new(20.0, 40.0, 70.0),
+        Vec3::splat(15.5),
+        Vec3::Y,
+        Projection::Perspective(50.0),
+        48,
+        48,
+    )
+    .unwrap();
+    let step = 0.05;
+    let s = RenderSettings {
+        step,
+        ert: None,
+        ..Default::default()
+    };
+    let dvr = render(&v, None, Some(&tf), &cam, &s).unwrap();
+    let xs = RenderSettings {
+        mode: Mode::XraySum,
+        step,
+        ..Default::default()
+    };
+    let xray = render(&v, None, None, &cam, &xs).unwrap();
+    let mut hits = 0;
+    for y in 0..48 {
+        for x in 0..48 {
+            let ray = cam.ray(x, y);
+            let Some((t0, t1)) = volrender::ray::intersect_box(&ray, Vec3::ZERO, Vec3::splat(31.0))
+            else {
+                continue;
+            };
+            let len = t1 - t0;
+            let i = (y * 48 + x) as usize;
+            let want = 1.0 - 0.98f32.powf(len);
+            // A Riemann sum of step dt is off by at most one step's worth.
+            assert!(
+                (dvr.rgba[i][3] - want).abs() <= 0.021 * step + 1e-5,
+                "alpha {} vs {want} (len {len})",
+                dvr.rgba[i][3]
+            );
+            assert!((dvr.rgba[i][0] - dvr.rgba[i][3]).abs() < 1e-5);
+            assert!(
+                (xray.value[i] - 100.0 * len).abs() <= 100.0 * step + 1e-2,
+                "xray {} vs {}",
+                xray.value[i],
+                100.0 * len
+            );
+            hits += 1;
+        }
+    }
+    assert!(hits > 500);
+}
+
+#[test]
+fn mip_of_a_sphere_finds_its_peak_and_iso_lands_on_the_radius() {
+    let scene = SphereScene::new(Dims::new(33, 33, 33).unwrap(), 14.0, 200.0);
+    let v = volume::<f32>(&scene);
+    let ix = index(&v);
+    // Orthographic along z, pixel 16 centred on x = y = 16.
+    let cam = Camera::look_at(
+        Vec3::new(16.0, 16.0, -50.0),
+        Vec3::splat(16.0),
+        Vec3::Y,
+        Projection::Orthographic(33.0),
+        33,
+        33,
+    )
+    .unwrap();
+    let s = RenderSettings {
+        mode: Mode::Mip,
+        step: 0.01,
+        ..Default::default()
+    };
+    let mip = render(&v, Some(&ix), None, &cam, &s).unwrap();
+    let centre = mip.value[16 * 33 + 16];
+    assert!((centre - 200.0).abs() < 0.2, "MIP at centre {centre}");
+    assert!(mip
+        .value
+        .iter()
+        .filter(|v| v.is_finite())
+        .all(|&v| v <= 200.0));
+
+    let cam = Camera::look_at(
+        Vec3::new(40.0, 30.0, -30.0),
+        Vec3::splat(16.0),
+        Vec3::Y,
+        Projection::Perspective(30.0),
+        40,
+        40,
+    )
+    .unwrap();
+    for grad in [GradientMethod::Central, GradientMethod::Analytic] {
+        let s = RenderSettings {
+            mode: Mode::Iso(100.0),
+            step: 0.25,
+            gradient: grad,
+            ..Default::default()
+        };
+        let iso = render(&v, Some(&ix), None, &cam, &s).unwrap();
+        let mut hits = 0;
+        for (i, &t) in iso.depth.iter().enumerate() {
+            if t.is_nan() {
+                continue;
+            }
+            let ray = cam.ray(i as u32 % 40, i as u32 / 40);
+            let r = (ray.origin + ray.dir * t - Vec3::splat(16.0)).length();
+            assert!((r - 7.0).abs() < 0.1, "hit at radius {r}, want 7");
+            hits += 1;
+        }
+        assert!(hits > 100, "{hits} hits");
+        assert_finite(&iso, "iso");
+    }
+}
+
+fn shapes_scene() -> (Volume, MajorantIndex) {
+    let v = volume::<u8>(&ShapesScene::new(
+        Dims::new(96, 80, 72).unwrap(),
+        2,
+        25,
+        24,
+        100.0,
+    ));
+    let ix = index(&v);
+    (v, ix)
+}
+
+fn all_modes() -> Vec<RenderSettings> {
+    let base = RenderSettings {
+        step: 0.3,
+        ..Default::default()
+    };
+    vec![
+        RenderSettings {
+            shading: true,
+            ..base.clone()
+        },
+        RenderSettings {
+            shading: true,
+            gradient: GradientMethod::Analytic,
+            interp: Interp::Nearest,
+            ..base.clone()
+        },
+        RenderSettings {
+            mode: Mode::Mip,
+            ..base.clone()
+        },
+        RenderSettings {
+            mode: Mode::Minip,
+            ..base.clone()
+        },
+        RenderSettings {
+            mode: Mode::XraySum,
+            ..base.clone()
+        },
+        RenderSettings {
+            mode: Mode::XrayMean,
+            interp: Interp::Nearest,
+            ..base.clone()
+        },
+        RenderSettings {
+            mode: Mode::Iso(95.0),
+            ..base.clone()
+        },
+    ]
+}
+
+#[test]
+fn skipping_never_changes_the_image() {
+    let (v, ix) = shapes_scene();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let noise = volume::<f32>(&NoiseScene::new(
+        Dims::new(50, 40, 45).unwrap(),
+        3,
+        NoiseKind::Gradient,
+        12.0,
+        3,
+        255.0,
+    ));
+    let nix = index(&noise);
+    // Transparent below 150, so the noise has empty cells to skip too.
+    let upper =
+        volrender::tf::parse::parse("point 150 0 0 0 0\npoint 220 255 200 100 0.5").unwrap();
+    for (vol, ix, tf, sparse) in [(&v, &ix, &tf, true), (&noise, &nix, &upper, false)] {
+        let cam = orbit(vol, 35.0, 25.0, 64);
+        for s in all_modes() {
+            let on = render(vol, Some(ix), Some(tf), &cam, &s).unwrap();
+            let off = render(
+                vol,
+                Some(ix),
+                Some(tf),
+                &cam,
+                &RenderSettings {
+                    ess: false,
+                    ..s.clone()
+                },
+            )
+            .unwrap();
+            assert_eq!(bits(&on), bits(&off), "{:?} {:?}", s.mode, s.interp);
+            assert!(on.stats.samples <= off.stats.samples);
+            if s.mode == Mode::Dvr && sparse {
+                assert!(
+                    on.stats.samples < off.stats.samples / 2,
+                    "skipping saved little: {} vs {}",
+                    on.stats.samples,
+                    off.stats.samples
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn early_termination_stays_within_its_bound() {
+    let (v, ix) = shapes_scene();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let cam = orbit(&v, 10.0, 30.0, 64);
+    for t in [0.9f32, 0.99] {
+        let s = RenderSettings {
+            step: 0.2,
+            shading: true,
+            ert: Some(t),
+            ..Default::default()
+        };
+        let cut = render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap();
+        let full = render(
+            &v,
+            Some(&ix),
+            Some(&tf),
+            &cam,
+            &RenderSettings { ert: None, ..s },
+        )
+        .unwrap();
+        let worst = cut
+            .rgba
+            .iter()
+            .zip(&full.rgba)
+            .flat_map(|(a, b)| (0..4).map(move |c| (a[c] - b[c]).abs()))
+            .fold(0.0f32, f32::max);
+        assert!(
+            worst <= (1.0 - t) + 1e-6,
+            "threshold {t}: difference {worst}"
+        );
+        assert!(cut.stats.samples < full.stats.samples);
+    }
+}
+
+#[test]
+fn thread_count_does_not_change_the_image() {
+    let (v, ix) = shapes_scene();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let cam = orbit(&v, 200.0, -15.0, 50);
+    for s in all_modes() {
+        let frames: Vec<Vec<u32>> = [1, 2, 7]
+            .iter()
+            .map(|&n| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .unwrap();
+                let s = RenderSettings {
+                    tile: 7,
+                    ..s.clone()
+                };
+                pool.install(|| bits(&render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap()))
+            })
+            .collect();
+        assert!(frames.windows(2).all(|w| w[0] == w[1]), "{:?}", s.mode);
+    }
+}
+
+#[test]
+fn sliced_bricked_and_compressed_copies_render_identically() {
+    use volcore::{BrickGeometry, Compression, Layout};
+    use volformats::output::Sink;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = ShapesScene::new(Dims::new(61, 47, 53).unwrap(), 7, 15, 18, 100.0);
+    let src = SceneSource::<u8>::new(&scene);
+    let g = BrickGeometry::new(scene.dims(), 16).unwrap();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let mut results = Vec::new();
+    for (i, (l, c)) in [
+        (Layout::Sliced, Compression::None),
+        (Layout::Bricked(g), Compression::None),
+        (Layout::Bricked(g), Compression::Zstd(3)),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let p = dir.path().join(format!("{i}.vvol"));
+        let mut f = std::fs::File::create(&p).unwrap();
+        let mut meta = volcore::VolumeMeta::sliced(scene.dims(), volcore::SampleType::U8);
+        meta.layout = l;
+        meta.compression = c;
+        volformats::vvol::write(&src, meta, Sink::File(&mut f), &|_| {}).unwrap();
+        drop(f);
+        let v = volformats::vvol::open(&p, Default::default()).unwrap();
+        let ix = index(&v);
+        let cam = orbit(&v, 60.0, 10.0, 48);
+        let frames: Vec<Vec<u32>> = all_modes()
+            .iter()
+            .map(|s| bits(&render(&v, Some(&ix), Some(&tf), &cam, s).unwrap()))
+            .collect();
+        results.push(frames);
+    }
+    assert!(results.windows(2).all(|w| w[0] == w[1]));
+}
+
+#[test]
+fn hard_cases_give_finite_pixels() {
+    let (v, ix) = shapes_scene();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let centre = Vec3::new(47.5, 39.5, 35.5);
+    let p = Projection::Perspective(60.0);
+    let cams = vec![
+        // Looking straight down the up vector, and straight up.
+        Camera::look_at(Vec3::new(47.5, 300.0, 35.5), centre, Vec3::Y, p, 32, 32).unwrap(),
+        Camera::look_at(Vec3::new(47.5, -300.0, 35.5), centre, Vec3::Y, p, 32, 32).unwrap(),
+        // From inside the volume, and with the volume partly behind.
+        Camera::look_at(centre, centre + Vec3::X, Vec3::Y, p, 32, 32).unwrap(),
+        Camera::look_at(
+            Vec3::new(10.0, 10.0, 10.0),
+            Vec3::new(-5.0, 12.0, 40.0),
+            Vec3::Y,
+            p,
+            32,
+            32,
+        )
+        .unwrap(),
+        // Axis-parallel orthographic rays exactly on voxel planes and faces.
+        Camera::look_at(
+            Vec3::new(47.5, 39.5, -10.0),
+            centre,
+            Vec3::Y,
+            Projection::Orthographic(79.0),
+            96,
+            80,
+        )
+        .unwrap(),
+        Camera::look_at(
+            Vec3::new(-10.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::Y,
+            Projection::Orthographic(2.0),
+            3,
+            3,
+        )
+        .unwrap(),
+        // Grazing along the top face.
+        Camera::look_at(
+            Vec3::new(-20.0, 79.0, 35.5),
+            Vec3::new(0.0, 79.0, 35.5),
+            Vec3::Y,
+            Projection::Perspective(1.0),
+            9,
+            9,
+        )
+        .unwrap(),
+    ];
+    for (i, cam) in cams.iter().enumerate() {
+        for s in all_modes() {
+            for ess in [true, false] {
+                let f = render(
+                    &v,
+                    Some(&ix),
+                    Some(&tf),
+                    cam,
+                    &RenderSettings { ess, ..s.clone() },
+                )
+                .unwrap();
+                assert_finite(&f, &format!("camera {i} {:?}", s.mode));
+            }
+        }
+    }
+    // Tiny and huge steps.
+    let cam = orbit(&v, 20.0, 20.0, 16);
+    for step in [0.002, 1000.0] {
+        for s in all_modes() {
+            let f = render(
+                &v,
+                Some(&ix),
+                Some(&tf),
+                &cam,
+                &RenderSettings { step, ..s },
+            )
+            .unwrap();
+            assert_finite(&f, &format!("step {step}"));
+        }
+    }
+    // Zero, negative and NaN steps are refused.
+    for step in [0.0, -1.0, f32::NAN, 1e-9] {
+        let r = render(
+            &v,
+            Some(&ix),
+            Some(&tf),
+            &cam,
+            &RenderSettings {
+                step,
+                ..Default::default()
+            },
+        );
+        assert!(r.is_err(), "step {step} accepted");
+    }
+}
+
+#[test]
+fn degenerate_volumes_render() {
+    let tf = constant_tf(0.5);
+    for dims in [
+        Dims::new(1, 1, 1).unwrap(),
+        Dims::new(1, 9, 9).unwrap(),
+        Dims::new(9, 1, 9).unwrap(),
+    ] {
+        let v = volume::<u8>(&BoxScene::new(dims, 0, 100.0));
+        let ix = index(&v);
+        let cam = Camera::look_at(
+            Vec3::new(-5.0, 4.0, 3.0),
+            Vec3::new(0.0, 4.0, 4.0),
+            Vec3::Y,
+            Projection::Perspective(60.0),
+            16,
+            16,
+        )
+        .unwrap();
+        for s in all_modes() {
+            let f = render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap();
+            assert_finite(&f, &format!("{dims} {:?}", s.mode));
+        }
+    }
+}
+
+#[test]
+fn nan_samples_are_transparent_and_finite() {
+    let d = Dims::new(20, 20, 20).unwrap();
+    let mut samples: Vec<f32> =
+        pack_sliced(&SceneSource::<f32>::new(&SphereScene::new(d, 9.0, 200.0)));
+    for (i, s) in samples.iter_mut().enumerate() {
+        if i % 7 == 0 {
+            *s = f32::NAN;
+        }
+    }
+    let v = Volume::from_samples(d, samples).unwrap();
+    let ix = index(&v);
+    let tf = TransferFunction::preset("grey", (0.0, 200.0)).unwrap();
+    let cam = orbit(&v, 30.0, 30.0, 24);
+    for s in all_modes() {
+        let on = render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap();
+        let off = render(
+            &v,
+            Some(&ix),
+            Some(&tf),
+            &cam,
+            &RenderSettings {
+                ess: false,
+                ..s.clone()
+            },
+        )
+        .unwrap();
+        assert_finite(&on, "nan volume");
+        assert_eq!(bits(&on), bits(&off), "{:?}", s.mode);
+    }
+}
