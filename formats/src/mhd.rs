@@ -98,7 +98,9 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
         };
         match k {
             "ObjectType" if v != "Image" => {
-                return Err(Error::invalid(format!("MetaImage ObjectType {v} is not Image")))
+                return Err(Error::invalid(format!(
+                    "MetaImage ObjectType {v} is not Image"
+                )))
             }
             "NDims" => ndims = Some(v.parse::<u64>().map_err(|_| bad("NDims"))?),
             "DimSize" => {
@@ -280,17 +282,20 @@ mod tests {
 
     #[test]
     fn rejects_clearly() {
-        let e = parse("NDims = 3\nDimSize = 2 2 2\nElementType = MET_DOUBLE\nElementDataFile = a.raw\n")
-            .unwrap_err()
-            .to_string();
+        let e = parse(
+            "NDims = 3\nDimSize = 2 2 2\nElementType = MET_DOUBLE\nElementDataFile = a.raw\n",
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("MET_DOUBLE"), "{e}");
         let e = parse("NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n")
             .unwrap_err()
             .to_string();
         assert!(e.contains("ElementDataFile"), "{e}");
-        let e = parse("NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementDataFile = LIST\n")
-            .unwrap_err()
-            .to_string();
+        let e =
+            parse("NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementDataFile = LIST\n")
+                .unwrap_err()
+                .to_string();
         assert!(e.contains("lists"), "{e}");
         assert!(parse("what is this\n").is_err());
     }

@@ -94,7 +94,9 @@ fn sample_type(t: &str) -> Result<SampleType> {
 }
 
 fn numbers(v: &str) -> Vec<Option<f64>> {
-    v.split_whitespace().map(|s| s.parse::<f64>().ok()).collect()
+    v.split_whitespace()
+        .map(|s| s.parse::<f64>().ok())
+        .collect()
 }
 
 /// Spacing from `space directions: (a,b,c) (d,e,f) (g,h,i)` (vector norms).
@@ -104,7 +106,10 @@ fn directions(v: &str) -> Option<[f32; 3]> {
         .filter(|s| *s != "none")
         .map(|s| {
             let inner = s.trim_start_matches('(').trim_end_matches(')');
-            let c: Vec<f64> = inner.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+            let c: Vec<f64> = inner
+                .split(',')
+                .filter_map(|x| x.trim().parse().ok())
+                .collect();
             c.iter().map(|x| x * x).sum::<f64>().sqrt()
         })
         .collect();
@@ -214,7 +219,9 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
     let big_endian = match endian {
         Some(b) => b,
         None if sample_type.size() > 1 => {
-            return Err(Error::invalid("NRRD header has no endian for multi-byte samples"))
+            return Err(Error::invalid(
+                "NRRD header has no endian for multi-byte samples",
+            ))
         }
         None => false,
     };
@@ -234,7 +241,9 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
         return Err(Error::invalid("NRRD byte skip must be -1 or more"));
     }
     if byte_skip == -1 && encoding != Encoding::Raw {
-        return Err(Error::invalid("NRRD byte skip -1 works with raw encoding only"));
+        return Err(Error::invalid(
+            "NRRD byte skip -1 works with raw encoding only",
+        ));
     }
     Ok(NrrdHeader {
         dims,
@@ -261,7 +270,9 @@ pub fn read_header_text(r: &mut dyn BufRead) -> Result<(String, u64)> {
         }
         len += n as u64;
         if len > 16 << 20 {
-            return Err(Error::invalid("header is longer than 16 MiB: not a header?"));
+            return Err(Error::invalid(
+                "header is longer than 16 MiB: not a header?",
+            ));
         }
         let s = String::from_utf8_lossy(&l);
         let blank = s.trim_end_matches(['\n', '\r']).is_empty();
@@ -366,7 +377,9 @@ pub fn read_stream_header(r: &mut dyn BufRead) -> Result<NrrdHeader> {
     }
     if h.encoding == Encoding::Raw {
         if h.byte_skip < 0 {
-            return Err(Error::invalid("byte skip -1 cannot be used on standard input"));
+            return Err(Error::invalid(
+                "byte skip -1 cannot be used on standard input",
+            ));
         }
         crate::convert::input::skip_bytes(r, h.byte_skip as u64)?;
     }

@@ -56,8 +56,8 @@ struct Cli {
     #[arg(long = "type", value_parser = parse_type)]
     sample_type: Option<SampleType>,
     /// Value window for --type: lo:hi, auto, auto:P or full.
-    #[arg(long, value_parser = parse_window, allow_hyphen_values = true)]
-    window: Option<Window>,
+    #[arg(long, allow_hyphen_values = true)]
+    window: Option<String>,
     /// Voxel spacing x,y,z (default: from the input, else 1,1,1).
     #[arg(long, value_parser = args::spacing3)]
     spacing: Option<[f32; 3]>,
@@ -106,12 +106,27 @@ fn parse_type(s: &str) -> Result<SampleType, String> {
     s.parse()
 }
 
-fn parse_window(s: &str) -> Result<Window, String> {
-    s.parse()
-}
-
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(
+                e.kind(),
+                ErrorKind::DisplayHelp
+                    | ErrorKind::DisplayVersion
+                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+            ) {
+                e.exit();
+            }
+            // Usage errors on one line, like every other error.
+            let text = e.to_string();
+            let first = text.lines().next().unwrap_or("invalid arguments");
+            let first = first.trim_start_matches("error: ");
+            eprintln!("vol-convert: {first} (see --help)");
+            return ExitCode::from(volkit_cli::run::EXIT_USAGE);
+        }
+    };
     volkit_cli::run("vol-convert", || convert_cmd(&cli))
 }
 
@@ -132,13 +147,19 @@ fn target(cli: &Cli) -> Result<Target> {
     let text = out.to_string_lossy();
     let sliced_only = |what: &str| -> Result<()> {
         if cli.layout != LayoutArg::Sliced {
-            return Err(at(out, format!("{what} output is sliced only: drop --layout")));
+            return Err(at(
+                out,
+                format!("{what} output is sliced only: drop --layout"),
+            ));
         }
         Ok(())
     };
     let no_compress = |what: &str| -> Result<()> {
         if cli.compress != Compression::None {
-            return Err(at(out, format!("--compress applies to bricked .vvol output, not {what}")));
+            return Err(at(
+                out,
+                format!("--compress applies to bricked .vvol output, not {what}"),
+            ));
         }
         Ok(())
     };
@@ -180,7 +201,10 @@ fn target(cli: &Cli) -> Result<Target> {
                 LayoutArg::Sliced => ThesisLayout::Sliced,
                 LayoutArg::Bricked(b) if b <= 255 => ThesisLayout::Bricked(b as u8),
                 LayoutArg::Bricked(b) => {
-                    return Err(at(out, format!("the .vol format takes bricks up to 255, not {b}")))
+                    return Err(at(
+                        out,
+                        format!("the .vol format takes bricks up to 255, not {b}"),
+                    ))
                 }
             };
             Ok(Target::Thesis {
@@ -234,11 +258,22 @@ fn input_options(cli: &Cli) -> Result<InputOptions> {
 
 fn convert_cmd(cli: &Cli) -> Result<()> {
     let start = Instant::now();
-    if cli.window.is_some() && cli.sample_type.is_none() {
-        return Err(at(&cli.input, "--window needs --type (the output sample type)"));
+    let window: Option<Window> = match &cli.window {
+        Some(w) => Some(
+            w.parse()
+                .map_err(|e| at(&cli.input, format!("--window {e}")))?,
+        ),
+        None => None,
+    };
+    if window.is_some() && cli.sample_type.is_none() {
+        return Err(at(
+            &cli.input,
+            "--window needs --type (the output sample type)",
+        ));
     }
     // Check the output first: a bad output name should not cost a scan.
     let target = target(cli)?;
+    target.preflight().map_err(anyhow::Error::new)?;
     let opts = input_options(cli)?;
     let reader = open_input(&cli.input, &opts)?;
     let info = reader.info().clone();
@@ -252,15 +287,19 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     let flip = ["x", "y", "z"].map(|a| cli.flip.iter().any(|f| f == a));
     let out_type = cli.sample_type.unwrap_or(info.sample_type);
     let out_dims = match &crop {
-        Some(c) => Dims::new(c[0].end - c[0].start, c[1].end - c[1].start, c[2].end - c[2].start)
-            .map_err(|e| at(&cli.input, e))?,
+        Some(c) => Dims::new(
+            c[0].end - c[0].start,
+            c[1].end - c[1].start,
+            c[2].end - c[2].start,
+        )
+        .map_err(|e| at(&cli.input, e))?,
         None => info.dims,
     };
     let plan = Plan {
         crop,
         flip,
         sample_type: cli.sample_type,
-        window: cli.window,
+        window,
         spacing: cli.spacing,
         temp_dir: None,
     };

@@ -7,7 +7,7 @@
 //! is not asked for.
 
 use super::slice::{SliceData, SliceSample};
-use super::{At, ConvertError, CResult};
+use super::{At, CResult, ConvertError};
 use crate::error::Error;
 use memmap2::Mmap;
 use std::io::{Read, Write};
@@ -135,7 +135,10 @@ impl SliceReader for RawFileReader {
         let n = (d.slice_len() * self.info.sample_type.size() as u64) as usize;
         let start = self.offset as usize + z as usize * n;
         let bytes = self.map.get(start..start + n).ok_or_else(|| {
-            ConvertError::new(&self.path, Error::invalid("file is shorter than its header says"))
+            ConvertError::new(
+                &self.path,
+                Error::invalid("file is shorter than its header says"),
+            )
         })?;
         Ok(SliceData::from_bytes(
             self.info.sample_type,
@@ -165,6 +168,17 @@ struct StreamState {
     reader: Box<dyn Read + Send>,
     next_z: u64,
     crc: crc32fast::Hasher,
+}
+
+/// Dimensions, type and byte order of headerless samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SampleLayout {
+    /// Voxels per axis.
+    pub dims: Dims,
+    /// Sample type.
+    pub sample_type: SampleType,
+    /// Big-endian samples.
+    pub big_endian: bool,
 }
 
 /// Headerless samples read front to back from a stream (a pipe, standard
@@ -213,12 +227,15 @@ impl StreamReader {
         path: &Path,
         reader: Box<dyn Read + Send>,
         counter: std::sync::Arc<AtomicU64>,
-        dims: Dims,
-        t: SampleType,
-        big_endian: bool,
+        layout: SampleLayout,
         end: StreamEnd,
         format: &str,
     ) -> StreamReader {
+        let SampleLayout {
+            dims,
+            sample_type: t,
+            big_endian,
+        } = layout;
         StreamReader {
             info: InputInfo {
                 path: path.to_path_buf(),
@@ -372,9 +389,11 @@ pub fn vvol_stream(path: &Path, reader: Box<dyn Read + Send>) -> CResult<StreamR
         path,
         Box::new(r),
         counter,
-        h.meta.dims,
-        h.meta.sample_type,
-        false,
+        SampleLayout {
+            dims: h.meta.dims,
+            sample_type: h.meta.sample_type,
+            big_endian: false,
+        },
         StreamEnd::VvolTrailer,
         "vvol stream",
     )
@@ -664,7 +683,10 @@ pub struct DataSpec {
 /// name the data file).
 pub fn open_data(input: &Path, spec: &DataSpec) -> CResult<Box<dyn SliceReader>> {
     let path = &spec.data_file;
-    let size = spec.dims.checked_bytes(spec.sample_type.size() as u64).at(input)?;
+    let size = spec
+        .dims
+        .checked_bytes(spec.sample_type.size() as u64)
+        .at(input)?;
     match spec.encoding {
         Encoding::Raw => {
             let (offset, exact) = match spec.start {
@@ -721,9 +743,11 @@ pub fn open_data(input: &Path, spec: &DataSpec) -> CResult<Box<dyn SliceReader>>
                 path,
                 dec,
                 counter,
-                spec.dims,
-                spec.sample_type,
-                spec.big_endian,
+                SampleLayout {
+                    dims: spec.dims,
+                    sample_type: spec.sample_type,
+                    big_endian: spec.big_endian,
+                },
                 StreamEnd::Ignore,
                 &spec.format,
             )

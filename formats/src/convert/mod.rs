@@ -76,7 +76,7 @@ impl<T, E: Into<Error>> At<T> for std::result::Result<T, E> {
 }
 
 /// What to do to the samples on the way.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Plan {
     /// Keep only voxels `x0..x1, y0..y1, z0..z1` (input coordinates).
     pub crop: Option<[Range<u64>; 3]>,
@@ -93,22 +93,12 @@ pub struct Plan {
     pub temp_dir: Option<PathBuf>,
 }
 
-impl Default for Plan {
-    fn default() -> Plan {
-        Plan {
-            crop: None,
-            flip: [false; 3],
-            sample_type: None,
-            window: None,
-            spacing: None,
-            temp_dir: None,
-        }
-    }
-}
+/// A parsed `--crop`: per axis, optional bounds (`None`: the whole axis).
+pub type CropSpec = [Option<(Option<u64>, Option<u64>)>; 3];
 
 /// Parse `x0:x1,y0:y1,z0:z1` (half-open voxel ranges; an empty bound is
 /// the volume's edge, `:` alone is the whole axis).
-pub fn parse_crop(s: &str) -> std::result::Result<[Option<(Option<u64>, Option<u64>)>; 3], String> {
+pub fn parse_crop(s: &str) -> std::result::Result<CropSpec, String> {
     let parts: Vec<&str> = s.split(',').collect();
     if parts.len() != 3 {
         return Err(format!("'{s}' is not x0:x1,y0:y1,z0:z1"));
@@ -138,10 +128,7 @@ pub fn parse_crop(s: &str) -> std::result::Result<[Option<(Option<u64>, Option<u
 }
 
 /// Resolve a parsed crop against the input dimensions.
-pub fn resolve_crop(
-    crop: &[Option<(Option<u64>, Option<u64>)>; 3],
-    dims: Dims,
-) -> std::result::Result<[Range<u64>; 3], String> {
+pub fn resolve_crop(crop: &CropSpec, dims: Dims) -> std::result::Result<[Range<u64>; 3], String> {
     let d = dims.as_array();
     let mut r: [Range<u64>; 3] = [0..d[0], 0..d[1], 0..d[2]];
     for a in 0..3 {
@@ -218,7 +205,9 @@ impl<T: SliceSample> Loader<'_, T> {
         if s.len() as u64 != d.slice_len() || s.sample_type() != self.reader.info().sample_type {
             return Err(ConvertError::new(
                 &self.reader.info().path,
-                Error::invalid(format!("slice {zi} has the wrong size or type (internal error)")),
+                Error::invalid(format!(
+                    "slice {zi} has the wrong size or type (internal error)"
+                )),
             ));
         }
         let od = self.out_dims();
@@ -365,10 +354,7 @@ pub fn convert(
     let info = reader.info().clone();
     let in_path = info.path.clone();
     let d = info.dims;
-    let crop = plan
-        .crop
-        .clone()
-        .unwrap_or([0..d.x, 0..d.y, 0..d.z]);
+    let crop = plan.crop.clone().unwrap_or([0..d.x, 0..d.y, 0..d.z]);
     let out_type = plan.sample_type.unwrap_or(info.sample_type);
     let needs_stats = match plan.window {
         Some(Window::Auto(_)) => true,
@@ -379,10 +365,7 @@ pub fn convert(
     if plan.window.is_none() {
         ValueMap::plan(info.sample_type, out_type, None, None).at(target.path())?;
     }
-    let temp_dir = plan
-        .temp_dir
-        .clone()
-        .unwrap_or_else(|| target.temp_dir());
+    let temp_dir = plan.temp_dir.clone().unwrap_or_else(|| target.temp_dir());
     let z_sel = crop[2].clone();
     let mut hist = needs_stats.then(|| Histogram::new(info.sample_type));
     let mut reader = reader;
@@ -414,8 +397,8 @@ pub fn convert(
             .try_reduce(|| Histogram::new(t), |a, b| Ok(a.merge(b)))?;
         hist = Some(h.merge(merged));
     }
-    let map = ValueMap::plan(info.sample_type, out_type, plan.window, hist.as_ref())
-        .at(&in_path)?;
+    let map =
+        ValueMap::plan(info.sample_type, out_type, plan.window, hist.as_ref()).at(&in_path)?;
     let spacing = plan.spacing.or(info.spacing).unwrap_or([1.0; 3]);
     let args = RunArgs {
         reader: reader.as_ref(),

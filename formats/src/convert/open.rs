@@ -1,8 +1,8 @@
 //! Opening whatever the user named as input.
 
 use super::input::{
-    self, open_data, Counted, RawFileReader, SliceReader, StreamEnd, StreamReader, ThesisReader,
-    VolumeReader,
+    self, open_data, Counted, RawFileReader, SampleLayout, SliceReader, StreamEnd, StreamReader,
+    ThesisReader, VolumeReader,
 };
 use super::{At, CResult, ConvertError};
 use crate::error::Error;
@@ -200,7 +200,10 @@ fn open_stdin(path: &Path, opts: &InputOptions) -> CResult<Box<dyn SliceReader>>
     let mut r = std::io::BufReader::with_capacity(1 << 20, std::io::stdin());
     let head = r.fill_buf().at(path)?.to_vec();
     if head.is_empty() {
-        return Err(ConvertError::new(path, Error::invalid("standard input is empty")));
+        return Err(ConvertError::new(
+            path,
+            Error::invalid("standard input is empty"),
+        ));
     }
     if opts.raw.is_none() && head.starts_with(&crate::vvol::MAGIC) {
         return Ok(Box::new(input::vvol_stream(path, Box::new(r))?));
@@ -231,9 +234,11 @@ fn open_stdin(path: &Path, opts: &InputOptions) -> CResult<Box<dyn SliceReader>>
                 path,
                 data,
                 counter,
-                h.dims,
-                h.sample_type,
-                h.big_endian,
+                SampleLayout {
+                    dims: h.dims,
+                    sample_type: h.sample_type,
+                    big_endian: h.big_endian,
+                },
                 end,
                 "nrrd stream",
             )
@@ -249,7 +254,10 @@ fn open_stdin(path: &Path, opts: &InputOptions) -> CResult<Box<dyn SliceReader>>
         )
     })?;
     let dims = raw.dims.ok_or_else(|| {
-        ConvertError::new(path, Error::invalid("raw input on standard input needs --raw-dims"))
+        ConvertError::new(
+            path,
+            Error::invalid("raw input on standard input needs --raw-dims"),
+        )
     })?;
     let mut c = Counted::new(r);
     let counter = c.counter();
@@ -258,9 +266,11 @@ fn open_stdin(path: &Path, opts: &InputOptions) -> CResult<Box<dyn SliceReader>>
         path,
         Box::new(c),
         counter,
-        dims,
-        raw.sample_type.unwrap_or(SampleType::U8),
-        raw.big_endian,
+        SampleLayout {
+            dims,
+            sample_type: raw.sample_type.unwrap_or(SampleType::U8),
+            big_endian: raw.big_endian,
+        },
         StreamEnd::Exact,
         "raw stream",
     )))

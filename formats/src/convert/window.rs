@@ -393,8 +393,14 @@ mod tests {
     #[test]
     fn narrowing_needs_a_window() {
         use SampleType::*;
-        assert_eq!(ValueMap::plan(U8, U16, None, None).unwrap(), ValueMap::Exact);
-        assert_eq!(ValueMap::plan(I16, F32, None, None).unwrap(), ValueMap::Exact);
+        assert_eq!(
+            ValueMap::plan(U8, U16, None, None).unwrap(),
+            ValueMap::Exact
+        );
+        assert_eq!(
+            ValueMap::plan(I16, F32, None, None).unwrap(),
+            ValueMap::Exact
+        );
         let e = ValueMap::plan(U16, U8, None, None).unwrap_err().to_string();
         assert!(e.contains("--window"), "{e}");
         assert!(ValueMap::plan(F32, I16, None, None).is_err());

@@ -68,6 +68,15 @@ impl Target {
         }
     }
 
+    /// Check what can be checked before any work: a directory target
+    /// must not exist or be empty.
+    pub fn preflight(&self) -> CResult<()> {
+        if let Target::TiffDir { path } = self {
+            check_dir_target(path)?;
+        }
+        Ok(())
+    }
+
     /// Where temporary files go by default: beside the output.
     pub fn temp_dir(&self) -> PathBuf {
         match self {
@@ -128,7 +137,9 @@ pub(crate) fn run_target<T: SliceSample>(
             let mut file = AtomicFile::create(&path).at(&path)?;
             let stats = {
                 let mut sink = VvolSink {
-                    w: Some(VvolWriter::new(Sink::File(file.file()), meta, spec.progress).at(&path)?),
+                    w: Some(
+                        VvolWriter::new(Sink::File(file.file()), meta, spec.progress).at(&path)?,
+                    ),
                     path: &path,
                 };
                 drive(&mut sink)?;
@@ -201,8 +212,9 @@ pub(crate) fn run_target<T: SliceSample>(
             let map = unsafe { Mmap::map(tmp.as_file()) }.at(spec.temp_dir)?;
             let src = MappedU8 { dims, map };
             let mut file = AtomicFile::create(&path).at(&path)?;
-            let bytes = crate::thesis::write(&src, spec.spacing, layout, file.file(), spec.progress)
-                .at(&path)?;
+            let bytes =
+                crate::thesis::write(&src, spec.spacing, layout, file.file(), spec.progress)
+                    .at(&path)?;
             file.commit().at(&path)?;
             Ok((bytes, None))
         }
@@ -281,7 +293,10 @@ impl VvolSink<'_, '_> {
     fn finish(&mut self) -> CResult<crate::vvol::WriteStats> {
         match self.w.take() {
             Some(w) => w.finish().at(self.path),
-            None => Err(ConvertError::new(self.path, Error::invalid("finished twice"))),
+            None => Err(ConvertError::new(
+                self.path,
+                Error::invalid("finished twice"),
+            )),
         }
     }
 }
@@ -323,8 +338,10 @@ impl<T: SliceSample> SlabSink<T> for RawSink<'_> {
         let y = self.dims.y;
         let base = self.done;
         let progress = self.progress;
-        let w = write_rows(win, zs.start * y..zs.end * y, self.out, &|n| progress(base + n))
-            .at(self.path)?;
+        let w = write_rows(win, zs.start * y..zs.end * y, self.out, &|n| {
+            progress(base + n)
+        })
+        .at(self.path)?;
         self.done += w.bytes;
         self.range = self.range.merge(w.range);
         self.next_z = zs.end;
@@ -380,7 +397,9 @@ fn tiff_multi<W: Write + std::io::Seek, K: ::tiff::encoder::TiffKind, T: SliceSa
     };
     drive(&mut sink)?;
     drop(sink.enc);
-    Ok(std::fs::metadata(path).map(|m| m.len()).unwrap_or(sink.bytes))
+    Ok(std::fs::metadata(path)
+        .map(|m| m.len())
+        .unwrap_or(sink.bytes))
 }
 
 fn axis_u32(dims: Dims) -> Result<(u32, u32), Error> {
@@ -415,6 +434,23 @@ impl<W: Write + std::io::Seek, K: ::tiff::encoder::TiffKind, T: SliceSample> Sla
     }
 }
 
+fn check_dir_target(target: &Path) -> CResult<()> {
+    if let Ok(mut entries) = std::fs::read_dir(target) {
+        if entries.next().is_some() {
+            return Err(ConvertError::new(
+                target,
+                Error::invalid("output directory exists and is not empty"),
+            ));
+        }
+    } else if target.exists() {
+        return Err(ConvertError::new(
+            target,
+            Error::invalid("exists and is not a directory"),
+        ));
+    }
+    Ok(())
+}
+
 /// A directory written under a temporary name beside the target and
 /// renamed into place when complete (removed if dropped before).
 struct PartialDir {
@@ -425,19 +461,7 @@ struct PartialDir {
 impl PartialDir {
     fn create(target: &Path) -> CResult<PartialDir> {
         let target = target.components().as_path().to_path_buf();
-        if let Ok(mut entries) = std::fs::read_dir(&target) {
-            if entries.next().is_some() {
-                return Err(ConvertError::new(
-                    &target,
-                    Error::invalid("output directory exists and is not empty"),
-                ));
-            }
-        } else if target.exists() {
-            return Err(ConvertError::new(
-                &target,
-                Error::invalid("exists and is not a directory"),
-            ));
-        }
+        check_dir_target(&target)?;
         let parent = match target.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
@@ -508,7 +532,7 @@ impl<T: SliceSample> SlabSink<T> for TiffDirSink<'_> {
                         .at(self.path)?;
                 }
                 bw.flush().at(self.path)?;
-                Ok(std::mem::size_of_val(s) as u64)
+                Ok(std::fs::metadata(&p).at(self.path)?.len())
             })
             .collect::<CResult<_>>()?;
         self.bytes += sizes.iter().sum::<u64>();

@@ -92,7 +92,9 @@ fn limits() -> Limits {
 fn page_info<R: AsRef<[u8]>>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
     let (width, height) = d.dimensions().map_err(tiff_err)?;
     let tag = |d: &mut Dec<R>, t: Tag, default: u16| -> Result<u16, Error> {
-        Ok(d.find_tag_unsigned::<u16>(t).map_err(tiff_err)?.unwrap_or(default))
+        Ok(d.find_tag_unsigned::<u16>(t)
+            .map_err(tiff_err)?
+            .unwrap_or(default))
     };
     let channels = tag(d, Tag::SamplesPerPixel, 1)?;
     let bits = match d.find_tag(Tag::BitsPerSample).map_err(tiff_err)? {
@@ -196,7 +198,12 @@ fn decode<R: AsRef<[u8]>>(
     d.read_image_to_buffer(&mut buf).map_err(tiff_err)?;
     let n = expect.width as usize * expect.height as usize;
     let c = expect.channels as usize;
-    let pick = ChannelPick { n, c, planar, sel: chan };
+    let pick = ChannelPick {
+        n,
+        c,
+        planar,
+        sel: chan,
+    };
     let mut s = match buf {
         DecodingResult::U8(v) => SliceData::U8(pick.apply(&v)?),
         DecodingResult::I8(v) => {
@@ -330,11 +337,7 @@ fn open_decoder<R: AsRef<[u8]>>(r: R) -> Result<Dec<R>, Error> {
 
 /// Open a stack of files (one file may be a multipage TIFF; several files
 /// each give their first full-resolution page).
-pub fn open_files(
-    input: &Path,
-    files: Vec<PathBuf>,
-    chan: ChannelSel,
-) -> CResult<TiffStackReader> {
+pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResult<TiffStackReader> {
     let first = files
         .first()
         .ok_or_else(|| ConvertError::new(input, Error::invalid("no slices")))?
@@ -404,7 +407,12 @@ pub fn open_files(
             .map(|f| std::fs::metadata(f).map(|m| m.len()).unwrap_or(0))
             .sum();
         let z = files.len() as u64;
-        (z, Pages::Files(files), format!("tiff stack ({z} files)"), total)
+        (
+            z,
+            Pages::Files(files),
+            format!("tiff stack ({z} files)"),
+            total,
+        )
     };
     let dims = Dims::new(page.width as u64, page.height as u64, z).at(&first)?;
     Ok(TiffStackReader {

@@ -28,9 +28,7 @@ pub fn natural_cmp(a: &str, b: &str) -> Ordering {
                 return o;
             }
         } else {
-            let o = ab[i]
-                .to_ascii_lowercase()
-                .cmp(&bb[j].to_ascii_lowercase());
+            let o = ab[i].to_ascii_lowercase().cmp(&bb[j].to_ascii_lowercase());
             if o != Ordering::Equal {
                 return o;
             }
@@ -53,8 +51,14 @@ fn is_tiff_name(name: &str) -> bool {
 
 fn sort_natural(files: &mut [PathBuf]) {
     files.sort_by(|a, b| {
-        let na = a.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
-        let nb = b.file_name().map(|n| n.to_string_lossy()).unwrap_or_default();
+        let na = a
+            .file_name()
+            .map(|n| n.to_string_lossy())
+            .unwrap_or_default();
+        let nb = b
+            .file_name()
+            .map(|n| n.to_string_lossy())
+            .unwrap_or_default();
         natural_cmp(&na, &nb)
     });
 }
@@ -207,7 +211,10 @@ pub fn list_file(list: &Path) -> CResult<Vec<PathBuf>> {
         .map(|l| base.join(l))
         .collect();
     if files.is_empty() {
-        return Err(ConvertError::new(list, Error::invalid("list file names no files")));
+        return Err(ConvertError::new(
+            list,
+            Error::invalid("list file names no files"),
+        ));
     }
     Ok(files)
 }
