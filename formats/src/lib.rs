@@ -16,6 +16,7 @@
 pub mod convert;
 pub mod detect;
 pub mod error;
+pub mod fingerprint;
 pub mod mhd;
 pub mod nrrd;
 pub mod output;
@@ -27,6 +28,7 @@ pub mod vvol;
 
 pub use detect::{open_volume, FileKind};
 pub use error::{Error, Result};
+pub use fingerprint::fingerprint;
 
 #[cfg(test)]
 mod tests;
