@@ -1,0 +1,457 @@
+//! vol-index: build the empty-space-skipping (majorant) index of a volume
+//! and save it as a `.vidx` sidecar file, or check an existing one.
+
+use anyhow::{anyhow, bail, Result};
+use clap::Parser;
+use serde_json::{json, Value};
+use std::ffi::OsString;
+use std::io::{BufReader, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+use volcore::{Dims, SampleType};
+use volformats::output::AtomicFile;
+use volformats::{raw, thesis, vvol, FileKind};
+use volindex::build::DEFAULT_CELL_EDGE;
+use volindex::histogram::DEFAULT_BINS;
+use volindex::{BuildOptions, Histogram, IndexError, MajorantIndex};
+use volkit_cli::args;
+
+/// Build the min/max macrocell index of a volume (.vvol, .vol or .raw) and
+/// write it next to the volume as a .vidx file, with the volume's value
+/// range and histogram. The index does not depend on the transfer function,
+/// the layout or the thread count, and records a fingerprint of its volume
+/// so that a stale index is rejected. With --check, verify an existing
+/// index against its volume instead (exit status 0 if it matches).
+#[derive(Parser, Debug)]
+#[command(name = "vol-index", version, after_help = EXAMPLES)]
+struct Cli {
+    /// The volume file (.vvol, .vol or .raw).
+    volume: PathBuf,
+    /// Output index file (default: the volume's path with .vidx appended).
+    #[arg(short, long, value_name = "FILE.vidx", conflicts_with = "check")]
+    output: Option<PathBuf>,
+    /// Check this existing index against VOLUME instead of building one:
+    /// its fingerprint, dimensions, type and checksum.
+    #[arg(long, value_name = "FILE.vidx")]
+    check: Option<PathBuf>,
+    /// Macrocell edge in voxels (2..=1024).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_CELL_EDGE, conflicts_with = "check")]
+    cell: u32,
+    /// Histogram bins (1..=65536): at most N bins, one per value when the
+    /// sample type has no more than N values (u8 with the default).
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_BINS, conflicts_with = "check")]
+    bins: u32,
+    /// Print the value range, histogram summary, cells per level and the
+    /// empty fraction (on stdout).
+    #[arg(long)]
+    stats: bool,
+    /// Print one JSON object with the figures instead of text.
+    #[arg(long)]
+    json: bool,
+    /// Print nothing on success unless --stats or --json asks for it.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Raw input: dimensions X,Y,Z (otherwise taken from NAME_XxYxZ_TYPE.raw).
+    #[arg(long, value_parser = args::dims3)]
+    raw_dims: Option<[u64; 3]>,
+    /// Raw input: sample type (u8, u16, i16, f32).
+    #[arg(long, default_value = "u8", value_parser = parse_type)]
+    raw_type: SampleType,
+    /// Raw input: samples are big-endian.
+    #[arg(long)]
+    raw_big_endian: bool,
+    /// Raw input: bytes to skip before the samples.
+    #[arg(long, default_value_t = 0)]
+    raw_skip: u64,
+}
+
+const EXAMPLES: &str = "Examples:
+  vol-index shapes.vvol                      # writes shapes.vvol.vidx
+  vol-index shapes.vvol --stats              # ... and prints range, histogram, cells
+  vol-index noise.vvol --cell 16 -o noise-16.vidx --json
+  vol-index --check shapes.vvol.vidx shapes.vvol && echo fresh
+  vol-index --raw-dims 256,256,256 --raw-type u16 scan.raw
+
+The fingerprint of a .vvol covers its header and its checksummed trailer, so
+any change to the samples makes the index stale. .vol and .raw files carry no
+checksums: their fingerprint covers the length, the modification time and
+sampled blocks of data, which is weaker (copy them with their timestamps).";
+
+/// Requested quantiles of the histogram, with their JSON names.
+const PERCENTILES: [(&str, f64); 7] = [
+    ("p1", 0.01),
+    ("p5", 0.05),
+    ("p25", 0.25),
+    ("p50", 0.50),
+    ("p75", 0.75),
+    ("p95", 0.95),
+    ("p99", 0.99),
+];
+
+/// How many of the fullest bins the summary lists.
+const BUSIEST: usize = 5;
+
+fn parse_type(s: &str) -> Result<SampleType, String> {
+    s.parse()
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    volkit_cli::run("vol-index", || match &cli.check {
+        Some(index) => check(&cli, index),
+        None => build(&cli),
+    })
+}
+
+/// `name: error` from the error's own message. The formats and index
+/// errors print their cause and also return it as their source, so the
+/// usual context chain would repeat it on the one error line.
+fn at<E: std::fmt::Display>(name: &str) -> impl FnOnce(E) -> anyhow::Error + '_ {
+    move |e| anyhow!("{name}: {e}")
+}
+
+/// `path` as the user wrote it, for messages.
+fn name(path: &Path) -> String {
+    path.display().to_string()
+}
+
+/// The volume's path with `.vidx` appended (`a.vvol` → `a.vvol.vidx`).
+fn default_output(volume: &Path) -> PathBuf {
+    let mut s = OsString::from(volume.as_os_str());
+    s.push(".");
+    s.push(volindex::vidx::EXTENSION);
+    PathBuf::from(s)
+}
+
+/// The raw-file interpretation given on the command line, if any.
+fn raw_spec(cli: &Cli) -> Result<Option<raw::RawSpec>> {
+    match cli.raw_dims {
+        Some([x, y, z]) => Ok(Some(raw::RawSpec {
+            dims: Dims::new(x, y, z).map_err(at("--raw-dims"))?,
+            sample_type: cli.raw_type,
+            big_endian: cli.raw_big_endian,
+            skip: cli.raw_skip,
+        })),
+        None => Ok(None),
+    }
+}
+
+/// Streams have no fingerprint, and the index must name its file.
+fn refuse_stream(volume: &Path) -> Result<()> {
+    if volume.as_os_str() == "-" {
+        bail!("-: vol-index needs a volume file, not a stream (the index is tied to the file)");
+    }
+    Ok(())
+}
+
+/// Figures of a build, for the report.
+struct Timing {
+    load_s: f64,
+    build_s: f64,
+    write_s: f64,
+    seconds: f64,
+    bytes: u64,
+}
+
+fn build(cli: &Cli) -> Result<()> {
+    let start = Instant::now();
+    let opts = BuildOptions {
+        cell_edge: cli.cell,
+        histogram_bins: cli.bins,
+    };
+    opts.validate().map_err(|e| anyhow!("{e}"))?;
+    refuse_stream(&cli.volume)?;
+    let vname = name(&cli.volume);
+    let output = cli
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&cli.volume));
+    let oname = name(&output);
+    if output.as_os_str() == "-" {
+        bail!("-: the index is written to a file, not to stdout: use -o FILE.vidx");
+    }
+    if FileKind::of(&output).is_some() {
+        bail!("{oname}: refusing to write an index under a volume file name: use a .vidx name");
+    }
+    let spec = raw_spec(cli)?;
+
+    // Fingerprint first: if the file is replaced before it is opened, the
+    // index holds the new samples under the old fingerprint and is rejected
+    // as stale, never accepted for the wrong samples.
+    let fp = volformats::fingerprint(&cli.volume).map_err(at(&vname))?;
+    let vol = volformats::open_volume(&cli.volume, vvol::OpenOptions::default(), spec)
+        .map_err(at(&vname))?;
+    let load_s = start.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    let ix = MajorantIndex::build_volume(&vol, &opts, fp).map_err(at(&vname))?;
+    if let Some(e) = vol.error() {
+        bail!("{vname}: {e}");
+    }
+    let build_s = t.elapsed().as_secs_f64();
+    // Changed in place while we read it (same name, new contents)?
+    let after = volformats::fingerprint(&cli.volume).map_err(at(&vname))?;
+    if after != fp {
+        bail!("{vname}: the volume changed while it was being indexed: run vol-index again");
+    }
+    drop(vol);
+
+    let t = Instant::now();
+    let bytes = write_index(&ix, &output).map_err(at(&oname))?;
+    let write_s = t.elapsed().as_secs_f64();
+    let timing = Timing {
+        load_s,
+        build_s,
+        write_s,
+        seconds: start.elapsed().as_secs_f64(),
+        bytes,
+    };
+
+    if cli.json {
+        let mut v = summary(&ix, &cli.volume, &output);
+        v["mode"] = json!("build");
+        v["bytes"] = json!(timing.bytes);
+        v["load_s"] = json!(timing.load_s);
+        v["build_s"] = json!(timing.build_s);
+        v["write_s"] = json!(timing.write_s);
+        v["seconds"] = json!(timing.seconds);
+        v["threads"] = json!(rayon::current_num_threads());
+        println!("{v}");
+        return Ok(());
+    }
+    if cli.stats {
+        print_stats(&ix, &cli.volume);
+    }
+    if !cli.quiet {
+        let s = ix.stats();
+        eprintln!(
+            "vol-index: wrote {oname} ({} bytes, {} cells of {}³, {} levels) in {:.3} s \
+             (open {:.3} s, build {:.3} s, write {:.3} s)",
+            timing.bytes,
+            s.cells,
+            ix.cell_edge(),
+            s.levels,
+            timing.seconds,
+            timing.load_s,
+            timing.build_s,
+            timing.write_s,
+        );
+    }
+    Ok(())
+}
+
+/// Write `ix` to `path` through a temporary file; the bytes written.
+fn write_index(ix: &MajorantIndex, path: &Path) -> Result<u64, IndexError> {
+    let mut file = AtomicFile::create(path)?;
+    let mut w = BufWriter::with_capacity(1 << 20, file.file());
+    ix.write_to(&mut w)?;
+    w.flush()?;
+    drop(w);
+    let bytes = file.file().metadata()?.len();
+    file.commit()?;
+    Ok(bytes)
+}
+
+/// Dimensions and sample type of a volume, without reading its samples.
+fn volume_shape(path: &Path, spec: Option<raw::RawSpec>) -> volformats::Result<(Dims, SampleType)> {
+    if FileKind::of(path) == Some(FileKind::ThesisVol) {
+        // open_volume would load the whole (z-fastest) file into memory.
+        return Ok((thesis::open(path)?.header().dims, SampleType::U8));
+    }
+    let vol = volformats::open_volume(path, vvol::OpenOptions::default(), spec)?;
+    Ok((vol.meta.dims, vol.meta.sample_type))
+}
+
+fn check(cli: &Cli, index: &Path) -> Result<()> {
+    let start = Instant::now();
+    refuse_stream(&cli.volume)?;
+    let vname = name(&cli.volume);
+    let iname = name(index);
+    let spec = raw_spec(cli)?;
+    let fp = volformats::fingerprint(&cli.volume).map_err(at(&vname))?;
+    let (dims, sample_type) = volume_shape(&cli.volume, spec).map_err(at(&vname))?;
+    let file = std::fs::File::open(index).map_err(at(&iname))?;
+    let ix = MajorantIndex::read_from(&mut BufReader::with_capacity(1 << 20, file), Some(fp))
+        .and_then(|ix| ix.check_volume(dims, sample_type).map(|()| ix))
+        .map_err(|e| match e {
+            IndexError::Fingerprint { .. } => {
+                anyhow!("{iname}: {e} (stale or foreign index: rebuild it with vol-index {vname})")
+            }
+            other => at(&iname)(other),
+        })?;
+    let seconds = start.elapsed().as_secs_f64();
+    if cli.json {
+        let mut v = summary(&ix, &cli.volume, index);
+        v["mode"] = json!("check");
+        v["ok"] = json!(true);
+        v["bytes"] = json!(std::fs::metadata(index).map(|m| m.len()).ok());
+        v["seconds"] = json!(seconds);
+        println!("{v}");
+        return Ok(());
+    }
+    if cli.stats {
+        print_stats(&ix, &cli.volume);
+    }
+    if !cli.quiet {
+        println!(
+            "{iname}: ok, the index of {vname} ({} {}, cell {}, {} levels)",
+            dims,
+            sample_type,
+            ix.cell_edge(),
+            ix.level_count()
+        );
+    }
+    Ok(())
+}
+
+/// A value for JSON: `null` when the range is empty (only NaNs).
+fn range_json(ix: &MajorantIndex) -> (Value, Value) {
+    let (lo, hi) = ix.value_range();
+    if lo <= hi {
+        (json!(f64::from(lo)), json!(f64::from(hi)))
+    } else {
+        (Value::Null, Value::Null)
+    }
+}
+
+/// The lower edge of the bin holding quantile `q` of the binned samples
+/// (exact for integer bins of width 1, such as every u8 histogram); `None`
+/// when no sample is binned.
+fn percentile(h: &Histogram, q: f64) -> Option<f64> {
+    let total = h.total();
+    if total == 0 {
+        return None;
+    }
+    let want = ((q * total as f64).ceil() as u64).clamp(1, total);
+    let mut seen = 0u64;
+    for (i, &c) in h.counts().iter().enumerate() {
+        seen += c;
+        if seen >= want {
+            return Some(h.bin_edges(i).0);
+        }
+    }
+    None
+}
+
+/// The `n` fullest non-empty bins, fullest first (ties: lower bin first).
+fn busiest(h: &Histogram, n: usize) -> Vec<usize> {
+    let mut bins: Vec<usize> = (0..h.bins()).filter(|&i| h.counts()[i] > 0).collect();
+    bins.sort_by(|&a, &b| h.counts()[b].cmp(&h.counts()[a]).then(a.cmp(&b)));
+    bins.truncate(n);
+    bins
+}
+
+/// True when every bin holds a single integer value.
+fn unit_bins(h: &Histogram) -> bool {
+    let w = (h.hi() - h.lo()) / h.bins() as f64;
+    w == 1.0 && h.lo().fract() == 0.0
+}
+
+/// A bin as text: its value for unit bins, else its interval.
+fn bin_label(h: &Histogram, i: usize) -> String {
+    let (a, b) = h.bin_edges(i);
+    if unit_bins(h) {
+        format!("{a}")
+    } else {
+        format!("[{}, {})", a as f32, b as f32)
+    }
+}
+
+/// The figures both modes report, as a JSON object.
+fn summary(ix: &MajorantIndex, volume: &Path, index: &Path) -> Value {
+    let s = ix.stats();
+    let h = ix.histogram();
+    let (min, max) = range_json(ix);
+    let total = h.total().max(1) as f64;
+    let busiest: Vec<Value> = busiest(h, BUSIEST)
+        .into_iter()
+        .map(|i| {
+            let (a, b) = h.bin_edges(i);
+            json!({"lo": a, "hi": b, "count": h.counts()[i], "fraction": h.counts()[i] as f64 / total})
+        })
+        .collect();
+    let mut pct = serde_json::Map::new();
+    for (k, q) in PERCENTILES {
+        pct.insert(k.to_string(), json!(percentile(h, q)));
+    }
+    json!({
+        "tool": "vol-index",
+        "path": name(volume),
+        "index": name(index),
+        "dims": ix.dims().as_array(),
+        "type": ix.sample_type().name(),
+        "fingerprint": format!("{:016x}", ix.fingerprint()),
+        "cell": ix.cell_edge(),
+        "cells": s.cells,
+        "levels": s.levels,
+        "level_cells": ix.levels().iter().map(|l| l.cells()).collect::<Vec<_>>(),
+        "empty_fraction": s.empty_fraction,
+        "min": min,
+        "max": max,
+        "nan_count": s.nan_count,
+        "histogram": {
+            "lo": h.lo(),
+            "hi": h.hi(),
+            "bins": h.bins(),
+            "bin_width": (h.hi() - h.lo()) / h.bins() as f64,
+            "busiest": busiest,
+        },
+        "percentiles": Value::Object(pct),
+    })
+}
+
+/// The --stats text.
+fn print_stats(ix: &MajorantIndex, volume: &Path) {
+    let s = ix.stats();
+    let h = ix.histogram();
+    println!(
+        "{}: {} {}, cell {}",
+        name(volume),
+        ix.dims(),
+        ix.sample_type(),
+        ix.cell_edge()
+    );
+    let (lo, hi) = s.value_range;
+    if lo <= hi {
+        println!("  values {lo} .. {hi}, {} NaN", s.nan_count);
+    } else {
+        println!("  values: none ({} NaN)", s.nan_count);
+    }
+    let total = h.total();
+    if total > 0 {
+        let exact = if unit_bins(h) { "" } else { " (bin starts)" };
+        let p: Vec<String> = PERCENTILES
+            .iter()
+            .filter_map(|&(k, q)| percentile(h, q).map(|v| format!("{k} {}", v as f32)))
+            .collect();
+        println!("  percentiles{exact}: {}", p.join(", "));
+        let b: Vec<String> = busiest(h, BUSIEST)
+            .into_iter()
+            .map(|i| {
+                let pc = 100.0 * h.counts()[i] as f64 / total as f64;
+                format!("{} {pc:.1}%", bin_label(h, i))
+            })
+            .collect();
+        println!(
+            "  histogram: {} bins over [{}, {}); busiest: {}",
+            h.bins(),
+            h.lo() as f32,
+            h.hi() as f32,
+            b.join(", ")
+        );
+    }
+    for (l, lv) in ix.levels().iter().enumerate() {
+        let [x, y, z] = lv.cells();
+        println!(
+            "  level {l}: {x}x{y}x{z} = {} cells of {}³ voxels",
+            lv.len(),
+            lv.edge()
+        );
+    }
+    println!(
+        "  empty at threshold 0: {:.1}% of {} level-0 cells",
+        100.0 * s.empty_fraction,
+        s.cells
+    );
+}
