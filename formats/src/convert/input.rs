@@ -1,7 +1,7 @@
 //! Inputs of a conversion, read slice by slice.
 //!
 //! A [`SliceReader`] hands out whole z slices. Random-access readers (files
-//! of slices, memory-mapped raw data, open volumes) may be asked for any
+//! of slices, raw data read at offsets, open volumes) may be asked for any
 //! slice from any thread, so slices decode in parallel; sequential readers
 //! (pipes, gzip streams) must be asked in increasing z order and skip what
 //! is not asked for.
@@ -9,7 +9,6 @@
 use super::slice::{SliceData, SliceSample};
 use super::{At, CResult, ConvertError};
 use crate::error::Error;
-use memmap2::Mmap;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -61,13 +60,47 @@ pub trait SliceReader: Send + Sync {
 
 // ------------------------------------------------------------- raw file --
 
-/// Headerless samples in a file at a byte offset, memory-mapped.
+/// Headerless samples in a file at a byte offset, read slice by slice
+/// with positioned reads (not mapped, so resident memory stays at the
+/// slices in flight however large the file).
 pub struct RawFileReader {
     info: InputInfo,
     path: PathBuf,
-    map: Mmap,
+    file: std::fs::File,
+    len: u64,
     offset: u64,
     big_endian: bool,
+}
+
+/// Read `count` samples of type `t` at byte `start` of `file`, converting
+/// from the given byte order.
+fn read_typed(
+    file: &std::fs::File,
+    t: SampleType,
+    start: u64,
+    count: usize,
+    big_endian: bool,
+) -> std::io::Result<SliceData> {
+    use std::os::unix::fs::FileExt;
+    fn typed<T: SliceSample>(
+        file: &std::fs::File,
+        start: u64,
+        count: usize,
+    ) -> std::io::Result<Vec<T>> {
+        let mut v = vec![T::default(); count];
+        file.read_exact_at(bytemuck::cast_slice_mut(&mut v), start)?;
+        Ok(v)
+    }
+    let mut s = match t {
+        SampleType::U8 => SliceData::U8(typed(file, start, count)?),
+        SampleType::U16 => SliceData::U16(typed(file, start, count)?),
+        SampleType::I16 => SliceData::I16(typed(file, start, count)?),
+        SampleType::F32 => SliceData::F32(typed(file, start, count)?),
+    };
+    if big_endian != cfg!(target_endian = "big") {
+        s.swap_bytes();
+    }
+    Ok(s)
 }
 
 impl RawFileReader {
@@ -99,8 +132,6 @@ impl RawFileReader {
                 )),
             ));
         }
-        // SAFETY: read-only map; the file must not be truncated meanwhile.
-        let map = unsafe { Mmap::map(&f) }.at(path)?;
         Ok(RawFileReader {
             info: InputInfo {
                 path: path.to_path_buf(),
@@ -110,7 +141,8 @@ impl RawFileReader {
                 format: format.to_string(),
             },
             path: path.to_path_buf(),
-            map,
+            file: f,
+            len,
             offset,
             big_endian,
         })
@@ -132,22 +164,25 @@ impl SliceReader for RawFileReader {
     }
     fn read_slice(&self, z: u64) -> CResult<SliceData> {
         let d = self.info.dims;
-        let n = (d.slice_len() * self.info.sample_type.size() as u64) as usize;
-        let start = self.offset as usize + z as usize * n;
-        let bytes = self.map.get(start..start + n).ok_or_else(|| {
-            ConvertError::new(
-                &self.path,
-                Error::invalid("file is shorter than its header says"),
-            )
-        })?;
-        Ok(SliceData::from_bytes(
-            self.info.sample_type,
-            bytes,
+        let t = self.info.sample_type;
+        let start = self.offset + z * d.slice_len() * t.size() as u64;
+        read_typed(
+            &self.file,
+            t,
+            start,
+            d.slice_len() as usize,
             self.big_endian,
-        ))
+        )
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => ConvertError::new(
+                &self.path,
+                Error::invalid("file is truncated (shorter than when it was opened)"),
+            ),
+            _ => ConvertError::new(&self.path, e),
+        })
     }
     fn bytes_in(&self) -> u64 {
-        self.map.len() as u64
+        self.len
     }
 }
 
@@ -536,8 +571,7 @@ impl SliceReader for ThesisReader {
 pub struct Spooled {
     info: InputInfo,
     inner_bytes: u64,
-    map: Mmap,
-    _file: tempfile::NamedTempFile,
+    file: tempfile::NamedTempFile,
 }
 
 impl Spooled {
@@ -563,13 +597,10 @@ impl Spooled {
             w.flush().at(dir)?;
         }
         inner.finish()?;
-        // SAFETY: the temporary file is ours and is not truncated meanwhile.
-        let map = unsafe { Mmap::map(file.as_file()) }.at(dir)?;
         Ok(Spooled {
             inner_bytes: inner.bytes_in(),
             info,
-            map,
-            _file: file,
+            file,
         })
     }
 }
@@ -582,12 +613,16 @@ impl SliceReader for Spooled {
         Access::Random
     }
     fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        let n = (self.info.dims.slice_len() * self.info.sample_type.size() as u64) as usize;
-        let start = z as usize * n;
-        Ok(SliceData::from_native_bytes(
-            self.info.sample_type,
-            &self.map[start..start + n],
-        ))
+        let t = self.info.sample_type;
+        let n = self.info.dims.slice_len();
+        read_typed(
+            self.file.as_file(),
+            t,
+            z * n * t.size() as u64,
+            n as usize,
+            cfg!(target_endian = "big"),
+        )
+        .at(self.file.path())
     }
     fn bytes_in(&self) -> u64 {
         self.inner_bytes

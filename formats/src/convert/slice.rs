@@ -64,18 +64,22 @@ impl SliceData {
     /// A slice of type `t` from bytes in the given byte order.
     pub fn from_bytes(t: SampleType, bytes: &[u8], big_endian: bool) -> SliceData {
         let mut s = SliceData::from_native_bytes(t, bytes);
-        let swap = big_endian != cfg!(target_endian = "big");
-        if swap {
-            match &mut s {
-                SliceData::U8(_) => {}
-                SliceData::U16(v) => v.iter_mut().for_each(|x| *x = x.swap_bytes()),
-                SliceData::I16(v) => v.iter_mut().for_each(|x| *x = x.swap_bytes()),
-                SliceData::F32(v) => v
-                    .iter_mut()
-                    .for_each(|x| *x = f32::from_bits(x.to_bits().swap_bytes())),
-            }
+        if big_endian != cfg!(target_endian = "big") {
+            s.swap_bytes();
         }
         s
+    }
+
+    /// Reverse the byte order of every sample.
+    pub fn swap_bytes(&mut self) {
+        match self {
+            SliceData::U8(_) => {}
+            SliceData::U16(v) => v.iter_mut().for_each(|x| *x = x.swap_bytes()),
+            SliceData::I16(v) => v.iter_mut().for_each(|x| *x = x.swap_bytes()),
+            SliceData::F32(v) => v
+                .iter_mut()
+                .for_each(|x| *x = f32::from_bits(x.to_bits().swap_bytes())),
+        }
     }
 }
 

@@ -7,10 +7,10 @@ use crate::error::Error;
 use ::tiff::decoder::{Decoder, DecodingResult, Limits};
 use ::tiff::tags::Tag;
 use ::tiff::TiffError;
-use memmap2::Mmap;
-use std::io::Cursor;
+use std::fs::File;
+use std::io::{BufReader, Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 use volcore::{Dims, SampleType};
 
 /// What one page holds, as far as a stack must agree on it.
@@ -72,24 +72,18 @@ fn tiff_err(e: TiffError) -> Error {
     }
 }
 
-/// Bytes of a file (or map) shared by decoders.
-#[derive(Clone)]
-struct Bytes(Arc<Mmap>);
+type Dec<R> = Decoder<R>;
 
-impl AsRef<[u8]> for Bytes {
-    fn as_ref(&self) -> &[u8] {
-        &self.0
-    }
-}
-
-type Dec<R> = Decoder<Cursor<R>>;
+/// A multipage file read through a buffered handle of its own per decoder
+/// (not mapped: resident memory stays at the pages in flight).
+type FileDec = Dec<BufReader<File>>;
 
 fn limits() -> Limits {
     // Pages are checked against the first page's size before decoding.
     Limits::unlimited()
 }
 
-fn page_info<R: AsRef<[u8]>>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
+fn page_info<R: Read + Seek>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
     let (width, height) = d.dimensions().map_err(tiff_err)?;
     let tag = |d: &mut Dec<R>, t: Tag, default: u16| -> Result<u16, Error> {
         Ok(d.find_tag_unsigned::<u16>(t)
@@ -129,7 +123,7 @@ fn page_info<R: AsRef<[u8]>>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
 }
 
 /// Spacing from the resolution tags and an ImageJ description.
-fn spacing_of<R: AsRef<[u8]>>(d: &mut Dec<R>) -> Option<[f32; 3]> {
+fn spacing_of<R: Read + Seek>(d: &mut Dec<R>) -> Option<[f32; 3]> {
     let res = |d: &mut Dec<R>, t: Tag| -> Option<f32> {
         match d.find_tag(t).ok()?? {
             ::tiff::decoder::ifd::Value::Rational(n, den) if n > 0 && den > 0 => {
@@ -167,12 +161,12 @@ pub fn imagej_spacing(desc: &str) -> Option<f32> {
 }
 
 /// Whether the current page is a reduced-resolution image (a thumbnail).
-fn is_thumbnail<R: AsRef<[u8]>>(d: &mut Dec<R>) -> bool {
+fn is_thumbnail<R: Read + Seek>(d: &mut Dec<R>) -> bool {
     matches!(d.find_tag_unsigned::<u32>(Tag::NewSubfileType), Ok(Some(v)) if v & 1 == 1)
 }
 
 /// Decode the current page into one channel of samples.
-fn decode<R: AsRef<[u8]>>(
+fn decode<R: Read + Seek>(
     d: &mut Dec<R>,
     expect: &PageInfo,
     chan: ChannelSel,
@@ -306,9 +300,8 @@ enum Pages {
     /// pool of decoders over a shared map.
     Multi {
         path: PathBuf,
-        bytes: Bytes,
         ifds: Vec<usize>,
-        pool: Mutex<Vec<Dec<Bytes>>>,
+        pool: Mutex<Vec<FileDec>>,
     },
 }
 
@@ -322,17 +315,13 @@ pub struct TiffStackReader {
     bytes_in: u64,
 }
 
-fn map_file(path: &Path) -> CResult<Bytes> {
-    let f = std::fs::File::open(path).at(path)?;
-    // SAFETY: read-only map; the file must not be truncated meanwhile.
-    let m = unsafe { Mmap::map(&f) }.at(path)?;
-    Ok(Bytes(Arc::new(m)))
+fn open_file(path: &Path) -> CResult<FileDec> {
+    let f = File::open(path).at(path)?;
+    open_decoder(BufReader::with_capacity(256 << 10, f)).at(path)
 }
 
-fn open_decoder<R: AsRef<[u8]>>(r: R) -> Result<Dec<R>, Error> {
-    Ok(Decoder::new(Cursor::new(r))
-        .map_err(tiff_err)?
-        .with_limits(limits()))
+fn open_decoder<R: Read + Seek>(r: R) -> Result<Dec<R>, Error> {
+    Ok(Decoder::new(r).map_err(tiff_err)?.with_limits(limits()))
 }
 
 /// Open a stack of files (one file may be a multipage TIFF; several files
@@ -342,8 +331,7 @@ pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResul
         .first()
         .ok_or_else(|| ConvertError::new(input, Error::invalid("no slices")))?
         .clone();
-    let bytes = map_file(&first)?;
-    let mut d = open_decoder(bytes.clone()).at(&first)?;
+    let mut d = open_file(&first)?;
     // Full-resolution pages of the first file.
     let mut ifds = Vec::new();
     let mut idx = 0usize;
@@ -378,8 +366,10 @@ pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResul
     let spacing = spacing_of(&mut d);
     let (z, pages, format, bytes_in) = if files.len() == 1 {
         let z = ifds.len() as u64;
-        let len = bytes.0.len() as u64;
-        let bigtiff = bytes.0.get(2..4) == Some(&[43, 0]) || bytes.0.get(2..4) == Some(&[0, 43]);
+        let len = std::fs::metadata(&first).at(&first)?.len();
+        let mut head = [0u8; 4];
+        let _ = File::open(&first).and_then(|mut f| f.read_exact(&mut head));
+        let bigtiff = head[2..4] == [43, 0] || head[2..4] == [0, 43];
         let format = format!(
             "{} ({} page{})",
             if bigtiff { "bigtiff" } else { "tiff" },
@@ -394,7 +384,6 @@ pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResul
             z,
             Pages::Multi {
                 path: first.clone(),
-                bytes,
                 ifds,
                 pool: Mutex::new(vec![d]),
             },
@@ -434,16 +423,15 @@ impl TiffStackReader {
     fn read_multi(
         &self,
         path: &Path,
-        bytes: &Bytes,
         ifds: &[usize],
-        pool: &Mutex<Vec<Dec<Bytes>>>,
+        pool: &Mutex<Vec<FileDec>>,
         z: u64,
     ) -> CResult<SliceData> {
         let taken = pool.lock().ok().and_then(|mut p| p.pop());
         let mut d = match taken {
             Some(d) => d,
             None => {
-                let mut d = open_decoder(bytes.clone()).at(path)?;
+                let mut d = open_file(path)?;
                 // Walk the chain once so later seeks go straight to a page.
                 if let Some(&last) = ifds.last() {
                     d.seek_to_image(last).map_err(tiff_err).at(path)?;
@@ -483,19 +471,14 @@ impl SliceReader for TiffStackReader {
             Pages::Files(files) => {
                 let path = &files[z as usize];
                 let bytes = std::fs::read(path).at(path)?;
-                let mut d = open_decoder(bytes.as_slice()).at(path)?;
+                let mut d = open_decoder(Cursor::new(bytes.as_slice())).at(path)?;
                 if is_thumbnail(&mut d) {
                     // The full-resolution page follows a leading thumbnail.
                     d.next_image().map_err(tiff_err).at(path)?;
                 }
                 decode(&mut d, &self.page, self.chan).at(path)
             }
-            Pages::Multi {
-                path,
-                bytes,
-                ifds,
-                pool,
-            } => self.read_multi(path, bytes, ifds, pool, z),
+            Pages::Multi { path, ifds, pool } => self.read_multi(path, ifds, pool, z),
         }
     }
     fn bytes_in(&self) -> u64 {
