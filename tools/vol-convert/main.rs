@@ -106,7 +106,32 @@ fn parse_type(s: &str) -> Result<SampleType, String> {
     s.parse()
 }
 
+/// Keep freed buffers in the process. Slices and write chunks of a few
+/// hundred KiB to a few MiB are allocated and freed for every unit, and
+/// glibc would hand such blocks back to the kernel (they are above its
+/// mmap threshold) and fault fresh zeroed pages in again: about a third of
+/// the CPU time of a plain TIFF-to-.vvol conversion. Memory stays bounded
+/// by what the conversion holds at once.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn tune_malloc() {
+    extern "C" {
+        fn mallopt(param: i32, value: i32) -> i32;
+    }
+    const M_TRIM_THRESHOLD: i32 = -1;
+    const M_MMAP_THRESHOLD: i32 = -3;
+    // SAFETY: mallopt only sets allocator parameters; called before any
+    // thread is started.
+    unsafe {
+        mallopt(M_MMAP_THRESHOLD, 64 << 20);
+        mallopt(M_TRIM_THRESHOLD, 256 << 20);
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn tune_malloc() {}
+
 fn main() -> ExitCode {
+    tune_malloc();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

@@ -47,6 +47,12 @@ pub trait SliceReader: Send + Sync {
     fn access(&self) -> Access;
     /// Slice `z`, x fastest. Sequential readers need increasing `z`.
     fn read_slice(&self, z: u64) -> CResult<SliceData>;
+    /// Like [`SliceReader::read_slice`], reusing the allocation of `reuse`
+    /// where the reader can.
+    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
+        let _ = reuse;
+        self.read_slice(z)
+    }
     /// Input bytes consumed so far (file sizes for files, bytes read for
     /// streams).
     fn bytes_in(&self) -> u64;
@@ -80,23 +86,11 @@ fn read_typed(
     start: u64,
     count: usize,
     big_endian: bool,
+    reuse: Option<SliceData>,
 ) -> std::io::Result<SliceData> {
     use std::os::unix::fs::FileExt;
-    fn typed<T: SliceSample>(
-        file: &std::fs::File,
-        start: u64,
-        count: usize,
-    ) -> std::io::Result<Vec<T>> {
-        let mut v = vec![T::default(); count];
-        file.read_exact_at(bytemuck::cast_slice_mut(&mut v), start)?;
-        Ok(v)
-    }
-    let mut s = match t {
-        SampleType::U8 => SliceData::U8(typed(file, start, count)?),
-        SampleType::U16 => SliceData::U16(typed(file, start, count)?),
-        SampleType::I16 => SliceData::I16(typed(file, start, count)?),
-        SampleType::F32 => SliceData::F32(typed(file, start, count)?),
-    };
+    let mut s = SliceData::reuse(reuse, t, count);
+    file.read_exact_at(s.as_bytes_mut(), start)?;
     if big_endian != cfg!(target_endian = "big") {
         s.swap_bytes();
     }
@@ -163,6 +157,9 @@ impl SliceReader for RawFileReader {
         Access::Random
     }
     fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        self.read_slice_into(z, None)
+    }
+    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         let d = self.info.dims;
         let t = self.info.sample_type;
         let start = self.offset + z * d.slice_len() * t.size() as u64;
@@ -172,6 +169,7 @@ impl SliceReader for RawFileReader {
             start,
             d.slice_len() as usize,
             self.big_endian,
+            reuse,
         )
         .map_err(|e| match e.kind() {
             std::io::ErrorKind::UnexpectedEof => ConvertError::new(
@@ -334,6 +332,9 @@ impl SliceReader for StreamReader {
         Access::Sequential
     }
     fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        self.read_slice_into(z, None)
+    }
+    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         let mut st = self
             .state
             .lock()
@@ -343,15 +344,15 @@ impl SliceReader for StreamReader {
                 "slice {z} asked for again from a stream (internal error)"
             )));
         }
-        let mut buf = vec![0u8; self.slice_bytes()];
+        let n = self.info.dims.slice_len() as usize;
+        let mut s = SliceData::reuse(reuse, self.info.sample_type, n);
         while st.next_z <= z {
-            self.read_one(&mut st, &mut buf)?;
+            self.read_one(&mut st, s.as_bytes_mut())?;
         }
-        Ok(SliceData::from_bytes(
-            self.info.sample_type,
-            &buf,
-            self.big_endian,
-        ))
+        if self.big_endian != cfg!(target_endian = "big") {
+            s.swap_bytes();
+        }
+        Ok(s)
     }
     fn bytes_in(&self) -> u64 {
         self.read.load(Ordering::Relaxed)
@@ -613,6 +614,9 @@ impl SliceReader for Spooled {
         Access::Random
     }
     fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        self.read_slice_into(z, None)
+    }
+    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         let t = self.info.sample_type;
         let n = self.info.dims.slice_len();
         read_typed(
@@ -621,6 +625,7 @@ impl SliceReader for Spooled {
             z * n * t.size() as u64,
             n as usize,
             cfg!(target_endian = "big"),
+            reuse,
         )
         .at(self.file.path())
     }

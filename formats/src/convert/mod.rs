@@ -181,6 +181,11 @@ struct Loader<'a, T: Sample> {
     flip: [bool; 3],
     mapper: Mapper<T>,
     in_dims: Dims,
+    /// Output slices done with, for reuse (fresh allocations fault in
+    /// new pages, which costs more than decoding plain slices).
+    spare: std::sync::Mutex<Vec<Vec<T>>>,
+    /// Input slices done with (when the type or shape changes).
+    spare_in: std::sync::Mutex<Vec<SliceData>>,
 }
 
 impl<T: SliceSample> Loader<'_, T> {
@@ -198,10 +203,28 @@ impl<T: SliceSample> Loader<'_, T> {
         self.crop[2].start + if self.flip[2] { nz - 1 - z } else { z }
     }
 
+    fn recycle(&self, v: Vec<T>) {
+        if let Ok(mut p) = self.spare.lock() {
+            p.push(v);
+        }
+    }
+
+    fn spare_out(&self) -> Option<Vec<T>> {
+        self.spare.lock().ok().and_then(|mut p| p.pop())
+    }
+
     fn load(&self, z: u64) -> CResult<Vec<T>> {
         let zi = self.input_z(z);
-        let s = self.reader.read_slice(zi)?;
         let d = self.in_dims;
+        let od = self.out_dims();
+        let whole_xy = od.x == d.x && od.y == d.y && !self.flip[0] && !self.flip[1];
+        let direct = whole_xy && self.mapper.is_identity();
+        let reuse = if direct {
+            self.spare_out().map(T::wrap)
+        } else {
+            self.spare_in.lock().ok().and_then(|mut p| p.pop())
+        };
+        let s = self.reader.read_slice_into(zi, reuse)?;
         if s.len() as u64 != d.slice_len() || s.sample_type() != self.reader.info().sample_type {
             return Err(ConvertError::new(
                 &self.reader.info().path,
@@ -210,15 +233,16 @@ impl<T: SliceSample> Loader<'_, T> {
                 )),
             ));
         }
-        let od = self.out_dims();
-        let whole_xy = od.x == d.x && od.y == d.y && !self.flip[0] && !self.flip[1];
-        if whole_xy && self.mapper.is_identity() {
+        if direct {
             if let Ok(v) = T::unwrap(s) {
                 return Ok(v);
             }
             unreachable_type()
         } else {
-            let mut out = vec![T::default(); od.slice_len() as usize];
+            let n = od.slice_len() as usize;
+            let mut out = self.spare_out().unwrap_or_default();
+            out.resize(n, T::default());
+            out.truncate(n);
             let (nx, ny) = (od.x as usize, od.y as usize);
             for (yo, row) in out.chunks_exact_mut(nx).enumerate() {
                 let yi = self.crop[1].start as usize + if self.flip[1] { ny - 1 - yo } else { yo };
@@ -228,6 +252,9 @@ impl<T: SliceSample> Loader<'_, T> {
                 } else {
                     self.mapper.map_indexed(&s, base..base + nx, row);
                 }
+            }
+            if let Ok(mut p) = self.spare_in.lock() {
+                p.push(s);
             }
             Ok(out)
         }
@@ -270,13 +297,15 @@ impl<T: SliceSample> SliceWindow<T> {
     /// Hold exactly slices `zs`: drop those before, load those missing.
     fn advance(&mut self, zs: Range<u64>, loader: &Loader<'_, T>) -> CResult<()> {
         let end = self.first + self.slices.len() as u64;
-        if zs.start >= end || zs.start < self.first {
-            self.slices.clear();
-            self.first = zs.start;
+        let drop_n = if zs.start >= end || zs.start < self.first {
+            self.slices.len()
         } else {
-            self.slices.drain(..(zs.start - self.first) as usize);
-            self.first = zs.start;
+            (zs.start - self.first) as usize
+        };
+        for v in self.slices.drain(..drop_n) {
+            loader.recycle(v);
         }
+        self.first = zs.start;
         let have = self.first + self.slices.len() as u64;
         let need = have.max(zs.start)..zs.end;
         if need.is_empty() {
@@ -441,6 +470,8 @@ fn run<T: SliceSample>(
         flip: args.flip,
         mapper: Mapper::new(info.sample_type, args.map),
         in_dims: info.dims,
+        spare: Default::default(),
+        spare_in: Default::default(),
     };
     let dims = loader.out_dims();
     let out_path = target.path().to_path_buf();

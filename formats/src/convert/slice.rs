@@ -51,6 +51,38 @@ impl SliceData {
         }
     }
 
+    /// The samples as mutable native bytes.
+    pub fn as_bytes_mut(&mut self) -> &mut [u8] {
+        match self {
+            SliceData::U8(v) => v,
+            SliceData::U16(v) => bytemuck::cast_slice_mut(v),
+            SliceData::I16(v) => bytemuck::cast_slice_mut(v),
+            SliceData::F32(v) => bytemuck::cast_slice_mut(v),
+        }
+    }
+
+    /// A slice of `n` samples of type `t`, reusing the allocation of
+    /// `old` when it holds the same type (contents unspecified: callers
+    /// overwrite every sample). Reusing buffers saves the page faults of
+    /// fresh allocations, which cost more than decoding plain slices.
+    pub fn reuse(old: Option<SliceData>, t: SampleType, n: usize) -> SliceData {
+        fn fit<T: Copy + Default>(mut v: Vec<T>, n: usize) -> Vec<T> {
+            v.resize(n, T::default());
+            v.truncate(n);
+            v
+        }
+        match (old, t) {
+            (Some(SliceData::U8(v)), SampleType::U8) => SliceData::U8(fit(v, n)),
+            (Some(SliceData::U16(v)), SampleType::U16) => SliceData::U16(fit(v, n)),
+            (Some(SliceData::I16(v)), SampleType::I16) => SliceData::I16(fit(v, n)),
+            (Some(SliceData::F32(v)), SampleType::F32) => SliceData::F32(fit(v, n)),
+            (_, SampleType::U8) => SliceData::U8(vec![0; n]),
+            (_, SampleType::U16) => SliceData::U16(vec![0; n]),
+            (_, SampleType::I16) => SliceData::I16(vec![0; n]),
+            (_, SampleType::F32) => SliceData::F32(vec![0.0; n]),
+        }
+    }
+
     /// A slice of `n` samples of type `t` from native-order bytes.
     pub fn from_native_bytes(t: SampleType, bytes: &[u8]) -> SliceData {
         match t {

@@ -170,6 +170,7 @@ fn decode<R: Read + Seek>(
     d: &mut Dec<R>,
     expect: &PageInfo,
     chan: ChannelSel,
+    reuse: Option<SliceData>,
 ) -> Result<SliceData, Error> {
     let got = page_info(d)?;
     if got != *expect {
@@ -188,9 +189,20 @@ fn decode<R: Read + Seek>(
         .find_tag_unsigned::<u16>(Tag::PhotometricInterpretation)
         .map_err(tiff_err)?
         == Some(0);
+    let n = expect.width as usize * expect.height as usize;
+    if expect.channels == 1 && !(expect.format == 2 && expect.bits == 8) {
+        // One channel in a volkit type: decode straight into a slice
+        // buffer, reusing the caller's allocation.
+        let t = expect.sample_type().map_err(Error::invalid)?;
+        let mut s = SliceData::reuse(reuse, t, n);
+        d.read_image_bytes(s.as_bytes_mut()).map_err(tiff_err)?;
+        if white_is_zero {
+            invert(&mut s);
+        }
+        return Ok(s);
+    }
     let mut buf = DecodingResult::U8(Vec::new());
     d.read_image_to_buffer(&mut buf).map_err(tiff_err)?;
-    let n = expect.width as usize * expect.height as usize;
     let c = expect.channels as usize;
     let pick = ChannelPick {
         n,
@@ -214,13 +226,23 @@ fn decode<R: Read + Seek>(
         }
     };
     if white_is_zero {
-        match &mut s {
-            SliceData::U8(v) => v.iter_mut().for_each(|x| *x = 255 - *x),
-            SliceData::U16(v) => v.iter_mut().for_each(|x| *x = 65535 - *x),
-            _ => {}
-        }
+        invert(&mut s);
     }
     Ok(s)
+}
+
+/// Undo PhotometricInterpretation WhiteIsZero for unsigned samples.
+fn invert(s: &mut SliceData) {
+    match s {
+        SliceData::U8(v) => v.iter_mut().for_each(|x| *x = 255 - *x),
+        SliceData::U16(v) => v.iter_mut().for_each(|x| *x = 65535 - *x),
+        _ => {}
+    }
+}
+
+thread_local! {
+    /// The bytes of the file being decoded, reused per thread.
+    static FILE_BYTES: std::cell::RefCell<Vec<u8>> = const { std::cell::RefCell::new(Vec::new()) };
 }
 
 struct ChannelPick {
@@ -426,6 +448,7 @@ impl TiffStackReader {
         ifds: &[usize],
         pool: &Mutex<Vec<FileDec>>,
         z: u64,
+        reuse: Option<SliceData>,
     ) -> CResult<SliceData> {
         let taken = pool.lock().ok().and_then(|mut p| p.pop());
         let mut d = match taken {
@@ -443,7 +466,7 @@ impl TiffStackReader {
         let r = d
             .seek_to_image(ifd)
             .map_err(tiff_err)
-            .and_then(|_| decode(&mut d, &self.page, self.chan))
+            .and_then(|_| decode(&mut d, &self.page, self.chan, reuse))
             .map_err(|e| ConvertError::new(path, page_err(e, z)));
         if let Ok(mut p) = pool.lock() {
             p.push(d);
@@ -467,18 +490,27 @@ impl SliceReader for TiffStackReader {
         Access::Random
     }
     fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        self.read_slice_into(z, None)
+    }
+    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         match &self.pages {
             Pages::Files(files) => {
                 let path = &files[z as usize];
-                let bytes = std::fs::read(path).at(path)?;
-                let mut d = open_decoder(Cursor::new(bytes.as_slice())).at(path)?;
-                if is_thumbnail(&mut d) {
-                    // The full-resolution page follows a leading thumbnail.
-                    d.next_image().map_err(tiff_err).at(path)?;
-                }
-                decode(&mut d, &self.page, self.chan).at(path)
+                FILE_BYTES.with(|cell| {
+                    let mut bytes = cell.borrow_mut();
+                    bytes.clear();
+                    File::open(path)
+                        .and_then(|mut f| f.read_to_end(&mut bytes))
+                        .at(path)?;
+                    let mut d = open_decoder(Cursor::new(bytes.as_slice())).at(path)?;
+                    if is_thumbnail(&mut d) {
+                        // The full-resolution page follows a leading thumbnail.
+                        d.next_image().map_err(tiff_err).at(path)?;
+                    }
+                    decode(&mut d, &self.page, self.chan, reuse).at(path)
+                })
             }
-            Pages::Multi { path, ifds, pool } => self.read_multi(path, ifds, pool, z),
+            Pages::Multi { path, ifds, pool } => self.read_multi(path, ifds, pool, z, reuse),
         }
     }
     fn bytes_in(&self) -> u64 {
