@@ -262,8 +262,96 @@ fn be_tiff(pages: &[Vec<u8>], w: u32, h: u32, bits: u16, format: u16) -> Vec<u8>
     out
 }
 
+/// A big-endian u16 TIFF of one page stored as `tile × tile` tiles (edge
+/// tiles padded), written by hand: the tiff crate's encoder writes strips.
+fn be_tiled_tiff(v: &[u16], w: u32, h: u32, tile: u32) -> Vec<u8> {
+    let (tx, ty) = (w.div_ceil(tile), h.div_ceil(tile));
+    let n = (tx * ty) as usize;
+    let tile_bytes = (tile * tile * 2) as usize;
+    let entries: u16 = 11;
+    let ifd_at = 8usize;
+    let arrays_at = ifd_at + 2 + 12 * entries as usize + 4;
+    let data_at = arrays_at + 8 * n;
+    let mut out = b"MM\0\x2a".to_vec();
+    out.extend((ifd_at as u32).to_be_bytes());
+    out.extend(entries.to_be_bytes());
+    let mut entry = |tag: u16, ty: u16, count: u32, v: u32| {
+        out.extend(tag.to_be_bytes());
+        out.extend(ty.to_be_bytes());
+        out.extend(count.to_be_bytes());
+        if ty == 3 && count == 1 {
+            out.extend((v as u16).to_be_bytes());
+            out.extend([0, 0]);
+        } else {
+            out.extend(v.to_be_bytes());
+        }
+    };
+    entry(256, 4, 1, w);
+    entry(257, 4, 1, h);
+    entry(258, 3, 1, 16);
+    entry(259, 3, 1, 1);
+    entry(262, 3, 1, 1);
+    entry(277, 3, 1, 1);
+    entry(322, 4, 1, tile);
+    entry(323, 4, 1, tile);
+    entry(324, 4, n as u32, arrays_at as u32);
+    entry(325, 4, n as u32, (arrays_at + 4 * n) as u32);
+    entry(339, 3, 1, 1);
+    out.extend(0u32.to_be_bytes());
+    for i in 0..n {
+        out.extend(((data_at + i * tile_bytes) as u32).to_be_bytes());
+    }
+    for _ in 0..n {
+        out.extend((tile_bytes as u32).to_be_bytes());
+    }
+    for t in 0..n as u32 {
+        let (x0, y0) = ((t % tx) * tile, (t / tx) * tile);
+        for y in y0..y0 + tile {
+            for x in x0..x0 + tile {
+                let s = if x < w && y < h {
+                    v[(y * w + x) as usize]
+                } else {
+                    0
+                };
+                out.extend(s.to_be_bytes());
+            }
+        }
+    }
+    out
+}
+
 #[test]
-fn big_endian_compressed_tiled_and_bigtiff_inputs() {
+fn tiled_and_signed_8_bit_tiffs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (w, h) = (37u32, 29u32);
+    let v: Vec<u16> = (0..w * h).map(|i| (i * 31 % 65521) as u16).collect();
+    let p = d.join("tiled.tif");
+    std::fs::write(&p, be_tiled_tiff(&v, w, h, 16)).unwrap();
+    let got: Vec<u16> = to_raw(d, &p, &[])
+        .chunks(2)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+        .collect();
+    assert_eq!(got, v);
+    // Signed 8-bit slices are widened to i16, values kept.
+    let p = d.join("i8.tif");
+    {
+        let f = std::fs::File::create(&p).unwrap();
+        let px: Vec<i8> = vec![-128, -1, 0, 127];
+        TiffEncoder::new(f)
+            .unwrap()
+            .write_image::<colortype::GrayI8>(2, 2, &px)
+            .unwrap();
+    }
+    let got: Vec<i16> = to_raw(d, &p, &[])
+        .chunks(2)
+        .map(|c| i16::from_le_bytes([c[0], c[1]]))
+        .collect();
+    assert_eq!(got, [-128, -1, 0, 127]);
+}
+
+#[test]
+fn big_endian_compressed_and_bigtiff_inputs() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (w, h) = (DIMS[0] as u32, DIMS[1] as u32);
