@@ -11,10 +11,10 @@ pub enum Error {
     #[error("checksum mismatch: {0}")]
     Checksum(String),
     /// The data model rejected what the file describes.
-    #[error("{0}")]
+    #[error(transparent)]
     Core(#[from] volcore::Error),
     /// An I/O failure.
-    #[error("{0}")]
+    #[error(transparent)]
     Io(#[from] std::io::Error),
 }
 

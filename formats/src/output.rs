@@ -46,13 +46,37 @@ impl AtomicFile {
         self.temp.as_file_mut()
     }
 
-    /// Flush, and rename into place.
+    /// Flush, give the file ordinary permissions (those of the file it
+    /// replaces, else read-write for the owner and readable by everyone,
+    /// rather than the temporary file's owner-only mode), and rename into
+    /// place.
     pub fn commit(mut self) -> io::Result<()> {
         self.temp.as_file_mut().flush()?;
+        let perms = match std::fs::metadata(&self.target) {
+            Ok(m) => Some(m.permissions()),
+            Err(_) => default_permissions(),
+        };
+        if let Some(p) = perms {
+            self.temp.as_file().set_permissions(p)?;
+        }
         self.temp
             .persist(&self.target)
             .map(|_| ())
             .map_err(|e| e.error)
+    }
+}
+
+/// Permissions for a new output file: `rw-r--r--` on Unix (temporary
+/// files start owner-only); elsewhere whatever the system gave it.
+fn default_permissions() -> Option<std::fs::Permissions> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        Some(std::fs::Permissions::from_mode(0o644))
+    }
+    #[cfg(not(unix))]
+    {
+        None
     }
 }
 

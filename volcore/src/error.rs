@@ -13,7 +13,7 @@ pub enum Error {
     #[error("corrupt data: {0}")]
     Corrupt(String),
     /// An I/O failure.
-    #[error("{0}")]
+    #[error(transparent)]
     Io(#[from] std::io::Error),
 }
 

@@ -21,6 +21,11 @@ pub struct OpenOptions {
     pub verify: bool,
     /// Decoded bytes the brick cache of a compressed volume may hold.
     pub cache_bytes: usize,
+    /// Copy the file into anonymous memory (backed by huge pages where the
+    /// system allows) instead of mapping it: costs a read of the whole file
+    /// at open, and saves the page-table misses that random access to a
+    /// large mapped file makes (renderers jump across the whole volume).
+    pub in_memory: bool,
 }
 
 impl Default for OpenOptions {
@@ -28,6 +33,7 @@ impl Default for OpenOptions {
         OpenOptions {
             verify: false,
             cache_bytes: 512 << 20,
+            in_memory: false,
         }
     }
 }
@@ -64,7 +70,11 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
     let file = File::open(path)?;
     // SAFETY: the map is read-only; like every reader of mapped files we
     // rely on the file not being truncated by another process meanwhile.
-    let map = Arc::new(unsafe { Mmap::map(&file)? });
+    let map = Arc::new(if opts.in_memory {
+        copy_to_memory(file)?
+    } else {
+        unsafe { Mmap::map(&file)? }
+    });
     let mut meta = h.meta;
     if meta.range.is_empty() {
         meta.range = t.range;
@@ -87,6 +97,18 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
         SampleType::F32 => build::<f32>(&h, &t, map, table, opts)?,
     };
     Ok(Volume { meta, data })
+}
+
+/// The whole file in anonymous memory advised for transparent huge pages.
+fn copy_to_memory(mut file: File) -> Result<Mmap> {
+    let len = file.metadata()?.len() as usize;
+    let mut anon = memmap2::MmapMut::map_anon(len.max(1))?;
+    // Advice only: systems without transparent huge pages ignore it.
+    #[cfg(target_os = "linux")]
+    let _ = anon.advise(memmap2::Advice::HugePage);
+    file.seek(SeekFrom::Start(0))?;
+    file.read_exact(&mut anon[..len])?;
+    Ok(anon.make_read_only()?)
 }
 
 fn build<T: IntoVolumeData>(
