@@ -320,6 +320,68 @@ fn be_tiled_tiff(v: &[u16], w: u32, h: u32, tile: u32) -> Vec<u8> {
     out
 }
 
+/// An ImageJ "hyperstack" as ImageJ writes stacks past 4 GiB: one
+/// directory, a description announcing `images=N`, and all N images
+/// back to back after the first one's data. Little-endian u16.
+fn imagej_one_ifd(v: &[u16], w: u32, h: u32, n: u32) -> Vec<u8> {
+    let desc = format!("ImageJ=1.54f\nimages={n}\nslices={n}\nspacing=2.5\nloop=false\n\0");
+    let entries: u16 = 11;
+    let desc_at = 8 + 2 + 12 * entries as usize + 4;
+    let data_at = desc_at + desc.len();
+    let mut out = b"II\x2a\0".to_vec();
+    out.extend(8u32.to_le_bytes());
+    out.extend(entries.to_le_bytes());
+    let mut entry = |tag: u16, ty: u16, count: u32, v: u32| {
+        out.extend(tag.to_le_bytes());
+        out.extend(ty.to_le_bytes());
+        out.extend(count.to_le_bytes());
+        out.extend(v.to_le_bytes());
+    };
+    entry(256, 4, 1, w);
+    entry(257, 4, 1, h);
+    entry(258, 3, 1, 16);
+    entry(259, 3, 1, 1);
+    entry(262, 3, 1, 1);
+    entry(270, 2, desc.len() as u32, desc_at as u32);
+    entry(273, 4, 1, data_at as u32);
+    entry(277, 3, 1, 1);
+    entry(278, 4, 1, h);
+    entry(279, 4, 1, w * h * 2);
+    entry(339, 3, 1, 1);
+    out.extend(0u32.to_le_bytes());
+    out.extend(desc.as_bytes());
+    for s in v {
+        out.extend(s.to_le_bytes());
+    }
+    out
+}
+
+#[test]
+fn imagej_stacks_with_one_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (w, h, n) = (9u32, 7u32, 5u32);
+    let v: Vec<u16> = (0..w * h * n).map(|i| (i * 13) as u16).collect();
+    let p = d.join("ij.tif");
+    std::fs::write(&p, imagej_one_ifd(&v, w, h, n)).unwrap();
+    let got: Vec<u16> = to_raw(d, &p, &[])
+        .chunks(2)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]))
+        .collect();
+    assert_eq!(got, v);
+    let j = json(&ok(convert()
+        .arg(&p)
+        .arg("--json")
+        .arg("-o")
+        .arg(d.join("ij.vvol"))));
+    assert_eq!(j["dims"], serde_json::json!([9, 7, 5]));
+    assert_eq!(j["spacing"][2], 2.5);
+    // Cut short: the images announced are not all there.
+    let full = std::fs::read(&p).unwrap();
+    std::fs::write(&p, &full[..full.len() - 4]).unwrap();
+    fails(convert().arg(&p).arg("-o").arg(d.join("x.vvol")), "bytes");
+}
+
 #[test]
 fn tiled_and_signed_8_bit_tiffs() {
     let dir = tempfile::tempdir().unwrap();
@@ -722,6 +784,15 @@ fn truncated_and_bad_streams_leave_no_output() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let o = d.join("o.vvol");
+    // A header claiming slices no machine holds.
+    let p = d.join("huge.nrrd");
+    std::fs::write(
+        &p,
+        "NRRD0004\ntype: uchar\nsizes: 100000 100000 2\nencoding: gzip\n\n",
+    )
+    .unwrap();
+    fails(convert().arg(&p).arg("-o").arg(&o), "GiB");
+    assert!(!o.exists());
     // Raw with too few bytes.
     let p = d.join("short_8x8x8_uint8.raw");
     std::fs::write(&p, [0u8; 500]).unwrap();

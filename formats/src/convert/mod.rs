@@ -372,6 +372,9 @@ fn crop_xy(s: SliceData, dims: Dims, crop: &[Range<u64>; 3]) -> SliceData {
     }
 }
 
+/// The largest z slice a conversion reads (bytes).
+pub const MAX_SLICE_BYTES: u64 = 4 << 30;
+
 /// Convert everything `reader` holds to `target` following `plan`.
 /// `progress` gets the output sample bytes done so far.
 pub fn convert(
@@ -384,6 +387,21 @@ pub fn convert(
     let in_path = info.path.clone();
     let d = info.dims;
     let crop = plan.crop.clone().unwrap_or([0..d.x, 0..d.y, 0..d.z]);
+    // One slice is the unit of reading: refuse sizes no machine holds (a
+    // damaged or hostile header) before allocating one.
+    let slice_bytes = d.slice_len().saturating_mul(info.sample_type.size() as u64);
+    if slice_bytes > MAX_SLICE_BYTES {
+        return Err(ConvertError::new(
+            &in_path,
+            Error::invalid(format!(
+                "one {}x{} slice of {} takes {slice_bytes} bytes, more than the {} GiB volkit reads at once",
+                d.x,
+                d.y,
+                info.sample_type,
+                MAX_SLICE_BYTES >> 30
+            )),
+        ));
+    }
     let out_type = plan.sample_type.unwrap_or(info.sample_type);
     let needs_stats = match plan.window {
         Some(Window::Auto(_)) => true,

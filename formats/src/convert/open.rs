@@ -168,11 +168,25 @@ pub fn open_input(path: &Path, opts: &InputOptions) -> CResult<Box<dyn SliceRead
             let files = crate::tiff::list_file(path)?;
             Box::new(crate::tiff::open_files(path, files, opts.channel)?)
         }
-        InputKind::Tiff => Box::new(crate::tiff::open_files(
-            path,
-            vec![path.to_path_buf()],
-            opts.channel,
-        )?),
+        InputKind::Tiff => match crate::tiff::imagej_raw(path)? {
+            Some(ij) => Box::new(
+                RawFileReader::open(
+                    path,
+                    ij.dims,
+                    ij.sample_type,
+                    ij.big_endian,
+                    ij.offset,
+                    false,
+                    "tiff (imagej stack, one directory)",
+                )?
+                .with_spacing(ij.spacing),
+            ),
+            None => Box::new(crate::tiff::open_files(
+                path,
+                vec![path.to_path_buf()],
+                opts.channel,
+            )?),
+        },
         InputKind::Nrrd => {
             let spec = crate::nrrd::open(path).at(path)?;
             open_data(path, &spec)?

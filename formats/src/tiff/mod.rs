@@ -8,6 +8,10 @@
 //! and tile layout and byte order the crate decodes. Colour or multi-band
 //! slices are reduced to one channel only on request ([`ChannelSel`]).
 //!
+//! ImageJ stacks past 4 GiB, which ImageJ writes as one directory and all
+//! images back to back (`images=N` in the description), are read as the
+//! raw data they are.
+//!
 //! Spacing: x and y are the inverse of the XResolution and YResolution
 //! tags (in whatever unit the file uses), z the `spacing=` of an ImageJ
 //! description. Written files carry the same tags, so spacing survives a
@@ -16,7 +20,7 @@
 mod read;
 mod stack;
 
-pub use read::{open_files, PageInfo, TiffStackReader};
+pub use read::{imagej_raw, open_files, ImageJRaw, PageInfo, TiffStackReader};
 pub use stack::{glob_match, list_dir, list_file, list_glob, natural_cmp};
 
 use ::tiff::encoder::colortype;
