@@ -30,6 +30,9 @@ pub struct SkipGrid<'a> {
     /// a per-frame rule); empty for modes whose rule depends on the pixel.
     flags: Vec<Vec<u8>>,
     margin: f32,
+    /// log2 of each level's cell edge (edges are powers of two whenever the
+    /// finest is), so finding a cell is a shift, not a 64-bit division.
+    shifts: Option<Vec<u32>>,
 }
 
 /// What a uniform iso cell holds: all samples below, or all at or above.
@@ -41,10 +44,20 @@ impl<'a> SkipGrid<'a> {
     fn with_flags(index: &'a MajorantIndex, flags: Vec<Vec<u8>>) -> SkipGrid<'a> {
         let dims = index.dims();
         let largest = dims.x.max(dims.y).max(dims.z) as f32;
+        let shifts = index
+            .levels()
+            .iter()
+            .map(|l| {
+                l.edge()
+                    .is_power_of_two()
+                    .then(|| l.edge().trailing_zeros())
+            })
+            .collect();
         SkipGrid {
             index,
             dims,
             flags,
+            shifts,
             // Well above the rounding of f32 positions at this size.
             margin: (largest * (1.0 / (1u32 << 20) as f32)).max(1e-3),
         }
@@ -117,10 +130,28 @@ impl<'a> SkipGrid<'a> {
     /// The flag of the level-0 cell holding voxel-space point `p`.
     #[inline(always)]
     pub fn flag_at(&self, p: Vec3) -> u8 {
+        self.flags[0][self.cell_at(p)]
+    }
+
+    /// The linear index of the level-0 cell holding voxel-space point `p`
+    /// (the cell the sampler reads there).
+    #[inline(always)]
+    pub fn cell_at(&self, p: Vec3) -> usize {
         let v = self.voxel_of(p);
-        let l = self.index.level(0);
-        let e = l.edge();
-        self.flags[0][l.index(v[0] / e, v[1] / e, v[2] / e)]
+        let c = self.cell_of(0, v);
+        self.index.level(0).index(c[0], c[1], c[2])
+    }
+
+    /// The cell of level `l` holding voxel `v`.
+    #[inline(always)]
+    fn cell_of(&self, l: usize, v: [u64; 3]) -> [u64; 3] {
+        match &self.shifts {
+            Some(s) => v.map(|c| c >> s[l]),
+            None => {
+                let e = self.index.level(l).edge();
+                v.map(|c| c / e)
+            }
+        }
     }
 
     /// The integer voxel the sampler reads first for point `p`.
@@ -152,7 +183,7 @@ impl<'a> SkipGrid<'a> {
         let mut best = None;
         for (li, level) in levels.iter().enumerate() {
             let e = level.edge();
-            let c = [v[0] / e, v[1] / e, v[2] / e];
+            let c = self.cell_of(li, v);
             let i = level.index(c[0], c[1], c[2]);
             if !pred(li, i, flag(li, i)) {
                 break;

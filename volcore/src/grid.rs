@@ -135,15 +135,17 @@ pub fn blend(c: &[f32; 8], t: [f32; 3]) -> f32 {
 
 #[inline(always)]
 fn cell_from<T: Sample>(s: &[T], base: usize, ox: usize, oy: usize, oz: usize) -> [f32; 8] {
+    // One bounds check for the whole cell instead of eight.
+    let s = &s[base..=base + ox + oy + oz];
     [
-        s[base].to_f32(),
-        s[base + ox].to_f32(),
-        s[base + oy].to_f32(),
-        s[base + ox + oy].to_f32(),
-        s[base + oz].to_f32(),
-        s[base + ox + oz].to_f32(),
-        s[base + oy + oz].to_f32(),
-        s[base + ox + oy + oz].to_f32(),
+        s[0].to_f32(),
+        s[ox].to_f32(),
+        s[oy].to_f32(),
+        s[ox + oy].to_f32(),
+        s[oz].to_f32(),
+        s[ox + oz].to_f32(),
+        s[oy + oz].to_f32(),
+        s[ox + oy + oz].to_f32(),
     ]
 }
 

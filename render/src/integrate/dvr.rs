@@ -34,16 +34,25 @@ pub fn dvr<
     let mut colour = Vec3::ZERO;
     let mut alpha = 0.0f32;
     let mut k = w.k0;
+    // The last level-0 cell found not skippable: samples in it need no
+    // further check (its flags are fixed for the frame).
+    let mut busy_cell = usize::MAX;
     while k <= w.k1 {
         let t = w.t(k);
         let p = w.at(t);
         if ESS {
             if let Some(skip) = ctx.skip {
-                if let Some(u) = skip.skip_until(p, w.o, w.d, |_, _, f| f != 0) {
-                    if let Some(kn) = w.after_skip(k, u) {
-                        k = kn;
-                        out.skips += 1;
-                        continue;
+                let cell = skip.cell_at(p);
+                if cell != busy_cell {
+                    match skip.skip_until(p, w.o, w.d, |_, _, f| f != 0) {
+                        Some(u) => {
+                            if let Some(kn) = w.after_skip(k, u) {
+                                k = kn;
+                                out.skips += 1;
+                                continue;
+                            }
+                        }
+                        None => busy_cell = cell,
                     }
                 }
             }

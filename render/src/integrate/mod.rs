@@ -140,11 +140,12 @@ impl Walk {
         self.o + self.d * t
     }
 
-    /// The first sample index not covered by a skip up to parameter `u`,
-    /// if it moves past `k`.
+    /// After a skip covering every sample up to parameter `u`, the first
+    /// sample past `u`, if that moves past `k` (every sample from `k` to it
+    /// is skipped; the one returned is taken normally).
     #[inline(always)]
     pub fn after_skip(&self, k: i64, u: f32) -> Option<i64> {
-        let kn = (u as f64 / self.step).floor() as i64;
-        (kn > k).then_some(kn)
+        let last = (u as f64 / self.step).floor() as i64;
+        (last >= k).then_some(last + 1)
     }
 }
