@@ -379,7 +379,7 @@ fn hard_cases_give_finite_pixels() {
     let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
     let centre = Vec3::new(47.5, 39.5, 35.5);
     let p = Projection::Perspective(60.0);
-    let cams = vec![
+    let cams = [
         // Looking straight down the up vector, and straight up.
         Camera::look_at(Vec3::new(47.5, 300.0, 35.5), centre, Vec3::Y, p, 32, 32).unwrap(),
         Camera::look_at(Vec3::new(47.5, -300.0, 35.5), centre, Vec3::Y, p, 32, 32).unwrap(),
