@@ -825,6 +825,53 @@ fn truncated_and_bad_streams_leave_no_output() {
 }
 
 #[test]
+fn interrupted_conversions_leave_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = d.join("o.vvol");
+    let slice = vec![7u8; 64 * 64];
+    let mut child = convert()
+        .args([
+            "-",
+            "--raw-dims",
+            "64,64,100",
+            "--layout",
+            "bricked:8",
+            "-o",
+        ])
+        .arg(&o)
+        .stdin(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut si = child.stdin.take().unwrap();
+    for _ in 0..20 {
+        si.write_all(&slice).unwrap();
+    }
+    si.flush().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let killed = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(killed.success());
+    // The reader is blocked on the pipe: feed it so it notices.
+    for _ in 0..20 {
+        if si.write_all(&slice).is_err() {
+            break;
+        }
+    }
+    drop(si);
+    let out = child.wait_with_output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("interrupted"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(!o.exists());
+    assert!(leftovers(d).is_empty(), "{:?}", leftovers(d));
+}
+
+#[test]
 fn converts_in_a_pipe() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

@@ -130,8 +130,37 @@ fn tune_malloc() {
 #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
 fn tune_malloc() {}
 
+/// On Ctrl-C or SIGTERM, stop the conversion at the next slice so that
+/// the temporary output is removed on the way out; a second signal exits
+/// at once.
+#[cfg(unix)]
+fn stop_on_signals() {
+    extern "C" {
+        fn signal(signum: i32, handler: usize) -> usize;
+        fn _exit(status: i32) -> !;
+    }
+    extern "C" fn on_signal(_: i32) {
+        if convert::stop_requested() {
+            // SAFETY: _exit is async-signal-safe.
+            unsafe { _exit(130) }
+        }
+        convert::request_stop();
+    }
+    const SIGINT: i32 = 2;
+    const SIGTERM: i32 = 15;
+    // SAFETY: the handler only touches an atomic (or calls _exit).
+    unsafe {
+        signal(SIGINT, on_signal as extern "C" fn(i32) as usize);
+        signal(SIGTERM, on_signal as extern "C" fn(i32) as usize);
+    }
+}
+
+#[cfg(not(unix))]
+fn stop_on_signals() {}
+
 fn main() -> ExitCode {
     tune_malloc();
+    stop_on_signals();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

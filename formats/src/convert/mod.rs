@@ -214,6 +214,7 @@ impl<T: SliceSample> Loader<'_, T> {
     }
 
     fn load(&self, z: u64) -> CResult<Vec<T>> {
+        check_stop(&self.reader.info().path)?;
         let zi = self.input_z(z);
         let d = self.in_dims;
         let od = self.out_dims();
@@ -372,6 +373,27 @@ fn crop_xy(s: SliceData, dims: Dims, crop: &[Range<u64>; 3]) -> SliceData {
     }
 }
 
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Ask running conversions to stop at the next slice: they fail with
+/// "interrupted", and their output files are removed as for any other
+/// failure. Only stores to an atomic, so a signal handler may call it.
+pub fn request_stop() {
+    STOP.store(true, Ordering::SeqCst);
+}
+
+/// Whether [`request_stop`] was called.
+pub fn stop_requested() -> bool {
+    STOP.load(Ordering::SeqCst)
+}
+
+fn check_stop(path: &Path) -> CResult<()> {
+    if stop_requested() {
+        return Err(ConvertError::new(path, Error::invalid("interrupted")));
+    }
+    Ok(())
+}
+
 /// The largest z slice a conversion reads (bytes).
 pub const MAX_SLICE_BYTES: u64 = 4 << 30;
 
@@ -503,6 +525,7 @@ fn run<T: SliceSample>(
             window.advance(zs, &loader)?;
             sink.write_next(&window)?;
             window.check().at(&out_path)?;
+            check_stop(&out_path)?;
         }
         // Read what is left of a stream (and check its trailer) before the
         // output is committed: a damaged input must leave no output.
