@@ -698,6 +698,26 @@ fn spacing_comes_from_tiff_tags_and_can_be_overridden() {
         .args(["--json", "--spacing", "1,1,3", "-o"])
         .arg(d.join("b.vvol"))));
     assert_eq!(j["spacing"], serde_json::json!([1.0, 1.0, 3.0]));
+    // 72 dpi and no ImageJ description: z follows x.
+    let p = d.join("dpi.tif");
+    {
+        let f = std::fs::File::create(&p).unwrap();
+        let mut e = TiffEncoder::new(f).unwrap();
+        let mut img = e.new_image::<colortype::Gray8>(2, 2).unwrap();
+        img.resolution(
+            tiff::tags::ResolutionUnit::Inch,
+            tiff::encoder::Rational { n: 72, d: 1 },
+        );
+        img.write_data(&[1, 2, 3, 4]).unwrap();
+    }
+    let j2 = json(&ok(convert()
+        .arg(&p)
+        .arg("--json")
+        .arg("-o")
+        .arg(d.join("c.vvol"))));
+    let sx = j2["spacing"][0].as_f64().unwrap();
+    assert!((sx - 1.0 / 72.0).abs() < 1e-6, "{j2}");
+    assert_eq!(j2["spacing"][2], j2["spacing"][0]);
     for key in ["seconds", "bytes_in", "bytes_out", "dims", "type"] {
         assert!(!j[key].is_null(), "missing {key}: {j}");
     }

@@ -14,8 +14,10 @@
 //!
 //! Spacing: x and y are the inverse of the XResolution and YResolution
 //! tags (in whatever unit the file uses), z the `spacing=` of an ImageJ
-//! description. Written files carry the same tags, so spacing survives a
-//! round trip and Fiji shows it.
+//! description, or the x spacing when there is none (so that a stack
+//! keeps its proportions whatever dpi its writer put in). Written files
+//! carry the same tags, so spacing survives a round trip and Fiji shows
+//! it.
 
 mod read;
 mod stack;

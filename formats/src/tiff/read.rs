@@ -147,7 +147,9 @@ fn spacing_of<R: Read + Seek>(d: &mut Dec<R>) -> Option<[f32; 3]> {
         return None;
     }
     let ok = |v: Option<f32>| v.filter(|s| s.is_finite() && *s > 0.0).unwrap_or(1.0);
-    Some([ok(sx), ok(sy.or(sx)), ok(sz)])
+    // Without an ImageJ `spacing=`, z is taken equal to x: stacks from
+    // other tools (ImageMagick writes 72 dpi) keep their proportions.
+    Some([ok(sx), ok(sy.or(sx)), ok(sz.or(sx))])
 }
 
 /// The `spacing=` value of an ImageJ image description.
