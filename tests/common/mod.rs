@@ -11,6 +11,7 @@ pub fn tool(name: &str) -> Command {
     let path = match name {
         "vol-gen" => env!("CARGO_BIN_EXE_vol-gen"),
         "vol-info" => env!("CARGO_BIN_EXE_vol-info"),
+        "vol-psnr" => env!("CARGO_BIN_EXE_vol-psnr"),
         "vol-index" => env!("CARGO_BIN_EXE_vol-index"),
         other => panic!("unknown tool {other}"),
     };
