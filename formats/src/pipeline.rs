@@ -113,10 +113,44 @@ pub struct RowsWritten {
     pub range: volcore::ValueRange,
 }
 
-struct Chunk<T> {
-    samples: Vec<T>,
+struct Chunk {
+    /// Sample storage as 8-byte words (aligned for every sample type).
+    words: Vec<u64>,
+    /// Bytes of samples in `words`.
+    bytes: usize,
     crc: crc32fast::Hasher,
     range: volcore::ValueRange,
+}
+
+/// Write buffers kept for reuse by every [`write_rows`] call in the
+/// process: fresh allocations of this size are new pages each time, and
+/// faulting them in costs more than generating simple scenes. Stored as
+/// `u64` words so one pool serves every sample type.
+static POOL: std::sync::Mutex<Vec<Vec<u64>>> = std::sync::Mutex::new(Vec::new());
+/// Buffers the pool keeps at most (a few batches' worth).
+const POOL_MAX: usize = 4 * BATCH_ITEMS;
+
+fn take_buffer(bytes: usize) -> Vec<u64> {
+    let mut v = POOL
+        .lock()
+        .ok()
+        .and_then(|mut p| p.pop())
+        .unwrap_or_default();
+    let words = bytes.div_ceil(8);
+    if v.len() < words {
+        v.resize(words, 0);
+    } else {
+        v.truncate(words);
+    }
+    v
+}
+
+fn give_buffer(v: Vec<u64>) {
+    if let Ok(mut p) = POOL.lock() {
+        if p.len() < POOL_MAX {
+            p.push(v);
+        }
+    }
 }
 
 /// Write rows `rows` of `src` (row `r` is `(y, z) = (r % Y, r / Y)`) in
@@ -142,40 +176,35 @@ where
     let mut crc = crc32fast::Hasher::new();
     let mut range = volcore::ValueRange::EMPTY;
     let mut written = 0u64;
-    // Written buffers come back here for reuse: fresh allocations of this
-    // size are new pages each time, and faulting them in costs more than
-    // the generation itself for simple scenes.
-    let pool: std::sync::Mutex<Vec<Vec<R::Sample>>> = std::sync::Mutex::new(Vec::new());
-    let produce = |item: u64| -> Result<Chunk<R::Sample>> {
+    let size = R::Sample::TYPE.size();
+    let produce = |item: u64| -> Result<Chunk> {
         let first = item * rows_per_item;
         let n = rows_per_item.min(rows - first);
         let len = (n * d.x) as usize;
-        let reused = pool.lock().ok().and_then(|mut p| p.pop());
-        let mut samples = reused.unwrap_or_default();
-        samples.resize(len, R::Sample::default());
-        samples.truncate(len);
+        let mut words = take_buffer(len * size);
+        let samples: &mut [R::Sample] =
+            &mut bytemuck::cast_slice_mut::<u64, R::Sample>(&mut words)[..len];
         for (r, row) in samples.chunks_exact_mut(d.x as usize).enumerate() {
             let row_id = row0 + first + r as u64;
             src.fill_row(0, row_id % d.y, row_id / d.y, row);
         }
         let mut h = crc32fast::Hasher::new();
-        h.update(bytemuck::cast_slice(&samples));
-        let range = volcore::ValueRange::of(&samples);
+        h.update(bytemuck::cast_slice(samples));
+        let range = volcore::ValueRange::of(samples);
         Ok(Chunk {
-            samples,
+            words,
+            bytes: len * size,
             crc: h,
             range,
         })
     };
-    ordered(items, BATCH_ITEMS, produce, |c: Chunk<R::Sample>| {
-        out.write_all(bytemuck::cast_slice(&c.samples))?;
+    ordered(items, BATCH_ITEMS, produce, |c: Chunk| {
+        out.write_all(&bytemuck::cast_slice::<u64, u8>(&c.words)[..c.bytes])?;
         crc.combine(&c.crc);
         range = range.merge(c.range);
-        written += std::mem::size_of_val(c.samples.as_slice()) as u64;
+        written += c.bytes as u64;
         progress(written);
-        if let Ok(mut p) = pool.lock() {
-            p.push(c.samples);
-        }
+        give_buffer(c.words);
         Ok(())
     })?;
     Ok(RowsWritten {

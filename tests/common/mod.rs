@@ -13,6 +13,7 @@ pub fn tool(name: &str) -> Command {
         "vol-info" => env!("CARGO_BIN_EXE_vol-info"),
         "vol-psnr" => env!("CARGO_BIN_EXE_vol-psnr"),
         "vol-index" => env!("CARGO_BIN_EXE_vol-index"),
+        "vol-render" => env!("CARGO_BIN_EXE_vol-render"),
         other => panic!("unknown tool {other}"),
     };
     let mut c = Command::new(path);
