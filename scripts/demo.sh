@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# volkit's main job end to end on built-in data: generate the thesis test
-# scene, write it sliced, bricked and zstd-bricked (and in the thesis .vol
-# format), and verify every file. Outputs go to $OUT (default out/demo).
+# volkit's main job end to end on built-in data:
+#   generate the thesis test scene -> convert it (TIFF stack and back,
+#   zstd bricks) -> build its index -> render it -> compare renders.
+# Every step checks its result; outputs go to $OUT (default out/demo).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-out/demo}
@@ -15,18 +16,32 @@ step() { printf '\n== %s\n' "$*"; }
 step "generate the thesis 'shapes' scene ($DIMS), sliced"
 $B/vol-gen shapes --dims "$DIMS" --seed 2 --count 70 --size 22 --value 100 -o "$OUT/shapes.vvol"
 
-step "the same scene bricked (B=32) with zstd, and in the thesis .vol format"
-$B/vol-gen shapes --dims "$DIMS" --seed 2 --count 70 --size 22 --value 100 \
-    --layout bricked:32 --compress zstd -o "$OUT/shapes-zstd.vvol"
-$B/vol-gen shapes --dims "$DIMS" --seed 2 --count 70 --size 22 --value 100 \
-    --layout bricked:16 -o "$OUT/shapes.vol"
+step "convert: to a directory of TIFF slices (as for Fiji) and back, then to zstd bricks"
+rm -rf "$OUT/slices"
+$B/vol-convert "$OUT/shapes.vvol" -o "$OUT/slices/" --quiet
+$B/vol-convert "$OUT/slices" -o "$OUT/from-tiff.vvol" --spacing 1,1,1 --quiet
+$B/vol-psnr "$OUT/shapes.vvol" "$OUT/from-tiff.vvol" --min-psnr inf
+$B/vol-convert "$OUT/shapes.vvol" -o "$OUT/shapes-zstd.vvol" --layout bricked:32 --compress zstd --quiet
+$B/vol-info --verify "$OUT/shapes-zstd.vvol"
 
-step "through a pipe: generate to stdout, read from stdin"
-$B/vol-gen noise --dims 128,128,128 --period 32 -o - | $B/vol-info -
+step "through a pipe: generate to stdout, convert from stdin"
+$B/vol-gen noise --dims 128,128,128 --period 32 -o - | $B/vol-convert - -o "$OUT/noise.vvol" --layout bricked:32 --quiet
+$B/vol-info "$OUT/noise.vvol"
 
-step "verify every file"
-for f in "$OUT/shapes.vvol" "$OUT/shapes-zstd.vvol" "$OUT/shapes.vol"; do
-    $B/vol-info --verify "$f"
-done
+step "index: min/max macrocells and histogram"
+$B/vol-index "$OUT/shapes.vvol" --stats
 
-printf '\ndemo finished: outputs in %s\n' "$OUT"
+step "render: the thesis transfer function with Phong shading"
+CAM=(--eye 352,352,352 --look-at 0,0,0 --fov 60 --size 512x512)
+$B/vol-render "$OUT/shapes.vvol" --index "$OUT/shapes.vvol.vidx" --tf shapes --shading phong \
+    --step 0.2 "${CAM[@]}" -o "$OUT/shapes.png" --hdr "$OUT/shapes.pfm" --heatmap "$OUT/samples.png"
+$B/vol-render "$OUT/shapes-zstd.vvol" --tf shapes --shading phong --step 0.2 "${CAM[@]}" \
+    -o "$OUT/shapes-zstd.png" --hdr "$OUT/shapes-zstd.pfm" --quiet
+$B/vol-render "$OUT/shapes.vvol" --tf shapes --shading phong --step 0.8 "${CAM[@]}" \
+    -o "$OUT/coarse.png" --hdr "$OUT/coarse.pfm" --quiet
+
+step "compare: the zstd copy renders identically; a 4x coarser step costs accuracy"
+$B/vol-psnr "$OUT/shapes.pfm" "$OUT/shapes-zstd.pfm" --min-psnr inf
+$B/vol-psnr "$OUT/shapes.pfm" "$OUT/coarse.pfm" --diff "$OUT/coarse-error.png"
+
+printf '\ndemo finished: outputs in %s (shapes.png is the render)\n' "$OUT"

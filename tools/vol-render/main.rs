@@ -418,6 +418,14 @@ fn write_png(path: &Path, frame: &Frame, alpha: bool) -> Result<()> {
     Ok(())
 }
 
+/// The process's peak resident memory in MiB (Linux; `None` elsewhere).
+fn peak_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
 fn report(cli: &Cli, frame: &Frame, load_s: f64, index_s: f64, render_s: f64, times: &[f64]) {
     let s = &frame.stats;
     let mpix = (frame.width as f64 * frame.height as f64) / 1e6;
@@ -440,6 +448,7 @@ fn report(cli: &Cli, frame: &Frame, load_s: f64, index_s: f64, render_s: f64, ti
             "samples_per_s": s.samples as f64 / render_s.max(1e-12),
             "ert": !cli.no_ert,
             "ess": !cli.no_ess,
+            "peak_rss_mb": peak_rss_mb(),
         });
         println!("{v}");
     } else if !cli.quiet {
