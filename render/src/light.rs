@@ -45,7 +45,13 @@ impl Lighting {
         let diff = n.dot(l).max(0.0);
         let h = (l + to_eye).normalize_or_zero();
         let spec = if diff > 0.0 {
-            n.dot(h).max(0.0).powf(self.shininess)
+            let c = n.dot(h).max(0.0);
+            // Whole exponents (the usual case) by multiplication, not powf.
+            if self.shininess.fract() == 0.0 && self.shininess.abs() <= 256.0 {
+                c.powi(self.shininess as i32)
+            } else {
+                c.powf(self.shininess)
+            }
         } else {
             0.0
         };
