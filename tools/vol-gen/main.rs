@@ -216,6 +216,43 @@ fn generate(cli: &Cli) -> Result<()> {
     Ok(())
 }
 
+/// Largest slab of slices held in memory while writing bricks.
+const MAX_SLAB_BYTES: u64 = 1 << 30;
+
+/// Write a `.vvol` file. Bricked layouts are written one brick layer at a
+/// time from a slab of whole slices generated with full-length rows: far
+/// cheaper than evaluating the scene in short brick rows (and the aprons
+/// twice). Memory: the slices of one brick layer plus its aprons, B + 3 of
+/// them; when that would exceed 1 GiB the scene is evaluated per brick.
+fn write_vvol_file<T: Sample>(
+    src: &SceneSource<'_, T>,
+    meta: VolumeMeta,
+    file: &mut std::fs::File,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<vvol::WriteStats> {
+    let slab_bytes = match meta.layout {
+        Layout::Bricked(g) => {
+            meta.dims.slice_len() * g.stored_edge() as u64 * T::TYPE.size() as u64
+        }
+        Layout::Sliced => u64::MAX,
+    };
+    if slab_bytes > MAX_SLAB_BYTES {
+        return Ok(vvol::write(src, meta, Sink::File(file), progress)?);
+    }
+    let mut w = vvol::VvolWriter::new(Sink::File(file), meta, progress)?;
+    let mut buffer = Vec::new();
+    loop {
+        let zs = w.next_slices();
+        if zs.is_empty() {
+            break;
+        }
+        let slab = volcore::region::Slab::fill(src, zs, buffer);
+        w.write_next(&slab)?;
+        buffer = slab.into_buffer();
+    }
+    Ok(w.finish()?)
+}
+
 /// Standard output as an unbuffered file (a duplicate of descriptor 1).
 fn stdout_file() -> Result<std::fs::File> {
     use std::os::fd::AsFd;
@@ -283,7 +320,7 @@ fn write_as<T: Sample>(cli: &Cli, dims: Dims, scene: &dyn Scene) -> Result<Writt
     let mut file = AtomicFile::create(&cli.output)?;
     let written = match kind {
         FileKind::Vvol => {
-            let s = vvol::write(&src, meta, Sink::File(file.file()), &progress)?;
+            let s = write_vvol_file(&src, meta, file.file(), &progress)?;
             let (min, max) = range_of(s.range);
             Written {
                 bytes: s.bytes,

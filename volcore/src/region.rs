@@ -90,3 +90,87 @@ pub fn pack_sliced<R: RegionSource>(src: &R) -> Vec<R::Sample> {
         });
     out
 }
+
+/// A z-range of whole slices held in memory, filled in parallel from
+/// another source with full-length rows. Writers of bricked layouts read
+/// each slice many times in short brick rows (and the aprons twice);
+/// reading them from a slab instead of recomputing a procedural source is
+/// much cheaper. Only rows inside the slab may be read.
+pub struct Slab<T: Sample> {
+    dims: Dims,
+    z0: u64,
+    z1: u64,
+    data: Vec<T>,
+}
+
+impl<T: Sample> Slab<T> {
+    /// Slices `zs` of `src`, reusing `buffer`'s allocation.
+    pub fn fill<R: RegionSource<Sample = T>>(
+        src: &R,
+        zs: std::ops::Range<u64>,
+        buffer: Vec<T>,
+    ) -> Slab<T> {
+        use rayon::prelude::*;
+        let d = src.dims();
+        let len = (d.slice_len() * (zs.end - zs.start)) as usize;
+        let mut data = buffer;
+        data.resize(len, T::default());
+        data.truncate(len);
+        data.par_chunks_mut(d.x as usize)
+            .enumerate()
+            .for_each(|(r, row)| {
+                let r = r as u64;
+                src.fill_row(0, r % d.y, zs.start + r / d.y, row);
+            });
+        Slab {
+            dims: d,
+            z0: zs.start,
+            z1: zs.end,
+            data,
+        }
+    }
+
+    /// Give the storage back for the next slab.
+    pub fn into_buffer(self) -> Vec<T> {
+        self.data
+    }
+}
+
+impl<T: Sample> RegionSource for Slab<T> {
+    type Sample = T;
+    fn dims(&self) -> Dims {
+        self.dims
+    }
+    fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [T]) {
+        assert!(
+            (self.z0..self.z1).contains(&z),
+            "slab holds slices {}..{}, asked for {z}",
+            self.z0,
+            self.z1
+        );
+        let start = (x0 + self.dims.x * (y + self.dims.y * (z - self.z0))) as usize;
+        out.copy_from_slice(&self.data[start..start + out.len()]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{SceneSource, ShapesScene};
+
+    #[test]
+    fn slab_rows_equal_the_source_rows() {
+        let d = Dims::new(23, 9, 30).unwrap();
+        let scene = ShapesScene::new(d, 4, 6, 7, 100.0);
+        let src = SceneSource::<u16>::new(&scene);
+        let slab = Slab::fill(&src, 11..19, Vec::new());
+        let (mut a, mut b) = (vec![0u16; 17], vec![0u16; 17]);
+        for z in 11..19 {
+            for y in 0..9 {
+                slab.fill_row(5, y, z, &mut a);
+                src.fill_row(5, y, z, &mut b);
+                assert_eq!(a, b);
+            }
+        }
+    }
+}
