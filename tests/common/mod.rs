@@ -14,6 +14,7 @@ pub fn tool(name: &str) -> Command {
         "vol-psnr" => env!("CARGO_BIN_EXE_vol-psnr"),
         "vol-index" => env!("CARGO_BIN_EXE_vol-index"),
         "vol-render" => env!("CARGO_BIN_EXE_vol-render"),
+        "vol-accuracy" => env!("CARGO_BIN_EXE_vol-accuracy"),
         other => panic!("unknown tool {other}"),
     };
     let mut c = Command::new(path);

@@ -1,0 +1,113 @@
+//! End-to-end test of vol-accuracy, the accuracy-against-time harness: the
+//! quick study runs, writes the CSV with every knob's rows, and the error
+//! falls as the step shrinks.
+
+mod common;
+
+use common::{fails, ok, tool};
+use std::collections::HashMap;
+
+/// One parsed CSV row: (scene, knob, value) -> (median_s, samples, psnr_db).
+type Rows = HashMap<(String, String, String), (f64, u64, f64)>;
+
+fn parse_csv(text: &str) -> Rows {
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("scene,knob,value,median_s,min_s,max_s,samples,psnr_db")
+    );
+    let mut rows = Rows::new();
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f.len(), 8, "bad row: {line}");
+        let median: f64 = f[3].parse().expect("median_s");
+        let min: f64 = f[4].parse().expect("min_s");
+        let max: f64 = f[5].parse().expect("max_s");
+        assert!(
+            min <= median && median <= max && min > 0.0,
+            "spread: {line}"
+        );
+        let samples: u64 = f[6].parse().expect("samples");
+        // "inf" (the reference, or an image equal to it) parses as f64.
+        let psnr: f64 = f[7].parse().expect("psnr_db");
+        let key = (f[0].to_string(), f[1].to_string(), f[2].to_string());
+        assert!(
+            rows.insert(key, (median, samples, psnr)).is_none(),
+            "duplicate: {line}"
+        );
+    }
+    rows
+}
+
+#[test]
+fn quick_study_writes_rows_and_error_falls_with_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("acc");
+    ok(tool("vol-accuracy").arg("--quick").arg("--out").arg(&out));
+    let text = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
+    let rows = parse_csv(&text);
+
+    let expected: &[(&str, &[&str])] = &[
+        ("reference", &["0.02"]),
+        ("step", &["0.05", "0.2", "0.8", "1.6"]),
+        ("ert", &["0.9", "0.99", "off"]),
+        ("interp", &["nearest", "trilinear"]),
+        ("gradient", &["central", "analytic"]),
+        ("cell", &["4", "16"]),
+        ("tile", &["8", "32"]),
+        ("threads", &["1", "2"]),
+    ];
+    let per_scene: usize = expected.iter().map(|(_, v)| v.len()).sum();
+    assert_eq!(rows.len(), 2 * per_scene, "{text}");
+    for scene in ["thesis", "noise"] {
+        for (knob, values) in expected {
+            for v in *values {
+                let key = (scene.to_string(), knob.to_string(), v.to_string());
+                assert!(rows.contains_key(&key), "missing row {key:?}");
+            }
+        }
+        let get = |knob: &str, v: &str| rows[&(scene.to_string(), knob.to_string(), v.to_string())];
+        // Error falls as the step shrinks, and more samples are taken.
+        let (_, fine_samples, fine) = get("step", "0.05");
+        let (_, coarse_samples, coarse) = get("step", "1.6");
+        assert!(fine.is_finite() && coarse.is_finite(), "{scene}: psnr");
+        assert!(
+            get("reference", "0.02").2.is_infinite(),
+            "{scene}: reference"
+        );
+        assert!(
+            fine > coarse,
+            "{scene}: PSNR at step 0.05 ({fine}) <= at 1.6 ({coarse})"
+        );
+        assert!(fine_samples > coarse_samples, "{scene}: samples");
+        // Tiles and threads change the time only, never the image.
+        assert_eq!(get("tile", "8").2, get("tile", "32").2, "{scene}: tile");
+        assert_eq!(
+            get("threads", "1").2,
+            get("threads", "2").2,
+            "{scene}: threads"
+        );
+    }
+    // The plots (when a font was found, as on any machine with DejaVu).
+    if std::path::Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").exists() {
+        for f in [
+            "accuracy-thesis.png",
+            "accuracy-thesis.svg",
+            "accuracy-noise.svg",
+        ] {
+            let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
+            assert!(len > 1000, "{f} missing or empty");
+        }
+    }
+}
+
+#[test]
+fn unknown_scene_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    fails(
+        tool("vol-accuracy")
+            .args(["--quick", "--scene", "teapot", "--out"])
+            .arg(dir.path()),
+        "unknown scene",
+    );
+}

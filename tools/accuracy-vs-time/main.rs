@@ -1,0 +1,618 @@
+//! vol-accuracy: what accuracy costs. Renders a reference image of a scene
+//! at the finest settings, then sweeps each knob that trades accuracy for
+//! time (step size, early ray termination, interpolation, gradient method,
+//! macrocell size, tile size, thread count), timing every setting and
+//! comparing its linear float image with the reference's. Writes a CSV and
+//! a plot (PSNR against time, one curve per knob) as PNG and SVG. The
+//! reference itself is the first row of each scene (PSNR inf).
+//!
+//! It drives the other tools (`vol-gen`, `vol-render`, `vol-psnr`), which it
+//! looks for next to its own executable unless `--bin-dir` says otherwise.
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Parser;
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode, Stdio};
+
+/// Sweep the renderer's accuracy knobs and chart PSNR against render time.
+///
+/// For each scene: generate the volume, render a reference (smallest step,
+/// no early termination, trilinear, central gradients) with vol-render
+/// --hdr, then render every setting of every knob with --repeat N, keeping
+/// the median time, the fastest and slowest run, the samples taken and the
+/// PSNR of its float image against the reference (vol-psnr, peak 1.0).
+/// Knobs not being swept keep the base settings (step 0.2, --ert 0.99,
+/// trilinear, central, --cell 8, --tile 16, all cores).
+#[derive(Parser, Debug)]
+#[command(name = "vol-accuracy", version, after_help = AFTER_HELP)]
+struct Cli {
+    /// CI-sized study: tiny volumes, 64x64 images, one run, few values.
+    #[arg(long)]
+    quick: bool,
+    /// Directory for the volumes, images, CSV and plots.
+    #[arg(long, value_name = "DIR", default_value = "out/accuracy")]
+    out: PathBuf,
+    /// Runs per setting; the median is reported (default: 3, quick: 1).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    repeat: Option<u32>,
+    /// Only this scene (thesis or noise); default: both.
+    #[arg(long, value_name = "NAME")]
+    scene: Option<String>,
+    /// Directory holding vol-gen, vol-render and vol-psnr (default: next
+    /// to this executable).
+    #[arg(long, value_name = "DIR")]
+    bin_dir: Option<PathBuf>,
+    /// TrueType font for the plot's text (default: a DejaVu or Liberation
+    /// sans font from the usual system places).
+    #[arg(long, value_name = "FILE")]
+    font: Option<PathBuf>,
+}
+
+const AFTER_HELP: &str = "Examples:
+  vol-accuracy                      # default study, out/accuracy/
+  vol-accuracy --quick --out /tmp/acc
+  vol-accuracy --scene noise --repeat 5
+
+Outputs: accuracy.csv (scene, knob, value, median_s, min_s, max_s, samples,
+psnr_db; psnr_db is inf when the image equals the reference) and, per scene,
+accuracy-SCENE.png and accuracy-SCENE.svg.";
+
+/// One scene of a study: how to make the volume and how to look at it.
+struct Scene {
+    /// Short name used in file names and the CSV.
+    name: &'static str,
+    /// vol-gen arguments (without -o).
+    gen: Vec<String>,
+    /// vol-render arguments shared by every render of this scene.
+    view: Vec<String>,
+    /// Transfer function file contents to write, or None for a preset.
+    tf_file: Option<&'static str>,
+}
+
+/// The values swept for each knob.
+struct Sweep {
+    step: Vec<&'static str>,
+    ert: Vec<&'static str>,
+    cell: Vec<&'static str>,
+    tile: Vec<&'static str>,
+    threads: Vec<&'static str>,
+}
+
+/// The noise scene's transfer function: empty below 110, a thin blue haze
+/// up to 150, an orange shell from 150 to 190, opaque white cores above.
+const NOISE_TF: &str = "# vol-accuracy: transfer function for the noise scene
+domain 0 255
+step 1
+point 0   0 0 0 0
+point 110 0 0 0 0
+point 150 40 90 220 0.02
+point 170 240 150 40 0.15
+point 200 250 240 220 0.5
+point 255 255 255 255 0.9
+";
+
+/// Base settings of every render that is not the reference.
+const BASE_STEP: &str = "0.2";
+const BASE_ERT: &str = "0.99";
+/// Reference step, full and quick studies.
+const REF_STEP: &str = "0.01";
+const REF_STEP_QUICK: &str = "0.02";
+
+/// One measured setting: a row of the CSV.
+struct Row {
+    scene: String,
+    knob: &'static str,
+    value: String,
+    median_s: f64,
+    min_s: f64,
+    max_s: f64,
+    samples: u64,
+    /// None when the image equals the reference.
+    psnr_db: Option<f64>,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(&cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("vol-accuracy: {msg}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The whole study.
+fn run(cli: &Cli) -> Result<()> {
+    let bin_dir = match &cli.bin_dir {
+        Some(d) => d.clone(),
+        None => std::env::current_exe()
+            .context("cannot find this executable's directory")?
+            .parent()
+            .map(Path::to_path_buf)
+            .ok_or_else(|| anyhow!("cannot find this executable's directory"))?,
+    };
+    for t in ["vol-gen", "vol-render", "vol-psnr"] {
+        let p = bin_dir.join(exe(t));
+        if !p.is_file() {
+            bail!(
+                "{}: not found (build with cargo build --release --bins, or give --bin-dir)",
+                p.display()
+            );
+        }
+    }
+    std::fs::create_dir_all(&cli.out)
+        .with_context(|| format!("{}: cannot create directory", cli.out.display()))?;
+    let repeat = cli.repeat.unwrap_or(if cli.quick { 1 } else { 3 });
+    let (scenes, sweep) = study(cli.quick);
+    let scenes: Vec<Scene> = match &cli.scene {
+        None => scenes,
+        Some(want) => {
+            let s: Vec<Scene> = scenes.into_iter().filter(|s| s.name == want).collect();
+            if s.is_empty() {
+                bail!("unknown scene '{want}' (thesis, noise)");
+            }
+            s
+        }
+    };
+    let font = load_font(cli.font.as_deref())?;
+    let ctx = Ctx {
+        bin: bin_dir,
+        out: cli.out.clone(),
+        repeat,
+        ref_step: if cli.quick { REF_STEP_QUICK } else { REF_STEP },
+    };
+    let mut rows = Vec::new();
+    for scene in &scenes {
+        let scene_rows = run_scene(&ctx, scene, &sweep)?;
+        if font {
+            plot(&ctx.out, scene.name, &scene_rows)?;
+        }
+        rows.extend(scene_rows);
+    }
+    let csv = ctx.out.join("accuracy.csv");
+    write_csv(&csv, &rows)?;
+    eprintln!("vol-accuracy: wrote {}", csv.display());
+    Ok(())
+}
+
+/// Everything a render needs besides the scene and the setting.
+struct Ctx {
+    bin: PathBuf,
+    out: PathBuf,
+    repeat: u32,
+    ref_step: &'static str,
+}
+
+/// The executable's file name on this platform.
+fn exe(name: &str) -> String {
+    format!("{name}{}", std::env::consts::EXE_SUFFIX)
+}
+
+/// Strings from string slices.
+fn strs(a: &[&str]) -> Vec<String> {
+    a.iter().map(|s| s.to_string()).collect()
+}
+
+/// The default (or quick) scenes and the values swept.
+fn study(quick: bool) -> (Vec<Scene>, Sweep) {
+    // The thesis scene is 800³ with shapes of size 70 and the eye at
+    // (1100, 1100, 1100) looking at the origin; scale all three together.
+    let (n, size, img, noise_n) = if quick {
+        (48u32, 4u32, "64x64", 48u32)
+    } else {
+        (256, 22, "256x256", 128)
+    };
+    let eye = (1100.0 * f64::from(n) / 800.0).round();
+    let thesis = Scene {
+        name: "thesis",
+        gen: strs(&["shapes", "--seed", "2", "--count", "70", "--value", "100"])
+            .into_iter()
+            .chain([
+                "--size".into(),
+                size.to_string(),
+                "--dims".into(),
+                format!("{n},{n},{n}"),
+            ])
+            .collect(),
+        view: vec![
+            "--tf".into(),
+            "shapes".into(),
+            "--shading".into(),
+            "phong".into(),
+            "--eye".into(),
+            format!("{eye},{eye},{eye}"),
+            "--look-at".into(),
+            "0,0,0".into(),
+            "--fov".into(),
+            "60".into(),
+            "--size".into(),
+            img.into(),
+        ],
+        tf_file: None,
+    };
+    let noise = Scene {
+        name: "noise",
+        gen: vec![
+            "noise".into(),
+            "--dims".into(),
+            format!("{noise_n},{noise_n},{noise_n}"),
+        ],
+        view: vec![
+            "--shading".into(),
+            "phong".into(),
+            "--size".into(),
+            img.into(),
+        ],
+        tf_file: Some(NOISE_TF),
+    };
+    let sweep = if quick {
+        Sweep {
+            step: vec!["0.05", "0.2", "0.8", "1.6"],
+            ert: vec!["0.9", "0.99", "off"],
+            cell: vec!["4", "16"],
+            tile: vec!["8", "32"],
+            threads: vec!["1", "2"],
+        }
+    } else {
+        Sweep {
+            step: vec!["0.05", "0.1", "0.2", "0.4", "0.8", "1.6"],
+            ert: vec!["0.9", "0.95", "0.99", "0.999", "off"],
+            cell: vec!["4", "8", "16", "32"],
+            tile: vec!["8", "16", "32", "64"],
+            threads: vec!["1", "2"],
+        }
+    };
+    (vec![thesis, noise], sweep)
+}
+
+/// Generate, render the reference, sweep every knob; returns the rows.
+fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
+    let vol = ctx.out.join(format!("{}.vvol", scene.name));
+    let mut gen = scene.gen.clone();
+    gen.extend(["-o".into(), path_arg(&vol)?, "--quiet".into()]);
+    tool(ctx, "vol-gen", &gen)?;
+    let mut view = scene.view.clone();
+    if let Some(tf) = scene.tf_file {
+        let tf_path = ctx.out.join(format!("{}.tf", scene.name));
+        std::fs::write(&tf_path, tf)
+            .with_context(|| format!("{}: cannot write", tf_path.display()))?;
+        view.extend(["--tf".into(), path_arg(&tf_path)?]);
+    }
+    let reference = ctx.out.join(format!("{}-reference.pfm", scene.name));
+    eprintln!(
+        "vol-accuracy: {}: reference at step {}",
+        scene.name, ctx.ref_step
+    );
+    let (median_s, min_s, max_s, samples) = render(
+        ctx,
+        &vol,
+        &view,
+        &strs(&["--step", ctx.ref_step, "--no-ert"]),
+        &reference,
+        ctx.repeat,
+    )?;
+    // The reference is the first row (PSNR inf), so times can be compared
+    // with it.
+    let mut rows = vec![Row {
+        scene: scene.name.into(),
+        knob: "reference",
+        value: ctx.ref_step.into(),
+        median_s,
+        min_s,
+        max_s,
+        samples,
+        psnr_db: None,
+    }];
+
+    // (knob, value as written in the CSV, vol-render arguments)
+    let mut settings: Vec<(&'static str, String, Vec<String>)> = Vec::new();
+    for s in &sweep.step {
+        settings.push(("step", s.to_string(), strs(&["--step", s])));
+    }
+    for e in &sweep.ert {
+        let a = if *e == "off" {
+            strs(&["--no-ert"])
+        } else {
+            strs(&["--ert", e])
+        };
+        settings.push(("ert", e.to_string(), a));
+    }
+    for i in ["nearest", "trilinear"] {
+        settings.push(("interp", i.into(), strs(&["--interp", i])));
+    }
+    for g in ["central", "analytic"] {
+        settings.push(("gradient", g.into(), strs(&["--gradient", g])));
+    }
+    for c in &sweep.cell {
+        settings.push(("cell", c.to_string(), strs(&["--cell", c])));
+    }
+    for t in &sweep.tile {
+        settings.push(("tile", t.to_string(), strs(&["--tile", t])));
+    }
+    for t in &sweep.threads {
+        settings.push(("threads", t.to_string(), strs(&["--threads", t])));
+    }
+
+    for (knob, value, args) in settings {
+        // The base settings, except for the knob being swept.
+        let mut all = Vec::new();
+        if knob != "step" {
+            all.extend(strs(&["--step", BASE_STEP]));
+        }
+        if knob != "ert" {
+            all.extend(strs(&["--ert", BASE_ERT]));
+        }
+        all.extend(args);
+        let hdr = ctx.out.join(format!("{}-{knob}-{value}.pfm", scene.name));
+        let (median_s, min_s, max_s, samples) = render(ctx, &vol, &view, &all, &hdr, ctx.repeat)?;
+        let psnr_db = psnr(ctx, &reference, &hdr)?;
+        eprintln!(
+            "vol-accuracy: {} {knob}={value}: {median_s:.4} s, PSNR {}",
+            scene.name,
+            psnr_db.map_or("inf".to_string(), |p| format!("{p:.2} dB"))
+        );
+        rows.push(Row {
+            scene: scene.name.into(),
+            knob,
+            value,
+            median_s,
+            min_s,
+            max_s,
+            samples,
+            psnr_db,
+        });
+    }
+    Ok(rows)
+}
+
+/// A path as a command-line argument (must be UTF-8 for the tools).
+fn path_arg(p: &Path) -> Result<String> {
+    p.to_str()
+        .map(str::to_string)
+        .ok_or_else(|| anyhow!("{}: path is not UTF-8", p.display()))
+}
+
+/// Run a tool, insist on success, return its stdout.
+fn tool(ctx: &Ctx, name: &str, args: &[String]) -> Result<String> {
+    let out = Command::new(ctx.bin.join(exe(name)))
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .with_context(|| format!("{name}: cannot start"))?;
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        let line = err.lines().next().unwrap_or("failed without a message");
+        bail!("{name} {}: {line}", args.join(" "));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout).into_owned())
+}
+
+/// Render once (or `repeat` times) with --hdr; returns median, min and max
+/// seconds and the samples taken.
+fn render(
+    ctx: &Ctx,
+    vol: &Path,
+    view: &[String],
+    knobs: &[String],
+    hdr: &Path,
+    repeat: u32,
+) -> Result<(f64, f64, f64, u64)> {
+    let png = hdr.with_extension("png");
+    let mut args = vec![path_arg(vol)?];
+    args.extend(view.iter().cloned());
+    args.extend(knobs.iter().cloned());
+    args.extend([
+        "-o".into(),
+        path_arg(&png)?,
+        "--hdr".into(),
+        path_arg(hdr)?,
+        "--repeat".into(),
+        repeat.to_string(),
+        "--json".into(),
+        "--quiet".into(),
+    ]);
+    let out = tool(ctx, "vol-render", &args)?;
+    let v: serde_json::Value =
+        serde_json::from_str(out.trim()).context("vol-render did not print one JSON object")?;
+    let median = v["render_s"]
+        .as_f64()
+        .ok_or_else(|| anyhow!("vol-render JSON has no render_s"))?;
+    let runs: Vec<f64> = v["render_runs_s"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|x| x.as_f64()).collect())
+        .unwrap_or_default();
+    let min = runs.iter().copied().fold(median, f64::min);
+    let max = runs.iter().copied().fold(median, f64::max);
+    let samples = v["samples"]
+        .as_u64()
+        .ok_or_else(|| anyhow!("vol-render JSON has no samples"))?;
+    Ok((median, min, max, samples))
+}
+
+/// PSNR (dB) of `b` against `a`; None when identical.
+fn psnr(ctx: &Ctx, a: &Path, b: &Path) -> Result<Option<f64>> {
+    let out = tool(
+        ctx,
+        "vol-psnr",
+        &[path_arg(a)?, path_arg(b)?, "--json".into()],
+    )?;
+    let v: serde_json::Value =
+        serde_json::from_str(out.trim()).context("vol-psnr did not print one JSON object")?;
+    if v["identical"].as_bool() == Some(true) {
+        return Ok(None);
+    }
+    v["psnr"]
+        .as_f64()
+        .map(Some)
+        .ok_or_else(|| anyhow!("vol-psnr JSON has no psnr"))
+}
+
+/// Write the CSV under a temporary name, then rename.
+fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
+    let mut s = String::from("scene,knob,value,median_s,min_s,max_s,samples,psnr_db\n");
+    for r in rows {
+        let p = r.psnr_db.map_or("inf".to_string(), |p| format!("{p:.3}"));
+        let _ = writeln!(
+            s,
+            "{},{},{},{:.6},{:.6},{:.6},{},{}",
+            r.scene, r.knob, r.value, r.median_s, r.min_s, r.max_s, r.samples, p
+        );
+    }
+    let tmp = path.with_extension("csv.partial");
+    std::fs::write(&tmp, s).with_context(|| format!("{}: cannot write", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot write", path.display()))?;
+    Ok(())
+}
+
+/// Register a sans-serif font for the plot's text. Returns false (after a
+/// warning) when none is found and none was asked for: the CSV is still
+/// written, the plot is skipped.
+fn load_font(asked: Option<&Path>) -> Result<bool> {
+    let candidates: Vec<PathBuf> = match asked {
+        Some(p) => vec![p.to_path_buf()],
+        None => [
+            "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+            "/usr/share/fonts/TTF/DejaVuSans.ttf",
+            "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+            "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+            "/Library/Fonts/Arial.ttf",
+            "C:\\Windows\\Fonts\\arial.ttf",
+        ]
+        .iter()
+        .map(PathBuf::from)
+        .collect(),
+    };
+    for p in &candidates {
+        if let Ok(bytes) = std::fs::read(p) {
+            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+            if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_err() {
+                bail!("{}: not a usable TrueType font", p.display());
+            }
+            return Ok(true);
+        }
+    }
+    if let Some(p) = asked {
+        bail!("{}: cannot read font", p.display());
+    }
+    eprintln!("vol-accuracy: no font found (give --font FILE.ttf): skipping the plots");
+    Ok(false)
+}
+
+/// One colour per knob, in sweep order.
+const COLOURS: [RGBColor; 7] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(127, 127, 127),
+];
+
+/// Draw PSNR against median time for one scene, as PNG and SVG.
+fn plot(out: &Path, scene: &str, rows: &[Row]) -> Result<()> {
+    let png = out.join(format!("accuracy-{scene}.png"));
+    let svg = out.join(format!("accuracy-{scene}.svg"));
+    {
+        let root = BitMapBackend::new(&png, (800, 520)).into_drawing_area();
+        draw(root, scene, rows).with_context(|| format!("{}: cannot draw", png.display()))?;
+    }
+    {
+        let root = SVGBackend::new(&svg, (800, 520)).into_drawing_area();
+        draw(root, scene, rows).with_context(|| format!("{}: cannot draw", svg.display()))?;
+    }
+    Ok(())
+}
+
+/// The chart itself, on any backend.
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    scene: &str,
+    rows: &[Row],
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("{e}");
+    root.fill(&WHITE).map_err(err)?;
+    let finite: Vec<&Row> = rows.iter().filter(|r| r.psnr_db.is_some()).collect();
+    if finite.is_empty() {
+        bail!("no setting differs from the reference: nothing to plot");
+    }
+    let (mut t0, mut t1, mut p0, mut p1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for r in &finite {
+        let p = r.psnr_db.unwrap_or(0.0);
+        t0 = t0.min(r.median_s);
+        t1 = t1.max(r.median_s);
+        p0 = p0.min(p);
+        p1 = p1.max(p);
+    }
+    let t0 = (t0 * 0.8).max(1e-6);
+    let t1 = (t1 * 1.25).max(t0 * 2.0);
+    let (p0, p1) = ((p0 - 2.0).floor(), (p1 + 2.0).ceil());
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("What accuracy costs: {scene} scene (PSNR vs reference)"),
+            ("sans-serif", 20),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(55)
+        .build_cartesian_2d((t0..t1).log_scale(), p0..p1)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("median render time (s, log scale)")
+        .y_desc("PSNR against the reference (dB)")
+        .x_label_formatter(&|x| format!("{x:.3}"))
+        .draw()
+        .map_err(err)?;
+    let mut knobs: Vec<&'static str> = Vec::new();
+    for r in &finite {
+        if !knobs.contains(&r.knob) {
+            knobs.push(r.knob);
+        }
+    }
+    for (i, knob) in knobs.iter().enumerate() {
+        let colour = COLOURS[i % COLOURS.len()];
+        let pts: Vec<(f64, f64)> = finite
+            .iter()
+            .filter(|r| r.knob == *knob)
+            .map(|r| (r.median_s, r.psnr_db.unwrap_or(0.0)))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
+            .map_err(err)?
+            .label(*knob)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+            });
+        chart
+            .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+            .map_err(err)?;
+        if *knob == "step" {
+            chart
+                .draw_series(finite.iter().filter(|r| r.knob == "step").map(|r| {
+                    Text::new(
+                        r.value.clone(),
+                        (r.median_s, r.psnr_db.unwrap_or(0.0) + 0.6),
+                        ("sans-serif", 12).into_font().color(&colour),
+                    )
+                }))
+                .map_err(err)?;
+        }
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::LowerRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)?;
+    Ok(())
+}
