@@ -1,27 +1,44 @@
-//! Building an index: one parallel pass over z-slabs of cells.
+//! Building an index: one parallel pass over the volume in storage order.
 //!
-//! Each rayon task owns one z-slab of level-0 cells (cell layer `cz`) and
-//! reads its `N + 1` voxel slices (the last one is the apron, shared with
-//! the next slab) row by row through [`VoxelSource::read_row`], y outer and
-//! z inner so compressed sources touch few bricks at a time. Rows are folded
-//! element-wise into a running min/max in the native sample type; when a
-//! cell row is complete each cell's range is a fold over its `N + 1`
-//! columns, converted to `f32` once per cell. Memory per task is two
-//! accumulators and one row buffer (`5 · X` samples), whatever the volume.
+//! The volume is walked as tasks of blocks (module `walk`): z slabs of
+//! cells for sliced volumes (samples borrowed from the memory map), rows of
+//! bricks for bricked ones (each brick's samples borrowed, or decoded once
+//! for zstd bricks), rows copied through [`VoxelSource::read_row`] for any
+//! other source. Every voxel is read exactly once.
+//!
+//! A task whose accumulators are small (a row of bricks) is one *piece*;
+//! otherwise each block is cut into pieces of at most 32 slices and a
+//! bounded number of rows (see module `piece`). A piece folds
+//! its rows element-wise (min/max in the native sample type, which
+//! vectorises) into one accumulator row per cell layer and cell row it
+//! meets: a row on a cell boundary (`y` or `z` a multiple of the edge) is
+//! also the apron of the cell before, so it is folded into both. When the
+//! piece is done each cell's range is reduced from its `N + 1` columns (the
+//! apron column on the far side included) and folded into the task's box
+//! of cells, which is merged into the level-0 arrays under a per-layer lock
+//! when the task ends. A cell whose footprint spans several pieces or tasks
+//! is the union of their parts; min and max do not depend on the order, and
+//! zeros are canonicalised, so the result depends only on the samples, not
+//! on the layout or the thread count. Memory: the level-0 arrays plus, per
+//! thread, one task's cells and one piece's accumulators (about
+//! 64K samples per bound, more only for rows wider than that).
 //!
 //! Integer samples are also counted per value in the same pass (each voxel
-//! once: apron slices are not counted) and rebinned into the histogram
-//! afterwards. Every cell is computed by one task in a fixed order and
-//! counts are summed exactly, so the result depends only on the samples.
+//! once) and rebinned into the histogram afterwards; `f32` samples are
+//! binned in a second pass once their range is known.
 
 use crate::error::IndexError;
 use crate::histogram::{self, Histogram, DEFAULT_BINS, MAX_BINS};
 use crate::index::MajorantIndex;
 use crate::level::{cell_count, level_shapes, try_filled, Level};
-use crate::scan::{ExactCounts, RowRange, ScanSample};
+use crate::piece::{cells_meeting, CellBox, PieceRanges};
+use crate::scan::{ExactCounts, ScanSample};
+use crate::walk::{Block, BrickedWalk, CompressedWalk, Region, RowWalk, SlicedWalk, Walk};
 use rayon::prelude::*;
-use std::any::{Any, TypeId};
-use volcore::{Dims, Sample, SampleType, Volume, VolumeVisitor, VoxelSource};
+use std::ops::Range;
+use std::sync::Mutex;
+use volcore::volume::TypedGrid;
+use volcore::{Sample, SampleType, Volume, VolumeData, VoxelSource};
 
 /// Smallest allowed macrocell edge.
 pub const MIN_CELL_EDGE: u32 = 2;
@@ -69,18 +86,21 @@ impl BuildOptions {
 }
 
 /// Build the index of `src`, tagging it with the caller's `fingerprint` of
-/// the volume. Runs on the current rayon pool.
+/// the volume. Runs on the current rayon pool. Samples are copied through
+/// [`VoxelSource::read_row`]; [`build_volume`] reads sliced and bricked
+/// volumes in place and decodes zstd bricks once each, which is faster.
 pub fn build_source<S: VoxelSource>(
     src: &S,
     opts: &BuildOptions,
     fingerprint: u64,
 ) -> Result<MajorantIndex, IndexError> {
     opts.validate()?;
+    let edge = u64::from(opts.cell_edge);
     let index = match <S::Sample as Sample>::TYPE {
-        SampleType::U8 => build_typed::<S, u8>(src, opts, fingerprint),
-        SampleType::U16 => build_typed::<S, u16>(src, opts, fingerprint),
-        SampleType::I16 => build_typed::<S, i16>(src, opts, fingerprint),
-        SampleType::F32 => build_typed::<S, f32>(src, opts, fingerprint),
+        SampleType::U8 => build_walk::<u8>(&RowWalk::new(src, edge), opts, fingerprint),
+        SampleType::U16 => build_walk::<u16>(&RowWalk::new(src, edge), opts, fingerprint),
+        SampleType::I16 => build_walk::<i16>(&RowWalk::new(src, edge), opts, fingerprint),
+        SampleType::F32 => build_walk::<f32>(&RowWalk::new(src, edge), opts, fingerprint),
     }?;
     match src.error() {
         Some(msg) => Err(IndexError::Source(msg)),
@@ -88,73 +108,103 @@ pub fn build_source<S: VoxelSource>(
     }
 }
 
-/// Build the index of an open volume (any layout and sample type).
+/// Build the index of an open volume (any layout and sample type), reading
+/// its samples in storage order (see the module docs).
 pub fn build_volume(
     vol: &Volume,
     opts: &BuildOptions,
     fingerprint: u64,
 ) -> Result<MajorantIndex, IndexError> {
-    struct Build<'a>(&'a BuildOptions, u64);
-    impl VolumeVisitor for Build<'_> {
-        type Output = Result<MajorantIndex, IndexError>;
-        fn visit<S: VoxelSource>(self, src: &S) -> Self::Output {
-            build_source(src, self.0, self.1)
-        }
-    }
-    vol.visit(Build(opts, fingerprint))
-}
-
-/// Reads whole rows of a source as `T`, the concrete type of its samples.
-struct Rows<'a, S: VoxelSource> {
-    src: &'a S,
-    dims: Dims,
-}
-
-impl<S: VoxelSource> Rows<'_, S> {
-    /// Fill `buf` (`dims.x` samples) with row `(y, z)`. `T` is
-    /// `S::Sample`, checked once in [`build_typed`], so the downcast is
-    /// resolved at compile time and never fails.
-    #[inline]
-    #[allow(clippy::ptr_arg)] // `Any` downcasts the sized `Vec`, not a slice
-    fn read<T: ScanSample>(&self, y: u64, z: u64, buf: &mut Vec<T>) {
-        if let Some(b) = (buf as &mut dyn Any).downcast_mut::<Vec<S::Sample>>() {
-            self.src.read_row(0, y, z, b);
-        }
+    opts.validate()?;
+    match &vol.data {
+        VolumeData::U8(g) => build_grid(g, opts, fingerprint),
+        VolumeData::U16(g) => build_grid(g, opts, fingerprint),
+        VolumeData::I16(g) => build_grid(g, opts, fingerprint),
+        VolumeData::F32(g) => build_grid(g, opts, fingerprint),
     }
 }
 
-/// The whole build for samples of type `T == S::Sample`.
-fn build_typed<S: VoxelSource, T: ScanSample>(
-    src: &S,
+/// [`build_volume`] for one sample type: the walk that suits the layout.
+fn build_grid<T: ScanSample>(
+    grid: &TypedGrid<T>,
     opts: &BuildOptions,
     fingerprint: u64,
 ) -> Result<MajorantIndex, IndexError> {
-    if TypeId::of::<T>() != TypeId::of::<S::Sample>() {
-        return Err(IndexError::Source(format!(
-            "sample type {} does not match its tag",
-            T::TYPE
-        )));
+    let edge = u64::from(opts.cell_edge);
+    match grid {
+        TypedGrid::Sliced(grid) => build_walk(&SlicedWalk { grid, edge }, opts, fingerprint),
+        TypedGrid::Bricked(grid) => build_walk(&BrickedWalk { grid }, opts, fingerprint),
+        TypedGrid::Compressed(grid) => build_walk(&CompressedWalk { grid }, opts, fingerprint),
     }
-    let dims = src.dims();
-    let rows = Rows { src, dims };
+}
+
+/// The level-0 arrays, one lock per cell layer, for tasks to merge into.
+struct Layers<'a> {
+    cells: [u64; 3],
+    planes: Vec<Mutex<(&'a mut [f32], &'a mut [f32])>>,
+}
+
+impl<'a> Layers<'a> {
+    /// Split `min` and `max` (`cells` shaped, x fastest) into layers.
+    fn new(cells: [u64; 3], min: &'a mut [f32], max: &'a mut [f32]) -> Self {
+        let plane = (cells[0] * cells[1]) as usize;
+        let planes = min
+            .chunks_mut(plane)
+            .zip(max.chunks_mut(plane))
+            .map(Mutex::new)
+            .collect();
+        Layers { cells, planes }
+    }
+
+    /// Widen every cell of `part` to hold its range there.
+    fn merge<T: ScanSample>(&self, part: &CellBox<T>) {
+        let [xs, ys, zs] = part.cells().clone();
+        let nx = self.cells[0];
+        for cz in zs {
+            // A panic while merging leaves the arrays unused: the build
+            // fails as a whole, so a poisoned lock is still safe to take.
+            let mut plane = self.planes[cz as usize]
+                .lock()
+                .unwrap_or_else(|p| p.into_inner());
+            let (mn, mx) = &mut *plane;
+            for cy in ys.clone() {
+                for cx in xs.clone() {
+                    let (lo, hi) = part.range(cx, cy, cz);
+                    let i = (cx + nx * cy) as usize;
+                    mn[i] = f32::lower(mn[i], lo);
+                    mx[i] = f32::upper(mx[i], hi);
+                }
+            }
+        }
+    }
+}
+
+/// The whole build over a walk of the volume's samples.
+fn build_walk<T: ScanSample>(
+    walk: &dyn Walk<T>,
+    opts: &BuildOptions,
+    fingerprint: u64,
+) -> Result<MajorantIndex, IndexError> {
+    let dims = walk.dims();
     let shapes = level_shapes(dims, opts.cell_edge);
     let cells = shapes[0];
     let total = cell_count(cells)?;
     usize::try_from(dims.x)
         .map_err(|_| IndexError::TooLarge(format!("rows of {} voxels", dims.x)))?;
-    let plane = (cells[0] * cells[1]) as usize;
     let mut min = try_filled(total, f32::INFINITY)?;
     let mut max = try_filled(total, f32::NEG_INFINITY)?;
     let edge = u64::from(opts.cell_edge);
-    let counts = min
-        .par_chunks_mut(plane)
-        .zip(max.par_chunks_mut(plane))
-        .enumerate()
-        .fold(ExactCounts::new::<T>, |mut counts, (cz, (mn, mx))| {
-            scan_slab::<S, T>(&rows, edge, cz as u64, mn, mx, &mut counts);
-            counts
-        })
-        .reduce(ExactCounts::new::<T>, ExactCounts::merge);
+    let counts = {
+        let layers = Layers::new(cells, &mut min, &mut max);
+        (0..walk.tasks())
+            .into_par_iter()
+            .try_fold(ExactCounts::new::<T>, |mut counts, task| {
+                let part = scan_task(walk, edge, task, &mut counts)?;
+                layers.merge(&part);
+                Ok::<_, IndexError>(counts)
+            })
+            .try_reduce(ExactCounts::new::<T>, |a, b| Ok(a.merge(b)))?
+    };
 
     let mut levels = vec![Level::from_parts(cells, edge, min, max)?];
     while levels.len() < shapes.len() {
@@ -166,84 +216,114 @@ fn build_typed<S: VoxelSource, T: ScanSample>(
     let hist = if T::EXACT_VALUES > 0 {
         Histogram::from_exact(T::TYPE_MIN, &counts.per_value(), opts.histogram_bins)
     } else {
-        float_histogram::<S, T>(&rows, edge, range, opts.histogram_bins)
+        float_histogram(walk, range, opts.histogram_bins)?
     };
     MajorantIndex::from_parts(dims, T::TYPE, fingerprint, range, hist, levels)
 }
 
-/// Fill the level-0 cells of slab `cz` (`mn`, `mx`: one cell plane) and
-/// count the slab's own voxels.
-fn scan_slab<S: VoxelSource, T: ScanSample>(
-    rows: &Rows<'_, S>,
+/// The cells whose footprints meet the voxels of `r`, per axis.
+fn cells_of(r: &Region, edge: u64) -> [Range<u64>; 3] {
+    std::array::from_fn(|a| cells_meeting(r.axis(a), edge))
+}
+
+/// Scan task `task`: the ranges of the cells its voxels meet (the parts
+/// of their footprints it holds), counting its voxels into `counts`. A task
+/// whose accumulators fit [`TASK_ACC`] is one piece, fed by all its blocks
+/// (a row of bricks: each cell's range is then reduced once, not once per
+/// brick); otherwise each block is cut into pieces of its own.
+fn scan_task<T: ScanSample>(
+    walk: &dyn Walk<T>,
     edge: u64,
-    cz: u64,
-    mn: &mut [f32],
-    mx: &mut [f32],
+    task: u64,
+    counts: &mut ExactCounts,
+) -> Result<CellBox<T>, IndexError> {
+    let r = walk.task_region(task);
+    let mut part = CellBox::new(cells_of(&r, edge));
+    let mut acc = PieceRanges::new(edge);
+    let one_piece = PieceRanges::<T>::len_for(edge, r.axis(0), r.axis(1), r.axis(2)) <= TASK_ACC;
+    if one_piece {
+        acc.start(r.axis(0), r.axis(1), r.axis(2));
+    }
+    walk.blocks(task, &mut |block| {
+        if one_piece {
+            return add_block(&mut acc, &block, counts);
+        }
+        for_each_piece(&block, edge, |piece| {
+            let p = piece.region;
+            acc.start(p.axis(0), p.axis(1), p.axis(2));
+            add_block(&mut acc, piece, counts);
+            acc.finish(&mut part);
+        });
+    })?;
+    if one_piece {
+        acc.finish(&mut part);
+    }
+    Ok(part)
+}
+
+/// Fold the voxels of `block` (inside the piece `acc` holds) into `acc`,
+/// counting them.
+fn add_block<T: ScanSample>(
+    acc: &mut PieceRanges<T>,
+    block: &Block<'_, T>,
     counts: &mut ExactCounts,
 ) {
-    let [dx, dy, dz] = rows.dims.as_array();
-    let nx = dx.div_ceil(edge);
-    let ny = dy.div_ceil(edge);
-    let z0 = cz * edge;
-    let z_owned = (z0 + edge).min(dz);
-    let z_last = (z0 + edge).min(dz - 1);
-    let mut row = vec![T::default(); dx as usize];
-    let mut even = RowRange::<T>::new(dx as usize);
-    let mut odd = RowRange::<T>::new(dx as usize);
-    // Cell row `cy` accumulates in `even` or `odd` by parity; row y = cy·N
-    // (cy > 0) is also the apron of cell row cy − 1, which it completes.
-    let mut finish = |acc: &RowRange<T>, cy: u64| {
-        let base = (cy * nx) as usize;
-        for cx in 0..nx {
-            let a = (cx * edge) as usize;
-            let b = (cx * edge + edge).min(dx - 1) as usize;
-            let (lo, hi) = acc.span(a, b);
-            mn[base + cx as usize] = lo;
-            mx[base + cx as usize] = hi;
-        }
-    };
-    for y in 0..dy {
-        let cy = y / edge;
-        let first = y % edge == 0;
-        let (cur, prev) = if cy & 1 == 0 {
-            (&mut even, &mut odd)
-        } else {
-            (&mut odd, &mut even)
-        };
-        if first {
-            cur.reset();
-        }
-        for z in z0..=z_last {
-            rows.read(y, z, &mut row);
-            cur.add(&row);
-            if first && cy > 0 {
-                prev.add(&row);
-            }
-            if z < z_owned {
-                counts.add(&row);
-            }
-        }
-        if first && cy > 0 {
-            finish(prev, cy - 1);
+    let r = block.region;
+    for z in r.axis(2) {
+        let (plane, stride) = block.plane(z);
+        acc.add_slice(z, r.axis(0), r.axis(1), plane, stride, counts);
+    }
+}
+
+/// Accumulator elements (per bound) up to which a whole task is one piece.
+const TASK_ACC: u64 = 1 << 16;
+/// Accumulator elements a piece aims for (per bound), so that its
+/// accumulator rows stay in cache.
+const PIECE_ACC: u64 = 1 << 15;
+/// Most slices in one piece (fewer streams through memory at once).
+const PIECE_SLICES: u64 = 32;
+
+/// Slices and rows of the pieces of a block `width × depth` voxels wide
+/// and deep: at most [`PIECE_SLICES`] slices, and rows (a multiple of the
+/// cell edge when more than one fits) keeping the accumulators near
+/// [`PIECE_ACC`] elements.
+fn piece_shape(width: u64, depth: u64, edge: u64) -> (u64, u64) {
+    let slices = depth.min(PIECE_SLICES);
+    let layers = slices / edge + 2;
+    let bands = PIECE_ACC / (layers * width);
+    let rows = (bands.saturating_sub(2) * edge).max(1);
+    (slices, rows)
+}
+
+/// Call `f` with pieces covering `block`, in its storage order: runs of
+/// slices, each cut into runs of rows (see [`piece_shape`]).
+fn for_each_piece<'a, T>(block: &Block<'a, T>, edge: u64, mut f: impl FnMut(&Block<'a, T>)) {
+    let r = block.region;
+    let (slices, rows) = piece_shape(r.hi[0] - r.lo[0], r.hi[2] - r.lo[2], edge);
+    for z in r.axis(2).step_by(slices as usize) {
+        let z1 = (z + slices).min(r.hi[2]);
+        for y in r.axis(1).step_by(rows as usize) {
+            let y1 = (y + rows).min(r.hi[1]);
+            f(&block.sub(Region {
+                lo: [r.lo[0], y, z],
+                hi: [r.hi[0], y1, z1],
+            }));
         }
     }
-    let last = ny - 1;
-    finish(if last & 1 == 0 { &even } else { &odd }, last);
 }
 
 /// The `f32` histogram: a second pass binning every sample over the range
 /// of the finite samples (found with a third pass only when the global
 /// range itself is infinite).
-fn float_histogram<S: VoxelSource, T: ScanSample>(
-    rows: &Rows<'_, S>,
-    edge: u64,
+fn float_histogram<T: ScanSample>(
+    walk: &dyn Walk<T>,
     range: (f32, f32),
     bins: u32,
-) -> Histogram {
+) -> Result<Histogram, IndexError> {
     let (lo, hi) = if range.0.is_finite() && range.1.is_finite() {
         range
     } else {
-        finite_range::<S, T>(rows, edge)
+        finite_range(walk)?
     };
     // `+ 0.0` maps a −0.0 bound to +0.0, whichever zero the folds kept.
     let (lo, hi) = if lo <= hi {
@@ -252,13 +332,12 @@ fn float_histogram<S: VoxelSource, T: ScanSample>(
         (0.0, 0.0)
     };
     let n = bins as usize;
-    let slabs = rows.dims.z.div_ceil(edge);
-    let (counts, nans) = (0..slabs)
+    let (counts, nans) = (0..walk.tasks())
         .into_par_iter()
-        .fold(
+        .try_fold(
             || (vec![0u64; n], 0u64),
-            |(mut counts, mut nans), s| {
-                for_each_owned_row::<S, T>(rows, edge, s, |row| {
+            |(mut counts, mut nans), task| {
+                for_each_row(walk, task, |row| {
                     for &v in row {
                         let f = f64::from(v.to_f32());
                         if f.is_nan() {
@@ -267,60 +346,51 @@ fn float_histogram<S: VoxelSource, T: ScanSample>(
                             counts[histogram::bin_of(f, lo, hi, n)] += 1;
                         }
                     }
-                });
-                (counts, nans)
+                })?;
+                Ok::<_, IndexError>((counts, nans))
             },
         )
-        .reduce(
+        .try_reduce(
             || (vec![0u64; n], 0),
             |(mut a, na), (b, nb)| {
                 for (x, y) in a.iter_mut().zip(&b) {
                     *x += y;
                 }
-                (a, na + nb)
+                Ok((a, na + nb))
             },
-        );
+        )?;
     let mut h = Histogram::from_parts(lo, hi, counts, 0);
     h.set_nan_count(nans);
-    h
+    Ok(h)
 }
 
 /// The range of the finite samples (empty if there are none).
-fn finite_range<S: VoxelSource, T: ScanSample>(rows: &Rows<'_, S>, edge: u64) -> (f32, f32) {
-    let slabs = rows.dims.z.div_ceil(edge);
-    (0..slabs)
+fn finite_range<T: ScanSample>(walk: &dyn Walk<T>) -> Result<(f32, f32), IndexError> {
+    (0..walk.tasks())
         .into_par_iter()
-        .map(|s| {
+        .map(|task| {
             let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-            for_each_owned_row::<S, T>(rows, edge, s, |row| {
+            for_each_row(walk, task, |row| {
                 for v in row.iter().map(|v| v.to_f32()).filter(|v| v.is_finite()) {
                     lo = lo.min(v);
                     hi = hi.max(v);
                 }
-            });
-            (lo, hi)
+            })?;
+            Ok((lo, hi))
         })
-        .reduce(
+        .try_reduce(
             || (f32::INFINITY, f32::NEG_INFINITY),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            |a, b| Ok((a.0.min(b.0), a.1.max(b.1))),
         )
 }
 
-/// Call `f` with every row of the slices slab `s` owns.
-fn for_each_owned_row<S: VoxelSource, T: ScanSample>(
-    rows: &Rows<'_, S>,
-    edge: u64,
-    s: u64,
+/// Call `f` with every row (of some block) of task `task`.
+fn for_each_row<T: ScanSample>(
+    walk: &dyn Walk<T>,
+    task: u64,
     mut f: impl FnMut(&[T]),
-) {
-    let d = rows.dims;
-    let mut row = vec![T::default(); d.x as usize];
-    for z in s * edge..(s * edge + edge).min(d.z) {
-        for y in 0..d.y {
-            rows.read(y, z, &mut row);
-            f(&row);
-        }
-    }
+) -> Result<(), IndexError> {
+    walk.blocks(task, &mut |block| block.for_each_row(|_, _, row| f(row)))
 }
 
 #[cfg(test)]
@@ -331,7 +401,7 @@ mod tests {
     use volcore::grid::{BrickedGrid, Cursor, SlicedGrid};
     use volcore::region::{pack_bricks, pack_sliced, Rows as RegionRows};
     use volcore::scene::{SceneSource, ShapesScene};
-    use volcore::{Data, ValueRange};
+    use volcore::{Data, Dims, ValueRange, VolumeVisitor};
 
     fn to_bytes(ix: &MajorantIndex) -> Vec<u8> {
         let mut out = Vec::new();
@@ -541,41 +611,87 @@ mod tests {
         assert_eq!(ix.empty_fraction(0.0), 0.0);
     }
 
-    /// The same index, bit for bit, from a sliced volume, a bricked copy
-    /// and on pools of 1, 2 and 7 threads.
-    fn check_layout_and_threads<T: RandomSample>(dims: Dims, kind: u8) {
+    /// A volume holding `grid` (its metadata says sliced: the build reads
+    /// only the samples).
+    fn volume_of<T: RandomSample>(dims: Dims, grid: TypedGrid<T>) -> Volume {
+        Volume {
+            meta: volcore::VolumeMeta::sliced(dims, T::TYPE),
+            data: T::into_data(grid),
+        }
+    }
+
+    /// A bricked copy of `sliced`.
+    fn bricked<T: RandomSample>(sliced: &SlicedGrid<T>, brick: u32) -> BrickedGrid<T> {
+        let geom = BrickGeometry::new(sliced.dims(), brick).unwrap();
+        let packed = pack_bricks(&RegionRows(sliced), &geom);
+        BrickedGrid::new(geom, geom.stored_len(), Data::Owned(packed)).unwrap()
+    }
+
+    /// The same index, bit for bit, from a sliced volume and bricked
+    /// copies, read through `read_row` or in place, and on pools of 1, 2
+    /// and 7 threads.
+    fn check_layout_and_threads<T: RandomSample>(dims: Dims, kind: u8, edge: u32) -> Vec<u8> {
         let samples: Vec<T> = random_samples(dims, 99, kind);
-        let sliced = SlicedGrid::new(dims, Data::Owned(samples)).unwrap();
+        let sliced = SlicedGrid::new(dims, Data::Owned(samples.clone())).unwrap();
         let opts = BuildOptions {
-            cell_edge: 4,
+            cell_edge: edge,
             ..BuildOptions::default()
         };
         let reference = to_bytes(&MajorantIndex::build(&sliced, &opts, 5).unwrap());
-        for brick in [2, 5, 16] {
-            let geom = BrickGeometry::new(dims, brick).unwrap();
-            let packed = pack_bricks(&RegionRows(&sliced), &geom);
-            let bricked = BrickedGrid::new(geom, geom.stored_len(), Data::Owned(packed)).unwrap();
-            let got = to_bytes(&MajorantIndex::build(&bricked, &opts, 5).unwrap());
+        let vol = volume(dims, samples);
+        let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+        assert!(got == reference, "{} sliced in place differs", T::TYPE);
+        for brick in [2, 5, 16, 64] {
+            let grid = bricked(&sliced, brick);
+            let got = to_bytes(&MajorantIndex::build(&grid, &opts, 5).unwrap());
             assert!(got == reference, "{} bricked:{brick} differs", T::TYPE);
+            let vol = volume_of(dims, TypedGrid::Bricked(grid));
+            let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+            assert!(
+                got == reference,
+                "{} bricked:{brick} in place differs",
+                T::TYPE
+            );
         }
         for threads in [1, 2, 7] {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            let got = pool.install(|| to_bytes(&MajorantIndex::build(&sliced, &opts, 5).unwrap()));
+            let got =
+                pool.install(|| to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap()));
             assert!(got == reference, "{} on {threads} threads differs", T::TYPE);
         }
+        reference
     }
 
     #[test]
     fn same_bits_for_any_layout_and_thread_count() {
         let dims = Dims::new(37, 23, 29).unwrap();
-        check_layout_and_threads::<u8>(dims, 0);
-        check_layout_and_threads::<u16>(dims, 1);
-        check_layout_and_threads::<i16>(dims, 0);
-        check_layout_and_threads::<f32>(dims, 0);
-        check_layout_and_threads::<f32>(dims, 2); // with infinities
+        check_layout_and_threads::<u8>(dims, 0, 4);
+        check_layout_and_threads::<u16>(dims, 1, 4);
+        check_layout_and_threads::<i16>(dims, 0, 4);
+        check_layout_and_threads::<f32>(dims, 0, 4);
+        check_layout_and_threads::<f32>(dims, 2, 4); // with infinities
+    }
+
+    /// Volumes wide enough that tasks are cut into pieces (slabs into runs
+    /// of rows, big bricks into runs of slices and rows) give the same
+    /// index as brute force.
+    #[test]
+    fn pieces_of_wide_tasks_match_brute_force() {
+        for (dims, edge) in [((700, 101, 5), 2), ((150, 70, 66), 2), ((130, 9, 67), 3)] {
+            let dims = Dims::new(dims.0, dims.1, dims.2).unwrap();
+            for kind in [0, 2] {
+                let bytes = check_layout_and_threads::<u8>(dims, kind, edge);
+                let ix = MajorantIndex::read_from(&mut &bytes[..], None).unwrap();
+                let samples: Vec<u8> = random_samples(dims, 99, kind);
+                let f: Vec<f32> = samples.iter().map(|&v| f32::from(v)).collect();
+                let what = format!("{dims} edge {edge} kind {kind}");
+                check_against_brute_force(&ix, &f, &what);
+                check_histogram(&ix, &f, &what);
+            }
+        }
     }
 
     #[test]

@@ -20,7 +20,8 @@
 //! holds only NaNs has the empty range `(+inf, −inf)` and counts as empty.
 //! An interpolated value that blends a NaN is NaN and is not bounded.
 //!
-//! The index is built in one parallel pass over z-slabs of cells (see
+//! The index is built in one parallel pass over the samples in storage
+//! order (see
 //! [`build`]); it depends only on the sample values, never on the layout or
 //! the thread count. It can be saved as a `.vidx` sidecar file ([`vidx`],
 //! format in `FORMAT.md`).
@@ -32,9 +33,11 @@ pub mod error;
 pub mod histogram;
 pub mod index;
 pub mod level;
+mod piece;
 pub mod rangemax;
 mod scan;
 pub mod vidx;
+mod walk;
 
 #[cfg(test)]
 mod testutil;

@@ -1,5 +1,5 @@
-//! Per-sample-type kernels of the build pass: element-wise min/max of rows
-//! and per-cell folds in the native sample type (no `f32` conversion per
+//! Per-sample-type kernels of the build pass: element-wise min/max of
+//! blocks of rows in the native sample type (no `f32` conversion per
 //! voxel), and exact per-value counting for integer types.
 
 use volcore::Sample;
@@ -24,10 +24,19 @@ pub(crate) trait ScanSample: Sample {
     fn upper(acc: Self, v: Self) -> Self;
     /// Slot of `self` in an exact count table (integer types only).
     fn slot(self) -> usize;
+    /// [`fold_block`] with the register chunk width that suits the type.
+    fn fold_block(
+        lo: &mut [Self],
+        hi: &mut [Self],
+        block: &[Self],
+        stride: usize,
+        rows: usize,
+        counts: Option<&mut ExactCounts>,
+    );
 }
 
 macro_rules! int_scan {
-    ($t:ty, $lanes:expr) => {
+    ($t:ty, $lanes:expr, $chunk:expr) => {
         impl ScanSample for $t {
             const TOP: Self = <$t>::MAX;
             const BOTTOM: Self = <$t>::MIN;
@@ -46,13 +55,25 @@ macro_rules! int_scan {
             fn slot(self) -> usize {
                 (self as i64 - <$t>::MIN as i64) as usize
             }
+            #[inline(always)]
+            fn fold_block(
+                lo: &mut [Self],
+                hi: &mut [Self],
+                block: &[Self],
+                stride: usize,
+                rows: usize,
+                counts: Option<&mut ExactCounts>,
+            ) {
+                fold_block::<$t, $chunk>(lo, hi, block, stride, rows, counts);
+            }
         }
     };
 }
 
-int_scan!(u8, 4);
-int_scan!(u16, 1);
-int_scan!(i16, 1);
+// Chunks of 32 bytes: two SSE registers per bound.
+int_scan!(u8, 4, 32);
+int_scan!(u16, 1, 16);
+int_scan!(i16, 1, 16);
 
 impl ScanSample for f32 {
     const TOP: Self = f32::INFINITY;
@@ -81,6 +102,17 @@ impl ScanSample for f32 {
     fn slot(self) -> usize {
         0
     }
+    #[inline(always)]
+    fn fold_block(
+        lo: &mut [Self],
+        hi: &mut [Self],
+        block: &[Self],
+        stride: usize,
+        rows: usize,
+        counts: Option<&mut ExactCounts>,
+    ) {
+        fold_block::<f32, 8>(lo, hi, block, stride, rows, counts);
+    }
 }
 
 /// Widen a native range to `f32`, mapping `−0.0` to `+0.0` so that the
@@ -90,49 +122,188 @@ pub(crate) fn range_to_f32<T: ScanSample>(lo: T, hi: T) -> (f32, f32) {
     (lo.to_f32() + 0.0, hi.to_f32() + 0.0)
 }
 
-/// Element-wise running minimum and maximum of rows of one length.
-pub(crate) struct RowRange<T> {
-    lo: Vec<T>,
-    hi: Vec<T>,
-}
+/// Rows wider than this many chunks are folded row by row (see
+/// [`fold_block`]).
+const WIDE_CHUNKS: usize = 4;
 
-impl<T: ScanSample> RowRange<T> {
-    /// An empty accumulator for rows of `len` samples.
-    pub fn new(len: usize) -> Self {
-        RowRange {
-            lo: vec![T::TOP; len],
-            hi: vec![T::BOTTOM; len],
-        }
-    }
-
-    /// Forget every row added so far.
-    pub fn reset(&mut self) {
-        self.lo.fill(T::TOP);
-        self.hi.fill(T::BOTTOM);
-    }
-
-    /// Fold `row` in, element by element.
-    #[inline]
-    pub fn add(&mut self, row: &[T]) {
-        for ((lo, hi), &v) in self.lo.iter_mut().zip(self.hi.iter_mut()).zip(row) {
-            *lo = T::lower(*lo, v);
-            *hi = T::upper(*hi, v);
-        }
-    }
-
-    /// The range of elements `a ..= b`, widened to `f32`.
-    #[inline]
-    pub fn span(&self, a: usize, b: usize) -> (f32, f32) {
-        let lo = self.lo[a..=b].iter().fold(T::TOP, |m, &v| T::lower(m, v));
-        let hi = self.hi[a..=b]
-            .iter()
-            .fold(T::BOTTOM, |m, &v| T::upper(m, v));
-        range_to_f32(lo, hi)
+/// Fold a strided block of `rows` rows of `w = lo.len()` samples (row `r`
+/// at `block[r·stride ..]`) element-wise into the ranges `lo` and `hi`, and
+/// count its samples into `counts` if given.
+///
+/// Narrow blocks (brick rows) go `L` columns at a time with the chunk's
+/// bounds in registers, so the accumulators are loaded and stored once per
+/// block rather than once per row, and a chunk of one value (empty space,
+/// mostly) is counted in one step. Wide rows are folded one after the
+/// other, reading memory sequentially (column chunks across rows far apart
+/// defeat the hardware prefetcher).
+#[inline(always)]
+fn fold_block<T: ScanSample, const L: usize>(
+    lo: &mut [T],
+    hi: &mut [T],
+    block: &[T],
+    stride: usize,
+    rows: usize,
+    counts: Option<&mut ExactCounts>,
+) {
+    let w = lo.len().min(hi.len());
+    let counts = counts.filter(|_| T::EXACT_VALUES > 0);
+    if w > WIDE_CHUNKS * L || rows == 1 {
+        fold_rows::<T, L>(&mut lo[..w], &mut hi[..w], block, stride, rows, counts);
+    } else {
+        fold_chunks::<T, L>(&mut lo[..w], &mut hi[..w], block, stride, rows, counts);
     }
 }
 
-/// Samples checked at once for a run of one value while counting.
-const RUN: usize = 32;
+/// [`fold_block`] row by row, `L` samples at a time, counting each chunk
+/// as it is folded.
+#[inline(always)]
+fn fold_rows<T: ScanSample, const L: usize>(
+    lo: &mut [T],
+    hi: &mut [T],
+    block: &[T],
+    stride: usize,
+    rows: usize,
+    counts: Option<&mut ExactCounts>,
+) {
+    match counts {
+        Some(c) => {
+            let mut run = Run::new();
+            fold_rows_with::<T, L>(lo, hi, block, stride, rows, |s| run.add(c, s));
+            run.flush(c);
+        }
+        None => fold_rows_with::<T, L>(lo, hi, block, stride, rows, |_| {}),
+    }
+}
+
+/// [`fold_rows`], calling `chunk` with each run of samples folded.
+#[inline(always)]
+fn fold_rows_with<T: ScanSample, const L: usize>(
+    lo: &mut [T],
+    hi: &mut [T],
+    block: &[T],
+    stride: usize,
+    rows: usize,
+    mut chunk: impl FnMut(&[T]),
+) {
+    let w = lo.len().min(hi.len());
+    let whole = w - w % L;
+    for r in 0..rows {
+        let row = &block[r * stride..r * stride + w];
+        let chunks = row[..whole].chunks_exact(L);
+        let bounds = lo[..whole]
+            .chunks_exact_mut(L)
+            .zip(hi[..whole].chunks_exact_mut(L));
+        for (s, (l, h)) in chunks.zip(bounds) {
+            for i in 0..L {
+                l[i] = T::lower(l[i], s[i]);
+                h[i] = T::upper(h[i], s[i]);
+            }
+            chunk(s);
+        }
+        let tail = &row[whole..];
+        for ((l, h), &v) in lo[whole..w].iter_mut().zip(&mut hi[whole..w]).zip(tail) {
+            *l = T::lower(*l, v);
+            *h = T::upper(*h, v);
+        }
+        chunk(tail);
+    }
+}
+
+/// [`fold_block`] `L` columns at a time, then the remaining columns row by
+/// row.
+#[inline(always)]
+fn fold_chunks<T: ScanSample, const L: usize>(
+    lo: &mut [T],
+    hi: &mut [T],
+    block: &[T],
+    stride: usize,
+    rows: usize,
+    mut counts: Option<&mut ExactCounts>,
+) {
+    let w = lo.len();
+    let mut x = 0;
+    while x + L <= w {
+        let (mut l, mut h) = ([T::TOP; L], [T::BOTTOM; L]);
+        for r in 0..rows {
+            let s = &block[r * stride + x..r * stride + x + L];
+            for i in 0..L {
+                l[i] = T::lower(l[i], s[i]);
+                h[i] = T::upper(h[i], s[i]);
+            }
+        }
+        if let Some(c) = counts.as_deref_mut() {
+            // One value throughout when the least minimum is the greatest
+            // maximum (horizontal min/max vectorise; element-wise
+            // comparisons with l[0] would not).
+            let least = l.iter().fold(T::TOP, |m, &v| T::lower(m, v));
+            let most = h.iter().fold(T::BOTTOM, |m, &v| T::upper(m, v));
+            if least == most {
+                c.add_run(least, (L * rows) as u64);
+            } else {
+                for r in 0..rows {
+                    c.add_chunk(&block[r * stride + x..r * stride + x + L]);
+                }
+            }
+        }
+        let (lo, hi) = (&mut lo[x..x + L], &mut hi[x..x + L]);
+        for i in 0..L {
+            lo[i] = T::lower(lo[i], l[i]);
+            hi[i] = T::upper(hi[i], h[i]);
+        }
+        x += L;
+    }
+    if x < w {
+        let rest = &block[x..];
+        fold_rows::<T, L>(&mut lo[x..], &mut hi[x..], rest, stride, rows, counts);
+    }
+}
+
+/// The run of one value being counted: chunks that continue it are counted
+/// in a register, and the count table is touched only when the value
+/// changes (an update per chunk would chain through memory).
+struct Run<T> {
+    value: T,
+    len: u64,
+}
+
+impl<T: ScanSample> Run<T> {
+    /// No run yet.
+    fn new() -> Self {
+        Run {
+            value: T::default(),
+            len: 0,
+        }
+    }
+
+    /// Whether every sample of `chunk` is `v` (branch-free, so the
+    /// comparison vectorises).
+    #[inline(always)]
+    fn all(chunk: &[T], v: T) -> bool {
+        chunk.iter().fold(true, |same, &x| same & (x == v))
+    }
+
+    /// Count the samples of `chunk`.
+    #[inline(always)]
+    fn add(&mut self, counts: &mut ExactCounts, chunk: &[T]) {
+        if Self::all(chunk, self.value) {
+            self.len += chunk.len() as u64;
+            return;
+        }
+        counts.add_run(self.value, self.len);
+        self.value = chunk[0];
+        self.len = 0;
+        if Self::all(chunk, self.value) {
+            self.len = chunk.len() as u64;
+        } else {
+            counts.add_each(chunk);
+        }
+    }
+
+    /// Count the run so far.
+    fn flush(self, counts: &mut ExactCounts) {
+        counts.add_run(self.value, self.len);
+    }
+}
 
 /// Exact per-value sample counts of an integer type (empty for `f32`).
 pub(crate) struct ExactCounts {
@@ -151,29 +322,33 @@ impl ExactCounts {
         }
     }
 
-    /// Count every sample of `row`. Runs of [`RUN`] equal samples (empty
-    /// space, mostly) are counted in one step.
+    /// Count `n` samples of value `v`.
     #[inline]
-    pub fn add<T: ScanSample>(&mut self, row: &[T]) {
-        if self.lanes == 0 {
-            return;
+    pub fn add_run<T: ScanSample>(&mut self, v: T, n: u64) {
+        if self.lanes > 0 {
+            self.counts[v.slot()] += n;
         }
-        let mut runs = row.chunks_exact(RUN);
-        for chunk in &mut runs {
-            let v = chunk[0];
-            // A branch-free fold, so the comparison vectorises.
-            if chunk.iter().fold(true, |same, &x| same & (x == v)) {
-                self.counts[v.slot()] += RUN as u64;
-            } else {
-                self.add_each(chunk);
-            }
+    }
+
+    /// Count the samples of a short `chunk`: at once if they are all one
+    /// value, else one by one.
+    #[inline(always)]
+    pub fn add_chunk<T: ScanSample>(&mut self, chunk: &[T]) {
+        let Some(&v) = chunk.first() else { return };
+        // A branch-free fold, so the comparison vectorises.
+        if chunk.iter().fold(true, |same, &x| same & (x == v)) {
+            self.add_run(v, chunk.len() as u64);
+        } else {
+            self.add_each(chunk);
         }
-        self.add_each(runs.remainder());
     }
 
     /// Count the samples of `part` one by one.
     #[inline]
     fn add_each<T: ScanSample>(&mut self, part: &[T]) {
+        if self.lanes == 0 {
+            return;
+        }
         if self.lanes == 4 {
             let (t0, rest) = self.counts.split_at_mut(self.values);
             let (t1, rest) = rest.split_at_mut(self.values);
@@ -220,20 +395,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn f32_folds_skip_nan_and_canonicalise_zero() {
-        let mut r = RowRange::<f32>::new(3);
-        r.add(&[f32::NAN, -0.0, 2.0]);
-        r.add(&[f32::NAN, 1.0, f32::NAN]);
-        let (lo, hi) = r.span(0, 0);
-        assert!(lo > hi, "only NaNs must give the empty range");
-        let (lo, hi) = r.span(1, 2);
-        assert_eq!(
-            (lo.to_bits(), hi.to_bits()),
-            (0f32.to_bits(), 2f32.to_bits())
-        );
-    }
-
-    #[test]
     fn exact_counts_cover_every_value_once() {
         // Runs of one value (counted at once) between distinct values.
         let row: Vec<u8> = (0..=255u8)
@@ -242,15 +403,17 @@ mod tests {
             .chain([0; 40])
             .collect();
         let mut c = ExactCounts::new::<u8>();
-        c.add(&row);
+        for chunk in row.chunks(32) {
+            c.add_chunk(chunk);
+        }
         let v = c.per_value();
         assert_eq!((v[0], v[1], v[7]), (41, 2, 71));
         assert_eq!(v.iter().sum::<u64>(), row.len() as u64);
         let mut c = ExactCounts::new::<u16>();
-        c.add(&[9u16; 100]);
+        c.add_chunk(&[9u16; 100]);
         assert_eq!(c.per_value()[9], 100);
         let mut c = ExactCounts::new::<i16>();
-        c.add(&[i16::MIN, -1, 0, i16::MAX]);
+        c.add_chunk(&[i16::MIN, -1, 0, i16::MAX]);
         let v = c.per_value();
         assert_eq!((v[0], v[32767], v[32768], v[65535]), (1, 1, 1, 1));
     }

@@ -457,8 +457,8 @@ impl<T: Sample> CompressedGrid<T> {
         let n = self.geom.stored_len();
         let mut out = vec![T::default(); n];
         let target: &mut [u8] = bytemuck::cast_slice_mut(&mut out);
-        let got = zstd::bulk::decompress_to_buffer(bytes, target)
-            .map_err(|err| format!("brick {index}: zstd: {err}"))?;
+        let got =
+            zstd_decompress(bytes, target).map_err(|err| format!("brick {index}: zstd: {err}"))?;
         if got != target.len() {
             return Err(format!(
                 "brick {index}: decoded {got} bytes, expected {}",
@@ -480,6 +480,26 @@ impl<T: Sample> CompressedGrid<T> {
             }
         }
     }
+}
+
+/// Decompress one zstd frame into `target` with this thread's decoder,
+/// created once per thread: a fresh decoder per brick costs more than
+/// decoding a small brick.
+fn zstd_decompress(bytes: &[u8], target: &mut [u8]) -> std::io::Result<usize> {
+    thread_local! {
+        static DECODER: std::cell::RefCell<Option<zstd::bulk::Decompressor<'static>>> =
+            const { std::cell::RefCell::new(None) };
+    }
+    DECODER.with(|cell| {
+        let mut slot = cell.borrow_mut();
+        if slot.is_none() {
+            *slot = Some(zstd::bulk::Decompressor::new()?);
+        }
+        match slot.as_mut() {
+            Some(d) => d.decompress_to_buffer(bytes, target),
+            None => zstd::bulk::decompress_to_buffer(bytes, target),
+        }
+    })
 }
 
 /// Cursor over a [`CompressedGrid`]; remembers the last brick it used.
@@ -557,5 +577,68 @@ impl<T: Sample> Cursor for CompressedCursor<'_, T> {
         let a = brick_addr(&g, i, j, k);
         let e = g.stored_edge() as usize;
         cell_from(self.brick(a.brick), a.local, 1, e, e * e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::region::{pack_bricks, Rows};
+
+    /// zstd bricks of `samples`, plus one entry whose bytes pass the
+    /// checksum but are not zstd.
+    fn compressed(dims: Dims, samples: Vec<u16>) -> CompressedGrid<u16> {
+        let sliced = SlicedGrid::new(dims, Data::Owned(samples)).unwrap();
+        let geom = BrickGeometry::new(dims, 4).unwrap();
+        let mut source = Vec::new();
+        let mut entries = Vec::new();
+        for b in pack_bricks(&Rows(&sliced), &geom).chunks(geom.stored_len()) {
+            let bytes = zstd::bulk::compress(bytemuck::cast_slice(b), 3).unwrap();
+            entries.push(BrickEntry {
+                offset: source.len() as u64,
+                length: bytes.len() as u64,
+                crc32: crc32fast::hash(&bytes),
+            });
+            source.extend_from_slice(&bytes);
+        }
+        let junk = [7u8; 40];
+        entries[1] = BrickEntry {
+            offset: source.len() as u64,
+            length: junk.len() as u64,
+            crc32: crc32fast::hash(&junk),
+        };
+        source.extend_from_slice(&junk);
+        CompressedGrid::new(geom, Data::Owned(source), entries, 0).unwrap()
+    }
+
+    /// Bricks decode to their samples one after another and after a
+    /// damaged brick, on this thread and on others (the per-thread decoder
+    /// is reused and recovers from errors).
+    #[test]
+    fn decode_reuses_the_decoder_and_recovers_after_damage() {
+        let dims = Dims::new(9, 6, 5).unwrap();
+        let samples: Vec<u16> = (0..dims.count() as u16).map(|v| v * 7).collect();
+        let grid = compressed(dims, samples.clone());
+        let check = |grid: &CompressedGrid<u16>| {
+            for round in 0..2 {
+                let err = grid.decode(1).unwrap_err();
+                assert!(err.starts_with("brick 1: zstd"), "{err}");
+                for id in (0..grid.geometry().brick_count()).filter(|&id| id != 1) {
+                    let b = grid.decode(id).unwrap();
+                    assert_eq!(b.len(), grid.geometry().stored_len(), "round {round}");
+                }
+            }
+        };
+        check(&grid);
+        std::thread::scope(|s| {
+            s.spawn(|| check(&grid));
+        });
+        // Every voxel outside brick 1 reads back; brick 1 reads as zeros.
+        let mut row = vec![0u16; 4];
+        grid.read_row(0, 0, 0, &mut row);
+        assert_eq!(row, samples[..4]);
+        grid.read_row(4, 0, 0, &mut row);
+        assert_eq!(row, [0; 4]);
+        assert!(grid.error().is_some());
     }
 }

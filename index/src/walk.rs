@@ -1,0 +1,390 @@
+//! Visiting a volume's samples in storage order, split into parallel tasks.
+//!
+//! A [`Walk`] splits the volume into *tasks* (units of parallel work: z
+//! slabs of cells for row-ordered layouts, rows of bricks for bricked ones)
+//! and hands each task's voxels out as [`Block`]s: boxes of voxels with a
+//! strided view of their samples. Every voxel belongs to exactly one block,
+//! and a task's blocks come in the order the layout stores them, so memory
+//! is read as sequentially as the layout allows:
+//! - sliced grids lend their samples straight from the array or memory map
+//!   (one block per task: the slab's slices);
+//! - bricked grids lend each brick's stored samples (one block per brick);
+//! - compressed grids decode each brick once, bypassing the brick cache;
+//! - any other source is copied through [`VoxelSource::read_row`], a
+//!   bounded chunk of rows at a time.
+
+use crate::error::IndexError;
+use std::any::Any;
+use std::marker::PhantomData;
+use std::ops::Range;
+use volcore::brick::APRON_LO;
+use volcore::{BrickGeometry, BrickedGrid, CompressedGrid, Dims, Sample, SlicedGrid, VoxelSource};
+
+/// Samples a block of the row walk copies at most.
+const ROW_BLOCK_SAMPLES: u64 = 1 << 19;
+
+/// A box of voxels: `lo[a] .. hi[a]` along each axis `a`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Region {
+    /// First voxel along x, y, z.
+    pub lo: [u64; 3],
+    /// One past the last voxel along x, y, z.
+    pub hi: [u64; 3],
+}
+
+impl Region {
+    /// The voxels of `r` along axis `a`.
+    pub fn axis(&self, a: usize) -> Range<u64> {
+        self.lo[a]..self.hi[a]
+    }
+}
+
+/// A region and its samples: voxel `(x, y, z)` of the region is
+/// `data[(x − origin.x) + (y − origin.y)·row + (z − origin.z)·plane]`.
+pub(crate) struct Block<'a, T> {
+    /// The voxels of the block.
+    pub region: Region,
+    data: &'a [T],
+    origin: [u64; 3],
+    row: usize,
+    plane: usize,
+}
+
+impl<'a, T> Block<'a, T> {
+    /// Voxels `xs` of row `(y, z)`, which must lie in the block's region.
+    #[inline]
+    pub fn row(&self, xs: Range<u64>, y: u64, z: u64) -> &'a [T] {
+        let o = self.origin;
+        let start = (xs.start - o[0]) as usize
+            + (y - o[1]) as usize * self.row
+            + (z - o[2]) as usize * self.plane;
+        &self.data[start..start + (xs.end - xs.start) as usize]
+    }
+
+    /// The rows of slice `z` (in the region) and their stride: row `y`
+    /// starts at `(y − region.lo.y)·stride` of the returned samples.
+    #[inline]
+    pub fn plane(&self, z: u64) -> (&'a [T], usize) {
+        let (r, o) = (self.region, self.origin);
+        let at = (r.lo[0] - o[0]) as usize
+            + (r.lo[1] - o[1]) as usize * self.row
+            + (z - o[2]) as usize * self.plane;
+        let len = (r.hi[1] - r.lo[1] - 1) as usize * self.row + (r.hi[0] - r.lo[0]) as usize;
+        (&self.data[at..at + len], self.row)
+    }
+
+    /// The same samples seen through a smaller region.
+    pub fn sub(&self, region: Region) -> Block<'a, T> {
+        Block { region, ..*self }
+    }
+
+    /// Call `f(y, z, row)` for every row of the block, z outer, y inner.
+    #[inline]
+    pub fn for_each_row(&self, mut f: impl FnMut(u64, u64, &'a [T])) {
+        let r = self.region;
+        for z in r.axis(2) {
+            for y in r.axis(1) {
+                f(y, z, self.row(r.axis(0), y, z));
+            }
+        }
+    }
+}
+
+impl<T> Clone for Block<'_, T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for Block<'_, T> {}
+
+/// A volume's samples as tasks of blocks (see the module docs).
+pub(crate) trait Walk<T>: Sync {
+    /// The volume's dimensions.
+    fn dims(&self) -> Dims;
+    /// Number of tasks.
+    fn tasks(&self) -> u64;
+    /// The voxels task `task` covers (the union of its blocks).
+    fn task_region(&self, task: u64) -> Region;
+    /// Call `f` with each block of task `task`, in storage order. Fails
+    /// only if stored data cannot be decoded.
+    fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError>;
+}
+
+/// The z slab `[k·edge, (k + 1)·edge)` of a volume, clamped.
+fn slab(dims: Dims, edge: u64, k: u64) -> Region {
+    Region {
+        lo: [0, 0, k * edge],
+        hi: [dims.x, dims.y, (k * edge + edge).min(dims.z)],
+    }
+}
+
+/// A sliced grid: one task per z slab of `edge` slices, its samples
+/// borrowed in place.
+pub(crate) struct SlicedWalk<'a, T: Sample> {
+    /// The grid.
+    pub grid: &'a SlicedGrid<T>,
+    /// Slices per task.
+    pub edge: u64,
+}
+
+impl<T: Sample> Walk<T> for SlicedWalk<'_, T> {
+    fn dims(&self) -> Dims {
+        self.grid.dims()
+    }
+
+    fn tasks(&self) -> u64 {
+        self.dims().z.div_ceil(self.edge)
+    }
+
+    fn task_region(&self, task: u64) -> Region {
+        slab(self.dims(), self.edge, task)
+    }
+
+    fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
+        let d = self.dims();
+        f(Block {
+            region: self.task_region(task),
+            data: self.grid.samples(),
+            origin: [0; 3],
+            row: d.x as usize,
+            plane: d.slice_len() as usize,
+        });
+        Ok(())
+    }
+}
+
+/// Any source, read through [`VoxelSource::read_row`]: one task per z slab
+/// of `edge` slices, copied a bounded block of rows at a time. `T` must be
+/// `S::Sample` (otherwise every task fails).
+pub(crate) struct RowWalk<'a, S, T> {
+    src: &'a S,
+    edge: u64,
+    _t: PhantomData<fn() -> T>,
+}
+
+impl<'a, S: VoxelSource, T: Sample> RowWalk<'a, S, T> {
+    /// Tasks of `edge` slices over `src`.
+    pub fn new(src: &'a S, edge: u64) -> Self {
+        RowWalk {
+            src,
+            edge,
+            _t: PhantomData,
+        }
+    }
+}
+
+impl<S: VoxelSource, T: Sample> Walk<T> for RowWalk<'_, S, T> {
+    fn dims(&self) -> Dims {
+        self.src.dims()
+    }
+
+    fn tasks(&self) -> u64 {
+        self.dims().z.div_ceil(self.edge)
+    }
+
+    fn task_region(&self, task: u64) -> Region {
+        slab(self.dims(), self.edge, task)
+    }
+
+    fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
+        let d = self.dims();
+        let slab = self.task_region(task);
+        // At most ROW_BLOCK_SAMPLES per block, but whole rows and slices.
+        let slices = (ROW_BLOCK_SAMPLES / d.x).clamp(1, slab.hi[2] - slab.lo[2]);
+        let rows = (ROW_BLOCK_SAMPLES / (d.x * slices)).clamp(1, d.y);
+        let mut buf = vec![S::Sample::default(); (d.x * rows * slices) as usize];
+        for z0 in slab.axis(2).step_by(slices as usize) {
+            let z1 = (z0 + slices).min(slab.hi[2]);
+            for y0 in (0..d.y).step_by(rows as usize) {
+                let y1 = (y0 + rows).min(d.y);
+                let region = Region {
+                    lo: [0, y0, z0],
+                    hi: [d.x, y1, z1],
+                };
+                let row = d.x as usize;
+                let plane = row * (y1 - y0) as usize;
+                for z in z0..z1 {
+                    for y in y0..y1 {
+                        let at = (z - z0) as usize * plane + (y - y0) as usize * row;
+                        self.src.read_row(0, y, z, &mut buf[at..at + row]);
+                    }
+                }
+                let data = (&buf as &dyn Any).downcast_ref::<Vec<T>>().ok_or_else(|| {
+                    IndexError::Source(format!("sample type {} does not match its tag", T::TYPE))
+                })?;
+                f(Block {
+                    region,
+                    data,
+                    origin: region.lo,
+                    row,
+                    plane,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One task per row of bricks `(by, bz)`, x fastest like the bricks.
+fn brick_row_tasks(g: &BrickGeometry) -> u64 {
+    let c = g.counts();
+    c[1] * c[2]
+}
+
+/// The voxels the bricks of row `task` own.
+fn brick_row_region(g: &BrickGeometry, task: u64) -> Region {
+    let c = g.counts();
+    let (by, bz) = (task % c[1], task / c[1]);
+    let b = u64::from(g.brick());
+    let d = g.dims();
+    Region {
+        lo: [0, by * b, bz * b],
+        hi: [d.x, (by * b + b).min(d.y), (bz * b + b).min(d.z)],
+    }
+}
+
+/// The block of brick `(bx, task)` given its stored samples.
+fn brick_block<'a, T>(g: &BrickGeometry, task: u64, bx: u64, stored: &'a [T]) -> Block<'a, T> {
+    let b = u64::from(g.brick());
+    let row_region = brick_row_region(g, task);
+    let mut region = row_region;
+    region.lo[0] = bx * b;
+    region.hi[0] = (bx * b + b).min(g.dims().x);
+    let e = g.stored_edge() as usize;
+    let a = APRON_LO as usize;
+    Block {
+        region,
+        // The owned voxels start after the low apron on each axis.
+        data: &stored[a * (1 + e + e * e)..],
+        origin: region.lo,
+        row: e,
+        plane: e * e,
+    }
+}
+
+/// The linear index of brick `bx` in brick row `task`.
+fn brick_id(g: &BrickGeometry, task: u64, bx: u64) -> u64 {
+    bx + g.counts()[0] * task
+}
+
+/// An uncompressed bricked grid: one task per row of bricks, each brick's
+/// stored samples borrowed in place.
+pub(crate) struct BrickedWalk<'a, T: Sample> {
+    /// The grid.
+    pub grid: &'a BrickedGrid<T>,
+}
+
+impl<T: Sample> Walk<T> for BrickedWalk<'_, T> {
+    fn dims(&self) -> Dims {
+        self.grid.dims()
+    }
+
+    fn tasks(&self) -> u64 {
+        brick_row_tasks(self.grid.geometry())
+    }
+
+    fn task_region(&self, task: u64) -> Region {
+        brick_row_region(self.grid.geometry(), task)
+    }
+
+    fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
+        let g = self.grid.geometry();
+        for bx in 0..g.counts()[0] {
+            let stored = self.grid.brick(brick_id(g, task, bx));
+            f(brick_block(g, task, bx, stored));
+        }
+        Ok(())
+    }
+}
+
+/// A zstd-bricked grid: one task per row of bricks, each brick decoded
+/// once (not through the grid's cache, which this single pass would only
+/// churn).
+pub(crate) struct CompressedWalk<'a, T: Sample> {
+    /// The grid.
+    pub grid: &'a CompressedGrid<T>,
+}
+
+impl<T: Sample> Walk<T> for CompressedWalk<'_, T> {
+    fn dims(&self) -> Dims {
+        self.grid.dims()
+    }
+
+    fn tasks(&self) -> u64 {
+        brick_row_tasks(self.grid.geometry())
+    }
+
+    fn task_region(&self, task: u64) -> Region {
+        brick_row_region(self.grid.geometry(), task)
+    }
+
+    fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
+        let g = self.grid.geometry();
+        for bx in 0..g.counts()[0] {
+            let stored = self
+                .grid
+                .decode(brick_id(g, task, bx))
+                .map_err(IndexError::Source)?;
+            f(brick_block(g, task, bx, &stored));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::random_samples;
+    use volcore::region::{pack_bricks, Rows};
+    use volcore::Data;
+
+    /// Every voxel once, with its value, inside its task's region.
+    fn check_walk(w: &dyn Walk<u16>, want: &[u16], what: &str) {
+        let d = w.dims();
+        let mut seen = vec![0u32; want.len()];
+        for t in 0..w.tasks() {
+            let tr = w.task_region(t);
+            w.blocks(t, &mut |b| {
+                for a in 0..3 {
+                    assert!(tr.lo[a] <= b.region.lo[a] && b.region.hi[a] <= tr.hi[a]);
+                }
+                b.for_each_row(|y, z, row| {
+                    for (x, &v) in b.region.axis(0).zip(row) {
+                        let i = d.index(x, y, z) as usize;
+                        assert_eq!(v, want[i], "{what}: voxel {x},{y},{z}");
+                        seen[i] += 1;
+                    }
+                });
+            })
+            .unwrap();
+        }
+        assert!(seen.iter().all(|&n| n == 1), "{what}: not every voxel once");
+    }
+
+    #[test]
+    fn every_walk_visits_every_voxel_once() {
+        for (x, y, z) in [(1, 1, 1), (37, 23, 29), (5, 1, 9), (300, 2, 3)] {
+            let dims = Dims::new(x, y, z).unwrap();
+            let s: Vec<u16> = random_samples(dims, 4, 0);
+            let sliced = SlicedGrid::new(dims, Data::Owned(s.clone())).unwrap();
+            for edge in [2, 3, 8] {
+                check_walk(
+                    &SlicedWalk {
+                        grid: &sliced,
+                        edge,
+                    },
+                    &s,
+                    "sliced",
+                );
+                check_walk(&RowWalk::new(&sliced, edge), &s, "rows");
+            }
+            for brick in [2, 5, 16] {
+                let geom = BrickGeometry::new(dims, brick).unwrap();
+                let packed = pack_bricks(&Rows(&sliced), &geom);
+                let grid = BrickedGrid::new(geom, geom.stored_len(), Data::Owned(packed)).unwrap();
+                check_walk(&BrickedWalk { grid: &grid }, &s, "bricked");
+            }
+        }
+    }
+}
