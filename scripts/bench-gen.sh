@@ -14,7 +14,7 @@ RUNS=${2:-5}
 DIR=${DIR:-out/bench}
 mkdir -p "$DIR"
 cargo build --release --quiet --bins
-B=target/release
+B=${CARGO_TARGET_DIR:-target}/release
 N=$((DIM * DIM * DIM))
 SCENE=(shapes --dims "$DIM,$DIM,$DIM" --seed 2 --count 70 --size 70 --value 100 --quiet)
 

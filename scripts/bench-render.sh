@@ -16,7 +16,7 @@ REPEAT=${2:-5}
 DIR=${DIR:-out/bench}
 mkdir -p "$DIR"
 cargo build --release --quiet --bins
-B=target/release
+B=${CARGO_TARGET_DIR:-target}/release
 VOL="$DIR/shapes-$DIM-b32.vvol"
 SIZE=$((DIM * 70 / 800))
 [ -f "$VOL" ] || "$B/vol-gen" shapes --dims "$DIM,$DIM,$DIM" --seed 2 --count 70 --size "$SIZE" --value 100 \

@@ -9,7 +9,7 @@ OUT=${OUT:-out/demo}
 DIMS=${DIMS:-256,256,256}
 mkdir -p "$OUT"
 cargo build --release --quiet --bins
-B=target/release
+B=${CARGO_TARGET_DIR:-target}/release
 
 step() { printf '\n== %s\n' "$*"; }
 
