@@ -110,6 +110,59 @@ fn layouts_sample_identically_for_every_type() {
     }
 }
 
+/// Every interior cell's [`volcore::Cursor::cross_cells`], flattened, and
+/// the same six cells fetched one by one with `cell`.
+fn crosses(v: &Volume) -> (Vec<f32>, Vec<f32>) {
+    struct Cross;
+    impl volcore::VolumeVisitor for Cross {
+        type Output = (Vec<f32>, Vec<f32>);
+        fn visit<S: volcore::VoxelSource>(self, src: &S) -> Self::Output {
+            use volcore::Cursor;
+            let d = src.dims();
+            let mut cur = src.cursor();
+            let (mut fast, mut slow) = (Vec::new(), Vec::new());
+            for k in 1..d.z.saturating_sub(2) {
+                for j in 1..d.y.saturating_sub(2) {
+                    for i in 1..d.x.saturating_sub(2) {
+                        fast.extend(cur.cross_cells(i, j, k).into_iter().flatten());
+                        for (a, b, c) in [
+                            (i - 1, j, k),
+                            (i + 1, j, k),
+                            (i, j - 1, k),
+                            (i, j + 1, k),
+                            (i, j, k - 1),
+                            (i, j, k + 1),
+                        ] {
+                            slow.extend(cur.cell(a, b, c));
+                        }
+                    }
+                }
+            }
+            (fast, slow)
+        }
+    }
+    v.visit(Cross)
+}
+
+#[test]
+fn cross_cells_match_single_cells_in_every_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    // Brick edge 4 puts many crosses against brick seams.
+    let dims = Dims::new(19, 13, 11).unwrap();
+    for copies in [
+        three_copies::<u8>(dir.path(), dims, 4),
+        three_copies::<f32>(dir.path(), dims, 4),
+    ] {
+        let (reference, _) = crosses(&copies[0]);
+        assert_eq!(reference.len(), 16 * 10 * 8 * 48);
+        for v in &copies {
+            let (fast, slow) = crosses(v);
+            assert_eq!(fast, slow, "{}", v.meta);
+            assert_eq!(fast, reference, "{}", v.meta);
+        }
+    }
+}
+
 #[test]
 fn headers_round_trip() {
     let dims = Dims::new(40, 30, 20).unwrap();

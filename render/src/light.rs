@@ -34,7 +34,7 @@ impl Lighting {
     /// Shade `colour` at a point with (unnormalised) gradient `grad`, seen
     /// along unit `view_dir` (from the eye into the scene). Two-sided: the
     /// normal is flipped to face the viewer. `grad` must be nonzero.
-    #[inline]
+    #[inline(always)]
     pub fn shade(&self, colour: Vec3, grad: Vec3, view_dir: Vec3) -> Vec3 {
         let to_eye = -view_dir;
         let mut n = -grad.normalize_or_zero();
@@ -47,8 +47,8 @@ impl Lighting {
         let spec = if diff > 0.0 {
             let c = n.dot(h).max(0.0);
             // Whole exponents (the usual case) by multiplication, not powf.
-            if self.shininess.fract() == 0.0 && self.shininess.abs() <= 256.0 {
-                c.powi(self.shininess as i32)
+            if self.shininess.fract() == 0.0 && (0.0..=256.0).contains(&self.shininess) {
+                pow_whole(c, self.shininess as u32)
             } else {
                 c.powf(self.shininess)
             }
@@ -57,4 +57,19 @@ impl Lighting {
         };
         colour * (self.ambient + self.diffuse * diff) + Vec3::splat(self.specular * spec)
     }
+}
+
+/// `x^n` by repeated squaring, inline (`powi` with an exponent known only
+/// at run time becomes a library call).
+#[inline(always)]
+fn pow_whole(mut x: f32, mut n: u32) -> f32 {
+    let mut r = 1.0;
+    while n > 0 {
+        if n & 1 == 1 {
+            r *= x;
+        }
+        x *= x;
+        n >>= 1;
+    }
+    r
 }

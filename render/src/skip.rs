@@ -158,10 +158,12 @@ impl<'a> SkipGrid<'a> {
     #[inline(always)]
     fn voxel_of(&self, p: Vec3) -> [u64; 3] {
         let d = self.dims.as_array();
+        // Clamped to [0, d − 1], so the cast through i64 (cheaper than
+        // straight to u64 on x86-64) floors exactly as the sampler does.
         [
-            clamp_axis(p.x, d[0]) as u64,
-            clamp_axis(p.y, d[1]) as u64,
-            clamp_axis(p.z, d[2]) as u64,
+            clamp_axis(p.x, d[0]) as i64 as u64,
+            clamp_axis(p.y, d[1]) as i64 as u64,
+            clamp_axis(p.z, d[2]) as i64 as u64,
         ]
     }
 
@@ -207,6 +209,29 @@ impl<'a> SkipGrid<'a> {
             }
         }
         Some(until)
+    }
+
+    /// The ray parameter at which a ray with voxel-space origin `o` and
+    /// direction `d` leaves the level-0 cell holding `p` (infinite for a
+    /// ray that never does). Samples before it need not ask again whether
+    /// that cell can be skipped; the result only saves work, so it needs no
+    /// margin: a sample taken is never wrong.
+    #[inline]
+    pub fn cell_exit(&self, p: Vec3, o: Vec3, d: Vec3) -> f32 {
+        let c = self.cell_of(0, self.voxel_of(p));
+        let e = self.index.level(0).edge();
+        let mut until = f32::INFINITY;
+        for a in 0..3 {
+            let face = if d[a] > 0.0 {
+                ((c[a] + 1) * e) as f32
+            } else if d[a] < 0.0 {
+                (c[a] * e) as f32
+            } else {
+                continue;
+            };
+            until = until.min((face - o[a]) / d[a]);
+        }
+        until
     }
 
     /// The index behind this grid.

@@ -63,6 +63,24 @@ pub trait Cursor {
     /// `dx + 2·dy + 4·dz`.
     fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8];
 
+    /// The six cells beside the cell at base `(i, j, k)`, for central
+    /// differences: bases `i − 1, i + 1, j − 1, j + 1, k − 1, k + 1` along
+    /// their axes, each ordered as [`Cursor::cell`]. For interior cells only:
+    /// the caller guarantees `i, j, k >= 1` and `i + 2`, `j + 2`, `k + 2`
+    /// inside the volume, so no neighbour is clamped. Layouts override it to
+    /// find the six cells from one address.
+    #[inline(always)]
+    fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
+        [
+            self.cell(i - 1, j, k),
+            self.cell(i + 1, j, k),
+            self.cell(i, j - 1, k),
+            self.cell(i, j + 1, k),
+            self.cell(i, j, k - 1),
+            self.cell(i, j, k + 1),
+        ]
+    }
+
     /// Trilinear interpolation at a point in voxel coordinates.
     #[inline]
     fn trilinear(&mut self, p: [f32; 3]) -> f32 {
@@ -113,7 +131,9 @@ pub fn locate(p: [f32; 3], dims: Dims) -> ([u64; 3], [f32; 3]) {
     let mut t = [0f32; 3];
     for a in 0..3 {
         let c = clamp_axis(p[a], d[a]);
-        let i = c as u64; // c >= 0, so this is floor
+        // 0 <= c < 2^63, so truncation is floor; through i64 because a
+        // float-to-u64 cast costs twice the instructions on x86-64.
+        let i = c as i64 as u64;
         base[a] = i;
         t[a] = c - i as f32;
     }
@@ -146,6 +166,25 @@ fn cell_from<T: Sample>(s: &[T], base: usize, ox: usize, oy: usize, oz: usize) -
         s[ox + oz].to_f32(),
         s[oy + oz].to_f32(),
         s[ox + oy + oz].to_f32(),
+    ]
+}
+
+/// [`Cursor::cross_cells`] around the cell whose first corner is `s[base]`,
+/// with neighbours `ox`, `oy`, `oz` samples apart (all in `s`).
+#[inline(always)]
+fn cross_from<T: Sample>(s: &[T], base: usize, ox: usize, oy: usize, oz: usize) -> [[f32; 8]; 6] {
+    // One bounds check for all six cells: the lowest corner read is
+    // `base − oz`, the highest `base + ox + oy + 2·oz`.
+    let s = &s[base - oz..=base + ox + oy + 2 * oz];
+    let b = oz;
+    let cell = |o: usize| cell_from(s, o, ox, oy, oz);
+    [
+        cell(b - ox),
+        cell(b + ox),
+        cell(b - oy),
+        cell(b + oy),
+        cell(b - oz),
+        cell(b + oz),
     ]
 }
 
@@ -226,6 +265,13 @@ impl<T: Sample> Cursor for SlicedCursor<'_, T> {
         let oy = if j + 1 < d.y { d.x as usize } else { 0 };
         let oz = if k + 1 < d.z { (d.x * d.y) as usize } else { 0 };
         cell_from(self.data, d.index(i, j, k) as usize, ox, oy, oz)
+    }
+
+    #[inline(always)]
+    fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
+        let d = self.dims;
+        let (oy, oz) = (d.x as usize, (d.x * d.y) as usize);
+        cross_from(self.data, d.index(i, j, k) as usize, 1, oy, oz)
     }
 }
 
@@ -367,6 +413,17 @@ impl<T: Sample> Cursor for BrickedCursor<'_, T> {
         let e = g.stored_edge() as usize;
         let base = a.brick as usize * self.grid.stride + a.local;
         cell_from(&self.grid.data, base, 1, e, e * e)
+    }
+
+    #[inline(always)]
+    fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
+        // The apron (one voxel before, two after) holds the whole cross
+        // inside the brick of (i, j, k).
+        let g = &self.grid.geom;
+        let a = brick_addr(g, i, j, k);
+        let e = g.stored_edge() as usize;
+        let base = a.brick as usize * self.grid.stride + a.local;
+        cross_from(&self.grid.data, base, 1, e, e * e)
     }
 }
 
@@ -577,6 +634,15 @@ impl<T: Sample> Cursor for CompressedCursor<'_, T> {
         let a = brick_addr(&g, i, j, k);
         let e = g.stored_edge() as usize;
         cell_from(self.brick(a.brick), a.local, 1, e, e * e)
+    }
+
+    #[inline(always)]
+    fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
+        // The apron holds the whole cross inside the brick of (i, j, k).
+        let g = self.grid.geom;
+        let a = brick_addr(&g, i, j, k);
+        let e = g.stored_edge() as usize;
+        cross_from(self.brick(a.brick), a.local, 1, e, e * e)
     }
 }
 

@@ -34,26 +34,24 @@ pub fn dvr<
     let mut colour = Vec3::ZERO;
     let mut alpha = 0.0f32;
     let mut k = w.k0;
-    // The last level-0 cell found not skippable: samples in it need no
-    // further check (its flags are fixed for the frame).
-    let mut busy_cell = usize::MAX;
+    // Samples up to `busy_until` lie in (or just past) a level-0 cell found
+    // not skippable: they need no further check (its flags are fixed for
+    // the frame, and taking a sample is never wrong).
+    let mut busy_until = i64::MIN;
     while k <= w.k1 {
         let t = w.t(k);
         let p = w.at(t);
-        if ESS {
+        if ESS && k > busy_until {
             if let Some(skip) = ctx.skip {
-                let cell = skip.cell_at(p);
-                if cell != busy_cell {
-                    match skip.skip_until(p, w.o, w.d, |_, _, f| f != 0) {
-                        Some(u) => {
-                            if let Some(kn) = w.after_skip(k, u) {
-                                k = kn;
-                                out.skips += 1;
-                                continue;
-                            }
+                match skip.skip_until(p, w.o, w.d, |_, _, f| f != 0) {
+                    Some(u) => {
+                        if let Some(kn) = w.after_skip(k, u) {
+                            k = kn;
+                            out.skips += 1;
+                            continue;
                         }
-                        None => busy_cell = cell,
                     }
+                    None => busy_until = w.last_before(skip.cell_exit(p, w.o, w.d)),
                 }
             }
         }

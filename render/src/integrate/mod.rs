@@ -145,7 +145,21 @@ impl Walk {
     /// is skipped; the one returned is taken normally).
     #[inline(always)]
     pub fn after_skip(&self, k: i64, u: f32) -> Option<i64> {
-        let last = (u as f64 / self.step).floor() as i64;
-        (last >= k).then_some(last + 1)
+        let last = self.last_before(u);
+        (last >= k).then_some(last.saturating_add(1))
     }
+
+    /// The last sample at or before ray parameter `u`.
+    #[inline(always)]
+    pub fn last_before(&self, u: f32) -> i64 {
+        floor_i64(u as f64 / self.step)
+    }
+}
+
+/// `floor(x)` as an integer (saturating; NaN gives 0), without a call to
+/// libm's `floor`, which the baseline x86-64 target cannot inline.
+#[inline(always)]
+fn floor_i64(x: f64) -> i64 {
+    let i = x as i64;
+    i - ((i as f64) > x) as i64
 }

@@ -64,7 +64,7 @@ pub fn cell_gradient(c: &[f32; 8], t: [f32; 3]) -> Vec3 {
 /// The central-difference gradient of the interpolant (per voxel):
 /// `(f(p + e) − f(p − e)) / 2` per axis. Away from the faces the six
 /// points share `p`'s cell offsets, so the point is located once and the
-/// six neighbouring cells are fetched directly; within a voxel of a face
+/// six neighbouring cells are fetched together; within a voxel of a face
 /// the clamping rules of [`Cursor::gradient`] apply.
 #[inline(always)]
 pub fn central_gradient<C: Cursor>(cur: &mut C, p: Vec3) -> Vec3 {
@@ -74,11 +74,11 @@ pub fn central_gradient<C: Cursor>(cur: &mut C, p: Vec3) -> Vec3 {
     if !interior {
         return Vec3::from(cur.gradient(p.into()));
     }
-    let (i, j, k) = (base[0], base[1], base[2]);
+    let [x0, x1, y0, y1, z0, z1] = cur.cross_cells(base[0], base[1], base[2]);
     let f = |c: [f32; 8]| blend(&c, t);
-    let gx = f(cur.cell(i + 1, j, k)) - f(cur.cell(i - 1, j, k));
-    let gy = f(cur.cell(i, j + 1, k)) - f(cur.cell(i, j - 1, k));
-    let gz = f(cur.cell(i, j, k + 1)) - f(cur.cell(i, j, k - 1));
+    let gx = f(x1) - f(x0);
+    let gy = f(y1) - f(y0);
+    let gz = f(z1) - f(z0);
     Vec3::new(gx, gy, gz) * 0.5
 }
 
