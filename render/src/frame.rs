@@ -198,6 +198,7 @@ pub fn render(
         skip: skip.as_ref(),
         value_range: range,
         iso_colour: Vec3::from(settings.iso_colour.map(srgb_to_linear)),
+        locator: volcore::grid::Locator::new(vol.dims()),
     };
     let d = vol.dims().as_array();
     let hi = Vec3::new(

@@ -18,14 +18,14 @@
 //! without skipping are bit-identical.
 
 use glam::Vec3;
-use volcore::grid::clamp_axis;
-use volcore::Dims;
+use volcore::grid::Locator;
 use volindex::MajorantIndex;
 
 /// Per-frame skipping data: for each level, one flag per cell.
 pub struct SkipGrid<'a> {
     index: &'a MajorantIndex,
-    dims: Dims,
+    /// Finds the voxel the sampler reads first at a point.
+    locator: Locator,
     /// `flags[level][cell]`: the cell qualifies for skipping (for modes with
     /// a per-frame rule); empty for modes whose rule depends on the pixel.
     flags: Vec<Vec<u8>>,
@@ -55,7 +55,7 @@ impl<'a> SkipGrid<'a> {
             .collect();
         SkipGrid {
             index,
-            dims,
+            locator: Locator::new(dims),
             flags,
             shifts,
             // Well above the rounding of f32 positions at this size.
@@ -157,14 +157,7 @@ impl<'a> SkipGrid<'a> {
     /// The integer voxel the sampler reads first for point `p`.
     #[inline(always)]
     fn voxel_of(&self, p: Vec3) -> [u64; 3] {
-        let d = self.dims.as_array();
-        // Clamped to [0, d − 1], so the cast through i64 (cheaper than
-        // straight to u64 on x86-64) floors exactly as the sampler does.
-        [
-            clamp_axis(p.x, d[0]) as i64 as u64,
-            clamp_axis(p.y, d[1]) as i64 as u64,
-            clamp_axis(p.z, d[2]) as i64 as u64,
-        ]
+        self.locator.voxel(p.into())
     }
 
     /// If the cell holding voxel-space point `p` qualifies (`pred(level,

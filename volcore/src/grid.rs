@@ -115,29 +115,97 @@ pub trait Cursor {
 /// Clamp one coordinate to `[0, d − 1]`, mapping NaN to 0.
 #[inline(always)]
 pub fn clamp_axis(p: f32, d: u64) -> f32 {
-    let hi = (d - 1) as f32;
+    clamp_to(p, (d - 1) as f32)
+}
+
+/// Clamp one coordinate to `[0, hi]`, mapping NaN to 0.
+#[inline(always)]
+fn clamp_to(p: f32, hi: f32) -> f32 {
+    // Comparisons rather than `min`, whose NaN rule costs instructions
+    // that `p > 0` (false for NaN) has already made unnecessary.
     if p > 0.0 {
-        p.min(hi)
+        if p < hi {
+            p
+        } else {
+            hi
+        }
     } else {
         0.0
+    }
+}
+
+/// `c` truncated to an integer, for `0 <= c < 2^63` (clamped coordinates):
+/// one instruction on x86-64, where `as` adds the saturation fix-ups that
+/// clamped values never need. Other values give an unspecified integer.
+#[inline(always)]
+pub fn trunc_in_range(c: f32) -> i64 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_cvttss_si64, _mm_set_ss};
+        // SAFETY: SSE is part of the x86-64 baseline, and the conversion
+        // is defined for every input (out of range gives i64::MIN).
+        unsafe { _mm_cvttss_si64(_mm_set_ss(c)) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        c as i64
     }
 }
 
 /// The cell base and fractional offsets of a point (see the module rules).
 #[inline(always)]
 pub fn locate(p: [f32; 3], dims: Dims) -> ([u64; 3], [f32; 3]) {
-    let d = dims.as_array();
-    let mut base = [0u64; 3];
-    let mut t = [0f32; 3];
-    for a in 0..3 {
-        let c = clamp_axis(p[a], d[a]);
-        // 0 <= c < 2^63, so truncation is floor; through i64 because a
-        // float-to-u64 cast costs twice the instructions on x86-64.
-        let i = c as i64 as u64;
-        base[a] = i;
-        t[a] = c - i as f32;
+    Locator::new(dims).locate(p)
+}
+
+/// Finds the cell of points in one volume, with the clamping bounds worked
+/// out once: for loops that locate many points ([`locate`] recomputes them
+/// per call).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Locator {
+    /// `dims − 1` per axis, as f32.
+    hi: [f32; 3],
+}
+
+impl Locator {
+    /// The locator of a volume of `dims`.
+    pub fn new(dims: Dims) -> Locator {
+        Locator {
+            hi: dims.as_array().map(|d| (d - 1) as f32),
+        }
     }
-    (base, t)
+
+    /// `p` clamped to the volume's box (NaN to 0), per the module rules.
+    #[inline(always)]
+    pub fn clamp(&self, p: [f32; 3]) -> [f32; 3] {
+        [
+            clamp_to(p[0], self.hi[0]),
+            clamp_to(p[1], self.hi[1]),
+            clamp_to(p[2], self.hi[2]),
+        ]
+    }
+
+    /// The cell base and fractional offsets of `p` (see the module rules).
+    #[inline(always)]
+    pub fn locate(&self, p: [f32; 3]) -> ([u64; 3], [f32; 3]) {
+        let c = self.clamp(p);
+        let mut base = [0u64; 3];
+        let mut t = [0f32; 3];
+        for a in 0..3 {
+            // 0 <= c < 2^63, so truncation is floor; through i64 because
+            // float/u64 conversions cost several instructions on x86-64.
+            let i = trunc_in_range(c[a]);
+            base[a] = i as u64;
+            t[a] = c[a] - i as f32;
+        }
+        (base, t)
+    }
+
+    /// The cell base of `p`: the first voxel the sampler reads there.
+    #[inline(always)]
+    pub fn voxel(&self, p: [f32; 3]) -> [u64; 3] {
+        self.clamp(p).map(|c| trunc_in_range(c) as u64)
+    }
 }
 
 /// Trilinear blend of cell values `c` with offsets `t`.
@@ -328,29 +396,64 @@ struct BrickAddr {
 
 #[inline(always)]
 fn brick_addr(g: &BrickGeometry, i: u64, j: u64, k: u64) -> BrickAddr {
-    let b = g.brick() as u64;
-    // Power-of-two edges (the usual case) divide by shifting: a 64-bit
-    // division per axis would cost more than the rest of a cell fetch.
-    let (bx, by, bz) = if b.is_power_of_two() {
-        let s = b.trailing_zeros();
-        (i >> s, j >> s, k >> s)
-    } else {
-        (i / b, j / b, k / b)
-    };
-    let e = g.stored_edge() as usize;
-    let lo = crate::brick::APRON_LO as u64;
-    let li = (i - bx * b + lo) as usize;
-    let lj = (j - by * b + lo) as usize;
-    let lk = (k - bz * b + lo) as usize;
-    BrickAddr {
-        brick: g.brick_index(bx, by, bz),
-        local: li + e * (lj + e * lk),
+    BrickAddresser::new(g).addr(i, j, k)
+}
+
+/// Brick addressing constants of one geometry, worked out once for
+/// cursors, which address a brick per sample.
+#[derive(Clone, Copy)]
+struct BrickAddresser {
+    /// Owned edge.
+    b: u64,
+    /// log2 of the owned edge when it is a power of two (the usual case:
+    /// then dividing is shifting, where a 64-bit division per axis would
+    /// cost more than the rest of a cell fetch).
+    shift: Option<u32>,
+    /// Stored edge.
+    e: usize,
+    /// Bricks along x and y.
+    nx: u64,
+    ny: u64,
+}
+
+impl BrickAddresser {
+    fn new(g: &BrickGeometry) -> BrickAddresser {
+        let b = g.brick() as u64;
+        let [nx, ny, _] = g.counts();
+        BrickAddresser {
+            b,
+            shift: b.is_power_of_two().then(|| b.trailing_zeros()),
+            e: g.stored_edge() as usize,
+            nx,
+            ny,
+        }
+    }
+
+    #[inline(always)]
+    fn addr(&self, i: u64, j: u64, k: u64) -> BrickAddr {
+        let b = self.b;
+        let (bx, by, bz) = match self.shift {
+            Some(s) => (i >> s, j >> s, k >> s),
+            None => (i / b, j / b, k / b),
+        };
+        let e = self.e;
+        let lo = crate::brick::APRON_LO as u64;
+        let li = (i - bx * b + lo) as usize;
+        let lj = (j - by * b + lo) as usize;
+        let lk = (k - bz * b + lo) as usize;
+        BrickAddr {
+            brick: bx + self.nx * (by + self.ny * bz),
+            local: li + e * (lj + e * lk),
+        }
     }
 }
 
 /// Cursor over a [`BrickedGrid`].
 pub struct BrickedCursor<'a, T: Sample> {
     grid: &'a BrickedGrid<T>,
+    /// The samples, resolved once (not per sample through [`Data`]).
+    data: &'a [T],
+    addr: BrickAddresser,
 }
 
 impl<T: Sample> VoxelSource for BrickedGrid<T> {
@@ -362,7 +465,11 @@ impl<T: Sample> VoxelSource for BrickedGrid<T> {
     }
 
     fn cursor(&self) -> BrickedCursor<'_, T> {
-        BrickedCursor { grid: self }
+        BrickedCursor {
+            grid: self,
+            data: &self.data,
+            addr: BrickAddresser::new(&self.geom),
+        }
     }
 
     fn read_row(&self, x0: u64, y: u64, z: u64, out: &mut [T]) {
@@ -394,6 +501,15 @@ fn read_row_bricked<'b, T: Sample + 'b>(
     }
 }
 
+impl<T: Sample> BrickedCursor<'_, T> {
+    /// Index in `data` of voxel `(i, j, k)` and the stored brick edge.
+    #[inline(always)]
+    fn at(&self, i: u64, j: u64, k: u64) -> (usize, usize) {
+        let a = self.addr.addr(i, j, k);
+        (a.brick as usize * self.grid.stride + a.local, self.addr.e)
+    }
+}
+
 impl<T: Sample> Cursor for BrickedCursor<'_, T> {
     #[inline(always)]
     fn dims(&self) -> Dims {
@@ -402,28 +518,21 @@ impl<T: Sample> Cursor for BrickedCursor<'_, T> {
 
     #[inline(always)]
     fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
-        let a = brick_addr(&self.grid.geom, x, y, z);
-        self.grid.data[a.brick as usize * self.grid.stride + a.local].to_f32()
+        self.data[self.at(x, y, z).0].to_f32()
     }
 
     #[inline(always)]
     fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8] {
-        let g = &self.grid.geom;
-        let a = brick_addr(g, i, j, k);
-        let e = g.stored_edge() as usize;
-        let base = a.brick as usize * self.grid.stride + a.local;
-        cell_from(&self.grid.data, base, 1, e, e * e)
+        let (base, e) = self.at(i, j, k);
+        cell_from(self.data, base, 1, e, e * e)
     }
 
     #[inline(always)]
     fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
         // The apron (one voxel before, two after) holds the whole cross
         // inside the brick of (i, j, k).
-        let g = &self.grid.geom;
-        let a = brick_addr(g, i, j, k);
-        let e = g.stored_edge() as usize;
-        let base = a.brick as usize * self.grid.stride + a.local;
-        cross_from(&self.grid.data, base, 1, e, e * e)
+        let (base, e) = self.at(i, j, k);
+        cross_from(self.data, base, 1, e, e * e)
     }
 }
 
@@ -563,6 +672,7 @@ fn zstd_decompress(bytes: &[u8], target: &mut [u8]) -> std::io::Result<usize> {
 pub struct CompressedCursor<'a, T: Sample> {
     grid: &'a CompressedGrid<T>,
     current: Option<(u64, Arc<[T]>)>,
+    addr: BrickAddresser,
 }
 
 impl<T: Sample> CompressedCursor<'_, T> {
@@ -591,6 +701,7 @@ impl<T: Sample> VoxelSource for CompressedGrid<T> {
         CompressedCursor {
             grid: self,
             current: None,
+            addr: BrickAddresser::new(&self.geom),
         }
     }
 
@@ -624,24 +735,22 @@ impl<T: Sample> Cursor for CompressedCursor<'_, T> {
 
     #[inline(always)]
     fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
-        let a = brick_addr(&self.grid.geom, x, y, z);
+        let a = self.addr.addr(x, y, z);
         self.brick(a.brick)[a.local].to_f32()
     }
 
     #[inline(always)]
     fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8] {
-        let g = self.grid.geom;
-        let a = brick_addr(&g, i, j, k);
-        let e = g.stored_edge() as usize;
+        let a = self.addr.addr(i, j, k);
+        let e = self.addr.e;
         cell_from(self.brick(a.brick), a.local, 1, e, e * e)
     }
 
     #[inline(always)]
     fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
         // The apron holds the whole cross inside the brick of (i, j, k).
-        let g = self.grid.geom;
-        let a = brick_addr(&g, i, j, k);
-        let e = g.stored_edge() as usize;
+        let a = self.addr.addr(i, j, k);
+        let e = self.addr.e;
         cross_from(self.brick(a.brick), a.local, 1, e, e * e)
     }
 }
@@ -650,6 +759,21 @@ impl<T: Sample> Cursor for CompressedCursor<'_, T> {
 mod tests {
     use super::*;
     use crate::region::{pack_bricks, Rows};
+
+    #[test]
+    fn locator_clamps_and_floors_by_the_module_rules() {
+        let loc = Locator::new(Dims::new(5, 1, 300).unwrap());
+        let (b, t) = loc.locate([2.75, 0.5, 299.0]);
+        assert_eq!((b, t), ([2, 0, 299], [0.75, 0.0, 0.0]));
+        // NaN and negatives clamp to 0, beyond the far face to the face.
+        let (b, t) = loc.locate([f32::NAN, -3.0, 1e30]);
+        assert_eq!((b, t), ([0, 0, 299], [0.0; 3]));
+        assert_eq!(loc.voxel([4.999, f32::INFINITY, -0.0]), [4, 0, 0]);
+        assert_eq!(loc.clamp([-f32::INFINITY, 7.0, 12.5]), [0.0, 0.0, 12.5]);
+        for c in [0.0f32, 0.5, 1.0, 16_777_215.0, 3e9] {
+            assert_eq!(trunc_in_range(c), c as i64, "{c}");
+        }
+    }
 
     /// zstd bricks of `samples`, plus one entry whose bytes pass the
     /// checksum but are not zstd.

@@ -56,9 +56,9 @@ pub fn dvr<
             }
         }
         let (v, grad) = if SHADE && ANALYTIC {
-            value_and_analytic_gradient::<C, TRI>(cur, p)
+            value_and_analytic_gradient::<C, TRI>(&w.loc, cur, p)
         } else {
-            (value::<C, TRI>(cur, p), Vec3::ZERO)
+            (value::<C, TRI>(&w.loc, cur, p), Vec3::ZERO)
         };
         out.samples += 1;
         let e = table.lookup(v);
@@ -68,7 +68,7 @@ pub fn dvr<
                 let g = if ANALYTIC {
                     grad
                 } else {
-                    central_gradient(cur, p)
+                    central_gradient(&w.loc, cur, p)
                 } * ctx.inv_spacing;
                 if g.length() > ctx.gradient_threshold {
                     c = ctx.lighting.shade(c, g, ray.dir);

@@ -58,7 +58,7 @@ pub fn iso<C: Cursor, const TRI: bool, const ANALYTIC: bool, const ESS: bool>(
             }
             None => {
                 out.samples += 1;
-                above(value::<C, TRI>(cur, p))
+                above(value::<C, TRI>(&w.loc, cur, p))
             }
         };
         if class != prev {
@@ -86,7 +86,7 @@ fn refine<C: Cursor, const TRI: bool>(
 ) -> f32 {
     for _ in 0..BISECTIONS {
         let m = 0.5 * (a + b);
-        if (value::<C, TRI>(cur, w.at(m)) >= level) == class_b {
+        if (value::<C, TRI>(&w.loc, cur, w.at(m)) >= level) == class_b {
             b = m;
         } else {
             a = m;
@@ -105,9 +105,12 @@ fn shade_hit<C: Cursor, const TRI: bool, const ANALYTIC: bool>(
 ) {
     let p = w.at(t);
     let (v, g) = if ANALYTIC {
-        value_and_analytic_gradient::<C, TRI>(cur, p)
+        value_and_analytic_gradient::<C, TRI>(&w.loc, cur, p)
     } else {
-        (value::<C, TRI>(cur, p), central_gradient(cur, p))
+        (
+            value::<C, TRI>(&w.loc, cur, p),
+            central_gradient(&w.loc, cur, p),
+        )
     };
     let g = g * ctx.inv_spacing;
     let c = if g.length() > 0.0 {

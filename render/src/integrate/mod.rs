@@ -20,6 +20,7 @@ use crate::ray::Ray;
 use crate::skip::SkipGrid;
 use crate::tf::TfTable;
 use glam::Vec3;
+use volcore::grid::Locator;
 
 /// What a ray computes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,6 +77,8 @@ pub struct RayCtx<'a> {
     pub value_range: (f32, f32),
     /// Linear surface colour (iso).
     pub iso_colour: Vec3,
+    /// Locates sample points in the volume.
+    pub locator: Locator,
 }
 
 /// What one ray produced.
@@ -113,6 +116,8 @@ pub(crate) struct Walk {
     pub k0: i64,
     pub k1: i64,
     pub step: f64,
+    /// Locates sample points in the volume.
+    pub loc: Locator,
 }
 
 impl Walk {
@@ -124,6 +129,7 @@ impl Walk {
             k0: (t0 as f64 / step).ceil() as i64,
             k1: (t1 as f64 / step).floor() as i64,
             step,
+            loc: ctx.locator,
         }
     }
 

@@ -51,7 +51,7 @@ pub fn mip<C: Cursor, const TRI: bool, const MAX: bool, const ESS: bool, const E
                 }
             }
         }
-        let v = value::<C, TRI>(cur, p);
+        let v = value::<C, TRI>(&w.loc, cur, p);
         out.samples += 1;
         if (MAX && v > best) || (!MAX && v < best) {
             best = v;
@@ -99,7 +99,7 @@ pub fn xray<C: Cursor, const TRI: bool, const MEAN: bool, const ESS: bool>(
                 }
             }
         }
-        let v = value::<C, TRI>(cur, p);
+        let v = value::<C, TRI>(&w.loc, cur, p);
         out.samples += 1;
         if !v.is_nan() {
             sum += v as f64;

@@ -1,14 +1,14 @@
 //! Reconstruction and gradients at a point, specialised per option.
 
 use glam::Vec3;
-use volcore::grid::{blend, locate};
+use volcore::grid::{blend, Locator};
 use volcore::Cursor;
 
 /// The value at voxel-space `p`: trilinear or nearest (rounding halves up,
 /// as `Cursor::nearest` does for the clamped, non-negative coordinates).
 #[inline(always)]
-pub fn value<C: Cursor, const TRI: bool>(cur: &mut C, p: Vec3) -> f32 {
-    let (base, t) = locate(p.into(), cur.dims());
+pub fn value<C: Cursor, const TRI: bool>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
+    let (base, t) = loc.locate(p.into());
     if TRI {
         let c = cur.cell(base[0], base[1], base[2]);
         blend(&c, t)
@@ -23,10 +23,11 @@ pub fn value<C: Cursor, const TRI: bool>(cur: &mut C, p: Vec3) -> f32 {
 /// around it, from one cell fetch.
 #[inline(always)]
 pub fn value_and_analytic_gradient<C: Cursor, const TRI: bool>(
+    loc: &Locator,
     cur: &mut C,
     p: Vec3,
 ) -> (f32, Vec3) {
-    let (base, t) = locate(p.into(), cur.dims());
+    let (base, t) = loc.locate(p.into());
     let c = cur.cell(base[0], base[1], base[2]);
     let v = if TRI {
         blend(&c, t)
@@ -67,9 +68,9 @@ pub fn cell_gradient(c: &[f32; 8], t: [f32; 3]) -> Vec3 {
 /// six neighbouring cells are fetched together; within a voxel of a face
 /// the clamping rules of [`Cursor::gradient`] apply.
 #[inline(always)]
-pub fn central_gradient<C: Cursor>(cur: &mut C, p: Vec3) -> Vec3 {
+pub fn central_gradient<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> Vec3 {
     let d = cur.dims().as_array();
-    let (base, t) = locate(p.into(), cur.dims());
+    let (base, t) = loc.locate(p.into());
     let interior = (0..3).all(|a| base[a] >= 1 && base[a] + 2 < d[a]);
     if !interior {
         return Vec3::from(cur.gradient(p.into()));
@@ -99,10 +100,12 @@ mod tests {
         )
         .unwrap();
         let mut cur = v.cursor();
-        let (val, g) = value_and_analytic_gradient::<_, true>(&mut cur, Vec3::new(3.25, 2.5, 1.5));
+        let loc = Locator::new(d);
+        let (val, g) =
+            value_and_analytic_gradient::<_, true>(&loc, &mut cur, Vec3::new(3.25, 2.5, 1.5));
         assert!((val - 80.0 * 3.25 / 8.0).abs() < 1e-4);
         assert!((g - Vec3::new(10.0, 0.0, 0.0)).length() < 1e-5);
-        let c = central_gradient(&mut cur, Vec3::new(3.25, 2.5, 1.5));
+        let c = central_gradient(&loc, &mut cur, Vec3::new(3.25, 2.5, 1.5));
         assert!((c - g).length() < 1e-4);
         // The interior shortcut agrees with the general definition.
         let mut rng = fastrand::Rng::with_seed(5);
@@ -112,7 +115,7 @@ mod tests {
                 1.0 + rng.f32() * 3.9,
                 1.0 + rng.f32() * 1.9,
             );
-            let fast = central_gradient(&mut cur, p);
+            let fast = central_gradient(&loc, &mut cur, p);
             let slow = Vec3::from(cur.gradient(p.into()));
             assert!((fast - slow).length() < 1e-3, "{p}: {fast} vs {slow}");
         }
@@ -128,6 +131,7 @@ mod tests {
         )
         .unwrap();
         let mut cur = v.cursor();
+        let loc = Locator::new(d);
         let mut rng = fastrand::Rng::with_seed(2);
         for _ in 0..2000 {
             let p = Vec3::new(
@@ -135,8 +139,12 @@ mod tests {
                 rng.f32() * 6.0 - 0.5,
                 rng.f32() * 5.0 - 0.5,
             );
-            assert_eq!(value::<_, false>(&mut cur, p), cur.nearest(p.into()), "{p}");
-            assert_eq!(value::<_, true>(&mut cur, p), cur.trilinear(p.into()));
+            assert_eq!(
+                value::<_, false>(&loc, &mut cur, p),
+                cur.nearest(p.into()),
+                "{p}"
+            );
+            assert_eq!(value::<_, true>(&loc, &mut cur, p), cur.trilinear(p.into()));
         }
     }
 }

@@ -11,6 +11,8 @@ pub struct TfTable {
     scale: f32,
     /// `[r, g, b, alpha]` per bin.
     entries: Vec<[f32; 4]>,
+    /// The last bin's index, as f32 (exact: bins are far below 2^24).
+    top: f32,
 }
 
 /// Step-corrected opacity `1 − (1 − α)^ratio`, computed as
@@ -54,7 +56,7 @@ impl TfTable {
         let bins = bins.max(1);
         let width = ((hi - lo) / bins as f32).max(f32::MIN_POSITIVE);
         let ratio = step as f64 / tf.reference_step as f64;
-        let entries = (0..bins)
+        let entries: Vec<[f32; 4]> = (0..bins)
             .map(|i| {
                 let v = lo + (i as f32 + 0.5) * width;
                 let (rgb, alpha) = tf.eval(v);
@@ -65,6 +67,7 @@ impl TfTable {
         TfTable {
             lo,
             scale: 1.0 / width,
+            top: (entries.len() - 1) as f32,
             entries,
         }
     }
@@ -84,9 +87,19 @@ impl TfTable {
     #[inline(always)]
     pub fn bin(&self, v: f32) -> usize {
         let i = (v - self.lo) * self.scale;
-        // Saturating cast (through i64, cheaper than to u64 on x86-64),
-        // then clamp: negative → 0, huge → the last bin.
-        (i as i64).clamp(0, self.entries.len() as i64 - 1) as usize
+        // Clamp in floats (negative → 0, huge → the last bin), then a plain
+        // truncation: cheaper than a saturating cast and an integer clamp.
+        let top = self.top;
+        let i = if i > 0.0 {
+            if i < top {
+                i
+            } else {
+                top
+            }
+        } else {
+            0.0
+        };
+        volcore::grid::trunc_in_range(i) as usize
     }
 
     /// `[r, g, b, alpha]` for value `v`; NaN is transparent.
