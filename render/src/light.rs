@@ -36,26 +36,63 @@ impl Lighting {
     /// normal is flipped to face the viewer. `grad` must be nonzero.
     #[inline(always)]
     pub fn shade(&self, colour: Vec3, grad: Vec3, view_dir: Vec3) -> Vec3 {
+        self.for_view(view_dir)
+            .shade_normal(colour, grad.normalize_or_zero())
+    }
+
+    /// What shading along one viewing direction needs, worked out once per
+    /// ray rather than per sample.
+    #[inline(always)]
+    pub fn for_view(&self, view_dir: Vec3) -> ViewLight {
         let to_eye = -view_dir;
-        let mut n = -grad.normalize_or_zero();
-        if n.dot(to_eye) < 0.0 {
+        let l = self.light_dir.unwrap_or(to_eye);
+        let whole = self.shininess.fract() == 0.0 && (0.0..=256.0).contains(&self.shininess);
+        ViewLight {
+            model: *self,
+            to_eye,
+            l,
+            h: (l + to_eye).normalize_or_zero(),
+            whole_exponent: whole.then_some(self.shininess as u32),
+        }
+    }
+}
+
+/// Blinn-Phong for one viewing direction (see [`Lighting::for_view`]).
+#[derive(Clone, Copy, Debug)]
+pub struct ViewLight {
+    model: Lighting,
+    /// Unit vector towards the eye.
+    to_eye: Vec3,
+    /// Unit vector towards the light.
+    l: Vec3,
+    /// The half vector.
+    h: Vec3,
+    /// The specular exponent when it is a whole number up to 256 (the
+    /// usual case: then by multiplication, not `powf`).
+    whole_exponent: Option<u32>,
+}
+
+impl ViewLight {
+    /// Shade `colour` at a point whose unit gradient is `unit_grad` (or
+    /// zero). Two-sided: the normal is flipped to face the viewer.
+    #[inline(always)]
+    pub fn shade_normal(&self, colour: Vec3, unit_grad: Vec3) -> Vec3 {
+        let m = &self.model;
+        let mut n = -unit_grad;
+        if n.dot(self.to_eye) < 0.0 {
             n = -n;
         }
-        let l = self.light_dir.unwrap_or(to_eye);
-        let diff = n.dot(l).max(0.0);
-        let h = (l + to_eye).normalize_or_zero();
+        let diff = n.dot(self.l).max(0.0);
         let spec = if diff > 0.0 {
-            let c = n.dot(h).max(0.0);
-            // Whole exponents (the usual case) by multiplication, not powf.
-            if self.shininess.fract() == 0.0 && (0.0..=256.0).contains(&self.shininess) {
-                pow_whole(c, self.shininess as u32)
-            } else {
-                c.powf(self.shininess)
+            let c = n.dot(self.h).max(0.0);
+            match self.whole_exponent {
+                Some(e) => pow_whole(c, e),
+                None => c.powf(m.shininess),
             }
         } else {
             0.0
         };
-        colour * (self.ambient + self.diffuse * diff) + Vec3::splat(self.specular * spec)
+        colour * (m.ambient + m.diffuse * diff) + Vec3::splat(m.specular * spec)
     }
 }
 

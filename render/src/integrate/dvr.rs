@@ -31,6 +31,10 @@ pub fn dvr<
         return out;
     };
     let w = Walk::new(ctx, ray, t0, t1);
+    let light = ctx.lighting.for_view(ray.dir);
+    // Compared with squared lengths; never below 0, so a zero gradient is
+    // never normalised.
+    let threshold2 = ctx.gradient_threshold.max(0.0).powi(2);
     let mut colour = Vec3::ZERO;
     let mut alpha = 0.0f32;
     let mut k = w.k0;
@@ -70,8 +74,9 @@ pub fn dvr<
                 } else {
                     central_gradient(&w.loc, cur, p)
                 } * ctx.inv_spacing;
-                if g.length() > ctx.gradient_threshold {
-                    c = ctx.lighting.shade(c, g, ray.dir);
+                let len2 = g.length_squared();
+                if len2 > threshold2 {
+                    c = light.shade_normal(c, g * len2.sqrt().recip());
                 }
             }
             let weight = (1.0 - alpha) * e[3];
