@@ -163,72 +163,96 @@ impl<'a> SkipGrid<'a> {
     /// If the cell holding voxel-space point `p` qualifies (`pred(level,
     /// cell index, flag)`), the ray parameter up to which every sample is
     /// still inside the largest qualifying cell around `p`, for a ray with
-    /// voxel-space origin `o` and direction `d`. `None` when it does not.
+    /// voxel-space origin `o` and direction `d` (`inv_d` its element-wise
+    /// reciprocal, in f64). `None` when it does not.
     #[inline]
     pub fn skip_until(
         &self,
         p: Vec3,
         o: Vec3,
         d: Vec3,
+        inv_d: [f64; 3],
         pred: impl Fn(usize, usize, u8) -> bool,
     ) -> Option<f32> {
+        match self.step(p, o, d, inv_d, pred) {
+            Step::Skip(u) => Some(u),
+            Step::Busy(_) => None,
+        }
+    }
+
+    /// What to do at voxel-space point `p` of a ray with origin `o`,
+    /// direction `d` and element-wise reciprocal direction `inv_d` (f64):
+    /// skip to
+    /// the end of the largest cell around `p` qualifying under `pred(level,
+    /// cell index, flag)`, or, when even the level-0 cell does not qualify,
+    /// sample on until the ray leaves that cell.
+    #[inline]
+    pub fn step(
+        &self,
+        p: Vec3,
+        o: Vec3,
+        d: Vec3,
+        inv_d: [f64; 3],
+        pred: impl Fn(usize, usize, u8) -> bool,
+    ) -> Step {
         let v = self.voxel_of(p);
         let levels = self.index.levels();
         let flag = |l: usize, i: usize| self.flags.get(l).map_or(0, |f| f[i]);
         let mut best = None;
         for (li, level) in levels.iter().enumerate() {
-            let e = level.edge();
             let c = self.cell_of(li, v);
             let i = level.index(c[0], c[1], c[2]);
             if !pred(li, i, flag(li, i)) {
                 break;
             }
-            best = Some((c, e));
+            best = Some((c, level.edge()));
         }
-        let (c, e) = best?;
-        let mut until = f32::INFINITY;
-        for a in 0..3 {
-            if d[a] == 0.0 {
-                continue;
-            }
-            let face = if d[a] > 0.0 {
-                ((c[a] + 1) * e) as f32 - self.margin
-            } else {
-                (c[a] * e) as f32 + self.margin
-            };
-            let t = (face - o[a]) / d[a];
-            if t < until {
-                until = t;
-            }
+        match best {
+            // Stop the margin short of the faces (see the module notes).
+            Some((c, e)) => Step::Skip(exit(c, e, self.margin, o, d, inv_d)),
+            // Taking a sample is never wrong, so this needs no margin.
+            None => Step::Busy(exit(self.cell_of(0, v), levels[0].edge(), 0.0, o, d, inv_d)),
         }
-        Some(until)
-    }
-
-    /// The ray parameter at which a ray with voxel-space origin `o` and
-    /// direction `d` leaves the level-0 cell holding `p` (infinite for a
-    /// ray that never does). Samples before it need not ask again whether
-    /// that cell can be skipped; the result only saves work, so it needs no
-    /// margin: a sample taken is never wrong.
-    #[inline]
-    pub fn cell_exit(&self, p: Vec3, o: Vec3, d: Vec3) -> f32 {
-        let c = self.cell_of(0, self.voxel_of(p));
-        let e = self.index.level(0).edge();
-        let mut until = f32::INFINITY;
-        for a in 0..3 {
-            let face = if d[a] > 0.0 {
-                ((c[a] + 1) * e) as f32
-            } else if d[a] < 0.0 {
-                (c[a] * e) as f32
-            } else {
-                continue;
-            };
-            until = until.min((face - o[a]) / d[a]);
-        }
-        until
     }
 
     /// The index behind this grid.
     pub fn index(&self) -> &MajorantIndex {
         self.index
     }
+}
+
+/// What a ray does next at a point (see [`SkipGrid::step`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Step {
+    /// Every sample up to this ray parameter can be skipped.
+    Skip(f32),
+    /// The point's cell cannot be skipped; the ray leaves it at this
+    /// parameter.
+    Busy(f32),
+}
+
+/// The ray parameter at which a ray (voxel-space origin `o`, direction
+/// `d`, f64 reciprocal `inv_d`) comes within `margin` of leaving the cell `c`
+/// of edge `e`, per axis it moves along; infinite if it moves along none.
+/// Multiplying by an f64 reciprocal rounds `t` as dividing in f32 would
+/// (once, to f32), without a division's latency.
+#[inline(always)]
+fn exit(c: [u64; 3], e: u64, margin: f32, o: Vec3, d: Vec3, inv_d: [f64; 3]) -> f32 {
+    let mut until = f32::INFINITY;
+    for a in 0..3 {
+        // Cell corners are far below 2^63: convert through i64, which is
+        // one instruction (u64 to f32 is several).
+        let face = if d[a] > 0.0 {
+            ((c[a] + 1) * e) as i64 as f32 - margin
+        } else if d[a] < 0.0 {
+            (c[a] * e) as i64 as f32 + margin
+        } else {
+            continue;
+        };
+        let t = ((face - o[a]) as f64 * inv_d[a]) as f32;
+        if t < until {
+            until = t;
+        }
+    }
+    until
 }

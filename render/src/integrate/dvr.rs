@@ -3,6 +3,7 @@
 use super::sample::{central_gradient, value, value_and_analytic_gradient};
 use super::{RayCtx, RayResult, Walk};
 use crate::ray::Ray;
+use crate::skip::Step;
 use glam::Vec3;
 use volcore::Cursor;
 
@@ -47,15 +48,15 @@ pub fn dvr<
         let p = w.at(t);
         if ESS && k > busy_until {
             if let Some(skip) = ctx.skip {
-                match skip.skip_until(p, w.o, w.d, |_, _, f| f != 0) {
-                    Some(u) => {
+                match skip.step(p, w.o, w.d, w.inv_d, |_, _, f| f != 0) {
+                    Step::Skip(u) => {
                         if let Some(kn) = w.after_skip(k, u) {
                             k = kn;
                             out.skips += 1;
                             continue;
                         }
                     }
-                    None => busy_until = w.last_before(skip.cell_exit(p, w.o, w.d)),
+                    Step::Busy(exit) => busy_until = w.last_before(exit),
                 }
             }
         }

@@ -45,7 +45,8 @@ pub fn iso<C: Cursor, const TRI: bool, const ANALYTIC: bool, const ESS: bool>(
                     // Uniform cell on the side we are on: jump through it.
                     let flag = if c { ISO_ABOVE } else { crate::skip::ISO_BELOW };
                     if let Some(skip) = ctx.skip {
-                        if let Some(u) = skip.skip_until(p, w.o, w.d, |_, _, f| f == flag) {
+                        if let Some(u) = skip.skip_until(p, w.o, w.d, w.inv_d, |_, _, f| f == flag)
+                        {
                             if let Some(kn) = w.after_skip(k, u) {
                                 k = kn;
                                 out.skips += 1;

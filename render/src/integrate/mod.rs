@@ -116,6 +116,11 @@ pub(crate) struct Walk {
     pub k0: i64,
     pub k1: i64,
     pub step: f64,
+    /// `1 / step`.
+    pub inv_step: f64,
+    /// `1 / d` per axis, in f64 (infinite along axes the ray does not move
+    /// along).
+    pub inv_d: [f64; 3],
     /// Locates sample points in the volume.
     pub loc: Locator,
 }
@@ -123,12 +128,15 @@ pub(crate) struct Walk {
 impl Walk {
     pub fn new(ctx: &RayCtx, ray: &Ray, t0: f32, t1: f32) -> Walk {
         let step = ctx.step as f64;
+        let d = ray.dir * ctx.inv_spacing;
         Walk {
             o: ray.origin * ctx.inv_spacing,
-            d: ray.dir * ctx.inv_spacing,
+            d,
             k0: (t0 as f64 / step).ceil() as i64,
             k1: (t1 as f64 / step).floor() as i64,
             step,
+            inv_step: 1.0 / step,
+            inv_d: d.to_array().map(|c| 1.0 / c as f64),
             loc: ctx.locator,
         }
     }
@@ -158,7 +166,11 @@ impl Walk {
     /// The last sample at or before ray parameter `u`.
     #[inline(always)]
     pub fn last_before(&self, u: f32) -> i64 {
-        floor_i64(u as f64 / self.step)
+        // A reciprocal instead of a division (on the path from one skip to
+        // the next sample): in f64, its rounding can move `u / step` across
+        // an integer only when `u` lies within ~1e-12 of a sample, far
+        // inside the margin skips keep from cell faces.
+        floor_i64(u as f64 * self.inv_step)
     }
 }
 

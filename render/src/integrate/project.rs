@@ -42,7 +42,7 @@ pub fn mip<C: Cursor, const TRI: bool, const MAX: bool, const ESS: bool, const E
                         levels[l].min()[i] >= best
                     }
                 };
-                if let Some(u) = skip.skip_until(p, w.o, w.d, cannot_beat) {
+                if let Some(u) = skip.skip_until(p, w.o, w.d, w.inv_d, cannot_beat) {
                     if let Some(kn) = w.after_skip(k, u) {
                         k = kn;
                         out.skips += 1;
@@ -89,7 +89,7 @@ pub fn xray<C: Cursor, const TRI: bool, const MEAN: bool, const ESS: bool>(
         let p = w.at(t);
         if ESS {
             if let Some(skip) = ctx.skip {
-                if let Some(u) = skip.skip_until(p, w.o, w.d, |_, _, f| f != 0) {
+                if let Some(u) = skip.skip_until(p, w.o, w.d, w.inv_d, |_, _, f| f != 0) {
                     if let Some(kn) = w.after_skip(k, u) {
                         count += kn - k;
                         k = kn;
