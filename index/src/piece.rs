@@ -11,7 +11,7 @@
 //! [`CellBox`]. A cell cut by the piece's edges gets the part of its range
 //! the piece holds; other pieces add the rest.
 
-use crate::scan::{range_to_f32, ExactCounts, ScanSample};
+use crate::scan::{range_to_f32, Bounds, ExactCounts, ScanSample};
 use std::ops::Range;
 
 /// The cells along one axis whose footprint holds voxel `v`: cell
@@ -178,34 +178,49 @@ impl<T: ScanSample> PieceRanges<T> {
         // A boundary slice goes into the rows of two layers.
         let layers = [first, first + nb * w];
         let layers = &layers[..1 + usize::from(az)];
-        let mut y = ys.start;
+        // y = c·e + r: one division per slice, not per cell row.
+        let (mut y, mut c, mut r) = (ys.start, ys.start / e, ys.start % e);
         while y < ys.end {
-            // Rows y .. y1 are the rows of cell row c.
-            let c = y / e;
-            let y1 = (c * e + e).min(ys.end);
+            // Rows y .. y1 are the rows of cell row c; a first row (r = 0)
+            // is also the far apron of cell row c − 1.
+            let y1 = (y + e - r).min(ys.end);
             let block = &plane[(y - ys.start) as usize * stride..];
             let rows = (y1 - y) as usize;
             let band = (c - self.bands.start) as usize * w;
+            let apron = r == 0 && y > 0;
             for (k, &l) in layers.iter().enumerate() {
                 let counts = (k == 0).then_some(&mut *counts);
-                let o = l + band;
-                let (lo, hi) = self.row_mut(o, &cols);
-                T::fold_block(lo, hi, block, stride, rows, counts);
-                if y == c * e && y > 0 {
-                    // Row y is also the far apron of cell row c − 1.
-                    let (lo, hi) = self.row_mut(o - w, &cols);
-                    T::fold_block(lo, hi, block, stride, 1, None);
-                }
+                let (acc, prev) = self.rows_mut(l + band, &cols, apron);
+                T::fold_block(acc, prev, block, stride, rows, counts);
             }
-            y = y1;
+            (y, c, r) = (y1, c + 1, 0);
         }
     }
 
-    /// Columns `cols` of the accumulator row at offset `o`.
+    /// Columns `cols` of the accumulator row at offset `o` and, with
+    /// `apron`, of the row before it (the previous cell row's).
     #[inline(always)]
-    fn row_mut(&mut self, o: usize, cols: &Range<usize>) -> (&mut [T], &mut [T]) {
-        let r = o + cols.start..o + cols.end;
-        (&mut self.lo[r.clone()], &mut self.hi[r])
+    fn rows_mut(
+        &mut self,
+        o: usize,
+        cols: &Range<usize>,
+        apron: bool,
+    ) -> (Bounds<'_, T>, Option<Bounds<'_, T>>) {
+        let w = self.width();
+        let (lo_before, lo) = self.lo.split_at_mut(o);
+        let (hi_before, hi) = self.hi.split_at_mut(o);
+        let acc = Bounds {
+            lo: &mut lo[cols.clone()],
+            hi: &mut hi[cols.clone()],
+        };
+        let prev = apron.then(|| {
+            let r = o - w + cols.start..o - w + cols.end;
+            Bounds {
+                lo: &mut lo_before[r.clone()],
+                hi: &mut hi_before[r],
+            }
+        });
+        (acc, prev)
     }
 
     /// Fold the piece's range of each cell it meets into `cells`.

@@ -26,8 +26,8 @@ pub(crate) trait ScanSample: Sample {
     fn slot(self) -> usize;
     /// [`fold_block`] with the register chunk width that suits the type.
     fn fold_block(
-        lo: &mut [Self],
-        hi: &mut [Self],
+        acc: Bounds<'_, Self>,
+        apron: Option<Bounds<'_, Self>>,
         block: &[Self],
         stride: usize,
         rows: usize,
@@ -57,14 +57,14 @@ macro_rules! int_scan {
             }
             #[inline(always)]
             fn fold_block(
-                lo: &mut [Self],
-                hi: &mut [Self],
+                acc: Bounds<'_, Self>,
+                apron: Option<Bounds<'_, Self>>,
                 block: &[Self],
                 stride: usize,
                 rows: usize,
                 counts: Option<&mut ExactCounts>,
             ) {
-                fold_block::<$t, $chunk>(lo, hi, block, stride, rows, counts);
+                fold_block::<$t, $chunk>(acc, apron, block, stride, rows, counts);
             }
         }
     };
@@ -104,14 +104,14 @@ impl ScanSample for f32 {
     }
     #[inline(always)]
     fn fold_block(
-        lo: &mut [Self],
-        hi: &mut [Self],
+        acc: Bounds<'_, Self>,
+        apron: Option<Bounds<'_, Self>>,
         block: &[Self],
         stride: usize,
         rows: usize,
         counts: Option<&mut ExactCounts>,
     ) {
-        fold_block::<f32, 8>(lo, hi, block, stride, rows, counts);
+        fold_block::<f32, 8>(acc, apron, block, stride, rows, counts);
     }
 }
 
@@ -126,9 +126,18 @@ pub(crate) fn range_to_f32<T: ScanSample>(lo: T, hi: T) -> (f32, f32) {
 /// [`fold_block`]).
 const WIDE_CHUNKS: usize = 4;
 
-/// Fold a strided block of `rows` rows of `w = lo.len()` samples (row `r`
-/// at `block[r·stride ..]`) element-wise into the ranges `lo` and `hi`, and
-/// count its samples into `counts` if given.
+/// Element-wise lower and upper bounds of one accumulator row (or part of
+/// one), of equal lengths.
+pub(crate) struct Bounds<'a, T> {
+    /// Element-wise minima.
+    pub lo: &'a mut [T],
+    /// Element-wise maxima.
+    pub hi: &'a mut [T],
+}
+
+/// Fold a strided block of `rows` rows of `w = acc.lo.len()` samples (row
+/// `r` at `block[r·stride ..]`) element-wise into `acc`, its first row also
+/// into `apron` if given, and count its samples into `counts` if given.
 ///
 /// Narrow blocks (brick rows) go `L` columns at a time with the chunk's
 /// bounds in registers, so the accumulators are loaded and stored once per
@@ -138,19 +147,29 @@ const WIDE_CHUNKS: usize = 4;
 /// defeat the hardware prefetcher).
 #[inline(always)]
 fn fold_block<T: ScanSample, const L: usize>(
-    lo: &mut [T],
-    hi: &mut [T],
+    acc: Bounds<'_, T>,
+    apron: Option<Bounds<'_, T>>,
     block: &[T],
     stride: usize,
     rows: usize,
     counts: Option<&mut ExactCounts>,
 ) {
-    let w = lo.len().min(hi.len());
+    let w = acc.lo.len().min(acc.hi.len());
     let counts = counts.filter(|_| T::EXACT_VALUES > 0);
     if w > WIDE_CHUNKS * L || rows == 1 {
-        fold_rows::<T, L>(&mut lo[..w], &mut hi[..w], block, stride, rows, counts);
+        if let Some(a) = apron {
+            fold_rows_with::<T, L>(a.lo, a.hi, block, stride, 1, |_| {});
+        }
+        fold_rows::<T, L>(
+            &mut acc.lo[..w],
+            &mut acc.hi[..w],
+            block,
+            stride,
+            rows,
+            counts,
+        );
     } else {
-        fold_chunks::<T, L>(&mut lo[..w], &mut hi[..w], block, stride, rows, counts);
+        fold_chunks::<T, L>(acc, apron, block, stride, rows, counts);
     }
 }
 
@@ -213,14 +232,14 @@ fn fold_rows_with<T: ScanSample, const L: usize>(
 /// row.
 #[inline(always)]
 fn fold_chunks<T: ScanSample, const L: usize>(
-    lo: &mut [T],
-    hi: &mut [T],
+    acc: Bounds<'_, T>,
+    mut apron: Option<Bounds<'_, T>>,
     block: &[T],
     stride: usize,
     rows: usize,
     mut counts: Option<&mut ExactCounts>,
 ) {
-    let w = lo.len();
+    let w = acc.lo.len().min(acc.hi.len());
     let mut x = 0;
     while x + L <= w {
         let (mut l, mut h) = ([T::TOP; L], [T::BOTTOM; L]);
@@ -230,6 +249,9 @@ fn fold_chunks<T: ScanSample, const L: usize>(
                 l[i] = T::lower(l[i], s[i]);
                 h[i] = T::upper(h[i], s[i]);
             }
+        }
+        if let Some(a) = apron.as_mut() {
+            fold_into::<T, L>(&mut a.lo[x..x + L], &mut a.hi[x..x + L], &block[x..x + L]);
         }
         if let Some(c) = counts.as_deref_mut() {
             // One value throughout when the least minimum is the greatest
@@ -245,7 +267,7 @@ fn fold_chunks<T: ScanSample, const L: usize>(
                 }
             }
         }
-        let (lo, hi) = (&mut lo[x..x + L], &mut hi[x..x + L]);
+        let (lo, hi) = (&mut acc.lo[x..x + L], &mut acc.hi[x..x + L]);
         for i in 0..L {
             lo[i] = T::lower(lo[i], l[i]);
             hi[i] = T::upper(hi[i], h[i]);
@@ -254,7 +276,27 @@ fn fold_chunks<T: ScanSample, const L: usize>(
     }
     if x < w {
         let rest = &block[x..];
-        fold_rows::<T, L>(&mut lo[x..], &mut hi[x..], rest, stride, rows, counts);
+        if let Some(a) = apron {
+            fold_rows_with::<T, L>(&mut a.lo[x..w], &mut a.hi[x..w], rest, stride, 1, |_| {});
+        }
+        fold_rows::<T, L>(
+            &mut acc.lo[x..w],
+            &mut acc.hi[x..w],
+            rest,
+            stride,
+            rows,
+            counts,
+        );
+    }
+}
+
+/// Fold the `L` samples `s` into the bounds `lo` and `hi`.
+#[inline(always)]
+fn fold_into<T: ScanSample, const L: usize>(lo: &mut [T], hi: &mut [T], s: &[T]) {
+    let (lo, hi, s) = (&mut lo[..L], &mut hi[..L], &s[..L]);
+    for i in 0..L {
+        lo[i] = T::lower(lo[i], s[i]);
+        hi[i] = T::upper(hi[i], s[i]);
     }
 }
 
