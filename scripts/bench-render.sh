@@ -37,8 +37,8 @@ run() { # name, extra args...
 }
 
 echo "thesis benchmark, ${DIM}^3, load average: $(cut -d' ' -f1-3 /proc/loadavg)"
-run "2 threads, ERT+ESS, in memory" --threads 2 --repeat "$REPEAT"; t2=$(cat "$DIR/last.txt")
-run "2 threads, ERT+ESS, memory-mapped" --threads 2 --repeat "$REPEAT" --mmap
+run "2 threads, ERT+ESS, memory-mapped" --threads 2 --repeat "$REPEAT"; t2=$(cat "$DIR/last.txt")
+run "2 threads, ERT+ESS, in memory" --threads 2 --repeat "$REPEAT" --in-memory
 run "2 threads, ERT+ESS, analytic gradient" --threads 2 --repeat "$REPEAT" --gradient analytic
 run "1 thread, ERT+ESS" --threads 1 --repeat "$REPEAT"; t1=$(cat "$DIR/last.txt")
 run "1 thread, no ERT, no ESS" --threads 1 --repeat 1 --no-ert --no-ess

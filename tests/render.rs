@@ -96,7 +96,7 @@ fn image_is_identical_across_threads_skipping_layouts_and_index_files() {
         (&sliced, vec!["--threads", "1"]),
         (&sliced, vec!["--threads", "2", "--tile", "5"]),
         (&sliced, vec!["--no-ess"]),
-        (&sliced, vec!["--mmap"]),
+        (&sliced, vec!["--in-memory"]),
         (&zstd, vec![]),
     ]
     .into_iter()
