@@ -288,7 +288,7 @@ mod tests {
         let (mut skipped, mut skips) = (0u64, 0u64);
         for n in 0..6000 {
             let radius = [150.0, 4000.0, 30000.0][n % 3];
-            let step = [0.05, 0.1, 0.37, 1.0][n % 4];
+            let step: f64 = [0.05, 0.1, 0.37, 1.0][n % 4];
             let around = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
             let origin = hi * 0.5 + around.normalize_or_zero() * radius;
             let target = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * hi;
@@ -299,7 +299,6 @@ mod tests {
             let Some((t0, t1)) = intersect_box(&ray, Vec3::ZERO, hi) else {
                 continue;
             };
-            let step = step as f64;
             let d = ray.dir;
             let w = Walk {
                 o: ray.origin,
