@@ -21,7 +21,10 @@ pub enum IndexError {
     #[error("not a volkit index file (bad magic bytes)")]
     BadMagic,
     /// The file has a format version this build cannot read.
-    #[error("unsupported index format version {found} (this build reads version {supported})")]
+    #[error(
+        "unsupported index format version {found} (this build reads version {supported}): \
+         rebuild the index with vol-index"
+    )]
     Version {
         /// Version found in the file.
         found: u32,

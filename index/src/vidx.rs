@@ -18,8 +18,9 @@ use volcore::{Dims, SampleType, VolumeMeta};
 
 /// The first eight bytes of every `.vidx` file.
 pub const MAGIC: [u8; 8] = *b"VOLKIDX\0";
-/// The format version this build writes and reads.
-pub const VERSION: u32 = 1;
+/// The format version this build writes and reads (2: level bounds in the
+/// volume's own sample type; version 1 stored them all as f32).
+pub const VERSION: u32 = 2;
 /// Size of the fixed header in bytes.
 pub const HEADER_LEN: usize = 96;
 /// Conventional file extension (without the dot).
@@ -67,27 +68,74 @@ fn section<T>(r: io::Result<T>, section: &'static str) -> Result<T, IndexError> 
     })
 }
 
-/// Write `values` as little-endian f32, a chunk at a time.
-fn write_f32s(w: &mut impl Write, values: &[f32]) -> io::Result<()> {
-    let mut buf = vec![0u8; 4 * CHUNK.min(values.len())];
+/// Write level bounds as little-endian values of the volume's sample type
+/// `t`, a chunk at a time. Bounds of integer volumes are sample values, so
+/// narrowing them is exact (and makes a u8 index a quarter of the size).
+fn write_bounds(w: &mut impl Write, values: &[f32], t: SampleType) -> io::Result<()> {
+    let size = t.size();
+    let mut buf = vec![0u8; size * CHUNK.min(values.len())];
     for part in values.chunks(CHUNK) {
-        let bytes = &mut buf[..4 * part.len()];
-        LittleEndian::write_f32_into(part, bytes);
+        let bytes = &mut buf[..size * part.len()];
+        match t {
+            SampleType::U8 => {
+                for (b, &v) in bytes.iter_mut().zip(part) {
+                    *b = v as u8;
+                }
+            }
+            SampleType::U16 => {
+                for (b, &v) in bytes.chunks_exact_mut(2).zip(part) {
+                    LittleEndian::write_u16(b, v as u16);
+                }
+            }
+            SampleType::I16 => {
+                for (b, &v) in bytes.chunks_exact_mut(2).zip(part) {
+                    LittleEndian::write_i16(b, v as i16);
+                }
+            }
+            SampleType::F32 => LittleEndian::write_f32_into(part, bytes),
+        }
         w.write_all(bytes)?;
     }
     Ok(())
 }
 
-/// Read `len` little-endian f32, growing the vector only as data arrives.
-fn read_f32s(r: &mut impl Read, len: usize, what: &'static str) -> Result<Vec<f32>, IndexError> {
+/// Read `len` level bounds stored as sample type `t` (see
+/// [`write_bounds`]), widened to f32, growing the vector only as data
+/// arrives.
+fn read_bounds(
+    r: &mut impl Read,
+    len: usize,
+    t: SampleType,
+    what: &'static str,
+) -> Result<Vec<f32>, IndexError> {
+    let size = t.size();
     let mut out = Vec::new();
-    let mut buf = vec![0u8; 4 * CHUNK.min(len)];
+    let mut buf = vec![0u8; size * CHUNK.min(len)];
     while out.len() < len {
         let n = CHUNK.min(len - out.len());
-        section(r.read_exact(&mut buf[..4 * n]), what)?;
+        let bytes = &mut buf[..size * n];
+        section(r.read_exact(bytes), what)?;
         let start = out.len();
         out.resize(start + n, 0.0);
-        LittleEndian::read_f32_into(&buf[..4 * n], &mut out[start..]);
+        let dst = &mut out[start..];
+        match t {
+            SampleType::U8 => {
+                for (o, &b) in dst.iter_mut().zip(bytes.iter()) {
+                    *o = f32::from(b);
+                }
+            }
+            SampleType::U16 => {
+                for (o, b) in dst.iter_mut().zip(bytes.chunks_exact(2)) {
+                    *o = f32::from(LittleEndian::read_u16(b));
+                }
+            }
+            SampleType::I16 => {
+                for (o, b) in dst.iter_mut().zip(bytes.chunks_exact(2)) {
+                    *o = f32::from(LittleEndian::read_i16(b));
+                }
+            }
+            SampleType::F32 => LittleEndian::read_f32_into(bytes, dst),
+        }
     }
     Ok(out)
 }
@@ -241,9 +289,10 @@ impl MajorantIndex {
         for &c in self.histogram().counts() {
             w.write_u64::<LittleEndian>(c)?;
         }
+        let t = self.sample_type();
         for l in self.levels() {
-            write_f32s(&mut w, l.min())?;
-            write_f32s(&mut w, l.max())?;
+            write_bounds(&mut w, l.min(), t)?;
+            write_bounds(&mut w, l.max(), t)?;
         }
         let crc = w.crc.clone().finalize();
         w.inner.write_u32::<LittleEndian>(crc)?;
@@ -311,8 +360,8 @@ fn read(
     let mut levels = Vec::with_capacity(shapes.len());
     for (l, &cells) in shapes.iter().enumerate() {
         let n = cell_count(cells)?;
-        let min = read_f32s(&mut r, n, "level data")?;
-        let max = read_f32s(&mut r, n, "level data")?;
+        let min = read_bounds(&mut r, n, h.sample_type, "level data")?;
+        let max = read_bounds(&mut r, n, h.sample_type, "level data")?;
         levels.push(Level::from_parts(
             cells,
             u64::from(h.cell_edge) << l,
@@ -420,6 +469,11 @@ mod tests {
             ix.write_to(&mut bytes).unwrap();
             let back = MajorantIndex::read_for_volume(&mut &bytes[..], &vol.meta, 3).unwrap();
             same(&ix, &back);
+            // Level bounds take the sample type's size, not an f32's.
+            let cells: usize = ix.levels().iter().map(|l| l.min().len()).sum();
+            let bins = ix.histogram().counts().len();
+            let size = vol.meta.sample_type.size();
+            assert_eq!(bytes.len(), HEADER_LEN + 8 * bins + 2 * cells * size + 4);
         }
     }
 
@@ -482,8 +536,8 @@ mod tests {
         ));
         assert!(matches!(read(b"hello"), IndexError::BadMagic));
         assert!(matches!(
-            read(&patched(8, &2u32.to_le_bytes())),
-            IndexError::Version { found: 2, .. }
+            read(&patched(8, &1u32.to_le_bytes())),
+            IndexError::Version { found: 1, .. }
         ));
         let corrupt = |b: &[u8]| matches!(read(b), IndexError::Corrupt(_));
         assert!(corrupt(&patched(12, &[9]))); // sample type code
