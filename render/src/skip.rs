@@ -182,10 +182,9 @@ impl<'a> SkipGrid<'a> {
 
     /// What to do at voxel-space point `p` of a ray with origin `o`,
     /// direction `d` and element-wise reciprocal direction `inv_d` (f64):
-    /// skip to
-    /// the end of the largest cell around `p` qualifying under `pred(level,
-    /// cell index, flag)`, or, when even the level-0 cell does not qualify,
-    /// sample on until the ray leaves that cell.
+    /// skip to the end of the largest cell around `p` qualifying under
+    /// `pred(level, cell index, flag)`, or, when even the level-0 cell does
+    /// not qualify, sample on until the ray leaves that cell.
     #[inline]
     pub fn step(
         &self,

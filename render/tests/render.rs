@@ -63,6 +63,23 @@ fn orbit(v: &Volume, az: f32, el: f32, w: u32) -> Camera {
     .unwrap()
 }
 
+/// The frame rendered with empty-space skipping as `s` asks, and without.
+fn with_and_without_skipping(
+    v: &Volume,
+    ix: &MajorantIndex,
+    tf: &TransferFunction,
+    cam: &Camera,
+    s: &RenderSettings,
+) -> (Frame, Frame) {
+    let on = render(v, Some(ix), Some(tf), cam, s).unwrap();
+    let no_skipping = RenderSettings {
+        ess: false,
+        ..s.clone()
+    };
+    let off = render(v, Some(ix), Some(tf), cam, &no_skipping).unwrap();
+    (on, off)
+}
+
 #[test]
 fn constant_box_matches_beer_lambert_and_xray_matches_path_length() {
     let v = volume::<u8>(&BoxScene::new(Dims::new(32, 32, 32).unwrap(), 0, 100.0));
@@ -251,18 +268,7 @@ fn skipping_never_changes_the_image() {
     for (vol, ix, tf, sparse) in [(&v, &ix, &tf, true), (&noise, &nix, &upper, false)] {
         let cam = orbit(vol, 35.0, 25.0, 64);
         for s in all_modes() {
-            let on = render(vol, Some(ix), Some(tf), &cam, &s).unwrap();
-            let off = render(
-                vol,
-                Some(ix),
-                Some(tf),
-                &cam,
-                &RenderSettings {
-                    ess: false,
-                    ..s.clone()
-                },
-            )
-            .unwrap();
+            let (on, off) = with_and_without_skipping(vol, ix, tf, &cam, &s);
             assert_eq!(bits(&on), bits(&off), "{:?} {:?}", s.mode, s.interp);
             assert!(on.stats.samples <= off.stats.samples);
             if s.mode == Mode::Dvr && sparse {
@@ -298,18 +304,7 @@ fn skipping_is_exact_from_far_away() {
                 shading: true,
                 ..Default::default()
             };
-            let on = render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap();
-            let off = render(
-                &v,
-                Some(&ix),
-                Some(&tf),
-                &cam,
-                &RenderSettings {
-                    ess: false,
-                    ..s.clone()
-                },
-            )
-            .unwrap();
+            let (on, off) = with_and_without_skipping(&v, &ix, &tf, &cam, &s);
             assert_eq!(bits(&on), bits(&off), "{mode:?} orbit {az}, {el}");
             assert!(on.stats.skips > 0 && on.stats.samples < off.stats.samples);
         }
@@ -550,18 +545,7 @@ fn nan_samples_are_transparent_and_finite() {
     let tf = TransferFunction::preset("grey", (0.0, 200.0)).unwrap();
     let cam = orbit(&v, 30.0, 30.0, 24);
     for s in all_modes() {
-        let on = render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap();
-        let off = render(
-            &v,
-            Some(&ix),
-            Some(&tf),
-            &cam,
-            &RenderSettings {
-                ess: false,
-                ..s.clone()
-            },
-        )
-        .unwrap();
+        let (on, off) = with_and_without_skipping(&v, &ix, &tf, &cam, &s);
         assert_finite(&on, "nan volume");
         assert_eq!(bits(&on), bits(&off), "{:?}", s.mode);
     }
