@@ -459,4 +459,41 @@ mod tests {
         let v = c.per_value();
         assert_eq!((v[0], v[32767], v[32768], v[65535]), (1, 1, 1, 1));
     }
+
+    /// Wide blocks (rows folded one by one) with uniform rows of several
+    /// values, rows that differ in one sample anywhere, and odd widths:
+    /// the same ranges and counts as a brute-force pass.
+    #[test]
+    fn wide_rows_fold_and_count_exactly() {
+        for w in [129usize, 200, 257, 800] {
+            let rows = 9;
+            let stride = w + 3;
+            let mut block = vec![0u8; stride * rows];
+            for r in 0..rows {
+                let row = &mut block[r * stride..r * stride + w];
+                row.fill([0, 0, 5, 5, 0, 9, 9, 0, 0][r]);
+                if r % 3 == 1 {
+                    row[(r * 37) % w] = 200;
+                }
+            }
+            let (mut lo, mut hi) = (vec![u8::MAX; w], vec![u8::MIN; w]);
+            let mut counts = ExactCounts::new::<u8>();
+            let acc = Bounds {
+                lo: &mut lo,
+                hi: &mut hi,
+            };
+            u8::fold_block(acc, None, &block, stride, rows, Some(&mut counts));
+            let mut want = vec![0u64; 256];
+            for r in 0..rows {
+                for x in 0..w {
+                    let v = block[r * stride + x];
+                    want[v as usize] += 1;
+                    let column = (0..rows).map(|q| block[q * stride + x]);
+                    assert_eq!(lo[x], column.clone().min().unwrap_or(0), "{w}: {x}");
+                    assert_eq!(hi[x], column.max().unwrap_or(0), "{w}: {x}");
+                }
+            }
+            assert_eq!(counts.per_value(), want, "width {w}");
+        }
+    }
 }
