@@ -11,9 +11,12 @@ pub struct TfTable {
     scale: f32,
     /// `[r, g, b, alpha]` per bin.
     entries: Vec<[f32; 4]>,
-    /// The last bin's index, as f32 (exact: bins are far below 2^24).
+    /// The last bin's index, as f32 (exact: at most [`MAX_BINS`] bins).
     top: f32,
 }
+
+/// Most bins a table has: far below 2^24, so bin indices are exact in f32.
+pub const MAX_BINS: usize = 1 << 20;
 
 /// Step-corrected opacity `1 − (1 − α)^ratio`, computed as
 /// `−expm1(ratio · ln(1 − α))`, which stays accurate for small α and
@@ -50,10 +53,10 @@ impl TfTable {
         }
     }
 
-    /// Sample `tf` at the centres of `bins` bins over `[lo, hi]` and correct
-    /// opacities for a step of `step` world units.
+    /// Sample `tf` at the centres of `bins` bins (1 ..= [`MAX_BINS`]) over
+    /// `[lo, hi]` and correct opacities for a step of `step` world units.
     pub fn new(tf: &TransferFunction, lo: f32, hi: f32, bins: usize, step: f32) -> TfTable {
-        let bins = bins.max(1);
+        let bins = bins.clamp(1, MAX_BINS);
         let width = ((hi - lo) / bins as f32).max(f32::MIN_POSITIVE);
         let ratio = step as f64 / tf.reference_step as f64;
         let entries: Vec<[f32; 4]> = (0..bins)
