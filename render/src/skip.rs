@@ -298,17 +298,8 @@ mod tests {
             let Some((t0, t1)) = intersect_box(&ray, Vec3::ZERO, hi) else {
                 continue;
             };
-            let d = ray.dir;
-            let w = Walk {
-                o: ray.origin,
-                d,
-                k0: (t0 as f64 / step).ceil() as i64,
-                k1: (t1 as f64 / step).floor() as i64,
-                step,
-                inv_step: 1.0 / step,
-                inv_d: d.to_array().map(|c| 1.0 / c as f64),
-                loc,
-            };
+            // Unit spacing: world and voxel coordinates coincide.
+            let w = Walk::voxel_space(ray.origin, ray.dir, t0, t1, step, loc);
             let mut k = w.k0;
             while k <= w.k1 {
                 let p = w.at(w.t(k));

@@ -127,17 +127,22 @@ pub(crate) struct Walk {
 
 impl Walk {
     pub fn new(ctx: &RayCtx, ray: &Ray, t0: f32, t1: f32) -> Walk {
-        let step = ctx.step as f64;
-        let d = ray.dir * ctx.inv_spacing;
+        let (o, d) = (ray.origin * ctx.inv_spacing, ray.dir * ctx.inv_spacing);
+        Walk::voxel_space(o, d, t0, t1, ctx.step as f64, ctx.locator)
+    }
+
+    /// The walk of a ray already in voxel coordinates (origin `o`,
+    /// direction `d`) over `[t0, t1]` with samples `step` apart.
+    pub fn voxel_space(o: Vec3, d: Vec3, t0: f32, t1: f32, step: f64, loc: Locator) -> Walk {
         Walk {
-            o: ray.origin * ctx.inv_spacing,
+            o,
             d,
             k0: (t0 as f64 / step).ceil() as i64,
             k1: (t1 as f64 / step).floor() as i64,
             step,
             inv_step: 1.0 / step,
             inv_d: d.to_array().map(|c| 1.0 / c as f64),
-            loc: ctx.locator,
+            loc,
         }
     }
 
