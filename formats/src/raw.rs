@@ -67,11 +67,12 @@ pub fn open(path: &Path, spec: RawSpec) -> Result<Volume> {
     }
     // SAFETY: read-only map; the file must not be truncated meanwhile.
     let map = Arc::new(unsafe { Mmap::map(&f)? });
+    let f = Arc::new(f);
     let data = match spec.sample_type {
-        SampleType::U8 => typed::<u8>(map, spec)?,
-        SampleType::U16 => typed::<u16>(map, spec)?,
-        SampleType::I16 => typed::<i16>(map, spec)?,
-        SampleType::F32 => typed::<f32>(map, spec)?,
+        SampleType::U8 => typed::<u8>(map, f, spec)?,
+        SampleType::U16 => typed::<u16>(map, f, spec)?,
+        SampleType::I16 => typed::<i16>(map, f, spec)?,
+        SampleType::F32 => typed::<f32>(map, f, spec)?,
     };
     finish(spec, data)
 }
@@ -114,11 +115,15 @@ fn range_of(v: &Volume) -> volcore::ValueRange {
     v.visit(R)
 }
 
-fn typed<T: IntoVolumeData>(map: Arc<Mmap>, spec: RawSpec) -> Result<volcore::VolumeData> {
+fn typed<T: IntoVolumeData>(
+    map: Arc<Mmap>,
+    file: Arc<File>,
+    spec: RawSpec,
+) -> Result<volcore::VolumeData> {
     let n = spec.dims.count() as usize;
     let aligned = (spec.skip as usize).is_multiple_of(std::mem::align_of::<T>());
     let data = if !spec.big_endian && aligned {
-        Data::mapped(map, spec.skip as usize, n)?
+        Data::mapped_file(map, file, spec.skip as usize, n)?
     } else {
         let bytes = &map[spec.skip as usize..];
         let mut v: Vec<T> = bytemuck::pod_collect_to_vec(&bytes[..n * std::mem::size_of::<T>()]);

@@ -31,9 +31,11 @@ use crate::error::IndexError;
 use crate::histogram::{self, Histogram, DEFAULT_BINS, MAX_BINS};
 use crate::index::MajorantIndex;
 use crate::level::{cell_count, level_shapes, try_filled, Level};
-use crate::piece::{cells_meeting, CellBox, PieceRanges};
+use crate::piece::{cells_meeting, piece_shape, CellBox, PieceRanges};
 use crate::scan::{ExactCounts, ScanSample};
-use crate::walk::{Block, BrickedWalk, CompressedWalk, Region, RowWalk, SlicedWalk, Walk};
+use crate::walk::{
+    BandWalk, Block, BrickedWalk, CompressedWalk, Region, SlicedFile, SlicedWalk, SourceRows, Walk,
+};
 use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Mutex;
@@ -97,10 +99,18 @@ pub fn build_source<S: VoxelSource>(
     opts.validate()?;
     let edge = u64::from(opts.cell_edge);
     let index = match <S::Sample as Sample>::TYPE {
-        SampleType::U8 => build_walk::<u8>(&RowWalk::new(src, edge), opts, fingerprint),
-        SampleType::U16 => build_walk::<u16>(&RowWalk::new(src, edge), opts, fingerprint),
-        SampleType::I16 => build_walk::<i16>(&RowWalk::new(src, edge), opts, fingerprint),
-        SampleType::F32 => build_walk::<f32>(&RowWalk::new(src, edge), opts, fingerprint),
+        SampleType::U8 => {
+            build_walk::<u8>(&BandWalk::new(SourceRows(src), edge), opts, fingerprint)
+        }
+        SampleType::U16 => {
+            build_walk::<u16>(&BandWalk::new(SourceRows(src), edge), opts, fingerprint)
+        }
+        SampleType::I16 => {
+            build_walk::<i16>(&BandWalk::new(SourceRows(src), edge), opts, fingerprint)
+        }
+        SampleType::F32 => {
+            build_walk::<f32>(&BandWalk::new(SourceRows(src), edge), opts, fingerprint)
+        }
     }?;
     match src.error() {
         Some(msg) => Err(IndexError::Source(msg)),
@@ -132,6 +142,9 @@ fn build_grid<T: ScanSample>(
 ) -> Result<MajorantIndex, IndexError> {
     let edge = u64::from(opts.cell_edge);
     match grid {
+        TypedGrid::Sliced(grid) if grid.data().reads_file() => {
+            build_walk(&BandWalk::new(SlicedFile(grid), edge), opts, fingerprint)
+        }
         TypedGrid::Sliced(grid) => build_walk(&SlicedWalk { grid, edge }, opts, fingerprint),
         TypedGrid::Bricked(grid) => build_walk(&BrickedWalk { grid }, opts, fingerprint),
         TypedGrid::Compressed(grid) => build_walk(&CompressedWalk { grid }, opts, fingerprint),
@@ -239,7 +252,7 @@ fn scan_task<T: ScanSample>(
 ) -> Result<CellBox<T>, IndexError> {
     let r = walk.task_region(task);
     let mut part = CellBox::new(cells_of(&r, edge));
-    let mut acc = PieceRanges::new(edge);
+    let mut acc = PieceRanges::new(edge, walk.order());
     let one_piece = PieceRanges::<T>::len_for(edge, r.axis(0), r.axis(1), r.axis(2)) <= TASK_ACC;
     if one_piece {
         acc.start(r.axis(0), r.axis(1), r.axis(2));
@@ -277,23 +290,6 @@ fn add_block<T: ScanSample>(
 
 /// Accumulator elements (per bound) up to which a whole task is one piece.
 const TASK_ACC: u64 = 1 << 16;
-/// Accumulator elements a piece aims for (per bound), so that its
-/// accumulator rows stay in cache.
-const PIECE_ACC: u64 = 1 << 15;
-/// Most slices in one piece (fewer streams through memory at once).
-const PIECE_SLICES: u64 = 32;
-
-/// Slices and rows of the pieces of a block `width × depth` voxels wide
-/// and deep: at most [`PIECE_SLICES`] slices, and rows (a multiple of the
-/// cell edge when more than one fits) keeping the accumulators near
-/// [`PIECE_ACC`] elements.
-fn piece_shape(width: u64, depth: u64, edge: u64) -> (u64, u64) {
-    let slices = depth.min(PIECE_SLICES);
-    let layers = slices / edge + 2;
-    let bands = PIECE_ACC / (layers * width);
-    let rows = (bands.saturating_sub(2) * edge).max(1);
-    (slices, rows)
-}
 
 /// Call `f` with pieces covering `block`, in its storage order: runs of
 /// slices, each cut into runs of rows (see [`piece_shape`]).
@@ -396,7 +392,9 @@ fn for_each_row<T: ScanSample>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{brute_range, footprint, odd_dims, random_samples, volume, RandomSample};
+    use crate::testutil::{
+        brute_range, file_data, footprint, odd_dims, random_samples, volume, RandomSample,
+    };
     use volcore::brick::BrickGeometry;
     use volcore::grid::{BrickedGrid, Cursor, SlicedGrid};
     use volcore::region::{pack_bricks, pack_sliced, Rows as RegionRows};
@@ -627,9 +625,21 @@ mod tests {
         BrickedGrid::new(geom, geom.stored_len(), Data::Owned(packed)).unwrap()
     }
 
+    /// Bricks of `grid` in a mapped file, `pad` samples apart beyond their
+    /// stored length (as padded files store them).
+    fn bricked_in_file<T: RandomSample>(grid: &BrickedGrid<T>, pad: usize) -> BrickedGrid<T> {
+        let geom = *grid.geometry();
+        let stride = geom.stored_len() + pad;
+        let mut spaced = vec![T::default(); stride * geom.brick_count() as usize];
+        for (i, out) in spaced.chunks_exact_mut(stride).enumerate() {
+            out[..geom.stored_len()].copy_from_slice(grid.brick(i as u64));
+        }
+        BrickedGrid::new(geom, stride, file_data(&spaced, 24)).unwrap()
+    }
+
     /// The same index, bit for bit, from a sliced volume and bricked
-    /// copies, read through `read_row` or in place, and on pools of 1, 2
-    /// and 7 threads.
+    /// copies, read through `read_row`, in place, or from mapped files
+    /// with positioned reads, and on pools of 1, 2 and 7 threads.
     fn check_layout_and_threads<T: RandomSample>(dims: Dims, kind: u8, edge: u32) -> Vec<u8> {
         let samples: Vec<T> = random_samples(dims, 99, kind);
         let sliced = SlicedGrid::new(dims, Data::Owned(samples.clone())).unwrap();
@@ -638,6 +648,11 @@ mod tests {
             ..BuildOptions::default()
         };
         let reference = to_bytes(&MajorantIndex::build(&sliced, &opts, 5).unwrap());
+        let in_file = SlicedGrid::new(dims, file_data(&samples, 8)).unwrap();
+        assert!(in_file.data().reads_file() == cfg!(unix));
+        let vol = volume_of(dims, TypedGrid::Sliced(in_file));
+        let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+        assert!(got == reference, "{} sliced from a file differs", T::TYPE);
         let vol = volume(dims, samples);
         let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
         assert!(got == reference, "{} sliced in place differs", T::TYPE);
@@ -645,6 +660,15 @@ mod tests {
             let grid = bricked(&sliced, brick);
             let got = to_bytes(&MajorantIndex::build(&grid, &opts, 5).unwrap());
             assert!(got == reference, "{} bricked:{brick} differs", T::TYPE);
+            for pad in [0, 3] {
+                let vol = volume_of(dims, TypedGrid::Bricked(bricked_in_file(&grid, pad)));
+                let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+                assert!(
+                    got == reference,
+                    "{} bricked:{brick} from a file (pad {pad}) differs",
+                    T::TYPE
+                );
+            }
             let vol = volume_of(dims, TypedGrid::Bricked(grid));
             let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
             assert!(

@@ -11,7 +11,7 @@
 //! [`CellBox`]. A cell cut by the piece's edges gets the part of its range
 //! the piece holds; other pieces add the rest.
 
-use crate::scan::{range_to_f32, Bounds, ExactCounts, ScanSample};
+use crate::scan::{range_to_f32, Bounds, ExactCounts, Order, ScanSample};
 use std::ops::Range;
 
 /// The cells along one axis whose footprint holds voxel `v`: cell
@@ -29,6 +29,24 @@ pub(crate) fn owners(v: u64, edge: u64) -> (u64, bool) {
 #[inline]
 pub(crate) fn cells_meeting(vs: Range<u64>, edge: u64) -> Range<u64> {
     owners(vs.start, edge).0..(vs.end - 1) / edge + 1
+}
+
+/// Accumulator elements a piece aims for (per bound), so that its
+/// accumulator rows stay in cache.
+pub(crate) const PIECE_ACC: u64 = 1 << 15;
+/// Most slices in one piece (fewer streams through memory at once).
+pub(crate) const PIECE_SLICES: u64 = 32;
+
+/// Slices and rows of the pieces of a block `width × depth` voxels wide
+/// and deep: at most [`PIECE_SLICES`] slices, and rows (a multiple of the
+/// cell edge when more than one fits) keeping the accumulators near
+/// [`PIECE_ACC`] elements.
+pub(crate) fn piece_shape(width: u64, depth: u64, edge: u64) -> (u64, u64) {
+    let slices = depth.min(PIECE_SLICES);
+    let layers = slices / edge + 2;
+    let bands = PIECE_ACC / (layers * width);
+    let rows = (bands.saturating_sub(2) * edge).max(1);
+    (slices, rows)
 }
 
 /// The range of `lo[a ..= b]` and `hi[a ..= b]` in the native type.
@@ -94,6 +112,7 @@ impl<T: ScanSample> CellBox<T> {
 /// reduced from its `edge + 1` columns only once per piece.
 pub(crate) struct PieceRanges<T> {
     edge: u64,
+    order: Order,
     xs: Range<u64>,
     ys: Range<u64>,
     layers: Range<u64>,
@@ -104,10 +123,12 @@ pub(crate) struct PieceRanges<T> {
 }
 
 impl<T: ScanSample> PieceRanges<T> {
-    /// An accumulator for cells of `edge` voxels (no piece started).
-    pub fn new(edge: u64) -> Self {
+    /// An accumulator for cells of `edge` voxels (no piece started),
+    /// folding samples that come from memory as `order` says.
+    pub fn new(edge: u64, order: Order) -> Self {
         PieceRanges {
             edge,
+            order,
             xs: 0..0,
             ys: 0..0,
             layers: 0..0,
@@ -168,7 +189,7 @@ impl<T: ScanSample> PieceRanges<T> {
         stride: usize,
         counts: &mut ExactCounts,
     ) {
-        let (e, w) = (self.edge, self.width());
+        let (e, w, order) = (self.edge, self.width(), self.order);
         let nb = (self.bands.end - self.bands.start) as usize;
         let (cz, az) = owners(z, e);
         // The columns of `xs` in every accumulator row.
@@ -191,7 +212,7 @@ impl<T: ScanSample> PieceRanges<T> {
             for (k, &l) in layers.iter().enumerate() {
                 let counts = (k == 0).then_some(&mut *counts);
                 let (acc, prev) = self.rows_mut(l + band, &cols, apron);
-                T::fold_block(acc, prev, block, stride, rows, counts);
+                T::fold_block(acc, prev, block, stride, rows, counts, order);
             }
             (y, c, r) = (y1, c + 1, 0);
         }
@@ -316,7 +337,7 @@ mod tests {
     #[test]
     fn f32_folds_skip_nan_and_canonicalise_zero() {
         let n = f32::NAN;
-        let mut r = PieceRanges::<f32>::new(2);
+        let mut r = PieceRanges::<f32>::new(2, Order::Cached);
         r.start(0..5, 0..1, 0..2);
         let mut counts = ExactCounts::new::<f32>();
         r.add_slice(0, 0..5, 0..1, &[1.0, n, -0.0, n, n], 5, &mut counts);
@@ -335,7 +356,7 @@ mod tests {
         // Edge 2 over 5 x 5 x 3 voxels: voxel 2 on each axis is also the
         // apron of cell 0, voxel 4 of cell 1.
         let mut cells = CellBox::new([0..3, 0..3, 0..2]);
-        let mut r = PieceRanges::<u8>::new(2);
+        let mut r = PieceRanges::<u8>::new(2, Order::Stream);
         let mut counts = ExactCounts::new::<u8>();
         let v: Vec<u8> = (0..75).collect();
         // Three pieces splitting y at 3 and z at 2, the last one fed in

@@ -32,6 +32,7 @@ pub(crate) trait ScanSample: Sample {
         stride: usize,
         rows: usize,
         counts: Option<&mut ExactCounts>,
+        order: Order,
     );
 }
 
@@ -63,8 +64,9 @@ macro_rules! int_scan {
                 stride: usize,
                 rows: usize,
                 counts: Option<&mut ExactCounts>,
+                order: Order,
             ) {
-                fold_block::<$t, $chunk>(acc, apron, block, stride, rows, counts);
+                fold_block::<$t, $chunk>(acc, apron, block, stride, rows, counts, order);
             }
         }
     };
@@ -110,8 +112,9 @@ impl ScanSample for f32 {
         stride: usize,
         rows: usize,
         counts: Option<&mut ExactCounts>,
+        order: Order,
     ) {
-        fold_block::<f32, 8>(acc, apron, block, stride, rows, counts);
+        fold_block::<f32, 8>(acc, apron, block, stride, rows, counts, order);
     }
 }
 
@@ -122,9 +125,21 @@ pub(crate) fn range_to_f32<T: ScanSample>(lo: T, hi: T) -> (f32, f32) {
     (lo.to_f32() + 0.0, hi.to_f32() + 0.0)
 }
 
-/// Rows wider than this many chunks are folded row by row (see
-/// [`fold_block`]).
+/// Rows wider than this many chunks are folded row by row when streamed
+/// (see [`fold_block`]).
 const WIDE_CHUNKS: usize = 4;
+
+/// Where the samples a fold reads come from, which decides the order it
+/// reads them in (see [`fold_block`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Order {
+    /// Straight from a large array in memory: wide rows one after the
+    /// other, so that the hardware prefetcher streams them.
+    Stream,
+    /// From a cache-sized copy: column chunks down all the rows, bounds in
+    /// registers.
+    Cached,
+}
 
 /// Element-wise lower and upper bounds of one accumulator row (or part of
 /// one), of equal lengths.
@@ -139,12 +154,12 @@ pub(crate) struct Bounds<'a, T> {
 /// `r` at `block[r·stride ..]`) element-wise into `acc`, its first row also
 /// into `apron` if given, and count its samples into `counts` if given.
 ///
-/// Narrow blocks (brick rows) go `L` columns at a time with the chunk's
-/// bounds in registers, so the accumulators are loaded and stored once per
-/// block rather than once per row, and a chunk of one value (empty space,
-/// mostly) is counted in one step. Wide rows are folded one after the
-/// other, reading memory sequentially (column chunks across rows far apart
-/// defeat the hardware prefetcher).
+/// Blocks go `L` columns at a time with the chunk's bounds in registers, so
+/// the accumulators are loaded and stored once per block rather than once
+/// per row, and a chunk of one value (empty space, mostly) is counted in
+/// one step. Wide rows streamed from memory ([`Order::Stream`]) are instead
+/// folded one after the other, reading memory sequentially (column chunks
+/// across rows far apart defeat the hardware prefetcher).
 #[inline(always)]
 fn fold_block<T: ScanSample, const L: usize>(
     acc: Bounds<'_, T>,
@@ -153,10 +168,11 @@ fn fold_block<T: ScanSample, const L: usize>(
     stride: usize,
     rows: usize,
     counts: Option<&mut ExactCounts>,
+    order: Order,
 ) {
     let w = acc.lo.len().min(acc.hi.len());
     let counts = counts.filter(|_| T::EXACT_VALUES > 0);
-    if w > WIDE_CHUNKS * L || rows == 1 {
+    if rows == 1 || (order == Order::Stream && w > WIDE_CHUNKS * L) {
         if let Some(a) = apron {
             fold_rows_with::<T, L>(a.lo, a.hi, block, stride, 1, |_| {});
         }
@@ -186,7 +202,7 @@ fn fold_rows<T: ScanSample, const L: usize>(
 ) {
     match counts {
         Some(c) => {
-            let mut run = Run::new();
+            let mut run = Run::<T, L>::new();
             fold_rows_with::<T, L>(lo, hi, block, stride, rows, |s| run.add(c, s));
             run.flush(c);
         }
@@ -303,38 +319,47 @@ fn fold_into<T: ScanSample, const L: usize>(lo: &mut [T], hi: &mut [T], s: &[T])
 /// The run of one value being counted: chunks that continue it are counted
 /// in a register, and the count table is touched only when the value
 /// changes (an update per chunk would chain through memory).
-struct Run<T> {
-    value: T,
+struct Run<T, const L: usize> {
+    /// The value, repeated across a whole chunk: a chunk continues the run
+    /// when it equals this (compared as arrays, a few vector instructions;
+    /// broadcasting the value per chunk would cost as many again).
+    splat: [T; L],
     len: u64,
 }
 
-impl<T: ScanSample> Run<T> {
+impl<T: ScanSample, const L: usize> Run<T, L> {
     /// No run yet.
     fn new() -> Self {
         Run {
-            value: T::default(),
+            splat: [T::default(); L],
             len: 0,
         }
     }
 
-    /// Whether every sample of `chunk` is `v` (branch-free, so the
-    /// comparison vectorises).
+    /// Whether every sample of `chunk` is the run's value.
     #[inline(always)]
-    fn all(chunk: &[T], v: T) -> bool {
-        chunk.iter().fold(true, |same, &x| same & (x == v))
+    fn continues(&self, chunk: &[T]) -> bool {
+        match <&[T; L]>::try_from(chunk) {
+            Ok(whole) => *whole == self.splat,
+            // A row's tail: branch-free, so the comparison vectorises.
+            Err(_) => chunk
+                .iter()
+                .fold(true, |same, &x| same & (x == self.splat[0])),
+        }
     }
 
     /// Count the samples of `chunk`.
     #[inline(always)]
     fn add(&mut self, counts: &mut ExactCounts, chunk: &[T]) {
-        if Self::all(chunk, self.value) {
+        if self.continues(chunk) {
             self.len += chunk.len() as u64;
             return;
         }
-        counts.add_run(self.value, self.len);
-        self.value = chunk[0];
+        counts.add_run(self.splat[0], self.len);
+        let Some(&first) = chunk.first() else { return };
+        self.splat = [first; L];
         self.len = 0;
-        if Self::all(chunk, self.value) {
+        if self.continues(chunk) {
             self.len = chunk.len() as u64;
         } else {
             counts.add_each(chunk);
@@ -343,7 +368,7 @@ impl<T: ScanSample> Run<T> {
 
     /// Count the run so far.
     fn flush(self, counts: &mut ExactCounts) {
-        counts.add_run(self.value, self.len);
+        counts.add_run(self.splat[0], self.len);
     }
 }
 
@@ -460,12 +485,16 @@ mod tests {
         assert_eq!((v[0], v[32767], v[32768], v[65535]), (1, 1, 1, 1));
     }
 
-    /// Wide blocks (rows folded one by one) with uniform rows of several
-    /// values, rows that differ in one sample anywhere, and odd widths:
-    /// the same ranges and counts as a brute-force pass.
+    /// Wide blocks, streamed (rows folded one by one) or cached (column
+    /// chunks), with uniform rows of several values, rows that differ in
+    /// one sample anywhere, and odd widths: the same ranges and counts as a
+    /// brute-force pass.
     #[test]
     fn wide_rows_fold_and_count_exactly() {
-        for w in [129usize, 200, 257, 800] {
+        let cases = [129usize, 200, 257, 800]
+            .into_iter()
+            .flat_map(|w| [(w, Order::Stream), (w, Order::Cached)]);
+        for (w, order) in cases {
             let rows = 9;
             let stride = w + 3;
             let mut block = vec![0u8; stride * rows];
@@ -482,7 +511,7 @@ mod tests {
                 lo: &mut lo,
                 hi: &mut hi,
             };
-            u8::fold_block(acc, None, &block, stride, rows, Some(&mut counts));
+            u8::fold_block(acc, None, &block, stride, rows, Some(&mut counts), order);
             let mut want = vec![0u64; 256];
             for r in 0..rows {
                 for x in 0..w {
@@ -493,7 +522,7 @@ mod tests {
                     assert_eq!(hi[x], column.max().unwrap_or(0), "{w}: {x}");
                 }
             }
-            assert_eq!(counts.per_value(), want, "width {w}");
+            assert_eq!(counts.per_value(), want, "width {w}, {order:?}");
         }
     }
 }

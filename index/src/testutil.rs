@@ -117,3 +117,18 @@ pub fn footprint(c: [u64; 3], edge: u64, dims: Dims) -> ([u64; 3], [u64; 3]) {
     let hi = std::array::from_fn(|a| (c[a] * edge + edge).min(d[a] - 1));
     (lo, hi)
 }
+
+/// `samples` in a temporary file after `header` bytes, memory-mapped, with
+/// the file kept for positioned reads (as volume files are opened).
+pub fn file_data<T: volcore::Sample>(samples: &[T], header: usize) -> volcore::Data<T> {
+    use std::io::Write;
+    use std::sync::Arc;
+    let mut bytes = vec![0x5A; header];
+    bytes.extend_from_slice(bytemuck::cast_slice(samples));
+    // One sample's worth of bytes after the data: reads must stop short.
+    bytes.extend_from_slice(bytemuck::cast_slice(&samples[..1.min(samples.len())]));
+    let mut f = tempfile::tempfile().unwrap();
+    f.write_all(&bytes).unwrap();
+    let map = Arc::new(unsafe { memmap2::Mmap::map(&f) }.unwrap());
+    volcore::Data::mapped_file(map, Arc::new(f), header, samples.len()).unwrap()
+}

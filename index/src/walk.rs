@@ -6,22 +6,23 @@
 //! strided view of their samples. Every voxel belongs to exactly one block,
 //! and a task's blocks come in the order the layout stores them, so memory
 //! is read as sequentially as the layout allows:
-//! - sliced grids lend their samples straight from the array or memory map
-//!   (one block per task: the slab's slices);
+//! - sliced grids in memory lend their samples in place (one block per
+//!   task: the slab's slices);
+//! - sliced grids mapped from a file are read from the file a piece-sized
+//!   band of rows at a time (see [`volcore::Data::read_at`]: cheaper for one pass
+//!   than faulting the map in and tearing it down);
 //! - bricked grids lend each brick's stored samples (one block per brick);
 //! - compressed grids decode each brick once, bypassing the brick cache;
 //! - any other source is copied through [`VoxelSource::read_row`], a
-//!   bounded chunk of rows at a time.
+//!   piece-sized band of rows at a time.
 
 use crate::error::IndexError;
-use std::any::Any;
-use std::marker::PhantomData;
+use crate::piece::piece_shape;
+use crate::scan::Order;
 use std::ops::Range;
+use std::sync::Mutex;
 use volcore::brick::APRON_LO;
 use volcore::{BrickGeometry, BrickedGrid, CompressedGrid, Dims, Sample, SlicedGrid, VoxelSource};
-
-/// Samples a block of the row walk copies at most.
-const ROW_BLOCK_SAMPLES: u64 = 1 << 19;
 
 /// A box of voxels: `lo[a] .. hi[a]` along each axis `a`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -106,6 +107,9 @@ pub(crate) trait Walk<T>: Sync {
     fn tasks(&self) -> u64;
     /// The voxels task `task` covers (the union of its blocks).
     fn task_region(&self, task: u64) -> Region;
+    /// Whether blocks borrow samples from a large array in memory or hand
+    /// out a cache-sized copy (which decides how they are best read).
+    fn order(&self) -> Order;
     /// Call `f` with each block of task `task`, in storage order. Fails
     /// only if stored data cannot be decoded.
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError>;
@@ -141,6 +145,10 @@ impl<T: Sample> Walk<T> for SlicedWalk<'_, T> {
         slab(self.dims(), self.edge, task)
     }
 
+    fn order(&self) -> Order {
+        Order::Stream
+    }
+
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
         let d = self.dims();
         f(Block {
@@ -154,27 +162,105 @@ impl<T: Sample> Walk<T> for SlicedWalk<'_, T> {
     }
 }
 
-/// Any source, read through [`VoxelSource::read_row`]: one task per z slab
-/// of `edge` slices, copied a bounded block of rows at a time. `T` must be
-/// `S::Sample` (otherwise every task fails).
-pub(crate) struct RowWalk<'a, S, T> {
-    src: &'a S,
-    edge: u64,
-    _t: PhantomData<fn() -> T>,
+/// Rows of a row-ordered volume, copied out on request.
+pub(crate) trait BandSource<T>: Sync {
+    /// The volume's dimensions.
+    fn dims(&self) -> Dims;
+    /// Copy the whole rows `ys` of slice `z` into `out` (`out.len()` is
+    /// their sample count), x fastest.
+    fn read_band(&self, ys: Range<u64>, z: u64, out: &mut [T]) -> Result<(), IndexError>;
 }
 
-impl<'a, S: VoxelSource, T: Sample> RowWalk<'a, S, T> {
+/// Any [`VoxelSource`], a row at a time through [`VoxelSource::read_row`].
+/// `T` must be `S::Sample` (otherwise every read fails).
+pub(crate) struct SourceRows<'a, S>(pub &'a S);
+
+impl<S: VoxelSource, T: Sample> BandSource<T> for SourceRows<'_, S> {
+    fn dims(&self) -> Dims {
+        self.0.dims()
+    }
+
+    fn read_band(&self, ys: Range<u64>, z: u64, out: &mut [T]) -> Result<(), IndexError> {
+        let out: &mut [S::Sample] = bytemuck::try_cast_slice_mut(out)
+            .ok()
+            .filter(|_| T::TYPE == S::Sample::TYPE)
+            .ok_or_else(|| {
+                IndexError::Source(format!("sample type {} does not match its tag", T::TYPE))
+            })?;
+        let w = self.0.dims().x as usize;
+        for (y, row) in ys.zip(out.chunks_exact_mut(w)) {
+            self.0.read_row(0, y, z, row);
+        }
+        Ok(())
+    }
+}
+
+/// A sliced grid mapped from a file, read with positioned reads (see
+/// [`volcore::Data::read_at`]): a band of rows is one read.
+pub(crate) struct SlicedFile<'a, T: Sample>(pub &'a SlicedGrid<T>);
+
+impl<T: Sample> BandSource<T> for SlicedFile<'_, T> {
+    fn dims(&self) -> Dims {
+        self.0.dims()
+    }
+
+    fn read_band(&self, ys: Range<u64>, z: u64, out: &mut [T]) -> Result<(), IndexError> {
+        let first = self.dims().index(0, ys.start, z) as usize;
+        self.0.data().read_at(first, out).map_err(read_failed)
+    }
+}
+
+/// The error of a failed read of mapped samples.
+fn read_failed(e: std::io::Error) -> IndexError {
+    IndexError::Source(format!("reading samples failed: {e}"))
+}
+
+/// Scratch buffers for walks that copy samples, reused across tasks (one
+/// per task running at a time): a fresh large buffer per task would cost
+/// page faults on every use.
+struct Buffers<T>(Mutex<Vec<Vec<T>>>);
+
+impl<T: Sample> Buffers<T> {
+    fn new() -> Self {
+        Buffers(Mutex::new(Vec::new()))
+    }
+
+    /// Call `f` with a buffer of `len` samples (contents unspecified).
+    fn with<R>(&self, len: usize, f: impl FnOnce(&mut [T]) -> R) -> R {
+        // A panic elsewhere leaves only spare buffers behind the lock.
+        let pool = || self.0.lock().unwrap_or_else(|p| p.into_inner());
+        let mut buf = pool().pop().unwrap_or_default();
+        if buf.len() < len {
+            buf.resize(len, T::default());
+        }
+        let r = f(&mut buf[..len]);
+        pool().push(buf);
+        r
+    }
+}
+
+/// A row-ordered volume copied from a [`BandSource`]: one task per z slab
+/// of `edge` slices, each handed out in blocks the shape of the build's
+/// pieces (see [`piece_shape`]), so that a block's samples are still in
+/// cache while they are folded.
+pub(crate) struct BandWalk<B, T> {
+    src: B,
+    edge: u64,
+    buffers: Buffers<T>,
+}
+
+impl<B: BandSource<T>, T: Sample> BandWalk<B, T> {
     /// Tasks of `edge` slices over `src`.
-    pub fn new(src: &'a S, edge: u64) -> Self {
-        RowWalk {
+    pub fn new(src: B, edge: u64) -> Self {
+        BandWalk {
             src,
             edge,
-            _t: PhantomData,
+            buffers: Buffers::new(),
         }
     }
 }
 
-impl<S: VoxelSource, T: Sample> Walk<T> for RowWalk<'_, S, T> {
+impl<B: BandSource<T>, T: Sample> Walk<T> for BandWalk<B, T> {
     fn dims(&self) -> Dims {
         self.src.dims()
     }
@@ -187,42 +273,41 @@ impl<S: VoxelSource, T: Sample> Walk<T> for RowWalk<'_, S, T> {
         slab(self.dims(), self.edge, task)
     }
 
+    fn order(&self) -> Order {
+        Order::Cached
+    }
+
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
         let d = self.dims();
         let slab = self.task_region(task);
-        // At most ROW_BLOCK_SAMPLES per block, but whole rows and slices.
-        let slices = (ROW_BLOCK_SAMPLES / d.x).clamp(1, slab.hi[2] - slab.lo[2]);
-        let rows = (ROW_BLOCK_SAMPLES / (d.x * slices)).clamp(1, d.y);
-        let mut buf = vec![S::Sample::default(); (d.x * rows * slices) as usize];
-        for z0 in slab.axis(2).step_by(slices as usize) {
-            let z1 = (z0 + slices).min(slab.hi[2]);
-            for y0 in (0..d.y).step_by(rows as usize) {
-                let y1 = (y0 + rows).min(d.y);
-                let region = Region {
-                    lo: [0, y0, z0],
-                    hi: [d.x, y1, z1],
-                };
-                let row = d.x as usize;
-                let plane = row * (y1 - y0) as usize;
-                for z in z0..z1 {
-                    for y in y0..y1 {
-                        let at = (z - z0) as usize * plane + (y - y0) as usize * row;
-                        self.src.read_row(0, y, z, &mut buf[at..at + row]);
+        let (slices, rows) = piece_shape(d.x, slab.hi[2] - slab.lo[2], self.edge);
+        let rows = rows.min(d.y);
+        let row = d.x as usize;
+        self.buffers.with(row * (rows * slices) as usize, |buf| {
+            for z0 in slab.axis(2).step_by(slices as usize) {
+                let z1 = (z0 + slices).min(slab.hi[2]);
+                for y0 in (0..d.y).step_by(rows as usize) {
+                    let y1 = (y0 + rows).min(d.y);
+                    let plane = row * (y1 - y0) as usize;
+                    for z in z0..z1 {
+                        let at = (z - z0) as usize * plane;
+                        self.src.read_band(y0..y1, z, &mut buf[at..at + plane])?;
                     }
+                    let region = Region {
+                        lo: [0, y0, z0],
+                        hi: [d.x, y1, z1],
+                    };
+                    f(Block {
+                        region,
+                        data: buf,
+                        origin: region.lo,
+                        row,
+                        plane,
+                    });
                 }
-                let data = (&buf as &dyn Any).downcast_ref::<Vec<T>>().ok_or_else(|| {
-                    IndexError::Source(format!("sample type {} does not match its tag", T::TYPE))
-                })?;
-                f(Block {
-                    region,
-                    data,
-                    origin: region.lo,
-                    row,
-                    plane,
-                });
             }
-        }
-        Ok(())
+            Ok(())
+        })
     }
 }
 
@@ -269,7 +354,10 @@ fn brick_id(g: &BrickGeometry, task: u64, bx: u64) -> u64 {
 }
 
 /// An uncompressed bricked grid: one task per row of bricks, each brick's
-/// stored samples borrowed in place.
+/// stored samples borrowed in place. (Reading bricks from the file as the
+/// sliced walk does was measured slower: it copies the aprons too, a third
+/// more bytes than the owned voxels, where folding in place reads only the
+/// cache lines of owned voxels.)
 pub(crate) struct BrickedWalk<'a, T: Sample> {
     /// The grid.
     pub grid: &'a BrickedGrid<T>,
@@ -286,6 +374,10 @@ impl<T: Sample> Walk<T> for BrickedWalk<'_, T> {
 
     fn task_region(&self, task: u64) -> Region {
         brick_row_region(self.grid.geometry(), task)
+    }
+
+    fn order(&self) -> Order {
+        Order::Stream
     }
 
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
@@ -319,6 +411,10 @@ impl<T: Sample> Walk<T> for CompressedWalk<'_, T> {
         brick_row_region(self.grid.geometry(), task)
     }
 
+    fn order(&self) -> Order {
+        Order::Cached
+    }
+
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
         let g = self.grid.geometry();
         for bx in 0..g.counts()[0] {
@@ -335,7 +431,7 @@ impl<T: Sample> Walk<T> for CompressedWalk<'_, T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::random_samples;
+    use crate::testutil::{file_data, random_samples};
     use volcore::region::{pack_bricks, Rows};
     use volcore::Data;
 
@@ -377,7 +473,11 @@ mod tests {
                     &s,
                     "sliced",
                 );
-                check_walk(&RowWalk::new(&sliced, edge), &s, "rows");
+                check_walk(&BandWalk::new(SourceRows(&sliced), edge), &s, "rows");
+            }
+            let in_file = SlicedGrid::new(dims, file_data(&s, 4)).unwrap();
+            for edge in [2, 3, 8] {
+                check_walk(&BandWalk::new(SlicedFile(&in_file), edge), &s, "file");
             }
             for brick in [2, 5, 16] {
                 let geom = BrickGeometry::new(dims, brick).unwrap();

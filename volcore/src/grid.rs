@@ -282,6 +282,11 @@ impl<T: Sample> SlicedGrid<T> {
         &self.data
     }
 
+    /// Where the samples live (for [`Data::read_at`]).
+    pub fn data(&self) -> &Data<T> {
+        &self.data
+    }
+
     /// Whether the samples are memory-mapped.
     pub fn is_mapped(&self) -> bool {
         self.data.is_mapped()

@@ -11,7 +11,8 @@ use std::sync::Arc;
 use volcore::grid::BrickEntry;
 use volcore::volume::{IntoVolumeData, TypedGrid};
 use volcore::{
-    BrickedGrid, CompressedGrid, Compression, Data, Dims, Layout, SampleType, SlicedGrid, Volume,
+    BrickedGrid, CompressedGrid, Compression, Data, Dims, Layout, Sample, SampleType, SlicedGrid,
+    Volume,
 };
 
 /// How to open a `.vvol` file.
@@ -70,11 +71,14 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
     let file = File::open(path)?;
     // SAFETY: the map is read-only; like every reader of mapped files we
     // rely on the file not being truncated by another process meanwhile.
-    let map = Arc::new(if opts.in_memory {
-        copy_to_memory(file)?
+    // A mapped file stays open beside its map for positioned reads.
+    let (map, file) = if opts.in_memory {
+        (copy_to_memory(file)?, None)
     } else {
-        unsafe { Mmap::map(&file)? }
-    });
+        (unsafe { Mmap::map(&file)? }, Some(Arc::new(file)))
+    };
+    let map = Arc::new(map);
+    let source = MapSource { map, file };
     let mut meta = h.meta;
     if meta.range.is_empty() {
         meta.range = t.range;
@@ -83,7 +87,7 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
         Layout::Sliced => Vec::new(),
         Layout::Bricked(_) => {
             let end = (HEADER_LEN + h.brick_count * ENTRY_LEN) as usize;
-            let raw = &map[HEADER_LEN as usize..end];
+            let raw = &source.map[HEADER_LEN as usize..end];
             if opts.verify && crc32fast::hash(raw) != t.crc32 {
                 return Err(Error::Checksum("brick table is damaged".into()));
             }
@@ -91,10 +95,10 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
         }
     };
     let data = match meta.sample_type {
-        SampleType::U8 => build::<u8>(&h, &t, map, table, opts)?,
-        SampleType::U16 => build::<u16>(&h, &t, map, table, opts)?,
-        SampleType::I16 => build::<i16>(&h, &t, map, table, opts)?,
-        SampleType::F32 => build::<f32>(&h, &t, map, table, opts)?,
+        SampleType::U8 => build::<u8>(&h, &t, source, table, opts)?,
+        SampleType::U16 => build::<u16>(&h, &t, source, table, opts)?,
+        SampleType::I16 => build::<i16>(&h, &t, source, table, opts)?,
+        SampleType::F32 => build::<f32>(&h, &t, source, table, opts)?,
     };
     Ok(Volume { meta, data })
 }
@@ -111,13 +115,31 @@ fn copy_to_memory(mut file: File) -> Result<Mmap> {
     Ok(anon.make_read_only()?)
 }
 
+/// A map of a whole file and, unless it is an in-memory copy, the file.
+struct MapSource {
+    map: Arc<Mmap>,
+    file: Option<Arc<File>>,
+}
+
+impl MapSource {
+    /// `len` samples at byte `offset`.
+    fn data<T: Sample>(self, offset: u64, len: usize) -> Result<Data<T>> {
+        let offset = offset as usize;
+        Ok(match self.file {
+            Some(file) => Data::mapped_file(self.map, file, offset, len)?,
+            None => Data::mapped(self.map, offset, len)?,
+        })
+    }
+}
+
 fn build<T: IntoVolumeData>(
     h: &Header,
     t: &Trailer,
-    map: Arc<Mmap>,
+    source: MapSource,
     table: Vec<BrickEntry>,
     opts: OpenOptions,
 ) -> Result<volcore::VolumeData> {
+    let map = &source.map;
     let meta = &h.meta;
     let size = std::mem::size_of::<T>() as u64;
     let data_end = h.data_offset + h.data_len;
@@ -133,7 +155,7 @@ fn build<T: IntoVolumeData>(
                     )));
                 }
             }
-            let data = Data::mapped(map, h.data_offset as usize, meta.dims.count() as usize)?;
+            let data = source.data(h.data_offset, meta.dims.count() as usize)?;
             TypedGrid::Sliced(SlicedGrid::new(meta.dims, data)?)
         }
         Layout::Bricked(g) => {
@@ -161,19 +183,19 @@ fn build<T: IntoVolumeData>(
                         }
                     }
                     if opts.verify {
-                        verify_bricks(&map, &table)?;
+                        verify_bricks(map, &table)?;
                     }
                     let len = (h.data_len / size) as usize;
-                    let data = Data::mapped(map, h.data_offset as usize, len)?;
+                    let data = source.data(h.data_offset, len)?;
                     let stride = (h.brick_stride / size) as usize;
                     TypedGrid::Bricked(BrickedGrid::new(g, stride, data)?)
                 }
                 Compression::Zstd(_) => {
                     if opts.verify {
-                        verify_bricks(&map, &table)?;
+                        verify_bricks(map, &table)?;
                     }
                     let len = map.len();
-                    let source = Data::<u8>::mapped(map, 0, len)?;
+                    let source = source.data::<u8>(0, len)?;
                     let grid = CompressedGrid::<T>::new(g, source, table, opts.cache_bytes)?;
                     if opts.verify {
                         (0..g.brick_count())
