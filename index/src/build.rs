@@ -30,7 +30,7 @@
 use crate::error::IndexError;
 use crate::histogram::{self, Histogram, DEFAULT_BINS, MAX_BINS};
 use crate::index::MajorantIndex;
-use crate::level::{cell_count, level_shapes, try_filled, Level};
+use crate::level::{cell_count, level_shapes, try_zeroed, Level};
 use crate::piece::{cells_meeting, piece_shape, CellBox, PieceRanges};
 use crate::scan::{ExactCounts, ScanSample};
 use crate::walk::{
@@ -151,22 +151,58 @@ fn build_grid<T: ScanSample>(
     }
 }
 
+/// One cell layer of the level-0 arrays. It starts out as zeroed memory
+/// the system has not handed out yet, and is set to the empty range by the
+/// first task that merges into it: the arrays' pages are then faulted in by
+/// the scanning threads in parallel, not by one thread before they start.
+struct Layer<'a> {
+    min: &'a mut [f32],
+    max: &'a mut [f32],
+    ready: bool,
+}
+
+impl Layer<'_> {
+    /// Set every cell to the empty range, the first time only.
+    fn make_ready(&mut self) {
+        if !self.ready {
+            self.min.fill(f32::INFINITY);
+            self.max.fill(f32::NEG_INFINITY);
+            self.ready = true;
+        }
+    }
+}
+
 /// The level-0 arrays, one lock per cell layer, for tasks to merge into.
 struct Layers<'a> {
     cells: [u64; 3],
-    planes: Vec<Mutex<(&'a mut [f32], &'a mut [f32])>>,
+    planes: Vec<Mutex<Layer<'a>>>,
 }
 
 impl<'a> Layers<'a> {
-    /// Split `min` and `max` (`cells` shaped, x fastest) into layers.
+    /// Split `min` and `max` (`cells` shaped, x fastest, contents
+    /// unspecified) into layers.
     fn new(cells: [u64; 3], min: &'a mut [f32], max: &'a mut [f32]) -> Self {
         let plane = (cells[0] * cells[1]) as usize;
         let planes = min
             .chunks_mut(plane)
             .zip(max.chunks_mut(plane))
-            .map(Mutex::new)
+            .map(|(min, max)| {
+                Mutex::new(Layer {
+                    min,
+                    max,
+                    ready: false,
+                })
+            })
             .collect();
         Layers { cells, planes }
+    }
+
+    /// Lock layer `cz`. A panic while merging leaves the arrays unused:
+    /// the build fails as a whole, so a poisoned lock is still safe to take.
+    fn lock(&self, cz: u64) -> std::sync::MutexGuard<'_, Layer<'a>> {
+        self.planes[cz as usize]
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
     }
 
     /// Widen every cell of `part` to hold its range there.
@@ -174,20 +210,28 @@ impl<'a> Layers<'a> {
         let [xs, ys, zs] = part.cells().clone();
         let nx = self.cells[0];
         for cz in zs {
-            // A panic while merging leaves the arrays unused: the build
-            // fails as a whole, so a poisoned lock is still safe to take.
-            let mut plane = self.planes[cz as usize]
-                .lock()
-                .unwrap_or_else(|p| p.into_inner());
-            let (mn, mx) = &mut *plane;
+            let mut layer = self.lock(cz);
+            layer.make_ready();
+            let Layer { min, max, .. } = &mut *layer;
             for cy in ys.clone() {
                 for cx in xs.clone() {
                     let (lo, hi) = part.range(cx, cy, cz);
                     let i = (cx + nx * cy) as usize;
-                    mn[i] = f32::lower(mn[i], lo);
-                    mx[i] = f32::upper(mx[i], hi);
+                    min[i] = f32::lower(min[i], lo);
+                    max[i] = f32::upper(max[i], hi);
                 }
             }
+        }
+    }
+
+    /// Make every layer no task merged into (none, when every voxel was
+    /// scanned) hold empty ranges.
+    fn finish(self) {
+        for layer in self.planes {
+            layer
+                .into_inner()
+                .unwrap_or_else(|p| p.into_inner())
+                .make_ready();
         }
     }
 }
@@ -204,19 +248,21 @@ fn build_walk<T: ScanSample>(
     let total = cell_count(cells)?;
     usize::try_from(dims.x)
         .map_err(|_| IndexError::TooLarge(format!("rows of {} voxels", dims.x)))?;
-    let mut min = try_filled(total, f32::INFINITY)?;
-    let mut max = try_filled(total, f32::NEG_INFINITY)?;
+    let mut min = try_zeroed(total)?;
+    let mut max = try_zeroed(total)?;
     let edge = u64::from(opts.cell_edge);
     let counts = {
         let layers = Layers::new(cells, &mut min, &mut max);
-        (0..walk.tasks())
+        let counts = (0..walk.tasks())
             .into_par_iter()
             .try_fold(ExactCounts::new::<T>, |mut counts, task| {
                 let part = scan_task(walk, edge, task, &mut counts)?;
                 layers.merge(&part);
                 Ok::<_, IndexError>(counts)
             })
-            .try_reduce(ExactCounts::new::<T>, |a, b| Ok(a.merge(b)))?
+            .try_reduce(ExactCounts::new::<T>, |a, b| Ok(a.merge(b)))?;
+        layers.finish();
+        counts
     };
 
     let mut levels = vec![Level::from_parts(cells, edge, min, max)?];

@@ -48,14 +48,13 @@ pub(crate) fn cell_count(cells: [u64; 3]) -> Result<usize, IndexError> {
         })
 }
 
-/// A vector of `len` copies of `v`, or an error instead of an abort when
-/// the memory is not available.
-pub(crate) fn try_filled(len: usize, v: f32) -> Result<Vec<f32>, IndexError> {
-    let mut out = Vec::new();
-    out.try_reserve_exact(len)
-        .map_err(|e| IndexError::TooLarge(format!("{len} cells: {e}")))?;
-    out.resize(len, v);
-    Ok(out)
+/// `len` zeroed values, allocated fallibly (a volume's header can ask for
+/// any size). The pages are zeroed by the system when first touched, so
+/// an array that is about to be overwritten costs nothing here, and the
+/// threads that first write each part pay for it in parallel.
+pub(crate) fn try_zeroed(len: usize) -> Result<Vec<f32>, IndexError> {
+    bytemuck::allocation::try_zeroed_vec(len)
+        .map_err(|()| IndexError::TooLarge(format!("{len} cells do not fit in memory")))
 }
 
 impl Level {
@@ -161,8 +160,9 @@ impl Level {
     pub(crate) fn coarsen(&self) -> Result<Level, IndexError> {
         let cells = self.cells.map(|c| c.div_ceil(2));
         let n = cell_count(cells)?;
-        let mut min = try_filled(n, f32::INFINITY)?;
-        let mut max = try_filled(n, f32::NEG_INFINITY)?;
+        // Every parent cell is written below.
+        let mut min = try_zeroed(n)?;
+        let mut max = try_zeroed(n)?;
         let plane = (cells[0] * cells[1]) as usize;
         min.par_chunks_mut(plane)
             .zip(max.par_chunks_mut(plane))
