@@ -256,6 +256,10 @@ fn fold_chunks<T: ScanSample, const L: usize>(
     mut counts: Option<&mut ExactCounts>,
 ) {
     let w = acc.lo.len().min(acc.hi.len());
+    // Uniform chunk columns continuing one value (mostly empty space) are
+    // counted in a register, not each with an add to the same table slot
+    // (a chain of dependent loads and stores through memory).
+    let mut run = Run::<T, L>::new();
     let mut x = 0;
     while x + L <= w {
         let (mut l, mut h) = ([T::TOP; L], [T::BOTTOM; L]);
@@ -276,7 +280,7 @@ fn fold_chunks<T: ScanSample, const L: usize>(
             let least = l.iter().fold(T::TOP, |m, &v| T::lower(m, v));
             let most = h.iter().fold(T::BOTTOM, |m, &v| T::upper(m, v));
             if least == most {
-                c.add_run(least, (L * rows) as u64);
+                run.add_uniform(c, least, (L * rows) as u64);
             } else {
                 for r in 0..rows {
                     c.add_chunk(&block[r * stride + x..r * stride + x + L]);
@@ -289,6 +293,9 @@ fn fold_chunks<T: ScanSample, const L: usize>(
             hi[i] = T::upper(hi[i], h[i]);
         }
         x += L;
+    }
+    if let Some(c) = counts.as_deref_mut() {
+        run.flush(c);
     }
     if x < w {
         let rest = &block[x..];
@@ -363,6 +370,18 @@ impl<T: ScanSample, const L: usize> Run<T, L> {
             self.len = chunk.len() as u64;
         } else {
             counts.add_each(chunk);
+        }
+    }
+
+    /// Count `n` samples of value `v`.
+    #[inline(always)]
+    fn add_uniform(&mut self, counts: &mut ExactCounts, v: T, n: u64) {
+        if v == self.splat[0] {
+            self.len += n;
+        } else {
+            counts.add_run(self.splat[0], self.len);
+            self.splat = [v; L];
+            self.len = n;
         }
     }
 
