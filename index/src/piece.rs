@@ -89,12 +89,12 @@ impl<T: ScanSample> CellBox<T> {
         ((cx - c[0].start) + nx * ((cy - c[1].start) + ny * (cz - c[2].start))) as usize
     }
 
-    /// Widen cell `(cx, cy, cz)` to hold `[lo, hi]`.
+    /// The ranges of cells `cxs` of cell row `(cy, cz)` (inside the box).
     #[inline(always)]
-    fn fold(&mut self, cx: u64, cy: u64, cz: u64, lo: T, hi: T) {
-        let i = self.offset(cx, cy, cz);
-        self.lo[i] = T::lower(self.lo[i], lo);
-        self.hi[i] = T::upper(self.hi[i], hi);
+    fn row_mut(&mut self, cxs: Range<u64>, cy: u64, cz: u64) -> (&mut [T], &mut [T]) {
+        let i = self.offset(cxs.start, cy, cz);
+        let n = (cxs.end - cxs.start) as usize;
+        (&mut self.lo[i..i + n], &mut self.hi[i..i + n])
     }
 
     /// The range of cell `(cx, cy, cz)` (inside the box), widened to
@@ -248,12 +248,15 @@ impl<T: ScanSample> PieceRanges<T> {
     pub fn finish(&mut self, cells: &mut CellBox<T>) {
         let (e, xs, w) = (self.edge, self.xs.clone(), self.width());
         let full = e as usize + 1;
+        let cxs = cells_meeting(xs.clone(), e);
         for cz in self.layers.clone() {
             for cy in self.bands.clone() {
                 let o = self.at(cy, cz);
                 let (lo, hi) = (&self.lo[o..o + w], &self.hi[o..o + w]);
                 self.windows.prepare(lo, hi, full);
-                for cx in cells_meeting(xs.clone(), e) {
+                let (out_lo, out_hi) = cells.row_mut(cxs.clone(), cy, cz);
+                let outs = out_lo.iter_mut().zip(out_hi.iter_mut());
+                for (cx, (out_lo, out_hi)) in cxs.clone().zip(outs) {
                     let a = ((cx * e).max(xs.start) - xs.start) as usize;
                     let b = ((cx * e + e).min(xs.end - 1) - xs.start) as usize;
                     // Cells cut by the piece's or the volume's edge: a fold.
@@ -261,7 +264,8 @@ impl<T: ScanSample> PieceRanges<T> {
                         true => self.windows.range(a, full),
                         false => span(lo, hi, a, b),
                     };
-                    cells.fold(cx, cy, cz, l, h);
+                    *out_lo = T::lower(*out_lo, l);
+                    *out_hi = T::upper(*out_hi, h);
                 }
             }
         }
@@ -294,11 +298,18 @@ impl<T: ScanSample> Windows<T> {
 
     /// Prepare for windows of `len` elements of the row `lo`, `hi`.
     fn prepare(&mut self, lo: &[T], hi: &[T], len: usize) {
-        self.lo.clear();
-        self.lo.extend_from_slice(lo);
-        self.hi.clear();
-        self.hi.extend_from_slice(hi);
+        // The first pass reads the row itself.
         let mut s = 1;
+        if 2 <= len && 1 < lo.len() {
+            double(lo, &mut self.lo, 1, T::lower);
+            double(hi, &mut self.hi, 1, T::upper);
+            s = 2;
+        } else {
+            self.lo.clear();
+            self.lo.extend_from_slice(lo);
+            self.hi.clear();
+            self.hi.extend_from_slice(hi);
+        }
         // A row shorter than a window holds no window: stop when the
         // passes run out of elements.
         while 2 * s <= len && s < self.lo.len() {
