@@ -171,25 +171,29 @@ impl Level {
         Level::from_parts(cells, self.edge * 2, min, max)
     }
 
-    /// Fill parent plane `k` of shape `cells` from this level.
+    /// Fill parent plane `k` of shape `cells` from this level: each child
+    /// row is folded into its parent row pairwise, which vectorises (a
+    /// loop over each parent's up to eight children would not).
     fn coarsen_plane(&self, cells: [u64; 3], k: u64, mn: &mut [f32], mx: &mut [f32]) {
+        mn.fill(f32::INFINITY);
+        mx.fill(f32::NEG_INFINITY);
         let c = self.cells;
-        let kids = |p: u64, a: usize| 2 * p..(2 * p + 2).min(c[a]);
-        for j in 0..cells[1] {
-            for i in 0..cells[0] {
-                let o = (i + cells[0] * j) as usize;
-                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-                for z in kids(k, 2) {
-                    for y in kids(j, 1) {
-                        for x in kids(i, 0) {
-                            let (a, b) = self.range(x, y, z);
-                            lo = lo.min(a);
-                            hi = hi.max(b);
-                        }
-                    }
+        let (w, pw) = (c[0] as usize, cells[0] as usize);
+        for z in 2 * k..(2 * k + 2).min(c[2]) {
+            for y in 0..c[1] {
+                let at = self.index(0, y, z);
+                let parent = (y / 2) as usize * pw..(y / 2 + 1) as usize * pw;
+                let kids = self.min[at..at + w].chunks(2).zip(self.max[at..at + w].chunks(2));
+                for ((p_lo, p_hi), (lo, hi)) in mn[parent.clone()]
+                    .iter_mut()
+                    .zip(&mut mx[parent])
+                    .zip(kids)
+                {
+                    // A lone child at the far face pairs with itself.
+                    let (l, h) = (lo[0].min(lo[lo.len() - 1]), hi[0].max(hi[hi.len() - 1]));
+                    *p_lo = p_lo.min(l);
+                    *p_hi = p_hi.max(h);
                 }
-                mn[o] = lo;
-                mx[o] = hi;
             }
         }
     }
