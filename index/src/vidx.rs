@@ -408,6 +408,44 @@ mod tests {
     use crate::testutil::{random_samples, volume};
     use crate::BuildOptions;
 
+    /// Bounds narrow to the sample type exactly as Rust's saturating casts
+    /// would, at the type's ends, past them, at infinities and NaN.
+    #[test]
+    fn bounds_narrow_like_saturating_casts() {
+        let v = [
+            f32::NEG_INFINITY,
+            -1e9,
+            -32769.0,
+            -32768.0,
+            -1.0,
+            -0.5,
+            0.0,
+            0.5,
+            1.0,
+            254.9,
+            255.0,
+            256.0,
+            32767.0,
+            32768.0,
+            65535.0,
+            65536.0,
+            1e9,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        let encode = |t| {
+            let mut out = Vec::new();
+            write_bounds(&mut out, &v, t).unwrap();
+            out
+        };
+        let u8s: Vec<u8> = v.iter().map(|&x| x as u8).collect();
+        assert_eq!(encode(SampleType::U8), u8s);
+        let u16s: Vec<u8> = v.iter().flat_map(|&x| (x as u16).to_le_bytes()).collect();
+        assert_eq!(encode(SampleType::U16), u16s);
+        let i16s: Vec<u8> = v.iter().flat_map(|&x| (x as i16).to_le_bytes()).collect();
+        assert_eq!(encode(SampleType::I16), i16s);
+    }
+
     fn sample_index(fingerprint: u64) -> (MajorantIndex, Vec<u8>) {
         let dims = Dims::new(19, 11, 7).unwrap();
         let vol = volume::<f32>(dims, random_samples(dims, 4, 0));
