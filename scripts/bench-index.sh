@@ -2,21 +2,25 @@
 # Benchmark: how fast vol-index builds the index of a u8 volume that sits in
 # the page cache, compared with reading the same file with cat. For each
 # file (the thesis scene, sliced and bricked:32; zstd-bricked for
-# information) the file is read once untimed to warm the cache, then each
-# run times, back to back:
+# information) each run reads the file once untimed (so that it is wholly
+# in the page cache), then times, back to back:
 #   cat file > /dev/null      (reading the cached file)
 #   vol-index file            (target: at most 2x cat, for sliced and bricked)
 # and prints per-run times (plus the build time vol-index reports itself,
-# without process start, opening and writing the .vidx), then medians and
-# the median of the per-run ratios, and the load average before and after:
-# the machine is shared, so read the figures with it.
-# Usage: scripts/bench-index.sh [DIM] [RUNS]  (default 800 7).
+# without process start, opening and writing the .vidx), then medians, the
+# median and range of the per-run ratios, and the load average before and
+# after: the machine is shared, so read the figures with it. How fast a
+# cached file reads also depends on the state of the page cache (on
+# machines whose kernel reclaims or splits cached pages in the background,
+# cat of the same file varies 2-3x within a minute); the two commands of a
+# run see the same state, so the per-run ratio is the figure to read.
+# Usage: scripts/bench-index.sh [DIM] [RUNS]  (default 800 11).
 # Set DIR to choose the directory (default out/bench); the volumes are kept
 # there and reused while their size matches (KEEP=0 removes them at the end).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DIM=${1:-800}
-RUNS=${2:-7}
+RUNS=${2:-11}
 DIR=${DIR:-out/bench}
 KEEP=${KEEP:-1}
 mkdir -p "$DIR"
@@ -46,8 +50,8 @@ printf 'file       run   bytes        cat_s  index_s  build_s  index/cat\n'
 for name in sliced bricked32 zstd; do
     f="$DIR/index-$name-$DIM.vvol"
     bytes=$(stat -c %s "$f")
-    cat "$f" > /dev/null
     for r in $(seq 1 "$RUNS"); do
+        cat "$f" > /dev/null
         t0=$(now); cat "$f" > /dev/null; t1=$(now)
         t2=$(now); js=$("$B/vol-index" "$f" -o "$DIR/index-$name.vidx" --json); t3=$(now)
         build=$(printf '%s' "$js" | awk 'match($0, /"build_s":[0-9.eE+-]+/) {print substr($0, RSTART + 10, RLENGTH - 10)}')
@@ -63,14 +67,17 @@ printf '\nmedians (load average before: %s, after: %s; %s cores):\n' "$LOAD_BEFO
 json="{\"bench\":\"index\",\"dim\":$DIM,\"runs\":$RUNS,\"cores\":$(nproc),\"load_before\":\"$LOAD_BEFORE\",\"load_after\":\"$LOAD_AFTER\""
 for name in sliced bricked32 zstd; do
     c=$(col "$name" 4); i=$(col "$name" 5); b=$(col "$name" 6); r=$(col "$name" 7)
+    lo=$(awk -v n="$name" '$1 == n {print $7}' "$DIR/index-runs.txt" | sort -g | head -1)
+    hi=$(awk -v n="$name" '$1 == n {print $7}' "$DIR/index-runs.txt" | sort -g | tail -1)
     target="target <= 2x"
     if [ "$name" = zstd ]; then
         target=$(awk -v i="$i" -v c="$(col sliced 4)" 'BEGIN {
             printf "information: cat reads the compressed bytes; %.2fx cat of the sliced file", i/c }')
     fi
-    printf '  %-9s cat %6.3f s  vol-index %6.3f s (build %6.3f s)  ratio %5.2fx  (%s)\n' \
-        "$name" "$c" "$i" "$b" "$r" "$target"
+    printf '  %-9s cat %6.3f s  vol-index %6.3f s (build %6.3f s)  ratio %5.2fx (runs %s-%s)  (%s)\n' \
+        "$name" "$c" "$i" "$b" "$r" "$lo" "$hi" "$target"
     json="$json,\"${name}_cat_s\":$c,\"${name}_index_s\":$i,\"${name}_build_s\":$b,\"${name}_ratio\":$r"
+    json="$json,\"${name}_ratio_min\":$lo,\"${name}_ratio_max\":$hi"
 done
 printf '  thesis index build on this machine class: 7.6-8.9 s single-threaded for 800^3\n'
 printf '%s}\n' "$json" > "$DIR/index.json"

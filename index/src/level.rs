@@ -183,11 +183,11 @@ impl Level {
             for y in 0..c[1] {
                 let at = self.index(0, y, z);
                 let parent = (y / 2) as usize * pw..(y / 2 + 1) as usize * pw;
-                let kids = self.min[at..at + w].chunks(2).zip(self.max[at..at + w].chunks(2));
-                for ((p_lo, p_hi), (lo, hi)) in mn[parent.clone()]
-                    .iter_mut()
-                    .zip(&mut mx[parent])
-                    .zip(kids)
+                let kids = self.min[at..at + w]
+                    .chunks(2)
+                    .zip(self.max[at..at + w].chunks(2));
+                for ((p_lo, p_hi), (lo, hi)) in
+                    mn[parent.clone()].iter_mut().zip(&mut mx[parent]).zip(kids)
                 {
                     // A lone child at the far face pairs with itself.
                     let (l, h) = (lo[0].min(lo[lo.len() - 1]), hi[0].max(hi[hi.len() - 1]));
