@@ -14,6 +14,10 @@
 # machines whose kernel reclaims or splits cached pages in the background,
 # cat of the same file varies 2-3x within a minute); the two commands of a
 # run see the same state, so the per-run ratio is the figure to read.
+# Each run writes a new index (the previous one is removed, untimed):
+# replacing an existing file costs more on some file systems (ext4 starts
+# writing the new file out at once when a rename replaces another), which
+# is the file system's price for a safe replace, not the index build's.
 # Usage: scripts/bench-index.sh [DIM] [RUNS]  (default 800 11).
 # Set DIR to choose the directory (default out/bench); the volumes are kept
 # there and reused while their size matches (KEEP=0 removes them at the end).
@@ -52,6 +56,7 @@ for name in sliced bricked32 zstd; do
     bytes=$(stat -c %s "$f")
     for r in $(seq 1 "$RUNS"); do
         cat "$f" > /dev/null
+        rm -f "$DIR/index-$name.vidx"
         t0=$(now); cat "$f" > /dev/null; t1=$(now)
         t2=$(now); js=$("$B/vol-index" "$f" -o "$DIR/index-$name.vidx" --json); t3=$(now)
         build=$(printf '%s' "$js" | awk 'match($0, /"build_s":[0-9.eE+-]+/) {print substr($0, RSTART + 10, RLENGTH - 10)}')
