@@ -195,15 +195,10 @@ fn build(cli: &Cli) -> Result<()> {
     if after != fp {
         bail!("{vname}: the volume changed while it was being indexed: run vol-index again");
     }
+    drop(vol);
 
-    // Unmapping a volume whose pages were mapped while scanning costs
-    // milliseconds of page-table work: do it while the index is written.
     let t = Instant::now();
-    let bytes = std::thread::scope(|s| {
-        s.spawn(move || drop(vol));
-        write_index(&ix, &output)
-    })
-    .map_err(at(&oname))?;
+    let bytes = write_index(&ix, &output).map_err(at(&oname))?;
     let write_s = t.elapsed().as_secs_f64();
     let timing = Timing {
         load_s,
