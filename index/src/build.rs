@@ -146,7 +146,7 @@ fn build_grid<T: ScanSample>(
             build_walk(&BandWalk::new(SlicedFile(grid), edge), opts, fingerprint)
         }
         TypedGrid::Sliced(grid) => build_walk(&SlicedWalk { grid, edge }, opts, fingerprint),
-        TypedGrid::Bricked(grid) => build_walk(&BrickedWalk { grid }, opts, fingerprint),
+        TypedGrid::Bricked(grid) => build_walk(&BrickedWalk::new(grid), opts, fingerprint),
         TypedGrid::Compressed(grid) => build_walk(&CompressedWalk { grid }, opts, fingerprint),
     }
 }
@@ -672,7 +672,7 @@ mod tests {
     }
 
     /// Bricks of `grid` in a mapped file, `pad` samples apart beyond their
-    /// stored length (as padded files store them).
+    /// stored length (as padded files store them), read from the file.
     fn bricked_in_file<T: RandomSample>(grid: &BrickedGrid<T>, pad: usize) -> BrickedGrid<T> {
         let geom = *grid.geometry();
         let stride = geom.stored_len() + pad;

@@ -380,6 +380,17 @@ impl<T: Sample> BrickedGrid<T> {
         &self.geom
     }
 
+    /// Where the bricks live: brick `n` starts at sample
+    /// `n · brick_stride()` (for [`Data::read_at`]).
+    pub fn data(&self) -> &Data<T> {
+        &self.data
+    }
+
+    /// Samples from the start of one brick to the start of the next.
+    pub fn brick_stride(&self) -> usize {
+        self.stride
+    }
+
     /// The stored samples of brick `index` (apron included).
     pub fn brick(&self, index: u64) -> &[T] {
         let s = index as usize * self.stride;
