@@ -1,10 +1,11 @@
 //! Building an index: one parallel pass over the volume in storage order.
 //!
 //! The volume is walked as tasks of blocks (module `walk`): z slabs of
-//! cells for sliced volumes (samples borrowed from the memory map), rows of
-//! bricks for bricked ones (each brick's samples borrowed, or decoded once
-//! for zstd bricks), rows copied through [`VoxelSource::read_row`] for any
-//! other source. Every voxel is read exactly once.
+//! cells for sliced volumes, rows of bricks for bricked ones. Samples of a
+//! file are read from it into cache-sized buffers (a piece's band of rows,
+//! a run of bricks); samples in memory are borrowed; zstd bricks are
+//! decoded once each; any other source is copied through
+//! [`VoxelSource::read_row`]. Every voxel is read exactly once.
 //!
 //! A task whose accumulators are small (a row of bricks) is one *piece*;
 //! otherwise each block is cut into pieces of at most 32 slices and a
@@ -90,7 +91,8 @@ impl BuildOptions {
 /// Build the index of `src`, tagging it with the caller's `fingerprint` of
 /// the volume. Runs on the current rayon pool. Samples are copied through
 /// [`VoxelSource::read_row`]; [`build_volume`] reads sliced and bricked
-/// volumes in place and decodes zstd bricks once each, which is faster.
+/// files in large runs (or borrows samples in memory) and decodes zstd
+/// bricks once each, which is faster.
 pub fn build_source<S: VoxelSource>(
     src: &S,
     opts: &BuildOptions,
