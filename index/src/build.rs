@@ -688,7 +688,11 @@ mod tests {
     /// The same index, bit for bit, from a sliced volume and bricked
     /// copies, read through `read_row`, in place, or from mapped files
     /// with positioned reads, and on pools of 1, 2 and 7 threads.
-    fn check_layout_and_threads<T: RandomSample>(dims: Dims, kind: u8, edge: u32) -> Vec<u8> {
+    fn check_layout_and_threads<T: RandomSample + ScanSample>(
+        dims: Dims,
+        kind: u8,
+        edge: u32,
+    ) -> Vec<u8> {
         let samples: Vec<T> = random_samples(dims, 99, kind);
         let sliced = SlicedGrid::new(dims, Data::Owned(samples.clone())).unwrap();
         let opts = BuildOptions {
@@ -698,6 +702,14 @@ mod tests {
         let reference = to_bytes(&MajorantIndex::build(&sliced, &opts, 5).unwrap());
         let in_file = SlicedGrid::new(dims, file_data(&samples, 8)).unwrap();
         assert!(in_file.data().reads_file() == cfg!(unix));
+        // Blocks of one slice, smaller than the pieces (very wide rows).
+        let small = BandWalk::bounded(SlicedFile(&in_file), u64::from(edge), 1);
+        let got = to_bytes(&build_walk::<T>(&small, &opts, 5).unwrap());
+        assert!(
+            got == reference,
+            "{} sliced in small blocks differs",
+            T::TYPE
+        );
         let vol = volume_of(dims, TypedGrid::Sliced(in_file));
         let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
         assert!(got == reference, "{} sliced from a file differs", T::TYPE);

@@ -27,6 +27,10 @@ use std::sync::Mutex;
 use volcore::brick::APRON_LO;
 use volcore::{BrickGeometry, BrickedGrid, CompressedGrid, Dims, Sample, SlicedGrid, VoxelSource};
 
+/// Samples a band walk's block holds at most, unless one band of rows of
+/// one slice is larger.
+const BAND_SAMPLES: u64 = 1 << 22;
+
 /// Bytes the bricked walk reads from a file at once (whole bricks, at
 /// least one), so that they are still in cache when folded.
 const READ_BYTES: usize = 1 << 17;
@@ -253,15 +257,23 @@ impl<T: Sample> Buffers<T> {
 pub(crate) struct BandWalk<B, T> {
     src: B,
     edge: u64,
+    band_samples: u64,
     buffers: Buffers<T>,
 }
 
 impl<B: BandSource<T>, T: Sample> BandWalk<B, T> {
     /// Tasks of `edge` slices over `src`.
     pub fn new(src: B, edge: u64) -> Self {
+        Self::bounded(src, edge, BAND_SAMPLES)
+    }
+
+    /// [`BandWalk::new`] with blocks of at most `band_samples` samples
+    /// (unless one band of one slice is larger).
+    pub fn bounded(src: B, edge: u64, band_samples: u64) -> Self {
         BandWalk {
             src,
             edge,
+            band_samples,
             buffers: Buffers::new(),
         }
     }
@@ -290,6 +302,9 @@ impl<B: BandSource<T>, T: Sample> Walk<T> for BandWalk<B, T> {
         let (slices, rows) = piece_shape(d.x, slab.hi[2] - slab.lo[2], self.edge);
         let rows = rows.min(d.y);
         let row = d.x as usize;
+        // Very wide rows: fewer slices per block than per piece (each block
+        // then makes a piece of its own), keeping the buffer bounded.
+        let slices = slices.min((self.band_samples / (d.x * rows)).max(1));
         self.buffers.with(row * (rows * slices) as usize, |buf| {
             for z0 in slab.axis(2).step_by(slices as usize) {
                 let z1 = (z0 + slices).min(slab.hi[2]);
@@ -528,6 +543,9 @@ mod tests {
             let in_file = SlicedGrid::new(dims, file_data(&s, 4)).unwrap();
             for edge in [2, 3, 8] {
                 check_walk(&BandWalk::new(SlicedFile(&in_file), edge), &s, "file");
+                // Blocks of one slice, or one band of a slice.
+                let one = BandWalk::bounded(SlicedFile(&in_file), edge, 1);
+                check_walk(&one, &s, "file, small blocks");
             }
             for brick in [2, 5, 16] {
                 let geom = BrickGeometry::new(dims, brick).unwrap();
