@@ -73,7 +73,7 @@ macro_rules! int_scan {
 }
 
 // Chunks of 32 bytes: two SSE registers per bound.
-int_scan!(u8, 4, 32);
+int_scan!(u8, 8, 32);
 int_scan!(u16, 1, 16);
 int_scan!(i16, 1, 16);
 
@@ -412,7 +412,7 @@ impl ExactCounts {
     #[inline]
     pub fn add_run<T: ScanSample>(&mut self, v: T, n: u64) {
         if self.lanes > 0 {
-            self.counts[v.slot()] += n;
+            self.counts[v.slot() * self.lanes] += n;
         }
     }
 
@@ -435,19 +435,18 @@ impl ExactCounts {
         if self.lanes == 0 {
             return;
         }
-        if self.lanes == 4 {
-            let (t0, rest) = self.counts.split_at_mut(self.values);
-            let (t1, rest) = rest.split_at_mut(self.values);
-            let (t2, t3) = rest.split_at_mut(self.values);
-            let mut quads = part.chunks_exact(4);
-            for q in &mut quads {
-                t0[q[0].slot()] += 1;
-                t1[q[1].slot()] += 1;
-                t2[q[2].slot()] += 1;
-                t3[q[3].slot()] += 1;
+        if self.lanes == 8 {
+            // Lane k of value v at v·8 + k: neighbouring samples, often
+            // equal, update different words.
+            let counts = &mut self.counts[..self.values * 8];
+            let mut eights = part.chunks_exact(8);
+            for q in &mut eights {
+                for (k, v) in q.iter().enumerate() {
+                    counts[v.slot() * 8 + k] += 1;
+                }
             }
-            for v in quads.remainder() {
-                t0[v.slot()] += 1;
+            for (k, v) in eights.remainder().iter().enumerate() {
+                counts[v.slot() * 8 + k] += 1;
             }
         } else {
             for v in part {
@@ -466,13 +465,10 @@ impl ExactCounts {
 
     /// The count of each value slot, lanes summed (empty for `f32`).
     pub fn per_value(&self) -> Vec<u64> {
-        let mut out = vec![0u64; self.values];
-        for lane in self.counts.chunks_exact(self.values.max(1)) {
-            for (o, &c) in out.iter_mut().zip(lane) {
-                *o += c;
-            }
-        }
-        out
+        self.counts
+            .chunks_exact(self.lanes.max(1))
+            .map(|lanes| lanes.iter().sum())
+            .collect()
     }
 }
 
