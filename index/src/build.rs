@@ -244,6 +244,17 @@ fn build_walk<T: ScanSample>(
     opts: &BuildOptions,
     fingerprint: u64,
 ) -> Result<MajorantIndex, IndexError> {
+    build_walk_with(walk, opts, fingerprint, has_avx2())
+}
+
+/// [`build_walk`], its folds compiled for AVX2 when `avx2` (which must
+/// come from [`has_avx2`]).
+fn build_walk_with<T: ScanSample>(
+    walk: &dyn Walk<T>,
+    opts: &BuildOptions,
+    fingerprint: u64,
+    avx2: bool,
+) -> Result<MajorantIndex, IndexError> {
     let dims = walk.dims();
     let shapes = level_shapes(dims, opts.cell_edge);
     let cells = shapes[0];
@@ -258,7 +269,7 @@ fn build_walk<T: ScanSample>(
         let counts = (0..walk.tasks())
             .into_par_iter()
             .try_fold(ExactCounts::new::<T>, |mut counts, task| {
-                let part = scan_task(walk, edge, task, &mut counts)?;
+                let part = scan_task(walk, edge, task, &mut counts, avx2)?;
                 layers.merge(&part);
                 Ok::<_, IndexError>(counts)
             })
@@ -297,6 +308,7 @@ fn scan_task<T: ScanSample>(
     edge: u64,
     task: u64,
     counts: &mut ExactCounts,
+    avx2: bool,
 ) -> Result<CellBox<T>, IndexError> {
     let r = walk.task_region(task);
     let mut part = CellBox::new(cells_of(&r, edge));
@@ -306,24 +318,120 @@ fn scan_task<T: ScanSample>(
         acc.start(r.axis(0), r.axis(1), r.axis(2));
     }
     walk.blocks(task, &mut |block| {
-        if one_piece {
-            return add_block(&mut acc, &block, counts);
-        }
-        for_each_piece(&block, edge, |piece| {
-            let p = piece.region;
-            acc.start(p.axis(0), p.axis(1), p.axis(2));
-            add_block(&mut acc, piece, counts);
-            acc.finish(&mut part);
-        });
+        let pieces = (!one_piece).then_some(edge);
+        scan_block_on(avx2, &mut acc, &mut part, &block, pieces, counts);
     })?;
     if one_piece {
-        acc.finish(&mut part);
+        finish_on(avx2, &mut acc, &mut part);
     }
     Ok(part)
 }
 
+/// Whether the CPU runs AVX2, with which the scan's folds take 32 bytes
+/// per instruction rather than 16 (about a tenth less CPU time per build).
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// One block of a scan task: with `pieces` (the cell edge), cut into
+/// pieces of its own, each folded and finished into `part`; without, folded
+/// into the piece `acc` holds.
+#[inline(always)]
+fn scan_block<T: ScanSample>(
+    acc: &mut PieceRanges<T>,
+    part: &mut CellBox<T>,
+    block: &Block<'_, T>,
+    pieces: Option<u64>,
+    counts: &mut ExactCounts,
+) {
+    let Some(edge) = pieces else {
+        return add_block(acc, block, counts);
+    };
+    // Runs of slices, each cut into runs of rows (see `piece_shape`).
+    let r = block.region;
+    let (slices, rows) = piece_shape(r.hi[0] - r.lo[0], r.hi[2] - r.lo[2], edge);
+    for z in r.axis(2).step_by(slices as usize) {
+        let z1 = (z + slices).min(r.hi[2]);
+        for y in r.axis(1).step_by(rows as usize) {
+            let y1 = (y + rows).min(r.hi[1]);
+            acc.start(r.axis(0), y..y1, z..z1);
+            let piece = block.sub(Region {
+                lo: [r.lo[0], y, z],
+                hi: [r.hi[0], y1, z1],
+            });
+            add_block(acc, &piece, counts);
+            acc.finish(part);
+        }
+    }
+}
+
+/// [`scan_block`] compiled for AVX2.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn scan_block_avx2<T: ScanSample>(
+    acc: &mut PieceRanges<T>,
+    part: &mut CellBox<T>,
+    block: &Block<'_, T>,
+    pieces: Option<u64>,
+    counts: &mut ExactCounts,
+) {
+    scan_block(acc, part, block, pieces, counts);
+}
+
+/// [`scan_block`], compiled for AVX2 when `avx2` (which must come from
+/// [`has_avx2`]).
+fn scan_block_on<T: ScanSample>(
+    avx2: bool,
+    acc: &mut PieceRanges<T>,
+    part: &mut CellBox<T>,
+    block: &Block<'_, T>,
+    pieces: Option<u64>,
+    counts: &mut ExactCounts,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` says the CPU supports AVX2.
+        return unsafe { scan_block_avx2(acc, part, block, pieces, counts) };
+    }
+    let _ = avx2;
+    scan_block(acc, part, block, pieces, counts);
+}
+
+/// [`PieceRanges::finish`] compiled for AVX2.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn finish_avx2<T: ScanSample>(acc: &mut PieceRanges<T>, part: &mut CellBox<T>) {
+    acc.finish(part);
+}
+
+/// [`PieceRanges::finish`], compiled for AVX2 when `avx2` (which must come
+/// from [`has_avx2`]).
+fn finish_on<T: ScanSample>(avx2: bool, acc: &mut PieceRanges<T>, part: &mut CellBox<T>) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` says the CPU supports AVX2.
+        return unsafe { finish_avx2(acc, part) };
+    }
+    let _ = avx2;
+    acc.finish(part);
+}
+
 /// Fold the voxels of `block` (inside the piece `acc` holds) into `acc`,
 /// counting them.
+#[inline(always)]
 fn add_block<T: ScanSample>(
     acc: &mut PieceRanges<T>,
     block: &Block<'_, T>,
@@ -338,23 +446,6 @@ fn add_block<T: ScanSample>(
 
 /// Accumulator elements (per bound) up to which a whole task is one piece.
 const TASK_ACC: u64 = 1 << 16;
-
-/// Call `f` with pieces covering `block`, in its storage order: runs of
-/// slices, each cut into runs of rows (see [`piece_shape`]).
-fn for_each_piece<'a, T>(block: &Block<'a, T>, edge: u64, mut f: impl FnMut(&Block<'a, T>)) {
-    let r = block.region;
-    let (slices, rows) = piece_shape(r.hi[0] - r.lo[0], r.hi[2] - r.lo[2], edge);
-    for z in r.axis(2).step_by(slices as usize) {
-        let z1 = (z + slices).min(r.hi[2]);
-        for y in r.axis(1).step_by(rows as usize) {
-            let y1 = (y + rows).min(r.hi[1]);
-            f(&block.sub(Region {
-                lo: [r.lo[0], y, z],
-                hi: [r.hi[0], y1, z1],
-            }));
-        }
-    }
-}
 
 /// The `f32` histogram: a second pass binning every sample over the range
 /// of the finite samples (found with a third pass only when the global
@@ -702,6 +793,14 @@ mod tests {
         let reference = to_bytes(&MajorantIndex::build(&sliced, &opts, 5).unwrap());
         let in_file = SlicedGrid::new(dims, file_data(&samples, 8)).unwrap();
         assert!(in_file.data().reads_file() == cfg!(unix));
+        // The folds compiled for AVX2 and without give the same bits.
+        if has_avx2() {
+            for avx2 in [false, true] {
+                let walk = BandWalk::new(SlicedFile(&in_file), u64::from(edge));
+                let got = to_bytes(&build_walk_with::<T>(&walk, &opts, 5, avx2).unwrap());
+                assert!(got == reference, "{} with avx2 {avx2} differs", T::TYPE);
+            }
+        }
         // Blocks of one slice, smaller than the pieces (very wide rows).
         let small = BandWalk::bounded(SlicedFile(&in_file), u64::from(edge), 1);
         let got = to_bytes(&build_walk::<T>(&small, &opts, 5).unwrap());
@@ -720,6 +819,11 @@ mod tests {
             let grid = bricked(&sliced, brick);
             let got = to_bytes(&MajorantIndex::build(&grid, &opts, 5).unwrap());
             assert!(got == reference, "{} bricked:{brick} differs", T::TYPE);
+            for avx2 in [false, has_avx2()] {
+                let walk = BrickedWalk::new(&grid);
+                let got = to_bytes(&build_walk_with::<T>(&walk, &opts, 5, avx2).unwrap());
+                assert!(got == reference, "{} bricked, avx2 {avx2} differs", T::TYPE);
+            }
             for pad in [0, 3] {
                 let vol = volume_of(dims, TypedGrid::Bricked(bricked_in_file(&grid, pad)));
                 let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());

@@ -180,6 +180,7 @@ impl<T: ScanSample> PieceRanges<T> {
     /// count them into `counts`. Each row goes into every cell row whose
     /// footprint holds it: one, two (a boundary row or slice) or four; it
     /// is counted once.
+    #[inline(always)]
     pub fn add_slice(
         &mut self,
         z: u64,
@@ -245,6 +246,7 @@ impl<T: ScanSample> PieceRanges<T> {
     }
 
     /// Fold the piece's range of each cell it meets into `cells`.
+    #[inline(always)]
     pub fn finish(&mut self, cells: &mut CellBox<T>) {
         let (e, xs, w) = (self.edge, self.xs.clone(), self.width());
         let full = e as usize + 1;
@@ -297,6 +299,7 @@ impl<T: ScanSample> Windows<T> {
     }
 
     /// Prepare for windows of `len` elements of the row `lo`, `hi`.
+    #[inline(always)]
     fn prepare(&mut self, lo: &[T], hi: &[T], len: usize) {
         // The first pass reads the row itself.
         let mut s = 1;
