@@ -794,21 +794,23 @@ mod tests {
         let in_file = SlicedGrid::new(dims, file_data(&samples, 8)).unwrap();
         assert!(in_file.data().reads_file() == cfg!(unix));
         // The folds compiled for AVX2 and without give the same bits.
+        let bits_with = |walk: &dyn Walk<T>, avx2: bool| {
+            to_bytes(&build_walk_with(walk, &opts, 5, avx2).unwrap())
+        };
         if has_avx2() {
             for avx2 in [false, true] {
                 let walk = BandWalk::new(SlicedFile(&in_file), u64::from(edge));
-                let got = to_bytes(&build_walk_with::<T>(&walk, &opts, 5, avx2).unwrap());
-                assert!(got == reference, "{} with avx2 {avx2} differs", T::TYPE);
+                assert!(
+                    bits_with(&walk, avx2) == reference,
+                    "{} avx2 {avx2}",
+                    T::TYPE
+                );
             }
         }
         // Blocks of one slice, smaller than the pieces (very wide rows).
         let small = BandWalk::bounded(SlicedFile(&in_file), u64::from(edge), 1);
-        let got = to_bytes(&build_walk::<T>(&small, &opts, 5).unwrap());
-        assert!(
-            got == reference,
-            "{} sliced in small blocks differs",
-            T::TYPE
-        );
+        let what = format!("{} sliced in small blocks", T::TYPE);
+        assert!(bits_with(&small, has_avx2()) == reference, "{what}");
         let vol = volume_of(dims, TypedGrid::Sliced(in_file));
         let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
         assert!(got == reference, "{} sliced from a file differs", T::TYPE);
@@ -821,8 +823,8 @@ mod tests {
             assert!(got == reference, "{} bricked:{brick} differs", T::TYPE);
             for avx2 in [false, has_avx2()] {
                 let walk = BrickedWalk::new(&grid);
-                let got = to_bytes(&build_walk_with::<T>(&walk, &opts, 5, avx2).unwrap());
-                assert!(got == reference, "{} bricked, avx2 {avx2} differs", T::TYPE);
+                let what = format!("{} bricked:{brick}, avx2 {avx2}", T::TYPE);
+                assert!(bits_with(&walk, avx2) == reference, "{what}");
             }
             for pad in [0, 3] {
                 let vol = volume_of(dims, TypedGrid::Bricked(bricked_in_file(&grid, pad)));
