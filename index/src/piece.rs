@@ -33,9 +33,9 @@ pub(crate) fn cells_meeting(vs: Range<u64>, edge: u64) -> Range<u64> {
 
 /// Accumulator elements a piece aims for (per bound), so that its
 /// accumulator rows stay in cache.
-pub(crate) const PIECE_ACC: u64 = 1 << 15;
+const PIECE_ACC: u64 = 1 << 15;
 /// Most slices in one piece (fewer streams through memory at once).
-pub(crate) const PIECE_SLICES: u64 = 32;
+const PIECE_SLICES: u64 = 32;
 
 /// Slices and rows of the pieces of a block `width × depth` voxels wide
 /// and deep: at most [`PIECE_SLICES`] slices, and rows (a multiple of the
