@@ -11,7 +11,7 @@
 //! [`CellBox`]. A cell cut by the piece's edges gets the part of its range
 //! the piece holds; other pieces add the rest.
 
-use crate::scan::{range_to_f32, Bounds, ExactCounts, Order, ScanSample};
+use crate::scan::{Avx2, Bounds, BoxTargets, ExactCounts, Order, RowBox, ScanSample};
 use std::ops::Range;
 
 /// The cells along one axis whose footprint holds voxel `v`: cell
@@ -97,12 +97,21 @@ impl<T: ScanSample> CellBox<T> {
         (&mut self.lo[i..i + n], &mut self.hi[i..i + n])
     }
 
+    /// The native ranges (lower, upper bounds) of the whole cell row
+    /// `(cy, cz)` (inside the box).
+    #[inline(always)]
+    pub fn row(&self, cy: u64, cz: u64) -> (&[T], &[T]) {
+        let i = self.offset(self.cells[0].start, cy, cz);
+        let n = (self.cells[0].end - self.cells[0].start) as usize;
+        (&self.lo[i..i + n], &self.hi[i..i + n])
+    }
+
     /// The range of cell `(cx, cy, cz)` (inside the box), widened to
     /// `f32` with [`range_to_f32`].
-    #[inline(always)]
+    #[cfg(test)]
     pub fn range(&self, cx: u64, cy: u64, cz: u64) -> (f32, f32) {
         let i = self.offset(cx, cy, cz);
-        range_to_f32(self.lo[i], self.hi[i])
+        crate::scan::range_to_f32(self.lo[i], self.hi[i])
     }
 }
 
@@ -113,6 +122,7 @@ impl<T: ScanSample> CellBox<T> {
 pub(crate) struct PieceRanges<T> {
     edge: u64,
     order: Order,
+    cpu: Option<Avx2>,
     xs: Range<u64>,
     ys: Range<u64>,
     layers: Range<u64>,
@@ -124,11 +134,13 @@ pub(crate) struct PieceRanges<T> {
 
 impl<T: ScanSample> PieceRanges<T> {
     /// An accumulator for cells of `edge` voxels (no piece started),
-    /// folding samples that come from memory as `order` says.
-    pub fn new(edge: u64, order: Order) -> Self {
+    /// folding samples that come from memory as `order` says, on AVX2
+    /// registers if `cpu` is given.
+    pub fn new(edge: u64, order: Order, cpu: Option<Avx2>) -> Self {
         PieceRanges {
             edge,
             order,
+            cpu,
             xs: 0..0,
             ys: 0..0,
             layers: 0..0,
@@ -173,6 +185,112 @@ impl<T: ScanSample> PieceRanges<T> {
     fn at(&self, cy: u64, cz: u64) -> usize {
         let nb = self.bands.end - self.bands.start;
         ((cz - self.layers.start) * nb + (cy - self.bands.start)) as usize * self.width()
+    }
+
+    /// Fold voxels `xs × ys × zs` (inside the piece) into the piece and
+    /// count them into `counts`: row `(y, z)` starts at
+    /// `data[(z − zs.start)·plane + (y − ys.start)·stride]`. Each sample
+    /// goes into every cell row whose footprint holds it (see
+    /// [`PieceRanges::add_slice`]); it is counted once.
+    ///
+    /// Samples from a cache-sized copy are folded a box at a time (the
+    /// rows of one cell row and layer, aprons in registers, see
+    /// [`RowBox`]); streamed ones slice by slice.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn add_box(
+        &mut self,
+        xs: Range<u64>,
+        ys: Range<u64>,
+        zs: Range<u64>,
+        data: &[T],
+        stride: usize,
+        plane: usize,
+        counts: &mut ExactCounts,
+    ) {
+        if self.order == Order::Stream {
+            for z in zs.clone() {
+                let at = (z - zs.start) as usize * plane;
+                self.add_slice(z, xs.clone(), ys.clone(), &data[at..], stride, counts);
+            }
+            return;
+        }
+        let e = self.edge;
+        let x0 = (xs.start - self.xs.start) as usize;
+        let cols = x0..x0 + (xs.end - xs.start) as usize;
+        // Slices z .. z1 hold voxels of cell layer cz; a first slice at a
+        // layer's start is also the far apron of the layer before (and
+        // likewise for rows y .. y1 of cell row cy).
+        let mut z = zs.start;
+        while z < zs.end {
+            let cz = z / e;
+            let z1 = ((cz + 1) * e).min(zs.end);
+            let slice_apron = z > 0 && z == cz * e;
+            let mut y = ys.start;
+            while y < ys.end {
+                let cy = y / e;
+                let y1 = ((cy + 1) * e).min(ys.end);
+                let row_apron = y > 0 && y == cy * e;
+                let at = (z - zs.start) as usize * plane + (y - ys.start) as usize * stride;
+                let rows = RowBox {
+                    data: &data[at..],
+                    stride,
+                    plane,
+                    rows: (y1 - y) as usize,
+                    slices: (z1 - z) as usize,
+                };
+                let cpu = self.cpu;
+                let targets = self.targets(cy, cz, row_apron, slice_apron, &cols);
+                T::fold_box(cpu, targets, rows, Some(&mut *counts));
+                y = y1;
+            }
+            z = z1;
+        }
+    }
+
+    /// Columns `cols` of the accumulator rows a box of cell row `cy`, layer
+    /// `cz` folds into: its own and, when its first row and/or slice is an
+    /// apron, the previous cell row's, layer's, or both.
+    #[inline(always)]
+    fn targets(
+        &mut self,
+        cy: u64,
+        cz: u64,
+        row_apron: bool,
+        slice_apron: bool,
+        cols: &Range<usize>,
+    ) -> BoxTargets<'_, T> {
+        let w = self.width();
+        // Row offsets in increasing order: corner, slice apron, row apron.
+        let aprons = [
+            (row_apron && slice_apron).then(|| self.at(cy - 1, cz - 1)),
+            slice_apron.then(|| self.at(cy, cz - 1)),
+            row_apron.then(|| self.at(cy - 1, cz)),
+        ];
+        let own = self.at(cy, cz);
+        let (mut lo, mut hi) = (self.lo.as_mut_slice(), self.hi.as_mut_slice());
+        let mut base = 0;
+        let mut out = [None, None, None];
+        for (slot, o) in out.iter_mut().zip(aprons) {
+            let Some(o) = o else { continue };
+            let (row_lo, rest_lo) = lo[o - base..].split_at_mut(w);
+            let (row_hi, rest_hi) = hi[o - base..].split_at_mut(w);
+            *slot = Some(Bounds {
+                lo: &mut row_lo[cols.clone()],
+                hi: &mut row_hi[cols.clone()],
+            });
+            (lo, hi, base) = (rest_lo, rest_hi, o + w);
+        }
+        let [corner, slice_apron, row_apron] = out;
+        BoxTargets {
+            cell: Bounds {
+                lo: &mut lo[own - base..][cols.clone()],
+                hi: &mut hi[own - base..][cols.clone()],
+            },
+            row_apron,
+            slice_apron,
+            corner,
+        }
     }
 
     /// Fold voxels `xs × ys` (inside the piece) of slice `z` into the
@@ -251,39 +369,57 @@ impl<T: ScanSample> PieceRanges<T> {
         let (e, xs, w) = (self.edge, self.xs.clone(), self.width());
         let full = e as usize + 1;
         let cxs = cells_meeting(xs.clone(), e);
+        // Cells whose whole footprint `c·e ..= c·e + e` lies in the piece's
+        // columns, as a range of cells and of offsets in the output rows.
+        let first_whole = xs.start.div_ceil(e).clamp(cxs.start, cxs.end);
+        let end_whole = match xs.end > e {
+            true => ((xs.end - 1 - e) / e + 1).clamp(first_whole, cxs.end),
+            false => first_whole,
+        };
+        let whole = (first_whole - cxs.start) as usize..(end_whole - cxs.start) as usize;
+        let a0 = (first_whole * e).saturating_sub(xs.start) as usize;
         for cz in self.layers.clone() {
             for cy in self.bands.clone() {
                 let o = self.at(cy, cz);
                 let (lo, hi) = (&self.lo[o..o + w], &self.hi[o..o + w]);
                 self.windows.prepare(lo, hi, full);
                 let (out_lo, out_hi) = cells.row_mut(cxs.clone(), cy, cz);
-                let outs = out_lo.iter_mut().zip(out_hi.iter_mut());
-                for (cx, (out_lo, out_hi)) in cxs.clone().zip(outs) {
-                    let a = ((cx * e).max(xs.start) - xs.start) as usize;
-                    let b = ((cx * e + e).min(xs.end - 1) - xs.start) as usize;
-                    // Cells cut by the piece's or the volume's edge: a fold.
-                    let (l, h) = match b + 1 - a == full {
-                        true => self.windows.range(a, full),
-                        false => span(lo, hi, a, b),
-                    };
+                // Whole cells: two lookups each.
+                let ranges = self.windows.ranges(a0, e as usize, full);
+                let outs = out_lo[whole.clone()].iter_mut();
+                let outs = outs.zip(out_hi[whole.clone()].iter_mut());
+                for ((out_lo, out_hi), (l, h)) in outs.zip(ranges) {
                     *out_lo = T::lower(*out_lo, l);
                     *out_hi = T::upper(*out_hi, h);
+                }
+                // Cells cut by the piece's or the volume's edge: a fold.
+                let cut = (0..whole.start).chain(whole.end..out_lo.len());
+                for k in cut {
+                    let cx = cxs.start + k as u64;
+                    let a = ((cx * e).max(xs.start) - xs.start) as usize;
+                    let b = ((cx * e + e).min(xs.end - 1) - xs.start) as usize;
+                    let (l, h) = span(lo, hi, a, b);
+                    out_lo[k] = T::lower(out_lo[k], l);
+                    out_hi[k] = T::upper(out_hi[k], h);
                 }
             }
         }
     }
 }
 
+/// Elements per step of a doubling pass: whole vector registers, so that
+/// no pass ends in a scalar tail.
+const STEP: usize = 32;
+
 /// The ranges of windows of one length over an accumulator row, by
 /// doubling: after `k` passes element `i` holds the range of elements
 /// `i .. i + 2^k`, so a window is the union of two overlapping
 /// power-of-two spans. A cell then costs two lookups, not a fold over its
-/// `edge + 1` columns, and the passes vectorise.
+/// `edge + 1` columns, and the passes vectorise. The row is padded with
+/// empty ranges (the folds' identities) to whole steps and beyond.
 struct Windows<T> {
     lo: Vec<T>,
     hi: Vec<T>,
-    spare_lo: Vec<T>,
-    spare_hi: Vec<T>,
     span: usize,
 }
 
@@ -292,8 +428,6 @@ impl<T: ScanSample> Windows<T> {
         Windows {
             lo: Vec::new(),
             hi: Vec::new(),
-            spare_lo: Vec::new(),
-            spare_hi: Vec::new(),
             span: 1,
         }
     }
@@ -301,47 +435,64 @@ impl<T: ScanSample> Windows<T> {
     /// Prepare for windows of `len` elements of the row `lo`, `hi`.
     #[inline(always)]
     fn prepare(&mut self, lo: &[T], hi: &[T], len: usize) {
-        // The first pass reads the row itself.
-        let mut s = 1;
-        if 2 <= len && 1 < lo.len() {
-            double(lo, &mut self.lo, 1, T::lower);
-            double(hi, &mut self.hi, 1, T::upper);
-            s = 2;
-        } else {
-            self.lo.clear();
-            self.lo.extend_from_slice(lo);
-            self.hi.clear();
-            self.hi.extend_from_slice(hi);
-        }
+        let n = lo.len().min(hi.len());
+        let steps = n.div_ceil(STEP) * STEP;
+        // A pass reads `s < len` elements past each step.
+        padded(&mut self.lo, &lo[..n], steps + len, T::TOP);
+        padded(&mut self.hi, &hi[..n], steps + len, T::BOTTOM);
         // A row shorter than a window holds no window: stop when the
         // passes run out of elements.
-        while 2 * s <= len && s < self.lo.len() {
-            double(&self.lo, &mut self.spare_lo, s, T::lower);
-            double(&self.hi, &mut self.spare_hi, s, T::upper);
-            std::mem::swap(&mut self.lo, &mut self.spare_lo);
-            std::mem::swap(&mut self.hi, &mut self.spare_hi);
+        let mut s = 1;
+        while 2 * s <= len && s < n {
+            double(&mut self.lo, steps, s, T::lower);
+            double(&mut self.hi, steps, s, T::upper);
             s *= 2;
         }
         self.span = s;
     }
 
-    /// The range of the window of `len` elements (as prepared) from `a`;
-    /// the window must lie in the row.
+    /// The ranges of the windows of `len` elements (as prepared) starting
+    /// at `a`, `a + step`, `a + 2·step`, … (a window reaching past the
+    /// row's end holds the range of its part in the row).
     #[inline(always)]
-    fn range(&self, a: usize, len: usize) -> (T, T) {
+    fn ranges(&self, a: usize, step: usize, len: usize) -> impl Iterator<Item = (T, T)> + '_ {
+        // Each window is the union of the spans from its start and from
+        // `len − span` further on.
         let b = a + len - self.span;
-        (
-            T::lower(self.lo[a], self.lo[b]),
-            T::upper(self.hi[a], self.hi[b]),
-        )
+        let lo = self.lo[a..]
+            .iter()
+            .step_by(step)
+            .zip(self.lo[b..].iter().step_by(step));
+        let hi = self.hi[a..]
+            .iter()
+            .step_by(step)
+            .zip(self.hi[b..].iter().step_by(step));
+        lo.zip(hi)
+            .map(|((&la, &lb), (&ha, &hb))| (T::lower(la, lb), T::upper(ha, hb)))
     }
 }
 
-/// One doubling pass: `dst[i] = f(src[i], src[i + s])`.
+/// `buf` set to `row` followed by `pad` up to `len` elements.
 #[inline(always)]
-fn double<T: Copy>(src: &[T], dst: &mut Vec<T>, s: usize, f: impl Fn(T, T) -> T) {
-    dst.clear();
-    dst.extend(src.iter().zip(&src[s..]).map(|(&a, &b)| f(a, b)));
+fn padded<T: Copy>(buf: &mut Vec<T>, row: &[T], len: usize, pad: T) {
+    buf.clear();
+    buf.extend_from_slice(row);
+    buf.resize(len, pad);
+}
+
+/// One doubling pass in place over the first `steps` elements (a multiple
+/// of [`STEP`]; `v` holds at least `s` more): `v[i] = f(v[i], v[i + s])`.
+/// Going up, `v[i + s]` still holds the previous pass's value when read.
+#[inline(always)]
+fn double<T: Copy>(v: &mut [T], steps: usize, s: usize, f: impl Fn(T, T) -> T) {
+    for i in (0..steps).step_by(STEP) {
+        let ahead = &v[i + s..i + s + STEP];
+        let b: [T; STEP] = std::array::from_fn(|k| ahead[k]);
+        let a = &mut v[i..i + STEP];
+        for k in 0..STEP {
+            a[k] = f(a[k], b[k]);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -351,7 +502,7 @@ mod tests {
     #[test]
     fn f32_folds_skip_nan_and_canonicalise_zero() {
         let n = f32::NAN;
-        let mut r = PieceRanges::<f32>::new(2, Order::Cached);
+        let mut r = PieceRanges::<f32>::new(2, Order::Cached, None);
         r.start(0..5, 0..1, 0..2);
         let mut counts = ExactCounts::new::<f32>();
         r.add_slice(0, 0..5, 0..1, &[1.0, n, -0.0, n, n], 5, &mut counts);
@@ -370,7 +521,7 @@ mod tests {
         // Edge 2 over 5 x 5 x 3 voxels: voxel 2 on each axis is also the
         // apron of cell 0, voxel 4 of cell 1.
         let mut cells = CellBox::new([0..3, 0..3, 0..2]);
-        let mut r = PieceRanges::<u8>::new(2, Order::Stream);
+        let mut r = PieceRanges::<u8>::new(2, Order::Stream, None);
         let mut counts = ExactCounts::new::<u8>();
         let v: Vec<u8> = (0..75).collect();
         // Three pieces splitting y at 3 and z at 2, the last one fed in
@@ -415,12 +566,19 @@ mod tests {
             let hi: Vec<i16> = (0..n).map(|_| rng.i16(..)).collect();
             for len in [2usize, 3, 4, 5, 9, 17, 33, 65] {
                 w.prepare(&lo, &hi, len);
-                for a in 0..(n + 1).saturating_sub(len) {
-                    assert_eq!(
-                        w.range(a, len),
-                        span(&lo, &hi, a, a + len - 1),
-                        "{n} {len} {a}"
-                    );
+                let starts = (n + 1).saturating_sub(len);
+                for a in 0..starts {
+                    let want = span(&lo, &hi, a, a + len - 1);
+                    let got = w.ranges(a, 1, len).next();
+                    assert_eq!(got, Some(want), "{n} {len} {a}");
+                    for (k, got) in w
+                        .ranges(a, 3, len)
+                        .take((starts - a).div_ceil(3))
+                        .enumerate()
+                    {
+                        let a = a + 3 * k;
+                        assert_eq!(got, span(&lo, &hi, a, a + len - 1), "{n} {len} {a} by 3");
+                    }
                 }
             }
         }

@@ -2,6 +2,7 @@
 //! blocks of rows in the native sample type (no `f32` conversion per
 //! voxel), and exact per-value counting for integer types.
 
+use std::ops::Range;
 use volcore::Sample;
 
 /// A sample type the build pass scans natively.
@@ -34,7 +35,58 @@ pub(crate) trait ScanSample: Sample {
         counts: Option<&mut ExactCounts>,
         order: Order,
     );
+    /// [`fold_box`] with the register chunk width that suits the type, on
+    /// AVX2 registers when `cpu` says the CPU has them.
+    fn fold_box(
+        cpu: Option<Avx2>,
+        targets: BoxTargets<'_, Self>,
+        rows: RowBox<'_, Self>,
+        counts: Option<&mut ExactCounts>,
+    );
 }
+
+/// Proof that the CPU runs AVX2: only [`Avx2::detect`] makes one, and only
+/// where it does.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Avx2(());
+
+impl Avx2 {
+    /// The proof, if the CPU runs AVX2.
+    pub fn detect() -> Option<Avx2> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return Some(Avx2(()));
+        }
+        None
+    }
+}
+
+/// [`fold_box`] with chunks of `L` samples, on AVX2 registers when `cpu`
+/// says the CPU has them (`L` samples are then 32 bytes).
+#[inline(always)]
+fn fold_box_on<T: ScanSample + FoldLanes, const L: usize>(
+    cpu: Option<Avx2>,
+    targets: BoxTargets<'_, T>,
+    rows: RowBox<'_, T>,
+    counts: Option<&mut ExactCounts>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(cpu) = cpu {
+        // SAFETY: `cpu` proves the CPU supports AVX2.
+        return unsafe { crate::avx2::fold_box::<T, L>(cpu, targets, rows, counts) };
+    }
+    let _ = cpu;
+    fold_box::<T, L>(targets, rows, counts);
+}
+
+/// The AVX2 lane operations where there are any.
+#[cfg(target_arch = "x86_64")]
+use crate::avx2::Lanes as FoldLanes;
+/// Nothing extra elsewhere.
+#[cfg(not(target_arch = "x86_64"))]
+trait FoldLanes {}
+#[cfg(not(target_arch = "x86_64"))]
+impl<T> FoldLanes for T {}
 
 macro_rules! int_scan {
     ($t:ty, $lanes:expr, $chunk:expr) => {
@@ -67,6 +119,15 @@ macro_rules! int_scan {
                 order: Order,
             ) {
                 fold_block::<$t, $chunk>(acc, apron, block, stride, rows, counts, order);
+            }
+            #[inline(always)]
+            fn fold_box(
+                cpu: Option<Avx2>,
+                targets: BoxTargets<'_, Self>,
+                rows: RowBox<'_, Self>,
+                counts: Option<&mut ExactCounts>,
+            ) {
+                fold_box_on::<$t, $chunk>(cpu, targets, rows, counts);
             }
         }
     };
@@ -115,6 +176,15 @@ impl ScanSample for f32 {
         order: Order,
     ) {
         fold_block::<f32, 8>(acc, apron, block, stride, rows, counts, order);
+    }
+    #[inline(always)]
+    fn fold_box(
+        cpu: Option<Avx2>,
+        targets: BoxTargets<'_, Self>,
+        rows: RowBox<'_, Self>,
+        counts: Option<&mut ExactCounts>,
+    ) {
+        fold_box_on::<f32, 8>(cpu, targets, rows, counts);
     }
 }
 
@@ -313,6 +383,217 @@ fn fold_chunks<T: ScanSample, const L: usize>(
     }
 }
 
+/// A box of sample rows in a cache-sized buffer: `slices` slices of `rows`
+/// rows each, row `(z, r)` starting at `data[z·plane + r·stride]`, as wide
+/// as the accumulator rows it is folded into.
+#[derive(Clone, Copy)]
+pub(crate) struct RowBox<'a, T> {
+    /// The samples, from the first row of the first slice on.
+    pub data: &'a [T],
+    /// Distance between neighbouring rows of a slice.
+    pub stride: usize,
+    /// Distance between neighbouring slices.
+    pub plane: usize,
+    /// Rows per slice (at least one).
+    pub rows: usize,
+    /// Slices (at least one).
+    pub slices: usize,
+}
+
+impl<T> RowBox<'_, T> {
+    /// Offset of row `(z, r)` in `data`.
+    #[inline(always)]
+    pub fn at(&self, z: usize, r: usize) -> usize {
+        z * self.plane + r * self.stride
+    }
+}
+
+/// The accumulator rows a [`RowBox`] folds into: every sample goes into
+/// `cell`; when the box's first row is also the far apron of the cell row
+/// before, its first row goes into `row_apron`; likewise its first slice
+/// into `slice_apron`, and the row that is both into `corner`.
+pub(crate) struct BoxTargets<'a, T> {
+    /// The cell row the box's samples belong to.
+    pub cell: Bounds<'a, T>,
+    /// The previous cell row's, when the first row is its apron.
+    pub row_apron: Option<Bounds<'a, T>>,
+    /// The previous cell layer's, when the first slice is its apron.
+    pub slice_apron: Option<Bounds<'a, T>>,
+    /// The previous cell layer's previous cell row's, when both are.
+    pub corner: Option<Bounds<'a, T>>,
+}
+
+impl<T> BoxTargets<'_, T> {
+    /// Columns of the targets.
+    pub fn width(&self) -> usize {
+        self.cell.lo.len().min(self.cell.hi.len())
+    }
+}
+
+/// Fold a box of rows element-wise into its targets and count its samples
+/// into `counts` if given.
+///
+/// Each `L`-column chunk goes down every row of every slice once with its
+/// bounds in registers, kept apart for the first slice, the first row and
+/// the rest, so that apron rows are not read twice and the accumulators
+/// are loaded and stored once per box; a chunk column of one value (empty
+/// space, mostly) is counted in one step. The AVX2 build of this loop is
+/// `avx2::fold_box`; both end with [`fold_box_rest`].
+#[inline(always)]
+fn fold_box<T: ScanSample, const L: usize>(
+    mut t: BoxTargets<'_, T>,
+    b: RowBox<'_, T>,
+    counts: Option<&mut ExactCounts>,
+) {
+    let w = t.width();
+    let mut counts = counts.filter(|_| T::EXACT_VALUES > 0);
+    let mut run = Run::<T, L>::new();
+    let chunk = |z: usize, r: usize, x: usize| -> &[T] {
+        let o = b.at(z, r) + x;
+        &b.data[o..o + L]
+    };
+    let mut x = 0;
+    while x + L <= w {
+        // The first row of the first slice, the rest of the first slice,
+        // the first rows of the other slices, and everything else.
+        let (mut corner_lo, mut corner_hi) = ([T::TOP; L], [T::BOTTOM; L]);
+        fold_regs(&mut corner_lo, &mut corner_hi, chunk(0, 0, x));
+        let (mut slice_lo, mut slice_hi) = (corner_lo, corner_hi);
+        for r in 1..b.rows {
+            fold_regs(&mut slice_lo, &mut slice_hi, chunk(0, r, x));
+        }
+        let (mut row_lo, mut row_hi) = (corner_lo, corner_hi);
+        let (mut lo, mut hi) = ([T::TOP; L], [T::BOTTOM; L]);
+        for z in 1..b.slices {
+            fold_regs(&mut row_lo, &mut row_hi, chunk(z, 0, x));
+            for r in 1..b.rows {
+                fold_regs(&mut lo, &mut hi, chunk(z, r, x));
+            }
+        }
+        for i in 0..L {
+            lo[i] = T::lower(T::lower(lo[i], slice_lo[i]), row_lo[i]);
+            hi[i] = T::upper(T::upper(hi[i], slice_hi[i]), row_hi[i]);
+        }
+        let cols = x..x + L;
+        fold_bounds::<T, L>(&mut t.cell, &cols, &lo, &hi);
+        if let Some(a) = t.row_apron.as_mut() {
+            fold_bounds::<T, L>(a, &cols, &row_lo, &row_hi);
+        }
+        if let Some(a) = t.slice_apron.as_mut() {
+            fold_bounds::<T, L>(a, &cols, &slice_lo, &slice_hi);
+        }
+        if let Some(a) = t.corner.as_mut() {
+            fold_bounds::<T, L>(a, &cols, &corner_lo, &corner_hi);
+        }
+        if let Some(c) = counts.as_deref_mut() {
+            // One value throughout when every bound is the first minimum
+            // (a branch-free fold, so the comparisons vectorise).
+            let v = lo[0];
+            let one = (0..L).fold(true, |u, i| u & (lo[i] == v) & (hi[i] == v));
+            count_column(c, &mut run, b, x, one);
+        }
+        x += L;
+    }
+    fold_box_rest(t, b, x, counts, run);
+}
+
+/// Count the chunk column at `x` of a box: at once when it holds one
+/// value throughout (`one`), else chunk by chunk.
+#[inline(always)]
+pub(crate) fn count_column<T: ScanSample, const L: usize>(
+    counts: &mut ExactCounts,
+    run: &mut Run<T, L>,
+    b: RowBox<'_, T>,
+    x: usize,
+    one: bool,
+) {
+    if one {
+        run.add_uniform(counts, b.data[x], (L * b.rows * b.slices) as u64);
+        return;
+    }
+    for z in 0..b.slices {
+        for r in 0..b.rows {
+            let o = b.at(z, r) + x;
+            run.add(counts, &b.data[o..o + L]);
+        }
+    }
+}
+
+/// Finish [`fold_box`] from column `x` on (fewer than a chunk), row by
+/// row, and count the run left over.
+#[inline(always)]
+pub(crate) fn fold_box_rest<T: ScanSample, const L: usize>(
+    mut t: BoxTargets<'_, T>,
+    b: RowBox<'_, T>,
+    x: usize,
+    mut counts: Option<&mut ExactCounts>,
+    mut run: Run<T, L>,
+) {
+    let w = t.width();
+    if x < w {
+        let cols = x..w;
+        for z in 0..b.slices {
+            for r in 0..b.rows {
+                let o = b.at(z, r);
+                let row = &b.data[o + x..o + w];
+                fold_slice(&mut t.cell, &cols, row);
+                let aprons = [
+                    (r == 0, t.row_apron.as_mut()),
+                    (z == 0, t.slice_apron.as_mut()),
+                    (r == 0 && z == 0, t.corner.as_mut()),
+                ];
+                for (holds, apron) in aprons {
+                    if let (true, Some(a)) = (holds, apron) {
+                        fold_slice(a, &cols, row);
+                    }
+                }
+                if let Some(c) = counts.as_deref_mut() {
+                    run.add(c, row);
+                }
+            }
+        }
+    }
+    if let Some(c) = counts {
+        run.flush(c);
+    }
+}
+
+/// Fold the `L` samples `s` into the register bounds `lo` and `hi`.
+#[inline(always)]
+fn fold_regs<T: ScanSample, const L: usize>(lo: &mut [T; L], hi: &mut [T; L], s: &[T]) {
+    let s = &s[..L];
+    for i in 0..L {
+        lo[i] = T::lower(lo[i], s[i]);
+        hi[i] = T::upper(hi[i], s[i]);
+    }
+}
+
+/// Widen columns `cols` (`L` of them) of `acc` by `lo` and `hi`.
+#[inline(always)]
+fn fold_bounds<T: ScanSample, const L: usize>(
+    acc: &mut Bounds<'_, T>,
+    cols: &Range<usize>,
+    lo: &[T; L],
+    hi: &[T; L],
+) {
+    let (l, h) = (&mut acc.lo[cols.clone()], &mut acc.hi[cols.clone()]);
+    let (l, h) = (&mut l[..L], &mut h[..L]);
+    for i in 0..L {
+        l[i] = T::lower(l[i], lo[i]);
+        h[i] = T::upper(h[i], hi[i]);
+    }
+}
+
+/// Fold the samples of `row` into columns `cols` of `acc`.
+#[inline(always)]
+fn fold_slice<T: ScanSample>(acc: &mut Bounds<'_, T>, cols: &Range<usize>, row: &[T]) {
+    let (l, h) = (&mut acc.lo[cols.clone()], &mut acc.hi[cols.clone()]);
+    for ((l, h), &v) in l.iter_mut().zip(h.iter_mut()).zip(row) {
+        *l = T::lower(*l, v);
+        *h = T::upper(*h, v);
+    }
+}
+
 /// Fold the `L` samples `s` into the bounds `lo` and `hi`.
 #[inline(always)]
 fn fold_into<T: ScanSample, const L: usize>(lo: &mut [T], hi: &mut [T], s: &[T]) {
@@ -326,7 +607,7 @@ fn fold_into<T: ScanSample, const L: usize>(lo: &mut [T], hi: &mut [T], s: &[T])
 /// The run of one value being counted: chunks that continue it are counted
 /// in a register, and the count table is touched only when the value
 /// changes (an update per chunk would chain through memory).
-struct Run<T, const L: usize> {
+pub(crate) struct Run<T, const L: usize> {
     /// The value, repeated across a whole chunk: a chunk continues the run
     /// when it equals this (compared as arrays, a few vector instructions;
     /// broadcasting the value per chunk would cost as many again).
@@ -336,7 +617,7 @@ struct Run<T, const L: usize> {
 
 impl<T: ScanSample, const L: usize> Run<T, L> {
     /// No run yet.
-    fn new() -> Self {
+    pub fn new() -> Self {
         Run {
             splat: [T::default(); L],
             len: 0,

@@ -73,16 +73,19 @@ impl<'a, T> Block<'a, T> {
         &self.data[start..start + (xs.end - xs.start) as usize]
     }
 
-    /// The rows of slice `z` (in the region) and their stride: row `y`
-    /// starts at `(y − region.lo.y)·stride` of the returned samples.
+    /// The samples of the region from its first voxel on, with the row
+    /// and plane strides: voxel `(x, y, z)` is at
+    /// `(x − lo.x) + (y − lo.y)·row + (z − lo.z)·plane`.
     #[inline]
-    pub fn plane(&self, z: u64) -> (&'a [T], usize) {
+    pub fn samples(&self) -> (&'a [T], usize, usize) {
         let (r, o) = (self.region, self.origin);
         let at = (r.lo[0] - o[0]) as usize
             + (r.lo[1] - o[1]) as usize * self.row
-            + (z - o[2]) as usize * self.plane;
-        let len = (r.hi[1] - r.lo[1] - 1) as usize * self.row + (r.hi[0] - r.lo[0]) as usize;
-        (&self.data[at..at + len], self.row)
+            + (r.lo[2] - o[2]) as usize * self.plane;
+        let len = (r.hi[2] - r.lo[2] - 1) as usize * self.plane
+            + (r.hi[1] - r.lo[1] - 1) as usize * self.row
+            + (r.hi[0] - r.lo[0]) as usize;
+        (&self.data[at..at + len], self.row, self.plane)
     }
 
     /// The same samples seen through a smaller region.
