@@ -1,9 +1,10 @@
 //! Building an index: one parallel pass over the volume in storage order.
 //!
 //! The volume is walked as tasks of blocks (module `walk`): z slabs of
-//! cells for sliced volumes, rows of bricks for bricked ones. Samples of a
-//! file are read from it into cache-sized buffers (a piece's band of rows,
-//! a run of bricks); samples in memory are borrowed; zstd bricks are
+//! cells for sliced volumes, rows of bricks for bricked ones. Sliced
+//! samples are copied into cache-sized buffers a piece's band of rows at a
+//! time (read from the file when mapped); bricked ones are read from the
+//! file a run of bricks at a time, or borrowed in memory; zstd bricks are
 //! decoded once each; any other source is copied through
 //! [`VoxelSource::read_row`]. Every voxel is read exactly once.
 //!
@@ -12,8 +13,10 @@
 //! bounded number of rows (see module `piece`). A piece folds
 //! its rows element-wise (min/max in the native sample type, which
 //! vectorises) into one accumulator row per cell layer and cell row it
-//! meets: a row on a cell boundary (`y` or `z` a multiple of the edge) is
-//! also the apron of the cell before, so it is folded into both. When the
+//! meets, the rows of one cell row and layer together (a box, a chunk of
+//! columns at a time with its bounds in registers; AVX2 where the CPU has
+//! it): a row on a cell boundary (`y` or `z` a multiple of the edge) is
+//! also the apron of the cell before, so it goes into both. When the
 //! piece is done each cell's range is reduced from its `N + 1` columns (the
 //! apron column on the far side included) and folded into the task's box
 //! of cells, which is merged into the level-0 arrays under a per-layer lock
@@ -35,7 +38,7 @@ use crate::level::{cell_count, level_shapes, try_zeroed, Level};
 use crate::piece::{cells_meeting, piece_shape, CellBox, PieceRanges};
 use crate::scan::{range_to_f32, Avx2, ExactCounts, ScanSample};
 use crate::walk::{
-    BandWalk, Block, BrickedWalk, CompressedWalk, Region, SlicedFile, SlicedWalk, SourceRows, Walk,
+    BandWalk, Block, BrickedWalk, CompressedWalk, Region, SlicedBands, SourceRows, Walk,
 };
 use rayon::prelude::*;
 use std::ops::Range;
@@ -90,9 +93,9 @@ impl BuildOptions {
 
 /// Build the index of `src`, tagging it with the caller's `fingerprint` of
 /// the volume. Runs on the current rayon pool. Samples are copied through
-/// [`VoxelSource::read_row`]; [`build_volume`] reads sliced and bricked
-/// files in large runs (or borrows samples in memory) and decodes zstd
-/// bricks once each, which is faster.
+/// [`VoxelSource::read_row`]; [`build_volume`] copies sliced samples a
+/// band of rows at a time, reads bricked files in large runs (or borrows
+/// bricks in memory) and decodes zstd bricks once each, which is faster.
 pub fn build_source<S: VoxelSource>(
     src: &S,
     opts: &BuildOptions,
@@ -144,10 +147,9 @@ fn build_grid<T: ScanSample>(
 ) -> Result<MajorantIndex, IndexError> {
     let edge = u64::from(opts.cell_edge);
     match grid {
-        TypedGrid::Sliced(grid) if grid.data().reads_file() => {
-            build_walk(&BandWalk::new(SlicedFile(grid), edge), opts, fingerprint)
+        TypedGrid::Sliced(grid) => {
+            build_walk(&BandWalk::new(SlicedBands(grid), edge), opts, fingerprint)
         }
-        TypedGrid::Sliced(grid) => build_walk(&SlicedWalk { grid, edge }, opts, fingerprint),
         TypedGrid::Bricked(grid) => build_walk(&BrickedWalk::new(grid), opts, fingerprint),
         TypedGrid::Compressed(grid) => build_walk(&CompressedWalk { grid }, opts, fingerprint),
     }
@@ -315,7 +317,7 @@ fn scan_task<T: ScanSample>(
 ) -> Result<CellBox<T>, IndexError> {
     let r = walk.task_region(task);
     let mut part = CellBox::new(cells_of(&r, edge));
-    let mut acc = PieceRanges::new(edge, walk.order(), avx2);
+    let mut acc = PieceRanges::new(edge, avx2);
     let one_piece = PieceRanges::<T>::len_for(edge, r.axis(0), r.axis(1), r.axis(2)) <= TASK_ACC;
     if one_piece {
         acc.start(r.axis(0), r.axis(1), r.axis(2));
@@ -342,7 +344,7 @@ fn scan_block<T: ScanSample>(
     counts: &mut ExactCounts,
 ) {
     let Some(edge) = pieces else {
-        return add_block(acc, block, counts);
+        return acc.add_block(block, counts);
     };
     // Runs of slices, each cut into runs of rows (see `piece_shape`).
     let r = block.region;
@@ -356,7 +358,7 @@ fn scan_block<T: ScanSample>(
                 lo: [r.lo[0], y, z],
                 hi: [r.hi[0], y1, z1],
             });
-            add_block(acc, &piece, counts);
+            acc.add_block(&piece, counts);
             acc.finish(part);
         }
     }
@@ -417,19 +419,6 @@ fn finish_on<T: ScanSample>(avx2: Option<Avx2>, acc: &mut PieceRanges<T>, part: 
     }
     let _ = avx2;
     acc.finish(part);
-}
-
-/// Fold the voxels of `block` (inside the piece `acc` holds) into `acc`,
-/// counting them.
-#[inline(always)]
-fn add_block<T: ScanSample>(
-    acc: &mut PieceRanges<T>,
-    block: &Block<'_, T>,
-    counts: &mut ExactCounts,
-) {
-    let r = block.region;
-    let (data, row, plane) = block.samples();
-    acc.add_box(r.axis(0), r.axis(1), r.axis(2), data, row, plane, counts);
 }
 
 /// Accumulator elements (per bound) up to which a whole task is one piece.
@@ -787,12 +776,12 @@ mod tests {
         };
         if Avx2::detect().is_some() {
             for avx2 in [None, Avx2::detect()] {
-                let walk = BandWalk::new(SlicedFile(&in_file), u64::from(edge));
+                let walk = BandWalk::new(SlicedBands(&in_file), u64::from(edge));
                 assert!(bits_with(&walk, avx2) == reference, "{} {avx2:?}", T::TYPE);
             }
         }
         // Blocks of one slice, smaller than the pieces (very wide rows).
-        let small = BandWalk::bounded(SlicedFile(&in_file), u64::from(edge), 1);
+        let small = BandWalk::bounded(SlicedBands(&in_file), u64::from(edge), 1);
         let what = format!("{} sliced in small blocks", T::TYPE);
         for avx2 in [None, Avx2::detect()] {
             assert!(bits_with(&small, avx2) == reference, "{what}, {avx2:?}");
@@ -802,7 +791,7 @@ mod tests {
         assert!(got == reference, "{} sliced from a file differs", T::TYPE);
         let vol = volume(dims, samples);
         let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
-        assert!(got == reference, "{} sliced in place differs", T::TYPE);
+        assert!(got == reference, "{} sliced in memory differs", T::TYPE);
         for brick in [2, 5, 16, 64] {
             let grid = bricked(&sliced, brick);
             let got = to_bytes(&MajorantIndex::build(&grid, &opts, 5).unwrap());
@@ -825,7 +814,7 @@ mod tests {
             let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
             assert!(
                 got == reference,
-                "{} bricked:{brick} in place differs",
+                "{} bricked:{brick} in memory differs",
                 T::TYPE
             );
         }

@@ -11,7 +11,8 @@
 //! [`CellBox`]. A cell cut by the piece's edges gets the part of its range
 //! the piece holds; other pieces add the rest.
 
-use crate::scan::{Avx2, Bounds, BoxTargets, ExactCounts, Order, RowBox, ScanSample};
+use crate::scan::{Avx2, Bounds, BoxTargets, ExactCounts, RowBox, ScanSample};
+use crate::walk::Block;
 use std::ops::Range;
 
 /// The cells along one axis whose footprint holds voxel `v`: cell
@@ -121,7 +122,6 @@ impl<T: ScanSample> CellBox<T> {
 /// reduced from its `edge + 1` columns only once per piece.
 pub(crate) struct PieceRanges<T> {
     edge: u64,
-    order: Order,
     cpu: Option<Avx2>,
     xs: Range<u64>,
     ys: Range<u64>,
@@ -134,12 +134,10 @@ pub(crate) struct PieceRanges<T> {
 
 impl<T: ScanSample> PieceRanges<T> {
     /// An accumulator for cells of `edge` voxels (no piece started),
-    /// folding samples that come from memory as `order` says, on AVX2
-    /// registers if `cpu` is given.
-    pub fn new(edge: u64, order: Order, cpu: Option<Avx2>) -> Self {
+    /// folding on AVX2 registers if `cpu` is given.
+    pub fn new(edge: u64, cpu: Option<Avx2>) -> Self {
         PieceRanges {
             edge,
-            order,
             cpu,
             xs: 0..0,
             ys: 0..0,
@@ -187,34 +185,19 @@ impl<T: ScanSample> PieceRanges<T> {
         ((cz - self.layers.start) * nb + (cy - self.bands.start)) as usize * self.width()
     }
 
-    /// Fold voxels `xs × ys × zs` (inside the piece) into the piece and
-    /// count them into `counts`: row `(y, z)` starts at
-    /// `data[(z − zs.start)·plane + (y − ys.start)·stride]`. Each sample
-    /// goes into every cell row whose footprint holds it (see
-    /// [`PieceRanges::add_slice`]); it is counted once.
-    ///
-    /// Samples from a cache-sized copy are folded a box at a time (the
-    /// rows of one cell row and layer, aprons in registers, see
-    /// [`RowBox`]); streamed ones slice by slice.
-    #[allow(clippy::too_many_arguments)]
+    /// Fold the voxels of `block` (inside the piece) into the piece and
+    /// count them into `counts`. Each row goes into every cell row whose
+    /// footprint holds it: one, two (a boundary row or slice) or four; it
+    /// is counted once. The rows of one cell row and layer are folded
+    /// together, a [`RowBox`] at a time.
     #[inline(always)]
-    pub fn add_box(
-        &mut self,
-        xs: Range<u64>,
-        ys: Range<u64>,
-        zs: Range<u64>,
-        data: &[T],
-        stride: usize,
-        plane: usize,
-        counts: &mut ExactCounts,
-    ) {
-        if self.order == Order::Stream {
-            for z in zs.clone() {
-                let at = (z - zs.start) as usize * plane;
-                self.add_slice(z, xs.clone(), ys.clone(), &data[at..], stride, counts);
-            }
-            return;
-        }
+    pub fn add_block(&mut self, block: &Block<'_, T>, counts: &mut ExactCounts) {
+        let (xs, ys, zs) = (
+            block.region.axis(0),
+            block.region.axis(1),
+            block.region.axis(2),
+        );
+        let (data, stride, plane) = block.samples();
         let e = self.edge;
         let x0 = (xs.start - self.xs.start) as usize;
         let cols = x0..x0 + (xs.end - xs.start) as usize;
@@ -291,76 +274,6 @@ impl<T: ScanSample> PieceRanges<T> {
             slice_apron,
             corner,
         }
-    }
-
-    /// Fold voxels `xs × ys` (inside the piece) of slice `z` into the
-    /// piece, their rows starting `stride` samples apart in `plane`, and
-    /// count them into `counts`. Each row goes into every cell row whose
-    /// footprint holds it: one, two (a boundary row or slice) or four; it
-    /// is counted once.
-    #[inline(always)]
-    pub fn add_slice(
-        &mut self,
-        z: u64,
-        xs: Range<u64>,
-        ys: Range<u64>,
-        plane: &[T],
-        stride: usize,
-        counts: &mut ExactCounts,
-    ) {
-        let (e, w, order) = (self.edge, self.width(), self.order);
-        let nb = (self.bands.end - self.bands.start) as usize;
-        let (cz, az) = owners(z, e);
-        // The columns of `xs` in every accumulator row.
-        let x0 = (xs.start - self.xs.start) as usize;
-        let cols = x0..x0 + (xs.end - xs.start) as usize;
-        let first = (cz - self.layers.start) as usize * nb * w;
-        // A boundary slice goes into the rows of two layers.
-        let layers = [first, first + nb * w];
-        let layers = &layers[..1 + usize::from(az)];
-        // y = c·e + r: one division per slice, not per cell row.
-        let (mut y, mut c, mut r) = (ys.start, ys.start / e, ys.start % e);
-        while y < ys.end {
-            // Rows y .. y1 are the rows of cell row c; a first row (r = 0)
-            // is also the far apron of cell row c − 1.
-            let y1 = (y + e - r).min(ys.end);
-            let block = &plane[(y - ys.start) as usize * stride..];
-            let rows = (y1 - y) as usize;
-            let band = (c - self.bands.start) as usize * w;
-            let apron = r == 0 && y > 0;
-            for (k, &l) in layers.iter().enumerate() {
-                let counts = (k == 0).then_some(&mut *counts);
-                let (acc, prev) = self.rows_mut(l + band, &cols, apron);
-                T::fold_block(acc, prev, block, stride, rows, counts, order);
-            }
-            (y, c, r) = (y1, c + 1, 0);
-        }
-    }
-
-    /// Columns `cols` of the accumulator row at offset `o` and, with
-    /// `apron`, of the row before it (the previous cell row's).
-    #[inline(always)]
-    fn rows_mut(
-        &mut self,
-        o: usize,
-        cols: &Range<usize>,
-        apron: bool,
-    ) -> (Bounds<'_, T>, Option<Bounds<'_, T>>) {
-        let w = self.width();
-        let (lo_before, lo) = self.lo.split_at_mut(o);
-        let (hi_before, hi) = self.hi.split_at_mut(o);
-        let acc = Bounds {
-            lo: &mut lo[cols.clone()],
-            hi: &mut hi[cols.clone()],
-        };
-        let prev = apron.then(|| {
-            let r = o - w + cols.start..o - w + cols.end;
-            Bounds {
-                lo: &mut lo_before[r.clone()],
-                hi: &mut hi_before[r],
-            }
-        });
-        (acc, prev)
     }
 
     /// Fold the piece's range of each cell it meets into `cells`.
@@ -498,15 +411,23 @@ fn double<T: Copy>(v: &mut [T], steps: usize, s: usize, f: impl Fn(T, T) -> T) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::walk::Region;
+
+    fn region(xs: Range<u64>, ys: Range<u64>, zs: Range<u64>) -> Region {
+        Region {
+            lo: [xs.start, ys.start, zs.start],
+            hi: [xs.end, ys.end, zs.end],
+        }
+    }
 
     #[test]
     fn f32_folds_skip_nan_and_canonicalise_zero() {
         let n = f32::NAN;
-        let mut r = PieceRanges::<f32>::new(2, Order::Cached, None);
+        let mut r = PieceRanges::<f32>::new(2, None);
         r.start(0..5, 0..1, 0..2);
         let mut counts = ExactCounts::new::<f32>();
-        r.add_slice(0, 0..5, 0..1, &[1.0, n, -0.0, n, n], 5, &mut counts);
-        r.add_slice(1, 0..5, 0..1, &[n, 3.0, n, n, n], 5, &mut counts);
+        let v = [1.0, n, -0.0, n, n, n, 3.0, n, n, n];
+        r.add_block(&Block::new(region(0..5, 0..1, 0..2), &v, 5, 5), &mut counts);
         let mut cells = CellBox::new([0..3, 0..1, 0..1]);
         r.finish(&mut cells);
         let bits = |(lo, hi): (f32, f32)| (lo.to_bits(), hi.to_bits());
@@ -521,21 +442,22 @@ mod tests {
         // Edge 2 over 5 x 5 x 3 voxels: voxel 2 on each axis is also the
         // apron of cell 0, voxel 4 of cell 1.
         let mut cells = CellBox::new([0..3, 0..3, 0..2]);
-        let mut r = PieceRanges::<u8>::new(2, Order::Stream, None);
+        let mut r = PieceRanges::<u8>::new(2, None);
         let mut counts = ExactCounts::new::<u8>();
         let v: Vec<u8> = (0..75).collect();
+        let block = |xs: Range<u64>, ys: Range<u64>, zs: Range<u64>| {
+            let at = (xs.start + 5 * ys.start + 25 * zs.start) as usize;
+            Block::new(region(xs, ys, zs), &v[at..], 5, 25)
+        };
         // Three pieces splitting y at 3 and z at 2, the last one fed in
-        // two parts split at x = 3: each voxel once.
+        // two blocks split at x = 3: each voxel once.
         for (ys, zs) in [(0..3, 0..2), (3..5, 0..2), (0..5, 2..3)] {
             r.start(0..5, ys.clone(), zs.clone());
-            for z in zs {
-                let at = (5 * ys.start + 25 * z) as usize;
-                if z < 2 {
-                    r.add_slice(z, 0..5, ys.clone(), &v[at..], 5, &mut counts);
-                } else {
-                    r.add_slice(z, 0..3, ys.clone(), &v[at..], 5, &mut counts);
-                    r.add_slice(z, 3..5, ys.clone(), &v[at + 3..], 5, &mut counts);
-                }
+            if zs.start < 2 {
+                r.add_block(&block(0..5, ys, zs), &mut counts);
+            } else {
+                r.add_block(&block(0..3, ys.clone(), zs.clone()), &mut counts);
+                r.add_block(&block(3..5, ys, zs), &mut counts);
             }
             r.finish(&mut cells);
         }

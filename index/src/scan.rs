@@ -25,16 +25,6 @@ pub(crate) trait ScanSample: Sample {
     fn upper(acc: Self, v: Self) -> Self;
     /// Slot of `self` in an exact count table (integer types only).
     fn slot(self) -> usize;
-    /// [`fold_block`] with the register chunk width that suits the type.
-    fn fold_block(
-        acc: Bounds<'_, Self>,
-        apron: Option<Bounds<'_, Self>>,
-        block: &[Self],
-        stride: usize,
-        rows: usize,
-        counts: Option<&mut ExactCounts>,
-        order: Order,
-    );
     /// [`fold_box`] with the register chunk width that suits the type, on
     /// AVX2 registers when `cpu` says the CPU has them.
     fn fold_box(
@@ -109,18 +99,6 @@ macro_rules! int_scan {
                 (self as i64 - <$t>::MIN as i64) as usize
             }
             #[inline(always)]
-            fn fold_block(
-                acc: Bounds<'_, Self>,
-                apron: Option<Bounds<'_, Self>>,
-                block: &[Self],
-                stride: usize,
-                rows: usize,
-                counts: Option<&mut ExactCounts>,
-                order: Order,
-            ) {
-                fold_block::<$t, $chunk>(acc, apron, block, stride, rows, counts, order);
-            }
-            #[inline(always)]
             fn fold_box(
                 cpu: Option<Avx2>,
                 targets: BoxTargets<'_, Self>,
@@ -166,18 +144,6 @@ impl ScanSample for f32 {
         0
     }
     #[inline(always)]
-    fn fold_block(
-        acc: Bounds<'_, Self>,
-        apron: Option<Bounds<'_, Self>>,
-        block: &[Self],
-        stride: usize,
-        rows: usize,
-        counts: Option<&mut ExactCounts>,
-        order: Order,
-    ) {
-        fold_block::<f32, 8>(acc, apron, block, stride, rows, counts, order);
-    }
-    #[inline(always)]
     fn fold_box(
         cpu: Option<Avx2>,
         targets: BoxTargets<'_, Self>,
@@ -195,22 +161,6 @@ pub(crate) fn range_to_f32<T: ScanSample>(lo: T, hi: T) -> (f32, f32) {
     (lo.to_f32() + 0.0, hi.to_f32() + 0.0)
 }
 
-/// Rows wider than this many chunks are folded row by row when streamed
-/// (see [`fold_block`]).
-const WIDE_CHUNKS: usize = 4;
-
-/// Where the samples a fold reads come from, which decides the order it
-/// reads them in (see [`fold_block`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Order {
-    /// Straight from a large array in memory: wide rows one after the
-    /// other, so that the hardware prefetcher streams them.
-    Stream,
-    /// From a cache-sized copy: column chunks down all the rows, bounds in
-    /// registers.
-    Cached,
-}
-
 /// Element-wise lower and upper bounds of one accumulator row (or part of
 /// one), of equal lengths.
 pub(crate) struct Bounds<'a, T> {
@@ -218,169 +168,6 @@ pub(crate) struct Bounds<'a, T> {
     pub lo: &'a mut [T],
     /// Element-wise maxima.
     pub hi: &'a mut [T],
-}
-
-/// Fold a strided block of `rows` rows of `w = acc.lo.len()` samples (row
-/// `r` at `block[r·stride ..]`) element-wise into `acc`, its first row also
-/// into `apron` if given, and count its samples into `counts` if given.
-///
-/// Blocks go `L` columns at a time with the chunk's bounds in registers, so
-/// the accumulators are loaded and stored once per block rather than once
-/// per row, and a chunk of one value (empty space, mostly) is counted in
-/// one step. Wide rows streamed from memory ([`Order::Stream`]) are instead
-/// folded one after the other, reading memory sequentially (column chunks
-/// across rows far apart defeat the hardware prefetcher).
-#[inline(always)]
-fn fold_block<T: ScanSample, const L: usize>(
-    acc: Bounds<'_, T>,
-    apron: Option<Bounds<'_, T>>,
-    block: &[T],
-    stride: usize,
-    rows: usize,
-    counts: Option<&mut ExactCounts>,
-    order: Order,
-) {
-    let w = acc.lo.len().min(acc.hi.len());
-    let counts = counts.filter(|_| T::EXACT_VALUES > 0);
-    if rows == 1 || (order == Order::Stream && w > WIDE_CHUNKS * L) {
-        if let Some(a) = apron {
-            fold_rows_with::<T, L>(a.lo, a.hi, block, stride, 1, |_| {});
-        }
-        fold_rows::<T, L>(
-            &mut acc.lo[..w],
-            &mut acc.hi[..w],
-            block,
-            stride,
-            rows,
-            counts,
-        );
-    } else {
-        fold_chunks::<T, L>(acc, apron, block, stride, rows, counts);
-    }
-}
-
-/// [`fold_block`] row by row, `L` samples at a time, counting each chunk
-/// as it is folded.
-#[inline(always)]
-fn fold_rows<T: ScanSample, const L: usize>(
-    lo: &mut [T],
-    hi: &mut [T],
-    block: &[T],
-    stride: usize,
-    rows: usize,
-    counts: Option<&mut ExactCounts>,
-) {
-    match counts {
-        Some(c) => {
-            let mut run = Run::<T, L>::new();
-            fold_rows_with::<T, L>(lo, hi, block, stride, rows, |s| run.add(c, s));
-            run.flush(c);
-        }
-        None => fold_rows_with::<T, L>(lo, hi, block, stride, rows, |_| {}),
-    }
-}
-
-/// [`fold_rows`], calling `chunk` with each run of samples folded.
-#[inline(always)]
-fn fold_rows_with<T: ScanSample, const L: usize>(
-    lo: &mut [T],
-    hi: &mut [T],
-    block: &[T],
-    stride: usize,
-    rows: usize,
-    mut chunk: impl FnMut(&[T]),
-) {
-    let w = lo.len().min(hi.len());
-    let whole = w - w % L;
-    for r in 0..rows {
-        let row = &block[r * stride..r * stride + w];
-        let chunks = row[..whole].chunks_exact(L);
-        let bounds = lo[..whole]
-            .chunks_exact_mut(L)
-            .zip(hi[..whole].chunks_exact_mut(L));
-        for (s, (l, h)) in chunks.zip(bounds) {
-            for i in 0..L {
-                l[i] = T::lower(l[i], s[i]);
-                h[i] = T::upper(h[i], s[i]);
-            }
-            chunk(s);
-        }
-        let tail = &row[whole..];
-        for ((l, h), &v) in lo[whole..w].iter_mut().zip(&mut hi[whole..w]).zip(tail) {
-            *l = T::lower(*l, v);
-            *h = T::upper(*h, v);
-        }
-        chunk(tail);
-    }
-}
-
-/// [`fold_block`] `L` columns at a time, then the remaining columns row by
-/// row.
-#[inline(always)]
-fn fold_chunks<T: ScanSample, const L: usize>(
-    acc: Bounds<'_, T>,
-    mut apron: Option<Bounds<'_, T>>,
-    block: &[T],
-    stride: usize,
-    rows: usize,
-    mut counts: Option<&mut ExactCounts>,
-) {
-    let w = acc.lo.len().min(acc.hi.len());
-    // Uniform chunk columns continuing one value (mostly empty space) are
-    // counted in a register, not each with an add to the same table slot
-    // (a chain of dependent loads and stores through memory).
-    let mut run = Run::<T, L>::new();
-    let mut x = 0;
-    while x + L <= w {
-        let (mut l, mut h) = ([T::TOP; L], [T::BOTTOM; L]);
-        for r in 0..rows {
-            let s = &block[r * stride + x..r * stride + x + L];
-            for i in 0..L {
-                l[i] = T::lower(l[i], s[i]);
-                h[i] = T::upper(h[i], s[i]);
-            }
-        }
-        if let Some(a) = apron.as_mut() {
-            fold_into::<T, L>(&mut a.lo[x..x + L], &mut a.hi[x..x + L], &block[x..x + L]);
-        }
-        if let Some(c) = counts.as_deref_mut() {
-            // One value throughout when the least minimum is the greatest
-            // maximum (horizontal min/max vectorise; element-wise
-            // comparisons with l[0] would not).
-            let least = l.iter().fold(T::TOP, |m, &v| T::lower(m, v));
-            let most = h.iter().fold(T::BOTTOM, |m, &v| T::upper(m, v));
-            if least == most {
-                run.add_uniform(c, least, (L * rows) as u64);
-            } else {
-                for r in 0..rows {
-                    c.add_chunk(&block[r * stride + x..r * stride + x + L]);
-                }
-            }
-        }
-        let (lo, hi) = (&mut acc.lo[x..x + L], &mut acc.hi[x..x + L]);
-        for i in 0..L {
-            lo[i] = T::lower(lo[i], l[i]);
-            hi[i] = T::upper(hi[i], h[i]);
-        }
-        x += L;
-    }
-    if let Some(c) = counts.as_deref_mut() {
-        run.flush(c);
-    }
-    if x < w {
-        let rest = &block[x..];
-        if let Some(a) = apron {
-            fold_rows_with::<T, L>(&mut a.lo[x..w], &mut a.hi[x..w], rest, stride, 1, |_| {});
-        }
-        fold_rows::<T, L>(
-            &mut acc.lo[x..w],
-            &mut acc.hi[x..w],
-            rest,
-            stride,
-            rows,
-            counts,
-        );
-    }
 }
 
 /// A box of sample rows in a cache-sized buffer: `slices` slices of `rows`
@@ -594,16 +381,6 @@ fn fold_slice<T: ScanSample>(acc: &mut Bounds<'_, T>, cols: &Range<usize>, row: 
     }
 }
 
-/// Fold the `L` samples `s` into the bounds `lo` and `hi`.
-#[inline(always)]
-fn fold_into<T: ScanSample, const L: usize>(lo: &mut [T], hi: &mut [T], s: &[T]) {
-    let (lo, hi, s) = (&mut lo[..L], &mut hi[..L], &s[..L]);
-    for i in 0..L {
-        lo[i] = T::lower(lo[i], s[i]);
-        hi[i] = T::upper(hi[i], s[i]);
-    }
-}
-
 /// The run of one value being counted: chunks that continue it are counted
 /// in a register, and the count table is touched only when the value
 /// changes (an update per chunk would chain through memory).
@@ -697,19 +474,6 @@ impl ExactCounts {
         }
     }
 
-    /// Count the samples of a short `chunk`: at once if they are all one
-    /// value, else one by one.
-    #[inline(always)]
-    pub fn add_chunk<T: ScanSample>(&mut self, chunk: &[T]) {
-        let Some(&v) = chunk.first() else { return };
-        // A branch-free fold, so the comparison vectorises.
-        if chunk.iter().fold(true, |same, &x| same & (x == v)) {
-            self.add_run(v, chunk.len() as u64);
-        } else {
-            self.add_each(chunk);
-        }
-    }
-
     /// Count the samples of `part` one by one.
     #[inline]
     fn add_each<T: ScanSample>(&mut self, part: &[T]) {
@@ -757,6 +521,25 @@ impl ExactCounts {
 mod tests {
     use super::*;
 
+    /// The bounds of one accumulator row `(lower, upper)`.
+    fn bounds(b: &mut (Vec<u8>, Vec<u8>)) -> Bounds<'_, u8> {
+        Bounds {
+            lo: &mut b.0,
+            hi: &mut b.1,
+        }
+    }
+
+    /// Count `samples` chunk by chunk as the box folds do.
+    fn count_chunks<T: ScanSample, const L: usize>(samples: &[T]) -> Vec<u64> {
+        let mut counts = ExactCounts::new::<T>();
+        let mut run = Run::<T, L>::new();
+        for chunk in samples.chunks(L) {
+            run.add(&mut counts, chunk);
+        }
+        run.flush(&mut counts);
+        counts.per_value()
+    }
+
     #[test]
     fn exact_counts_cover_every_value_once() {
         // Runs of one value (counted at once) between distinct values.
@@ -765,60 +548,110 @@ mod tests {
             .chain([1, 2])
             .chain([0; 40])
             .collect();
-        let mut c = ExactCounts::new::<u8>();
-        for chunk in row.chunks(32) {
-            c.add_chunk(chunk);
-        }
-        let v = c.per_value();
+        let v = count_chunks::<u8, 32>(&row);
         assert_eq!((v[0], v[1], v[7]), (41, 2, 71));
         assert_eq!(v.iter().sum::<u64>(), row.len() as u64);
-        let mut c = ExactCounts::new::<u16>();
-        c.add_chunk(&[9u16; 100]);
-        assert_eq!(c.per_value()[9], 100);
-        let mut c = ExactCounts::new::<i16>();
-        c.add_chunk(&[i16::MIN, -1, 0, i16::MAX]);
-        let v = c.per_value();
+        assert_eq!(count_chunks::<u16, 16>(&[9; 100])[9], 100);
+        let v = count_chunks::<i16, 16>(&[i16::MIN, -1, 0, i16::MAX]);
         assert_eq!((v[0], v[32767], v[32768], v[65535]), (1, 1, 1, 1));
     }
 
-    /// Wide blocks, streamed (rows folded one by one) or cached (column
-    /// chunks), with uniform rows of several values, rows that differ in
-    /// one sample anywhere, and odd widths: the same ranges and counts as a
-    /// brute-force pass.
+    /// Boxes of several shapes (widths with and without a partial chunk),
+    /// rows of one value in runs of several values, rows that differ in one
+    /// sample anywhere, with every set of apron targets: each target holds
+    /// the bounds of its rows and the counts equal a brute-force pass, on
+    /// the portable fold and on AVX2 where the CPU has it.
     #[test]
-    fn wide_rows_fold_and_count_exactly() {
-        let cases = [129usize, 200, 257, 800]
-            .into_iter()
-            .flat_map(|w| [(w, Order::Stream), (w, Order::Cached)]);
-        for (w, order) in cases {
-            let rows = 9;
+    fn box_folds_match_brute_force() {
+        let shapes = [
+            (1, 1, 1),
+            (31, 2, 3),
+            (32, 8, 8),
+            (33, 9, 2),
+            (129, 3, 5),
+            (800, 8, 9),
+        ];
+        for (w, rows, slices) in shapes {
             let stride = w + 3;
-            let mut block = vec![0u8; stride * rows];
-            for r in 0..rows {
-                let row = &mut block[r * stride..r * stride + w];
-                row.fill([0, 0, 5, 5, 0, 9, 9, 0, 0][r]);
-                if r % 3 == 1 {
-                    row[(r * 37) % w] = 200;
+            let plane = stride * rows + 5;
+            let mut data = vec![0u8; plane * slices];
+            for z in 0..slices {
+                for r in 0..rows {
+                    let row = &mut data[z * plane + r * stride..][..w];
+                    row.fill([0, 0, 5, 5, 0, 9, 9, 0, 0][(z + r) % 9]);
+                    if (z + 2 * r) % 3 == 1 {
+                        row[(r * 37 + z * 11) % w] = 200;
+                    }
                 }
             }
-            let (mut lo, mut hi) = (vec![u8::MAX; w], vec![u8::MIN; w]);
-            let mut counts = ExactCounts::new::<u8>();
-            let acc = Bounds {
-                lo: &mut lo,
-                hi: &mut hi,
-            };
-            u8::fold_block(acc, None, &block, stride, rows, Some(&mut counts), order);
-            let mut want = vec![0u64; 256];
-            for r in 0..rows {
+            let at = |z: usize, r: usize, x: usize| data[z * plane + r * stride + x];
+            let mut want_counts = vec![0u64; 256];
+            for z in 0..slices {
+                for r in 0..rows {
+                    for x in 0..w {
+                        want_counts[at(z, r, x) as usize] += 1;
+                    }
+                }
+            }
+            for (cpu, aprons) in [None, Avx2::detect()]
+                .into_iter()
+                .flat_map(|c| (0..4).map(move |a| (c, a)))
+            {
+                let what = format!("{w}x{rows}x{slices} {cpu:?} aprons {aprons}");
+                let mut acc = [(); 4].map(|_| (vec![u8::MAX; w], vec![u8::MIN; w]));
+                let mut counts = ExactCounts::new::<u8>();
+                {
+                    let [cell, row_apron, slice_apron, corner] = &mut acc;
+                    let targets = BoxTargets {
+                        cell: bounds(cell),
+                        row_apron: (aprons & 1 == 1).then(|| bounds(row_apron)),
+                        slice_apron: (aprons & 2 == 2).then(|| bounds(slice_apron)),
+                        corner: (aprons == 3).then(|| bounds(corner)),
+                    };
+                    let rows = RowBox {
+                        data: &data,
+                        stride,
+                        plane,
+                        rows,
+                        slices,
+                    };
+                    u8::fold_box(cpu, targets, rows, Some(&mut counts));
+                }
+                assert_eq!(counts.per_value(), want_counts, "{what}");
+                let range = |zs: Range<usize>, rs: Range<usize>, x: usize| {
+                    let v: Vec<u8> = zs
+                        .flat_map(|z| rs.clone().map(move |r| (z, r)))
+                        .map(|(z, r)| at(z, r, x))
+                        .collect();
+                    (
+                        v.iter().copied().min().unwrap_or(u8::MAX),
+                        v.iter().copied().max().unwrap_or(u8::MIN),
+                    )
+                };
                 for x in 0..w {
-                    let v = block[r * stride + x];
-                    want[v as usize] += 1;
-                    let column = (0..rows).map(|q| block[q * stride + x]);
-                    assert_eq!(lo[x], column.clone().min().unwrap_or(0), "{w}: {x}");
-                    assert_eq!(hi[x], column.max().unwrap_or(0), "{w}: {x}");
+                    let got = |k: usize| (acc[k].0[x], acc[k].1[x]);
+                    assert_eq!(got(0), range(0..slices, 0..rows, x), "{what}: cell, x {x}");
+                    let empty = (u8::MAX, u8::MIN);
+                    let row_apron = if aprons & 1 == 1 {
+                        range(0..slices, 0..1, x)
+                    } else {
+                        empty
+                    };
+                    assert_eq!(got(1), row_apron, "{what}: row apron, x {x}");
+                    let slice_apron = if aprons & 2 == 2 {
+                        range(0..1, 0..rows, x)
+                    } else {
+                        empty
+                    };
+                    assert_eq!(got(2), slice_apron, "{what}: slice apron, x {x}");
+                    let corner = if aprons == 3 {
+                        range(0..1, 0..1, x)
+                    } else {
+                        empty
+                    };
+                    assert_eq!(got(3), corner, "{what}: corner, x {x}");
                 }
             }
-            assert_eq!(counts.per_value(), want, "width {w}, {order:?}");
         }
     }
 }

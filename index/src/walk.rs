@@ -6,11 +6,9 @@
 //! strided view of their samples. Every voxel belongs to exactly one block,
 //! and a task's blocks come in the order the layout stores them, so memory
 //! is read as sequentially as the layout allows:
-//! - sliced grids in memory lend their samples in place (one block per
-//!   task: the slab's slices);
-//! - sliced grids mapped from a file are read from the file a piece-sized
-//!   band of rows at a time (see [`volcore::Data::read_at`]: cheaper for one pass
-//!   than faulting the map in and tearing it down);
+//! - sliced grids are copied a piece-sized band of rows at a time, from a
+//!   mapped file with positioned reads (see [`volcore::Data::read_at`]:
+//!   cheaper for one pass than faulting the map in and tearing it down);
 //! - bricked grids mapped from a file are read a run of bricks at a time;
 //!   in memory they lend each brick's stored samples (one block per
 //!   brick);
@@ -20,7 +18,6 @@
 
 use crate::error::IndexError;
 use crate::piece::piece_shape;
-use crate::scan::Order;
 use std::mem::size_of;
 use std::ops::Range;
 use std::sync::Mutex;
@@ -73,6 +70,19 @@ impl<'a, T> Block<'a, T> {
         &self.data[start..start + (xs.end - xs.start) as usize]
     }
 
+    /// The block of `region` whose first voxel is `data[0]`, rows `row`
+    /// and slices `plane` samples apart.
+    #[cfg(test)]
+    pub fn new(region: Region, data: &'a [T], row: usize, plane: usize) -> Self {
+        Block {
+            region,
+            data,
+            origin: region.lo,
+            row,
+            plane,
+        }
+    }
+
     /// The samples of the region from its first voxel on, with the row
     /// and plane strides: voxel `(x, y, z)` is at
     /// `(x − lo.x) + (y − lo.y)·row + (z − lo.z)·plane`.
@@ -121,9 +131,6 @@ pub(crate) trait Walk<T>: Sync {
     fn tasks(&self) -> u64;
     /// The voxels task `task` covers (the union of its blocks).
     fn task_region(&self, task: u64) -> Region;
-    /// Whether blocks borrow samples from a large array in memory or hand
-    /// out a cache-sized copy (which decides how they are best read).
-    fn order(&self) -> Order;
     /// Call `f` with each block of task `task`, in storage order. Fails
     /// only if stored data cannot be decoded.
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError>;
@@ -134,45 +141,6 @@ fn slab(dims: Dims, edge: u64, k: u64) -> Region {
     Region {
         lo: [0, 0, k * edge],
         hi: [dims.x, dims.y, (k * edge + edge).min(dims.z)],
-    }
-}
-
-/// A sliced grid: one task per z slab of `edge` slices, its samples
-/// borrowed in place.
-pub(crate) struct SlicedWalk<'a, T: Sample> {
-    /// The grid.
-    pub grid: &'a SlicedGrid<T>,
-    /// Slices per task.
-    pub edge: u64,
-}
-
-impl<T: Sample> Walk<T> for SlicedWalk<'_, T> {
-    fn dims(&self) -> Dims {
-        self.grid.dims()
-    }
-
-    fn tasks(&self) -> u64 {
-        self.dims().z.div_ceil(self.edge)
-    }
-
-    fn task_region(&self, task: u64) -> Region {
-        slab(self.dims(), self.edge, task)
-    }
-
-    fn order(&self) -> Order {
-        Order::Stream
-    }
-
-    fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
-        let d = self.dims();
-        f(Block {
-            region: self.task_region(task),
-            data: self.grid.samples(),
-            origin: [0; 3],
-            row: d.x as usize,
-            plane: d.slice_len() as usize,
-        });
-        Ok(())
     }
 }
 
@@ -209,11 +177,15 @@ impl<S: VoxelSource, T: Sample> BandSource<T> for SourceRows<'_, S> {
     }
 }
 
-/// A sliced grid mapped from a file, read with positioned reads (see
-/// [`volcore::Data::read_at`]): a band of rows is one read.
-pub(crate) struct SlicedFile<'a, T: Sample>(pub &'a SlicedGrid<T>);
+/// A sliced grid, a band of rows (one piece's rows of one slice) at a time:
+/// one positioned read from a mapped file (see [`volcore::Data::read_at`]),
+/// one copy from memory. Folding a cache-sized copy is faster than
+/// folding the samples in place, even in memory: the folds go down a box
+/// of rows from several slices at once, too many streams for the hardware
+/// prefetcher.
+pub(crate) struct SlicedBands<'a, T: Sample>(pub &'a SlicedGrid<T>);
 
-impl<T: Sample> BandSource<T> for SlicedFile<'_, T> {
+impl<T: Sample> BandSource<T> for SlicedBands<'_, T> {
     fn dims(&self) -> Dims {
         self.0.dims()
     }
@@ -293,10 +265,6 @@ impl<B: BandSource<T>, T: Sample> Walk<T> for BandWalk<B, T> {
 
     fn task_region(&self, task: u64) -> Region {
         slab(self.dims(), self.edge, task)
-    }
-
-    fn order(&self) -> Order {
-        Order::Cached
     }
 
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
@@ -418,13 +386,6 @@ impl<T: Sample> Walk<T> for BrickedWalk<'_, T> {
         brick_row_region(self.grid.geometry(), task)
     }
 
-    fn order(&self) -> Order {
-        match self.grid.data().reads_file() {
-            true => Order::Cached,
-            false => Order::Stream,
-        }
-    }
-
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
         let g = self.grid.geometry();
         let data = self.grid.data();
@@ -479,10 +440,6 @@ impl<T: Sample> Walk<T> for CompressedWalk<'_, T> {
         brick_row_region(self.grid.geometry(), task)
     }
 
-    fn order(&self) -> Order {
-        Order::Cached
-    }
-
     fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
         let g = self.grid.geometry();
         for bx in 0..g.counts()[0] {
@@ -533,21 +490,14 @@ mod tests {
             let s: Vec<u16> = random_samples(dims, 4, 0);
             let sliced = SlicedGrid::new(dims, Data::Owned(s.clone())).unwrap();
             for edge in [2, 3, 8] {
-                check_walk(
-                    &SlicedWalk {
-                        grid: &sliced,
-                        edge,
-                    },
-                    &s,
-                    "sliced",
-                );
+                check_walk(&BandWalk::new(SlicedBands(&sliced), edge), &s, "sliced");
                 check_walk(&BandWalk::new(SourceRows(&sliced), edge), &s, "rows");
             }
             let in_file = SlicedGrid::new(dims, file_data(&s, 4)).unwrap();
             for edge in [2, 3, 8] {
-                check_walk(&BandWalk::new(SlicedFile(&in_file), edge), &s, "file");
+                check_walk(&BandWalk::new(SlicedBands(&in_file), edge), &s, "file");
                 // Blocks of one slice, or one band of a slice.
-                let one = BandWalk::bounded(SlicedFile(&in_file), edge, 1);
+                let one = BandWalk::bounded(SlicedBands(&in_file), edge, 1);
                 check_walk(&one, &s, "file, small blocks");
             }
             for brick in [2, 5, 16] {
