@@ -366,22 +366,17 @@ impl<T: ScanSample> Windows<T> {
 
     /// The ranges of the windows of `len` elements (as prepared) starting
     /// at `a`, `a + step`, `a + 2·step`, … (a window reaching past the
-    /// row's end holds the range of its part in the row).
+    /// row's end holds the range of its part in the row). Each window is
+    /// the union of the spans from its start and from `len − span` further
+    /// on, which must be less than `step`.
     #[inline(always)]
     fn ranges(&self, a: usize, step: usize, len: usize) -> impl Iterator<Item = (T, T)> + '_ {
-        // Each window is the union of the spans from its start and from
-        // `len − span` further on.
-        let b = a + len - self.span;
-        let lo = self.lo[a..]
-            .iter()
-            .step_by(step)
-            .zip(self.lo[b..].iter().step_by(step));
-        let hi = self.hi[a..]
-            .iter()
-            .step_by(step)
-            .zip(self.hi[b..].iter().step_by(step));
+        let d = len - self.span;
+        debug_assert!(d < step, "windows of {len} every {step}");
+        let lo = self.lo[a..].chunks(step);
+        let hi = self.hi[a..].chunks(step);
         lo.zip(hi)
-            .map(|((&la, &lb), (&ha, &hb))| (T::lower(la, lb), T::upper(ha, hb)))
+            .map(move |(l, h)| (T::lower(l[0], l[d]), T::upper(h[0], h[d])))
     }
 }
 
@@ -490,16 +485,11 @@ mod tests {
                 w.prepare(&lo, &hi, len);
                 let starts = (n + 1).saturating_sub(len);
                 for a in 0..starts {
-                    let want = span(&lo, &hi, a, a + len - 1);
-                    let got = w.ranges(a, 1, len).next();
-                    assert_eq!(got, Some(want), "{n} {len} {a}");
-                    for (k, got) in w
-                        .ranges(a, 3, len)
-                        .take((starts - a).div_ceil(3))
-                        .enumerate()
-                    {
-                        let a = a + 3 * k;
-                        assert_eq!(got, span(&lo, &hi, a, a + len - 1), "{n} {len} {a} by 3");
+                    // Windows a, a + len, a + 2·len, … in the row.
+                    let count = (starts - a).div_ceil(len);
+                    for (k, got) in w.ranges(a, len, len).take(count).enumerate() {
+                        let a = a + len * k;
+                        assert_eq!(got, span(&lo, &hi, a, a + len - 1), "{n} {len} {a}");
                     }
                 }
             }
