@@ -2,18 +2,22 @@
 # Benchmark: how fast vol-index builds the index of a u8 volume that sits in
 # the page cache, compared with reading the same file with cat. For each
 # file (the thesis scene, sliced and bricked:32; zstd-bricked for
-# information) each run reads the file once untimed (so that it is wholly
-# in the page cache), then times, back to back:
+# information) each run drops the file's cached pages and reads it once
+# untimed (so that it is wholly in the page cache, in the state of a file
+# just read), then times, back to back:
 #   cat file > /dev/null      (reading the cached file)
 #   vol-index file            (target: at most 2x cat, for sliced and bricked)
 # and prints per-run times (plus the build time vol-index reports itself,
 # without process start, opening and writing the .vidx), then medians, the
 # median and range of the per-run ratios, and the load average before and
 # after: the machine is shared, so read the figures with it. How fast a
-# cached file reads also depends on the state of the page cache (on
-# machines whose kernel reclaims or splits cached pages in the background,
-# cat of the same file varies 2-3x within a minute); the two commands of a
-# run see the same state, so the per-run ratio is the figure to read.
+# cached file reads also depends on the state of its cached pages (on
+# machines whose kernel reclaims cold pages in the background, a file
+# left alone for a minute is partly evicted, and reading it back leaves it
+# in a slower state: cat of the same file varies 2-3x); dropping and
+# rereading it each run gives every run the same state, and the two
+# commands of a run see the same state, so the per-run ratio is the
+# figure to read.
 # Each run writes a new index (the previous one is removed, untimed):
 # replacing an existing file costs more on some file systems (ext4 starts
 # writing the new file out at once when a rename replaces another), which
@@ -55,6 +59,9 @@ for name in sliced bricked32 zstd; do
     f="$DIR/index-$name-$DIM.vvol"
     bytes=$(stat -c %s "$f")
     for r in $(seq 1 "$RUNS"); do
+        # Drop the file's cached pages and read it again: wholly cached,
+        # and in the state a file is in just after it was read.
+        dd if="$f" iflag=nocache count=0 status=none
         cat "$f" > /dev/null
         rm -f "$DIR/index-$name.vidx"
         t0=$(now); cat "$f" > /dev/null; t1=$(now)

@@ -297,13 +297,16 @@ impl<T: ScanSample> PieceRanges<T> {
                 let (lo, hi) = (&self.lo[o..o + w], &self.hi[o..o + w]);
                 self.windows.prepare(lo, hi, full);
                 let (out_lo, out_hi) = cells.row_mut(cxs.clone(), cy, cz);
-                // Whole cells: two lookups each.
-                let ranges = self.windows.ranges(a0, e as usize, full);
-                let outs = out_lo[whole.clone()].iter_mut();
-                let outs = outs.zip(out_hi[whole.clone()].iter_mut());
-                for ((out_lo, out_hi), (l, h)) in outs.zip(ranges) {
-                    *out_lo = T::lower(*out_lo, l);
-                    *out_hi = T::upper(*out_hi, h);
+                // Whole cells (a row holds one only if it is longer than
+                // the edge): two lookups each.
+                if !whole.is_empty() {
+                    let ranges = self.windows.ranges(a0, e as usize, full);
+                    let outs = out_lo[whole.clone()].iter_mut();
+                    let outs = outs.zip(out_hi[whole.clone()].iter_mut());
+                    for ((out_lo, out_hi), (l, h)) in outs.zip(ranges) {
+                        *out_lo = T::lower(*out_lo, l);
+                        *out_hi = T::upper(*out_hi, h);
+                    }
                 }
                 // Cells cut by the piece's or the volume's edge: a fold.
                 let cut = (0..whole.start).chain(whole.end..out_lo.len());
