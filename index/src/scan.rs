@@ -1,6 +1,7 @@
 //! Per-sample-type kernels of the build pass: element-wise min/max of
-//! blocks of rows in the native sample type (no `f32` conversion per
-//! voxel), and exact per-value counting for integer types.
+//! boxes of rows in the native sample type (no `f32` conversion per
+//! voxel; the AVX2 build is in module `avx2`), and exact per-value
+//! counting for integer types.
 
 use std::ops::Range;
 use volcore::Sample;
