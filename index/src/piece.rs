@@ -295,8 +295,18 @@ impl<T: ScanSample> PieceRanges<T> {
             for cy in self.bands.clone() {
                 let o = self.at(cy, cz);
                 let (lo, hi) = (&self.lo[o..o + w], &self.hi[o..o + w]);
-                self.windows.prepare(lo, hi, full);
                 let (out_lo, out_hi) = cells.row_mut(cxs.clone(), cy, cz);
+                // A row of one value (empty space, mostly) gives every cell
+                // that value (a branch-free test, so it vectorises).
+                let v = lo[0];
+                if lo.iter().zip(hi).fold(true, |one, (&l, &h)| one & (l == v) & (h == v)) {
+                    for (out_lo, out_hi) in out_lo.iter_mut().zip(out_hi.iter_mut()) {
+                        *out_lo = T::lower(*out_lo, v);
+                        *out_hi = T::upper(*out_hi, v);
+                    }
+                    continue;
+                }
+                self.windows.prepare(lo, hi, full);
                 // Whole cells (a row holds one only if it is longer than
                 // the edge): two lookups each.
                 if !whole.is_empty() {
