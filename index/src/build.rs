@@ -273,11 +273,15 @@ fn build_walk_with<T: ScanSample>(
         let layers = Layers::new(cells, &mut min, &mut max);
         let counts = (0..walk.tasks())
             .into_par_iter()
-            .try_fold(ExactCounts::new::<T>, |mut counts, task| {
-                let part = scan_task(walk, edge, task, &mut counts, avx2)?;
-                layers.merge(&part);
-                Ok::<_, IndexError>(counts)
-            })
+            .try_fold(
+                || Scratch::new(edge, avx2),
+                |mut scratch, task| {
+                    scan_task(walk, edge, task, &mut scratch)?;
+                    layers.merge(&scratch.part);
+                    Ok::<_, IndexError>(scratch)
+                },
+            )
+            .map(|scratch| scratch.map(|s| s.counts))
             .try_reduce(ExactCounts::new::<T>, |a, b| Ok(a.merge(b)))?;
         layers.finish();
         counts
@@ -303,33 +307,62 @@ fn cells_of(r: &Region, edge: u64) -> [Range<u64>; 3] {
     std::array::from_fn(|a| cells_meeting(r.axis(a), edge))
 }
 
-/// Scan task `task`: the ranges of the cells its voxels meet (the parts
-/// of their footprints it holds), counting its voxels into `counts`. A task
-/// whose accumulators fit [`TASK_ACC`] is one piece, fed by all its blocks
-/// (a row of bricks: each cell's range is then reduced once, not once per
-/// brick); otherwise each block is cut into pieces of its own.
+/// What a thread scanning tasks one after the other keeps between them:
+/// the counts so far and the buffers of the last task (allocating them
+/// per task would cost the allocator's trimming and the page faults that
+/// follow).
+struct Scratch<T> {
+    counts: ExactCounts,
+    part: CellBox<T>,
+    acc: PieceRanges<T>,
+    avx2: Option<Avx2>,
+}
+
+impl<T: ScanSample> Scratch<T> {
+    /// Empty scratch for cells of `edge` voxels, folding on AVX2 if given.
+    fn new(edge: u64, avx2: Option<Avx2>) -> Self {
+        Scratch {
+            counts: ExactCounts::new::<T>(),
+            part: CellBox::new([0..0, 0..0, 0..0]),
+            acc: PieceRanges::new(edge, avx2),
+            avx2,
+        }
+    }
+}
+
+/// Scan task `task` into `scratch.part`: the ranges of the cells its
+/// voxels meet (the parts of their footprints it holds), counting its
+/// voxels into `scratch.counts`. A task whose accumulators fit
+/// [`TASK_ACC`] is one piece, fed by all its blocks (a row of bricks: each
+/// cell's range is then reduced once, not once per brick); otherwise each
+/// block is cut into pieces of its own.
 fn scan_task<T: ScanSample>(
     walk: &dyn Walk<T>,
     edge: u64,
     task: u64,
-    counts: &mut ExactCounts,
-    avx2: Option<Avx2>,
-) -> Result<CellBox<T>, IndexError> {
+    scratch: &mut Scratch<T>,
+) -> Result<(), IndexError> {
     let r = walk.task_region(task);
-    let mut part = CellBox::new(cells_of(&r, edge));
-    let mut acc = PieceRanges::new(edge, avx2);
+    let Scratch {
+        counts,
+        part,
+        acc,
+        avx2,
+    } = scratch;
+    let avx2 = *avx2;
+    part.reset(cells_of(&r, edge));
     let one_piece = PieceRanges::<T>::len_for(edge, r.axis(0), r.axis(1), r.axis(2)) <= TASK_ACC;
     if one_piece {
         acc.start(r.axis(0), r.axis(1), r.axis(2));
     }
     walk.blocks(task, &mut |block| {
         let pieces = (!one_piece).then_some(edge);
-        scan_block_on(avx2, &mut acc, &mut part, &block, pieces, counts);
+        scan_block_on(avx2, acc, part, &block, pieces, counts);
     })?;
     if one_piece {
-        finish_on(avx2, &mut acc, &mut part);
+        finish_on(avx2, acc, part);
     }
-    Ok(part)
+    Ok(())
 }
 
 /// One block of a scan task: with `pieces` (the cell edge), cut into

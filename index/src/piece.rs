@@ -69,12 +69,23 @@ pub(crate) struct CellBox<T> {
 impl<T: ScanSample> CellBox<T> {
     /// Empty ranges for the cells `cells` (per axis).
     pub fn new(cells: [Range<u64>; 3]) -> Self {
+        let mut part = CellBox {
+            cells: cells.clone(),
+            lo: Vec::new(),
+            hi: Vec::new(),
+        };
+        part.reset(cells);
+        part
+    }
+
+    /// Empty ranges for the cells `cells`, reusing the storage.
+    pub fn reset(&mut self, cells: [Range<u64>; 3]) {
         let n = cells.iter().map(|r| (r.end - r.start) as usize).product();
-        CellBox {
-            cells,
-            lo: vec![T::TOP; n],
-            hi: vec![T::BOTTOM; n],
-        }
+        self.cells = cells;
+        self.lo.clear();
+        self.lo.resize(n, T::TOP);
+        self.hi.clear();
+        self.hi.resize(n, T::BOTTOM);
     }
 
     /// The cells covered, per axis.
@@ -299,7 +310,11 @@ impl<T: ScanSample> PieceRanges<T> {
                 // A row of one value (empty space, mostly) gives every cell
                 // that value (a branch-free test, so it vectorises).
                 let v = lo[0];
-                if lo.iter().zip(hi).fold(true, |one, (&l, &h)| one & (l == v) & (h == v)) {
+                if lo
+                    .iter()
+                    .zip(hi)
+                    .fold(true, |one, (&l, &h)| one & (l == v) & (h == v))
+                {
                     for (out_lo, out_hi) in out_lo.iter_mut().zip(out_hi.iter_mut()) {
                         *out_lo = T::lower(*out_lo, v);
                         *out_hi = T::upper(*out_hi, v);
