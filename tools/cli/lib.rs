@@ -3,6 +3,8 @@
 
 pub mod args;
 pub mod progress;
+pub mod raw;
 pub mod run;
 
+pub use raw::RawArgs;
 pub use run::run;

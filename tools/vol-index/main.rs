@@ -15,7 +15,7 @@ use volformats::{raw, thesis, vvol, FileKind};
 use volindex::build::DEFAULT_CELL_EDGE;
 use volindex::histogram::DEFAULT_BINS;
 use volindex::{BuildOptions, Histogram, IndexError, MajorantIndex};
-use volkit_cli::args;
+use volkit_cli::RawArgs;
 
 /// Build the min/max macrocell index of a volume (.vvol, .vol or .raw) and
 /// write it next to the volume as a .vidx file, with the volume's value
@@ -52,18 +52,8 @@ struct Cli {
     /// Print nothing on success unless --stats or --json asks for it.
     #[arg(short, long)]
     quiet: bool,
-    /// Raw input: dimensions X,Y,Z (otherwise taken from NAME_XxYxZ_TYPE.raw).
-    #[arg(long, value_parser = args::dims3)]
-    raw_dims: Option<[u64; 3]>,
-    /// Raw input: sample type (u8, u16, i16, f32).
-    #[arg(long, default_value = "u8", value_parser = parse_type)]
-    raw_type: SampleType,
-    /// Raw input: samples are big-endian.
-    #[arg(long)]
-    raw_big_endian: bool,
-    /// Raw input: bytes to skip before the samples.
-    #[arg(long, default_value_t = 0)]
-    raw_skip: u64,
+    #[command(flatten)]
+    raw: RawArgs,
 }
 
 const EXAMPLES: &str = "Examples:
@@ -91,10 +81,6 @@ const PERCENTILES: [(&str, f64); 7] = [
 
 /// How many of the fullest bins the summary lists.
 const BUSIEST: usize = 5;
-
-fn parse_type(s: &str) -> Result<SampleType, String> {
-    s.parse()
-}
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -126,15 +112,7 @@ fn default_output(volume: &Path) -> PathBuf {
 
 /// The raw-file interpretation given on the command line, if any.
 fn raw_spec(cli: &Cli) -> Result<Option<raw::RawSpec>> {
-    match cli.raw_dims {
-        Some([x, y, z]) => Ok(Some(raw::RawSpec {
-            dims: Dims::new(x, y, z).map_err(at("--raw-dims"))?,
-            sample_type: cli.raw_type,
-            big_endian: cli.raw_big_endian,
-            skip: cli.raw_skip,
-        })),
-        None => Ok(None),
-    }
+    cli.raw.spec().map_err(anyhow::Error::msg)
 }
 
 /// Streams have no fingerprint, and the index must name its file.

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Compression, Layout, Volume};
-use volformats::{raw, vvol, FileKind};
-use volkit_cli::args;
+use volformats::{vvol, FileKind};
+use volkit_cli::RawArgs;
 
 /// Describe a volume file (.vvol, .vol, .raw, or - for a .vvol stream on
 /// stdin) and check it: the header against the file length, the brick table
@@ -20,18 +20,8 @@ struct Cli {
     /// Check every checksum (reads the whole file).
     #[arg(long)]
     verify: bool,
-    /// Raw input: dimensions X,Y,Z (otherwise taken from NAME_XxYxZ_TYPE.raw).
-    #[arg(long, value_parser = args::dims3)]
-    raw_dims: Option<[u64; 3]>,
-    /// Raw input: sample type (u8, u16, i16, f32).
-    #[arg(long, default_value = "u8")]
-    raw_type: String,
-    /// Raw input: samples are big-endian.
-    #[arg(long)]
-    raw_big_endian: bool,
-    /// Raw input: bytes to skip before the samples.
-    #[arg(long, default_value_t = 0)]
-    raw_skip: u64,
+    #[command(flatten)]
+    raw: RawArgs,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -51,15 +41,7 @@ fn main() -> ExitCode {
 fn info(cli: &Cli) -> Result<()> {
     let start = Instant::now();
     let name = cli.input.display().to_string();
-    let spec = match cli.raw_dims {
-        Some([x, y, z]) => Some(raw::RawSpec {
-            dims: volcore::Dims::new(x, y, z)?,
-            sample_type: cli.raw_type.parse().map_err(anyhow::Error::msg)?,
-            big_endian: cli.raw_big_endian,
-            skip: cli.raw_skip,
-        }),
-        None => None,
-    };
+    let spec = cli.raw.spec().map_err(anyhow::Error::msg)?;
     let opts = vvol::OpenOptions {
         verify: cli.verify,
         ..Default::default()

@@ -10,8 +10,8 @@ use volcompare::{
     compare_images, compare_volumes, write_heatmap, Image, ImageComparison, ImageOptions, Metrics,
     VolumeComparison, VolumeOptions,
 };
-use volformats::{raw, vvol, FileKind};
-use volkit_cli::args;
+use volformats::{vvol, FileKind};
+use volkit_cli::RawArgs;
 
 /// Exit status: an input could not be read, or --diff not written.
 const EXIT_READ: u8 = 1;
@@ -70,18 +70,8 @@ struct Cli {
     /// largest absolute error along z at each (x, y).
     #[arg(long, value_name = "OUT.png")]
     diff: Option<PathBuf>,
-    /// Raw inputs: dimensions X,Y,Z (otherwise taken from NAME_XxYxZ_TYPE.raw).
-    #[arg(long, value_parser = args::dims3)]
-    raw_dims: Option<[u64; 3]>,
-    /// Raw inputs: sample type (u8, u16, i16, f32).
-    #[arg(long, default_value = "u8")]
-    raw_type: String,
-    /// Raw inputs: samples are big-endian.
-    #[arg(long)]
-    raw_big_endian: bool,
-    /// Raw inputs: bytes to skip before the samples.
-    #[arg(long, default_value_t = 0)]
-    raw_skip: u64,
+    #[command(flatten)]
+    raw: RawArgs,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -340,18 +330,7 @@ fn volumes(cli: &Cli) -> Result<Report, Fail> {
             "--alpha and --luma apply to images only",
         ));
     }
-    let spec = match cli.raw_dims {
-        Some([x, y, z]) => Some(raw::RawSpec {
-            dims: volcore::Dims::new(x, y, z).map_err(|e| Fail::new(EXIT_USAGE, e))?,
-            sample_type: cli
-                .raw_type
-                .parse()
-                .map_err(|e: String| Fail::new(EXIT_USAGE, e))?,
-            big_endian: cli.raw_big_endian,
-            skip: cli.raw_skip,
-        }),
-        None => None,
-    };
+    let spec = cli.raw.spec().map_err(|e| Fail::new(EXIT_USAGE, e))?;
     let open = |p: &Path| {
         volformats::open_volume(p, vvol::OpenOptions::default(), spec)
             .map_err(|e| Fail::new(EXIT_READ, format!("{}: {e}", p.display())))
