@@ -1,6 +1,6 @@
 //! Parsers for the argument forms the tools share.
 
-use volcore::Compression;
+use volcore::{Compression, SampleType};
 
 /// Parse `X,Y,Z` (also `XxYxZ`) into three positive integers.
 pub fn dims3(s: &str) -> Result<[u64; 3], String> {
@@ -15,6 +15,11 @@ pub fn dims3(s: &str) -> Result<[u64; 3], String> {
         [_, _, _] => Err(format!("'{s}': every dimension must be at least 1")),
         _ => Err(format!("'{s}' is not X,Y,Z")),
     }
+}
+
+/// Parse a sample type name (`u8`, `u16`, `i16`, `f32`).
+pub fn sample_type(s: &str) -> Result<SampleType, String> {
+    s.parse()
 }
 
 /// Parse `x,y,z` into three positive finite floats.

@@ -1,6 +1,6 @@
 //! The options that tell the tools how to read a headerless raw volume.
 
-use crate::args::dims3;
+use crate::args::{dims3, sample_type};
 use volcore::{Dims, SampleType};
 use volformats::raw::RawSpec;
 
@@ -37,11 +37,6 @@ impl RawArgs {
             skip: self.raw_skip,
         }))
     }
-}
-
-/// Parse a sample type name (`u8`, `u16`, `i16`, `f32`).
-fn sample_type(s: &str) -> Result<SampleType, String> {
-    s.parse()
 }
 
 #[cfg(test)]

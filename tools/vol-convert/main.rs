@@ -53,7 +53,7 @@ struct Cli {
     #[arg(long, default_value = "none", value_parser = args::compression)]
     compress: Compression,
     /// Output sample type: u8, u16, i16, f32 (default: the input's).
-    #[arg(long = "type", value_parser = parse_type)]
+    #[arg(long = "type", value_parser = args::sample_type)]
     sample_type: Option<SampleType>,
     /// Value window for --type: lo:hi, auto, auto:P or full.
     #[arg(long, allow_hyphen_values = true)]
@@ -77,7 +77,7 @@ struct Cli {
     #[arg(long, value_parser = args::dims3)]
     raw_dims: Option<[u64; 3]>,
     /// Raw input: sample type.
-    #[arg(long, value_parser = parse_type)]
+    #[arg(long, value_parser = args::sample_type)]
     raw_type: Option<SampleType>,
     /// Raw input: byte order.
     #[arg(long, default_value = "little", value_parser = ["little", "big"])]
@@ -101,10 +101,6 @@ const EXAMPLES: &str = "Examples:
   vol-convert head.nrrd --type u8 --window auto -o head.vol
   vol-convert scan.vvol -o slices/
   vol-gen shapes --dims 256,256,256 -o - | vol-convert - --layout bricked:32 -o out.vvol";
-
-fn parse_type(s: &str) -> Result<SampleType, String> {
-    s.parse()
-}
 
 /// Keep freed buffers in the process. Slices and write chunks of a few
 /// hundred KiB to a few MiB are allocated and freed for every unit, and

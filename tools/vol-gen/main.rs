@@ -64,7 +64,7 @@ struct Cli {
     #[arg(long, value_parser = args::dims3)]
     dims: [u64; 3],
     /// Sample type.
-    #[arg(long = "type", default_value = "u8", value_parser = parse_type)]
+    #[arg(long = "type", default_value = "u8", value_parser = args::sample_type)]
     sample_type: SampleType,
     /// Voxel spacing x,y,z (world units between voxel centres).
     #[arg(long, default_value = "1,1,1", value_parser = args::spacing3)]
@@ -122,10 +122,6 @@ const EXAMPLES: &str = "Examples:
   vol-gen sphere --dims 64,64,64 --type f32 --radius 30 -o sphere.vvol
   vol-gen shapes --dims 256,256,256 --layout bricked:16 -o thesis.vol
   vol-gen shapes --dims 128,128,128 -o - | vol-info -";
-
-fn parse_type(s: &str) -> Result<SampleType, String> {
-    s.parse()
-}
 
 fn build_scene(cli: &Cli, dims: Dims) -> Box<dyn Scene> {
     let value = |d: f32| cli.value.unwrap_or(d);
