@@ -315,7 +315,6 @@ struct Scratch<T> {
     counts: ExactCounts,
     part: CellBox<T>,
     acc: PieceRanges<T>,
-    avx2: Option<Avx2>,
 }
 
 impl<T: ScanSample> Scratch<T> {
@@ -325,7 +324,6 @@ impl<T: ScanSample> Scratch<T> {
             counts: ExactCounts::new::<T>(),
             part: CellBox::new([0..0, 0..0, 0..0]),
             acc: PieceRanges::new(edge, avx2),
-            avx2,
         }
     }
 }
@@ -343,13 +341,8 @@ fn scan_task<T: ScanSample>(
     scratch: &mut Scratch<T>,
 ) -> Result<(), IndexError> {
     let r = walk.task_region(task);
-    let Scratch {
-        counts,
-        part,
-        acc,
-        avx2,
-    } = scratch;
-    let avx2 = *avx2;
+    let Scratch { counts, part, acc } = scratch;
+    let avx2 = acc.cpu();
     part.reset(cells_of(&r, edge));
     let one_piece = PieceRanges::<T>::len_for(edge, r.axis(0), r.axis(1), r.axis(2)) <= TASK_ACC;
     if one_piece {

@@ -160,6 +160,11 @@ impl<T: ScanSample> PieceRanges<T> {
         }
     }
 
+    /// The proof of AVX2 it folds with, if any.
+    pub fn cpu(&self) -> Option<Avx2> {
+        self.cpu
+    }
+
     /// Start a piece of voxels `xs × ys × zs` (none empty), forgetting the
     /// previous one.
     pub fn start(&mut self, xs: Range<u64>, ys: Range<u64>, zs: Range<u64>) {
