@@ -113,6 +113,19 @@ impl VolumeMeta {
             compression: Compression::None,
         }
     }
+
+    /// The far corner of the volume's box in world units,
+    /// `(dims − 1)·spacing` per axis (the box starts at the origin: voxel
+    /// `(i, j, k)` sits at `(i·sx, j·sy, k·sz)`).
+    pub fn world_extent(&self) -> [f32; 3] {
+        let d = self.dims.as_array();
+        std::array::from_fn(|a| (d[a] - 1) as f32 * self.spacing[a])
+    }
+
+    /// The smallest of the three voxel spacings.
+    pub fn min_spacing(&self) -> f32 {
+        self.spacing.iter().copied().fold(f32::INFINITY, f32::min)
+    }
 }
 
 impl fmt::Display for VolumeMeta {
