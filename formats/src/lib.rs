@@ -6,6 +6,7 @@
 //! - [`raw`]: headerless sample arrays, Open SciVis naming.
 //! - [`tiff`], [`nrrd`], [`mhd`]: TIFF stacks, NRRD and MetaImage, and
 //!   [`convert`], which turns any input into any output slice by slice.
+//! - [`image`]: the image files tools write (8-bit PNG, PFM, heat maps).
 //!
 //! Writers pull samples from a [`volcore::RegionSource`] and produce them in
 //! parallel batches that one thread writes in file order
@@ -17,6 +18,7 @@ pub mod convert;
 pub mod detect;
 pub mod error;
 pub mod fingerprint;
+pub mod image;
 pub mod mhd;
 pub mod nrrd;
 pub mod output;
