@@ -105,6 +105,12 @@ struct Cli {
     /// sphere: outer radius in voxels (default: half the smallest dimension).
     #[arg(long)]
     radius: Option<f32>,
+    /// sphere: a solid sphere of the full value whose surface is a linear
+    /// ramp this many voxels wide, centred on the radius (instead of the
+    /// cone-shaped radial profile): gradients are zero inside and outside
+    /// and value/edge per voxel in the shell.
+    #[arg(long)]
+    edge: Option<f32>,
     /// Output path (.vvol, .vol, .raw) or - for a sliced .vvol on stdout.
     #[arg(short, long)]
     output: PathBuf,
@@ -120,6 +126,7 @@ const EXAMPLES: &str = "Examples:
   vol-gen shapes --dims 800,800,800 --seed 2 --count 70 --size 70 --value 100 -o shapes.vvol
   vol-gen noise --dims 256,256,256 --layout bricked:32 --compress zstd -o noise.vvol
   vol-gen sphere --dims 64,64,64 --type f32 --radius 30 -o sphere.vvol
+  vol-gen sphere --dims 96,96,96 --radius 36 --edge 4 -o ball.vvol
   vol-gen shapes --dims 256,256,256 --layout bricked:16 -o thesis.vol
   vol-gen shapes --dims 128,128,128 -o - | vol-info -";
 
@@ -157,7 +164,10 @@ fn build_scene(cli: &Cli, dims: Dims) -> Box<dyn Scene> {
         SceneName::Sphere => {
             let smallest = dims.x.min(dims.y).min(dims.z) as f32;
             let r = cli.radius.unwrap_or(smallest / 2.0);
-            Box::new(SphereScene::new(dims, r, value(255.0)))
+            match cli.edge {
+                Some(e) => Box::new(SphereScene::with_edge(dims, r, value(255.0), e)),
+                None => Box::new(SphereScene::new(dims, r, value(255.0))),
+            }
         }
     }
 }
