@@ -1,13 +1,13 @@
-//! Blinn-Phong lighting for shaded samples and surfaces.
+//! Shading models: how a lit point reflects light towards the eye.
+//! Blinn-Phong is the one the ray caster uses; a phase function will sit
+//! beside it for scattering media.
 
+use crate::light::Light;
 use glam::Vec3;
 
-/// A Blinn-Phong model with one directional light.
+/// The Blinn-Phong reflection model's weights.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Lighting {
-    /// Unit direction towards the light, or `None` for a headlight (the
-    /// light sits at the eye, so it comes from each ray's origin).
-    pub light_dir: Option<Vec3>,
+pub struct BlinnPhong {
     /// Ambient weight.
     pub ambient: f32,
     /// Diffuse weight.
@@ -18,10 +18,9 @@ pub struct Lighting {
     pub shininess: f32,
 }
 
-impl Default for Lighting {
+impl Default for BlinnPhong {
     fn default() -> Self {
-        Lighting {
-            light_dir: None,
+        BlinnPhong {
             ambient: 0.25,
             diffuse: 0.65,
             specular: 0.35,
@@ -30,10 +29,28 @@ impl Default for Lighting {
     }
 }
 
+/// A light and the shading model that reflects it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lighting {
+    /// The light.
+    pub light: Light,
+    /// The reflection model.
+    pub model: BlinnPhong,
+}
+
+impl Default for Lighting {
+    fn default() -> Self {
+        Lighting {
+            light: Light::Headlight,
+            model: BlinnPhong::default(),
+        }
+    }
+}
+
 impl Lighting {
-    /// Shade `colour` at a point with (unnormalised) gradient `grad`, seen
-    /// along unit `view_dir` (from the eye into the scene). Two-sided: the
-    /// normal is flipped to face the viewer. `grad` must be nonzero.
+    /// Shade `colour` at a point with (unnormalised, nonzero) gradient
+    /// `grad`, seen along unit `view_dir` (from the eye into the scene).
+    /// Two-sided: the normal is flipped to face the viewer.
     #[inline(always)]
     pub fn shade(&self, colour: Vec3, grad: Vec3, view_dir: Vec3) -> Vec3 {
         self.for_view(view_dir)
@@ -43,24 +60,26 @@ impl Lighting {
     /// What shading along one viewing direction needs, worked out once per
     /// ray rather than per sample.
     #[inline(always)]
-    pub fn for_view(&self, view_dir: Vec3) -> ViewLight {
+    pub fn for_view(&self, view_dir: Vec3) -> ViewShading {
         let to_eye = -view_dir;
-        let l = self.light_dir.unwrap_or(to_eye);
-        let whole = self.shininess.fract() == 0.0 && (0.0..=256.0).contains(&self.shininess);
-        ViewLight {
-            model: *self,
+        let l = self.light.for_ray(view_dir).towards;
+        let m = self.model;
+        let whole = m.shininess.fract() == 0.0 && (0.0..=256.0).contains(&m.shininess);
+        ViewShading {
+            model: m,
             to_eye,
             l,
             h: (l + to_eye).normalize_or_zero(),
-            whole_exponent: whole.then_some(self.shininess as u32),
+            whole_exponent: whole.then_some(m.shininess as u32),
         }
     }
 }
 
-/// Blinn-Phong for one viewing direction (see [`Lighting::for_view`]).
+/// Blinn-Phong for one viewing direction and one light whose direction is
+/// fixed along the ray (see [`Lighting::for_view`]).
 #[derive(Clone, Copy, Debug)]
-pub struct ViewLight {
-    model: Lighting,
+pub struct ViewShading {
+    model: BlinnPhong,
     /// Unit vector towards the eye.
     to_eye: Vec3,
     /// Unit vector towards the light.
@@ -72,7 +91,7 @@ pub struct ViewLight {
     whole_exponent: Option<u32>,
 }
 
-impl ViewLight {
+impl ViewShading {
     /// Shade `colour` at a point whose unit gradient is `unit_grad` (or
     /// zero). Two-sided: the normal is flipped to face the viewer.
     #[inline(always)]
@@ -109,4 +128,46 @@ fn pow_whole(mut x: f32, mut n: u32) -> f32 {
         n >>= 1;
     }
     r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn headlight_on_a_facing_surface_is_ambient_plus_diffuse_plus_specular() {
+        let l = Lighting::default();
+        let view = Vec3::NEG_Z;
+        // Gradient pointing away from the eye: the normal faces the viewer.
+        let c = l.shade(Vec3::ONE, Vec3::Z, view);
+        let m = BlinnPhong::default();
+        let want = m.ambient + m.diffuse + m.specular;
+        assert!((c - Vec3::splat(want)).length() < 1e-6, "{c}");
+        // Two-sided: the opposite gradient shades the same.
+        assert_eq!(l.shade(Vec3::ONE, Vec3::NEG_Z, view), c);
+    }
+
+    #[test]
+    fn light_from_behind_leaves_ambient_only() {
+        let l = Lighting {
+            light: Light::directional(Vec3::Z).unwrap(),
+            ..Default::default()
+        };
+        // Eye looks along -z (towards_eye = +z); the light is at +z too, so
+        // a surface facing +z is lit; one facing x is lit at grazing angle
+        // zero: ambient only.
+        let c = l.shade(Vec3::ONE, Vec3::X, Vec3::NEG_Z);
+        assert!((c - Vec3::splat(0.25)).length() < 1e-6, "{c}");
+    }
+
+    #[test]
+    fn whole_and_fractional_exponents_agree() {
+        for e in [1.0f32, 7.0, 24.0, 256.0] {
+            for x in [0.0f32, 0.3, 0.9, 1.0] {
+                let a = pow_whole(x, e as u32);
+                let b = x.powf(e);
+                assert!((a - b).abs() <= 1e-5 * b.max(1e-30) + 1e-30, "{x}^{e}");
+            }
+        }
+    }
 }

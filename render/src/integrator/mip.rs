@@ -1,118 +1,141 @@
-//! Projections that reduce the samples to one value: MIP, MinIP, X-ray.
+//! Maximum and minimum intensity projection.
 
-use super::sample::value;
-use super::{RayCtx, RayResult, Walk};
+use super::march::{march, Flow, RayMarch, RaySteps};
+use super::reconstruct::Reconstruct;
+use super::{FrameGeometry, Integrator, RayResult};
+use crate::accel::Accel;
 use crate::ray::Ray;
+use glam::Vec3;
+use std::marker::PhantomData;
 use volcore::Cursor;
 
-/// Maximum (`MAX = true`) or minimum intensity along the ray. `ESS` skips
-/// cells whose range cannot beat the running value; `ERT` stops once the
-/// running value reaches the volume's extreme (nothing can beat it). NaN
-/// samples are ignored.
-pub fn mip<C: Cursor, const TRI: bool, const MAX: bool, const ESS: bool, const ERT: bool>(
-    ctx: &RayCtx,
-    cur: &mut C,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
-) -> RayResult {
-    let mut out = RayResult::empty();
-    let w = Walk::new(ctx, ray, t0, t1);
-    let mut best = if MAX {
-        f32::NEG_INFINITY
-    } else {
-        f32::INFINITY
-    };
-    let extreme = if MAX {
-        ctx.value_range.1
-    } else {
-        ctx.value_range.0
-    };
-    let mut k = w.k0;
-    while k <= w.k1 {
-        let t = w.t(k);
-        let p = w.at(t);
-        if ESS {
-            if let Some(skip) = ctx.skip {
-                let levels = skip.index().levels();
-                let cannot_beat = |l: usize, i: usize, _| {
-                    if MAX {
-                        levels[l].max()[i] <= best
-                    } else {
-                        levels[l].min()[i] >= best
-                    }
-                };
-                if let Some(u) = skip.skip_until(p, w.o, w.d, w.inv_d, cannot_beat) {
-                    if let Some(kn) = w.after_skip(k, u) {
-                        k = kn;
-                        out.skips += 1;
-                        continue;
-                    }
-                }
-            }
-        }
-        let v = value::<C, TRI>(&w.loc, cur, p);
-        out.samples += 1;
-        if (MAX && v > best) || (!MAX && v < best) {
-            best = v;
-            out.depth = t;
-            if ERT && ((MAX && best >= extreme) || (!MAX && best <= extreme)) {
-                break;
-            }
-        }
-        k += 1;
-    }
-    if best.is_finite() {
-        out.value = best;
-    }
-    out
+/// Which extreme a projection keeps.
+pub trait Extreme: Copy + Send + Sync + 'static {
+    /// The value before any sample.
+    const START: f32;
+    /// Whether `v` beats `best`.
+    fn beats(v: f32, best: f32) -> bool;
+    /// Whether `best` has reached the volume's extreme `extreme`.
+    fn reached(best: f32, extreme: f32) -> bool;
 }
 
-/// X-ray: the sum of `value × step` along the ray (`MEAN = false`, the line
-/// integral in value·world units) or the mean sample value (`MEAN = true`).
-/// NaN samples count as 0. `ESS` skips cells holding only zeros (counting
-/// their samples, so the mean stays exact). Accumulates in f64.
-pub fn xray<C: Cursor, const TRI: bool, const MEAN: bool, const ESS: bool>(
-    ctx: &RayCtx,
-    cur: &mut C,
-    ray: &Ray,
-    t0: f32,
-    t1: f32,
-) -> RayResult {
-    let mut out = RayResult::empty();
-    let w = Walk::new(ctx, ray, t0, t1);
-    let mut sum = 0.0f64;
-    let mut count = 0i64;
-    let mut k = w.k0;
-    while k <= w.k1 {
-        let t = w.t(k);
-        let p = w.at(t);
-        if ESS {
-            if let Some(skip) = ctx.skip {
-                if let Some(u) = skip.skip_until(p, w.o, w.d, w.inv_d, |_, _, f| f != 0) {
-                    if let Some(kn) = w.after_skip(k, u) {
-                        count += kn - k;
-                        k = kn;
-                        out.skips += 1;
-                        continue;
-                    }
-                }
+/// Keep the largest value (MIP).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Maximum;
+
+/// Keep the smallest value (MinIP).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Minimum;
+
+impl Extreme for Maximum {
+    const START: f32 = f32::NEG_INFINITY;
+    #[inline(always)]
+    fn beats(v: f32, best: f32) -> bool {
+        v > best
+    }
+    #[inline(always)]
+    fn reached(best: f32, extreme: f32) -> bool {
+        best >= extreme
+    }
+}
+
+impl Extreme for Minimum {
+    const START: f32 = f32::INFINITY;
+    #[inline(always)]
+    fn beats(v: f32, best: f32) -> bool {
+        v < best
+    }
+    #[inline(always)]
+    fn reached(best: f32, extreme: f32) -> bool {
+        best <= extreme
+    }
+}
+
+/// The extreme sample value along the ray (`D` says which); NaN samples
+/// are ignored. With `stop_at_extreme`, a ray stops once its running value
+/// reaches the volume's own extreme (nothing can beat it; checked only
+/// when the value improves). `A` skips cells whose range cannot beat the
+/// running value.
+pub struct Mip<R, D, A> {
+    geom: FrameGeometry,
+    accel: A,
+    stop_at_extreme: bool,
+    extreme: f32,
+    _choices: PhantomData<(R, D)>,
+}
+
+impl<R, D, A> Mip<R, D, A> {
+    /// The integrator; `extreme` is the volume's largest (MIP) or smallest
+    /// (MinIP) value.
+    pub fn new(geom: FrameGeometry, accel: A, stop_at_extreme: bool, extreme: f32) -> Self {
+        Mip {
+            geom,
+            accel,
+            stop_at_extreme,
+            extreme,
+            _choices: PhantomData,
+        }
+    }
+}
+
+impl<R: Reconstruct, D: Extreme, A: Accel<f32>> Integrator for Mip<R, D, A> {
+    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult {
+        let steps = RaySteps::new(&self.geom, ray, t0, t1);
+        let mut st = MipRay::<R, D, A> {
+            mip: self,
+            best: D::START,
+            depth: f32::NAN,
+            samples: 0,
+        };
+        let skips = march(&mut st, &self.accel, cur, &steps);
+        RayResult {
+            value: if st.best.is_finite() {
+                st.best
+            } else {
+                f32::NAN
+            },
+            depth: st.depth,
+            samples: st.samples,
+            skips,
+            ..RayResult::empty()
+        }
+    }
+}
+
+struct MipRay<'m, R, D, A> {
+    mip: &'m Mip<R, D, A>,
+    best: f32,
+    depth: f32,
+    samples: u32,
+}
+
+impl<R: Reconstruct, D: Extreme, A> RayMarch for MipRay<'_, R, D, A> {
+    type Query = f32;
+    const CACHE_BUSY: bool = false;
+
+    #[inline(always)]
+    fn query(&self) -> f32 {
+        self.best
+    }
+
+    #[inline(always)]
+    fn sample<C: Cursor>(
+        &mut self,
+        cur: &mut C,
+        _: i64,
+        t: f32,
+        p: Vec3,
+        _: Option<usize>,
+    ) -> Flow {
+        let v = R::value(&self.mip.geom.locator, cur, p);
+        self.samples += 1;
+        if D::beats(v, self.best) {
+            self.best = v;
+            self.depth = t;
+            if self.mip.stop_at_extreme && D::reached(self.best, self.mip.extreme) {
+                return Flow::Stop;
             }
         }
-        let v = value::<C, TRI>(&w.loc, cur, p);
-        out.samples += 1;
-        if !v.is_nan() {
-            sum += v as f64;
-        }
-        count += 1;
-        k += 1;
+        Flow::Next
     }
-    if count > 0 {
-        out.value = if MEAN {
-            (sum / count as f64) as f32
-        } else {
-            (sum * w.step) as f32
-        };
-    }
-    out
 }

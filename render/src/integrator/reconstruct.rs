@@ -1,41 +1,117 @@
-//! Reconstruction and gradients at a point, specialised per option.
+//! Reconstruction and gradients at a point, one zero-sized type per
+//! choice, so an integrator is compiled for exactly the ones it uses.
 
 use glam::Vec3;
 use volcore::grid::{blend, Locator};
 use volcore::Cursor;
 
-/// The value at voxel-space `p`: trilinear or nearest (rounding halves up,
-/// as `Cursor::nearest` does for the clamped, non-negative coordinates).
-#[inline(always)]
-pub fn value<C: Cursor, const TRI: bool>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
-    let (base, t) = loc.locate(p.into());
-    if TRI {
+/// How a value between voxels is reconstructed.
+pub trait Reconstruct: Copy + Send + Sync + 'static {
+    /// The value at voxel-space point `p`.
+    fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32;
+    /// The value at offsets `t` inside the cell whose corner values are
+    /// `c` (corners ordered `dx + 2·dy + 4·dz`).
+    fn in_cell(c: &[f32; 8], t: [f32; 3]) -> f32;
+}
+
+/// Trilinear interpolation.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Trilinear;
+
+/// The nearest voxel (halves round up, as `Cursor::nearest` does for the
+/// clamped, non-negative coordinates).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Nearest;
+
+impl Reconstruct for Trilinear {
+    #[inline(always)]
+    fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
+        let (base, t) = loc.locate(p.into());
         let c = cur.cell(base[0], base[1], base[2]);
         blend(&c, t)
-    } else {
+    }
+    #[inline(always)]
+    fn in_cell(c: &[f32; 8], t: [f32; 3]) -> f32 {
+        blend(c, t)
+    }
+}
+
+impl Reconstruct for Nearest {
+    #[inline(always)]
+    fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
+        let (base, t) = loc.locate(p.into());
         let d = cur.dims().as_array();
         let pick = |a: usize| (base[a] + (t[a] >= 0.5) as u64).min(d[a] - 1);
         cur.voxel(pick(0), pick(1), pick(2))
     }
-}
-
-/// The value at `p` and the gradient (per voxel) of the trilinear cell
-/// around it, from one cell fetch.
-#[inline(always)]
-pub fn value_and_analytic_gradient<C: Cursor, const TRI: bool>(
-    loc: &Locator,
-    cur: &mut C,
-    p: Vec3,
-) -> (f32, Vec3) {
-    let (base, t) = loc.locate(p.into());
-    let c = cur.cell(base[0], base[1], base[2]);
-    let v = if TRI {
-        blend(&c, t)
-    } else {
+    #[inline(always)]
+    fn in_cell(c: &[f32; 8], t: [f32; 3]) -> f32 {
         let i = (t[0] >= 0.5) as usize + 2 * (t[1] >= 0.5) as usize + 4 * (t[2] >= 0.5) as usize;
         c[i]
-    };
-    (v, cell_gradient(&c, t))
+    }
+}
+
+/// How the gradient at a sample is computed (per voxel; the integrators
+/// scale it to world units).
+pub trait Gradient: Copy + Send + Sync + 'static {
+    /// What the method gets for free while reading the value (the
+    /// analytic gradient comes from the same cell fetch).
+    type Early: Copy;
+    /// The value at `p`, and what the gradient can reuse.
+    fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Self::Early);
+    /// The gradient at `p`, given what [`Gradient::value`] returned there.
+    fn gradient<C: Cursor>(early: Self::Early, loc: &Locator, cur: &mut C, p: Vec3) -> Vec3;
+}
+
+/// No gradient at all: for integrators that neither shade nor classify by
+/// gradient. Its [`Gradient::gradient`] is never called by them.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoGradient;
+
+/// Central differences of the interpolant (six more cells read).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Central;
+
+/// The exact gradient of the trilinear cell around the point.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Analytic;
+
+impl Gradient for NoGradient {
+    type Early = ();
+    #[inline(always)]
+    fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
+        (R::value(loc, cur, p), ())
+    }
+    #[inline(always)]
+    fn gradient<C: Cursor>(_: (), _: &Locator, _: &mut C, _: Vec3) -> Vec3 {
+        Vec3::ZERO
+    }
+}
+
+impl Gradient for Central {
+    type Early = ();
+    #[inline(always)]
+    fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
+        (R::value(loc, cur, p), ())
+    }
+    #[inline(always)]
+    fn gradient<C: Cursor>(_: (), loc: &Locator, cur: &mut C, p: Vec3) -> Vec3 {
+        central_gradient(loc, cur, p)
+    }
+}
+
+impl Gradient for Analytic {
+    type Early = Vec3;
+    #[inline(always)]
+    fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Vec3) {
+        let (base, t) = loc.locate(p.into());
+        let c = cur.cell(base[0], base[1], base[2]);
+        (R::in_cell(&c, t), cell_gradient(&c, t))
+    }
+    #[inline(always)]
+    fn gradient<C: Cursor>(early: Vec3, _: &Locator, _: &mut C, _: Vec3) -> Vec3 {
+        early
+    }
 }
 
 /// The exact gradient of the trilinear interpolant of cell `c` at offsets
@@ -101,11 +177,11 @@ mod tests {
         .unwrap();
         let mut cur = v.cursor();
         let loc = Locator::new(d);
-        let (val, g) =
-            value_and_analytic_gradient::<_, true>(&loc, &mut cur, Vec3::new(3.25, 2.5, 1.5));
+        let p = Vec3::new(3.25, 2.5, 1.5);
+        let (val, g) = Analytic::value::<_, Trilinear>(&loc, &mut cur, p);
         assert!((val - 80.0 * 3.25 / 8.0).abs() < 1e-4);
         assert!((g - Vec3::new(10.0, 0.0, 0.0)).length() < 1e-5);
-        let c = central_gradient(&loc, &mut cur, Vec3::new(3.25, 2.5, 1.5));
+        let c = Central::gradient((), &loc, &mut cur, p);
         assert!((c - g).length() < 1e-4);
         // The interior shortcut agrees with the general definition.
         let mut rng = fastrand::Rng::with_seed(5);
@@ -122,7 +198,7 @@ mod tests {
     }
 
     #[test]
-    fn nearest_matches_the_cursor() {
+    fn reconstructions_match_the_cursor() {
         let d = Dims::new(6, 5, 4).unwrap();
         let scene = NoiseScene::new(d, 1, NoiseKind::Value, 2.0, 2, 100.0);
         let v = volcore::SlicedGrid::new(
@@ -140,11 +216,20 @@ mod tests {
                 rng.f32() * 5.0 - 0.5,
             );
             assert_eq!(
-                value::<_, false>(&loc, &mut cur, p),
+                Nearest::value(&loc, &mut cur, p),
                 cur.nearest(p.into()),
                 "{p}"
             );
-            assert_eq!(value::<_, true>(&loc, &mut cur, p), cur.trilinear(p.into()));
+            assert_eq!(Trilinear::value(&loc, &mut cur, p), cur.trilinear(p.into()));
+            // The value read alongside the analytic gradient is the same.
+            assert_eq!(
+                Analytic::value::<_, Nearest>(&loc, &mut cur, p).0,
+                cur.nearest(p.into())
+            );
+            assert_eq!(
+                Analytic::value::<_, Trilinear>(&loc, &mut cur, p).0,
+                cur.trilinear(p.into())
+            );
         }
     }
 }
