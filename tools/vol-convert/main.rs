@@ -8,12 +8,12 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Compression, Dims, SampleType};
-use volformats::convert::{
-    self, open_input, InputOptions, Plan, RawArgs, Target, ValueMap, Window,
-};
+use volformats::convert::{self, Plan, Target, ValueMap, Window};
 use volformats::thesis::ThesisLayout;
 use volformats::tiff::ChannelSel;
+use volformats::{open_input, ReadOptions};
 use volkit_cli::args::{self, LayoutArg};
+use volkit_cli::{json, usage, RawSpec};
 
 /// Convert a volume between formats, slice by slice.
 ///
@@ -73,22 +73,12 @@ struct Cli {
     /// Colour TIFF: keep the luma 0.299 R + 0.587 G + 0.114 B.
     #[arg(long)]
     luma: bool,
-    /// Raw input: dimensions X,Y,Z (otherwise from NAME_XxYxZ_TYPE.raw).
-    #[arg(long, value_parser = args::dims3)]
-    raw_dims: Option<[u64; 3]>,
-    /// Raw input: sample type.
-    #[arg(long, value_parser = args::sample_type)]
-    raw_type: Option<SampleType>,
-    /// Raw input: byte order.
-    #[arg(long, default_value = "little", value_parser = ["little", "big"])]
-    raw_endian: String,
-    /// Raw input: bytes to skip before the samples.
-    #[arg(long, default_value_t = 0)]
-    raw_skip: u64,
+    #[command(flatten)]
+    raw: RawSpec,
     /// Print one JSON object with what was done (to stderr when -o -).
     #[arg(long)]
     json: bool,
-    /// No progress bar.
+    /// Print nothing but errors (no progress bar, no summary).
     #[arg(short, long)]
     quiet: bool,
 }
@@ -157,25 +147,9 @@ fn stop_on_signals() {}
 fn main() -> ExitCode {
     tune_malloc();
     stop_on_signals();
-    let cli = match Cli::try_parse() {
+    let cli = match volkit_cli::parse::<Cli>("vol-convert") {
         Ok(c) => c,
-        Err(e) => {
-            use clap::error::ErrorKind;
-            if matches!(
-                e.kind(),
-                ErrorKind::DisplayHelp
-                    | ErrorKind::DisplayVersion
-                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
-            ) {
-                e.exit();
-            }
-            // Usage errors on one line, like every other error.
-            let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
-            let first = first.trim_start_matches("error: ");
-            eprintln!("vol-convert: {first} (see --help)");
-            return ExitCode::from(volkit_cli::run::EXIT_USAGE);
-        }
+        Err(code) => return code,
     };
     volkit_cli::run("vol-convert", || convert_cmd(&cli))
 }
@@ -183,6 +157,11 @@ fn main() -> ExitCode {
 /// An error about `path`, as `path: message`.
 fn at(path: &Path, msg: impl std::fmt::Display) -> anyhow::Error {
     anyhow!("{}: {msg}", path.display())
+}
+
+/// A usage error about `path` (exit status 2).
+fn usage_at(path: &Path, msg: impl std::fmt::Display) -> anyhow::Error {
+    usage(format!("{}: {msg}", path.display()))
 }
 
 /// Standard output as an unbuffered file (a duplicate of descriptor 1).
@@ -197,7 +176,7 @@ fn target(cli: &Cli) -> Result<Target> {
     let text = out.to_string_lossy();
     let sliced_only = |what: &str| -> Result<()> {
         if cli.layout != LayoutArg::Sliced {
-            return Err(at(
+            return Err(usage_at(
                 out,
                 format!("{what} output is sliced only: drop --layout"),
             ));
@@ -206,7 +185,7 @@ fn target(cli: &Cli) -> Result<Target> {
     };
     let no_compress = |what: &str| -> Result<()> {
         if cli.compress != Compression::None {
-            return Err(at(
+            return Err(usage_at(
                 out,
                 format!("--compress applies to bricked .vvol output, not {what}"),
             ));
@@ -234,7 +213,7 @@ fn target(cli: &Cli) -> Result<Target> {
                 LayoutArg::Bricked(b) => Some(b),
             };
             if brick.is_none() && cli.compress != Compression::None {
-                return Err(at(
+                return Err(usage_at(
                     out,
                     "--compress needs --layout bricked:B (compression is per brick)",
                 ));
@@ -251,7 +230,7 @@ fn target(cli: &Cli) -> Result<Target> {
                 LayoutArg::Sliced => ThesisLayout::Sliced,
                 LayoutArg::Bricked(b) if b <= 255 => ThesisLayout::Bricked(b as u8),
                 LayoutArg::Bricked(b) => {
-                    return Err(at(
+                    return Err(usage_at(
                         out,
                         format!("the .vol format takes bricks up to 255, not {b}"),
                     ))
@@ -272,38 +251,24 @@ fn target(cli: &Cli) -> Result<Target> {
             no_compress("TIFF")?;
             Ok(Target::Tiff { path: out.clone() })
         }
-        _ => Err(at(
+        _ => Err(usage_at(
             out,
             "unknown output type: use .vvol, .vol, .raw, .tif, a directory ending in /, or -",
         )),
     }
 }
 
-fn input_options(cli: &Cli) -> Result<InputOptions> {
-    let raw_given = cli.raw_dims.is_some()
-        || cli.raw_type.is_some()
-        || cli.raw_skip != 0
-        || cli.raw_endian != "little";
-    let raw = if raw_given {
-        let dims = match cli.raw_dims {
-            Some([x, y, z]) => Some(Dims::new(x, y, z).map_err(|e| at(&cli.input, e))?),
-            None => None,
-        };
-        Some(RawArgs {
-            dims,
-            sample_type: cli.raw_type,
-            big_endian: cli.raw_endian == "big",
-            skip: cli.raw_skip,
-        })
-    } else {
-        None
-    };
+fn read_options(cli: &Cli) -> ReadOptions {
     let channel = match (cli.channel, cli.luma) {
         (Some(c), _) => ChannelSel::Channel(c),
         (None, true) => ChannelSel::Luma,
         (None, false) => ChannelSel::Single,
     };
-    Ok(InputOptions { raw, channel })
+    ReadOptions {
+        raw: cli.raw,
+        channel,
+        ..Default::default()
+    }
 }
 
 fn convert_cmd(cli: &Cli) -> Result<()> {
@@ -324,7 +289,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     // Check the output first: a bad output name should not cost a scan.
     let target = target(cli)?;
     target.preflight().map_err(anyhow::Error::new)?;
-    let opts = input_options(cli)?;
+    let opts = read_options(cli);
     let reader = open_input(&cli.input, &opts)?;
     let info = reader.info().clone();
     let crop = match &cli.crop {
@@ -335,7 +300,10 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         None => None,
     };
     let flip = ["x", "y", "z"].map(|a| cli.flip.iter().any(|f| f == a));
-    let out_type = cli.sample_type.unwrap_or(info.sample_type);
+    let out_type = cli
+        .sample_type
+        .or(info.sample_type.stored())
+        .unwrap_or(SampleType::F32);
     let out_dims = match &crop {
         Some(c) => Dims::new(
             c[0].end - c[0].start,
@@ -370,30 +338,31 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             _ => (None, None),
         };
         let d = report.dims;
+        let g = &report.geometry;
         let v = serde_json::json!({
             "tool": "vol-convert",
             "input": cli.input.display().to_string(),
-            "input_format": report.input_format,
+            "format": report.input_format,
+            "input_type": report.input_type.name(),
             "output": cli.output.display().to_string(),
             "dims": [d.x, d.y, d.z],
             "type": report.sample_type.name(),
             "spacing": report.spacing,
+            "origin": g.origin,
+            "direction": g.direction,
+            "orientation": g.orientation(),
             "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
             "compression": match cli.compress { Compression::None => "none".to_string(), Compression::Zstd(l) => format!("zstd:{l}") },
             "window": window,
+            "bytes": report.bytes_out,
             "bytes_in": report.bytes_in,
-            "bytes_out": report.bytes_out,
             "min": min,
             "max": max,
             "spooled": report.spooled,
             "seconds": seconds,
             "threads": rayon::current_num_threads(),
         });
-        if to_stdout {
-            eprintln!("{v}");
-        } else {
-            println!("{v}");
-        }
+        json::emit(&v, to_stdout);
     } else if !cli.quiet && !to_stdout {
         eprintln!(
             "vol-convert: wrote {} ({} {}, {} bytes) in {:.2} s",
@@ -407,5 +376,31 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     if report.bytes_out == 0 {
         bail!("{}: nothing was written", cli.output.display());
     }
+    raw_note(cli, &report);
     Ok(())
+}
+
+/// A raw output whose name does not say its dims and type: tell how to
+/// read it back.
+fn raw_note(cli: &Cli, report: &convert::Report) {
+    let is_raw = cli
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("raw"));
+    if !is_raw || cli.quiet || volformats::raw::parse_name(&cli.output).is_some() {
+        return;
+    }
+    let d = report.dims;
+    let t = report.sample_type;
+    eprintln!(
+        "vol-convert: note: {} holds {d} {t} little-endian without a header: read it with --raw-dims {},{},{} --raw-type {t}, or name it NAME_{}x{}x{}_{}.raw",
+        cli.output.display(),
+        d.x,
+        d.y,
+        d.z,
+        d.x,
+        d.y,
+        d.z,
+        volformats::raw::type_name(t)
+    );
 }

@@ -432,8 +432,9 @@ pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResul
         info: InputInfo {
             path: input.to_path_buf(),
             dims,
-            sample_type,
+            sample_type: sample_type.into(),
             spacing,
+            geometry: volcore::Geometry::IDENTITY,
             format,
         },
         page,
