@@ -863,6 +863,8 @@ fn interrupted_conversions_leave_nothing() {
             "-",
             "--raw-dims",
             "64,64,100",
+            "--raw-type",
+            "u8",
             "--layout",
             "bricked:8",
             "-o",

@@ -16,6 +16,7 @@
 pub mod convert;
 pub mod datafile;
 pub mod detect;
+pub mod dicom;
 pub mod error;
 pub mod fingerprint;
 pub mod mhd;

@@ -52,6 +52,10 @@ pub enum InputKind {
     Mhd,
     /// NIfTI-1 or NIfTI-2 (`.nii`, `.nii.gz`, `.hdr`/`.img`).
     Nifti,
+    /// A directory of DICOM files (one series, or several with `--series`).
+    DicomDir,
+    /// One DICOM file, or a glob or list file naming DICOM files.
+    Dicom,
     /// Native `.vvol`.
     Vvol,
     /// Thesis `.vol`.
@@ -70,7 +74,7 @@ pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
         return Ok(InputKind::Stdin);
     }
     if path.is_dir() {
-        return Ok(InputKind::TiffDir);
+        return dir_kind(path);
     }
     let name = path.to_string_lossy();
     if !path.exists() {
@@ -95,6 +99,7 @@ pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
         "mhd" | "mha" => Some(InputKind::Mhd),
         "vvol" => Some(InputKind::Vvol),
         "vol" => Some(InputKind::ThesisVol),
+        "dcm" => Some(InputKind::Dicom),
         "raw" => Some(InputKind::Raw),
         "txt" | "lst" | "list" => Some(InputKind::TiffList),
         _ => None,
@@ -112,6 +117,8 @@ pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
     let head = &head[..n];
     if crate::nifti::NiftiHeader::decode(head).is_ok() {
         Ok(InputKind::Nifti)
+    } else if crate::dicom::sniff(head) {
+        Ok(InputKind::Dicom)
     } else if is_tiff(head) {
         Ok(InputKind::Tiff)
     } else if crate::nrrd::sniff(head) {
@@ -128,6 +135,33 @@ pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
     }
 }
 
+/// A directory: TIFF slices or a DICOM series.
+fn dir_kind(dir: &Path) -> CResult<InputKind> {
+    let mut dicom = false;
+    for (n, e) in std::fs::read_dir(dir).at(dir)?.enumerate() {
+        let e = e.at(dir)?;
+        let name = e.file_name().to_string_lossy().to_ascii_lowercase();
+        if name.starts_with('.') {
+            continue;
+        }
+        if name.ends_with(".tif") || name.ends_with(".tiff") {
+            return Ok(InputKind::TiffDir);
+        }
+        // Sniffing every file of a large directory is cheap next to
+        // reading it; stop at the first DICOM file after a few hundred.
+        if !dicom && n < 100_000 && e.path().is_file() && crate::dicom::is_dicom_file(&e.path()) {
+            dicom = true;
+        }
+    }
+    if dicom {
+        return Ok(InputKind::DicomDir);
+    }
+    Err(ConvertError::new(
+        dir,
+        Error::invalid("directory holds no .tif/.tiff slices and no DICOM files"),
+    ))
+}
+
 impl InputKind {
     /// A short name for reports (`nrrd`, `tiff stack`, ...).
     pub fn name(self) -> &'static str {
@@ -138,6 +172,7 @@ impl InputKind {
             InputKind::Nrrd => "nrrd",
             InputKind::Mhd => "metaimage",
             InputKind::Nifti => "nifti",
+            InputKind::DicomDir | InputKind::Dicom => "dicom",
             InputKind::Vvol => "vvol",
             InputKind::ThesisVol => "vol",
             InputKind::Raw => "raw",
@@ -164,12 +199,21 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
         }
         InputKind::TiffGlob => {
             let files = crate::tiff::list_glob(path)?;
-            Box::new(crate::tiff::open_files(path, files, opts.channel)?)
+            open_listed(path, files, opts)?
         }
         InputKind::TiffList => {
             let files = crate::tiff::list_file(path)?;
-            Box::new(crate::tiff::open_files(path, files, opts.channel)?)
+            open_listed(path, files, opts)?
         }
+        InputKind::DicomDir => {
+            let files = crate::dicom::list_files(path, None)?;
+            Box::new(crate::dicom::open(path, files, opts.series.as_deref())?)
+        }
+        InputKind::Dicom => Box::new(crate::dicom::open(
+            path,
+            vec![path.to_path_buf()],
+            opts.series.as_deref(),
+        )?),
         InputKind::Tiff => match crate::tiff::imagej_raw(path)? {
             Some(ij) => Box::new(
                 RawFileReader::open(
@@ -220,6 +264,30 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
             )?)
         }
     })
+}
+
+/// Files named by a glob or a list: DICOM when the first is, else TIFF.
+fn open_listed(
+    path: &Path,
+    files: Vec<std::path::PathBuf>,
+    opts: &ReadOptions,
+) -> CResult<Box<dyn SliceReader>> {
+    if files
+        .first()
+        .is_some_and(|f| crate::dicom::is_dicom_file(f))
+    {
+        let files = crate::dicom::list_files(path, Some(files))?;
+        return Ok(Box::new(crate::dicom::open(
+            path,
+            files,
+            opts.series.as_deref(),
+        )?));
+    }
+    Ok(Box::new(crate::tiff::open_files(
+        path,
+        files,
+        opts.channel,
+    )?))
 }
 
 /// Standard input: a `.vvol` stream, a NRRD with attached data, or raw

@@ -17,17 +17,26 @@ use volkit_cli::{json, usage, RawSpec};
 
 /// Convert a volume between formats, slice by slice.
 ///
-/// INPUT is a TIFF file (multipage or BigTIFF), a directory of TIFF slices
-/// (natural order: slice2 before slice10), a glob such as 'scan/*.tif'
-/// (quote it), a .txt/.lst file listing slices, a .raw file (dims and type
-/// from flags or from NAME_XxYxZ_TYPE.raw), NRRD (.nrrd/.nhdr, raw or gzip),
-/// MetaImage (.mhd/.mha), a thesis .vol, a .vvol, or - for standard input
-/// (a .vvol stream, a NRRD with attached data, or raw with --raw-dims).
+/// INPUT is a NIfTI file (.nii, .nii.gz, .hdr/.img), a TIFF file
+/// (multipage or BigTIFF), a directory of TIFF slices (natural order:
+/// slice2 before slice10), a glob such as 'scan/*.tif' (quote it), a
+/// .txt/.lst file listing slices, a .raw file (dims and type from flags or
+/// from NAME_XxYxZ_TYPE.raw), NRRD (.nrrd/.nhdr, raw or gzip), MetaImage
+/// (.mhd/.mha), a thesis .vol, a .vvol, or - for standard input (a .vvol
+/// stream, a NRRD with attached data, or raw with --raw-dims).
+///
+/// 8, 16 and 32-bit integer and 32 and 64-bit float samples are read;
+/// types volkit does not store (i8, u32, i32, f64) become the smallest of
+/// u8, u16, i16, f32 that holds their values exactly, or need --type and
+/// --window.
 ///
 /// The output format follows OUTPUT: .vvol (sliced or bricked, optional
 /// zstd per brick), .vol (thesis format, u8), .raw (little-endian, x
-/// fastest), .tif/.tiff (one multipage file), a path ending in / (a
-/// directory of TIFF slices), or - (a sliced .vvol stream on stdout).
+/// fastest), .tif/.tiff (one multipage file), .nii/.nii.gz/.hdr (NIfTI),
+/// .nrrd/.nhdr (NRRD, attached or detached), .mha/.mhd (MetaImage), a path
+/// ending in / (a directory of TIFF slices), or - (a sliced .vvol stream on
+/// stdout). Origin and axis directions are carried into every format that
+/// stores them (.vvol, NIfTI, NRRD, MetaImage).
 ///
 /// Type conversion never loses values silently: a narrowing --type needs
 /// --window lo:hi (linear, clamped), auto[:P] (P-th and (100-P)-th
@@ -43,15 +52,17 @@ use volkit_cli::{json, usage, RawSpec};
 struct Cli {
     /// Input file, directory of slices, glob, list file, or -.
     input: PathBuf,
-    /// Output path (.vvol, .vol, .raw, .tif, DIR/, or -).
+    /// Output path (.vvol, .vol, .raw, .tif, .nii[.gz], .nrrd, .mha, DIR/, or -).
     #[arg(short, long)]
     output: PathBuf,
     /// Output layout: sliced, or bricked:B (.vvol and .vol).
     #[arg(long, default_value = "sliced", value_parser = args::layout)]
     layout: LayoutArg,
-    /// Per-brick compression for bricked .vvol: none, zstd or zstd:LEVEL.
-    #[arg(long, default_value = "none", value_parser = args::compression)]
-    compress: Compression,
+    /// Compression: none; zstd or zstd:LEVEL per brick for bricked .vvol;
+    /// gzip for NRRD (.nrrd, .nhdr), MetaImage (zlib: .mha, .mhd) and
+    /// NIfTI .hdr/.img data (.nii.gz is gzip by its name).
+    #[arg(long, default_value = "none", value_parser = compress_arg)]
+    compress: CompressArg,
     /// Output sample type: u8, u16, i16, f32 (default: the input's).
     #[arg(long = "type", value_parser = args::sample_type)]
     sample_type: Option<SampleType>,
@@ -67,12 +78,19 @@ struct Cli {
     /// Mirror along these axes, e.g. z or x,y.
     #[arg(long, value_delimiter = ',', value_parser = ["x", "y", "z"])]
     flip: Vec<String>,
-    /// Colour TIFF: keep this channel (0 = red).
+    /// Colour TIFF: keep this channel (0 = red); hyperstacks and OME data:
+    /// the channel (C index) to read.
     #[arg(long, conflicts_with = "luma")]
     channel: Option<u16>,
     /// Colour TIFF: keep the luma 0.299 R + 0.587 G + 0.114 B.
     #[arg(long)]
     luma: bool,
+    /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
+    #[arg(long, value_name = "T")]
+    time: Option<u64>,
+    /// DICOM: the SeriesInstanceUID to read when the input holds several.
+    #[arg(long, value_name = "UID")]
+    series: Option<String>,
     #[command(flatten)]
     raw: RawSpec,
     /// Print one JSON object with what was done (to stderr when -o -).
@@ -171,9 +189,62 @@ fn stdout_file() -> Result<std::fs::File> {
     Ok(std::fs::File::from(fd))
 }
 
+/// The `--compress` choices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum CompressArg {
+    /// Per-brick compression of a .vvol (or none).
+    Vvol(Compression),
+    /// gzip/zlib for the header formats.
+    Gzip,
+}
+
+fn compress_arg(s: &str) -> Result<CompressArg, String> {
+    if s == "gzip" {
+        return Ok(CompressArg::Gzip);
+    }
+    args::compression(s)
+        .map(CompressArg::Vvol)
+        .map_err(|e| format!("{e}, or gzip"))
+}
+
+impl CompressArg {
+    fn name(self) -> String {
+        match self {
+            CompressArg::Vvol(Compression::None) => "none".into(),
+            CompressArg::Vvol(Compression::Zstd(l)) => format!("zstd:{l}"),
+            CompressArg::Gzip => "gzip".into(),
+        }
+    }
+}
+
 fn target(cli: &Cli) -> Result<Target> {
     let out = &cli.output;
     let text = out.to_string_lossy();
+    if let Some(t) = Target::headed(out, cli.compress == CompressArg::Gzip) {
+        if cli.layout != LayoutArg::Sliced {
+            return Err(usage_at(
+                out,
+                "NIfTI, NRRD and MetaImage output is sliced only: drop --layout",
+            ));
+        }
+        if matches!(cli.compress, CompressArg::Vvol(Compression::Zstd(_))) {
+            return Err(usage_at(
+                out,
+                "--compress zstd applies to bricked .vvol output: use --compress gzip",
+            ));
+        }
+        return Ok(t);
+    }
+    if cli.compress == CompressArg::Gzip {
+        return Err(usage_at(
+            out,
+            "--compress gzip applies to NIfTI, NRRD and MetaImage output",
+        ));
+    }
+    let compress = match cli.compress {
+        CompressArg::Vvol(c) => c,
+        CompressArg::Gzip => Compression::None,
+    };
     let sliced_only = |what: &str| -> Result<()> {
         if cli.layout != LayoutArg::Sliced {
             return Err(usage_at(
@@ -184,7 +255,7 @@ fn target(cli: &Cli) -> Result<Target> {
         Ok(())
     };
     let no_compress = |what: &str| -> Result<()> {
-        if cli.compress != Compression::None {
+        if compress != Compression::None {
             return Err(usage_at(
                 out,
                 format!("--compress applies to bricked .vvol output, not {what}"),
@@ -212,7 +283,7 @@ fn target(cli: &Cli) -> Result<Target> {
                 LayoutArg::Sliced => None,
                 LayoutArg::Bricked(b) => Some(b),
             };
-            if brick.is_none() && cli.compress != Compression::None {
+            if brick.is_none() && compress != Compression::None {
                 return Err(usage_at(
                     out,
                     "--compress needs --layout bricked:B (compression is per brick)",
@@ -221,7 +292,7 @@ fn target(cli: &Cli) -> Result<Target> {
             Ok(Target::Vvol {
                 path: out.clone(),
                 brick,
-                compression: cli.compress,
+                compression: compress,
             })
         }
         "vol" => {
@@ -253,7 +324,7 @@ fn target(cli: &Cli) -> Result<Target> {
         }
         _ => Err(usage_at(
             out,
-            "unknown output type: use .vvol, .vol, .raw, .tif, a directory ending in /, or -",
+            "unknown output type: use .vvol, .vol, .raw, .tif, .nii, .nii.gz, .hdr, .nrrd, .nhdr, .mha, .mhd, a directory ending in /, or -",
         )),
     }
 }
@@ -267,6 +338,8 @@ fn read_options(cli: &Cli) -> ReadOptions {
     ReadOptions {
         raw: cli.raw,
         channel,
+        time: cli.time,
+        series: cli.series.clone(),
         ..Default::default()
     }
 }
@@ -352,7 +425,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             "direction": g.direction,
             "orientation": g.orientation(),
             "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
-            "compression": match cli.compress { Compression::None => "none".to_string(), Compression::Zstd(l) => format!("zstd:{l}") },
+            "compression": cli.compress.name(),
             "window": window,
             "bytes": report.bytes_out,
             "bytes_in": report.bytes_in,

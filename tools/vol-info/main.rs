@@ -34,6 +34,9 @@ struct Cli {
     /// DICOM: the SeriesInstanceUID to read when a directory holds several.
     #[arg(long, value_name = "UID")]
     series: Option<String>,
+    /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
+    #[arg(long, value_name = "T")]
+    time: Option<u64>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -65,6 +68,7 @@ fn info(cli: &Cli) -> Result<()> {
     let opts = ReadOptions {
         raw: cli.raw,
         series: cli.series.clone(),
+        time: cli.time,
         vvol: vvol::OpenOptions {
             verify: cli.verify,
             ..Default::default()
