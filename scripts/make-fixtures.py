@@ -11,13 +11,20 @@ tools of each format, so volkit is tested against files it did not write:
   holding several series.
 - dicom_tilt/: 3 slices whose positions do not follow the slice normal
   (gantry tilt).
+- tifffile_ome.ome.tif: OME-TIFF by tifffile, axes ZCYX (5 x 2 x 8 x 6,
+  uint16), PhysicalSizeX/Y 0.25, PhysicalSizeZ 1.5.
+- tifffile_hyperstack.tif: ImageJ hyperstack by tifffile, axes TZCYX
+  (2 x 4 x 2 x 6 x 5, uint8).
+- tifffile_zstd_i32.tif: int32 pages, zstd-compressed (needs imagecodecs).
 
 Values follow formulas the Rust tests repeat (tests/formats.rs):
   NIfTI: stored = i + 10 j + 100 k, real = 2 stored - 10
   CT: stored = 10 (x + 2 y + 3 k) at the k-th slice from the lowest z,
       HU = stored - 1024
+  TIFF: value = x + 10 y + 100 z + 1000 c + 5000 t (uint8 ones: modulo 256;
+      int32: minus 70000)
 
-Run: pip install nibabel pydicom && python3 scripts/make-fixtures.py
+Run: pip install nibabel pydicom tifffile imagecodecs && python3 scripts/make-fixtures.py
 """
 import os
 import random
@@ -97,9 +104,39 @@ def dicom_series(name, series_uid, nx, ny, nz, spacing_z, rescale, dtype, tilt=0
         ds.save_as(os.path.join(d, f"IM{n * 7919 % 1000:04d}.dcm"), enforce_file_format=True)
 
 
+def tiffs():
+    import tifffile
+
+    def volume(t, z, c, y, x):
+        tt, zz, cc, yy, xx = np.meshgrid(
+            np.arange(t), np.arange(z), np.arange(c), np.arange(y), np.arange(x), indexing="ij"
+        )
+        return xx + 10 * yy + 100 * zz + 1000 * cc + 5000 * tt
+
+    ome = volume(1, 5, 2, 8, 6)[0].astype(np.uint16)
+    tifffile.imwrite(
+        os.path.join(OUT, "tifffile_ome.ome.tif"),
+        ome,
+        ome=True,
+        metadata={"axes": "ZCYX", "PhysicalSizeX": 0.25, "PhysicalSizeY": 0.25, "PhysicalSizeZ": 1.5},
+    )
+    hyper = (volume(2, 4, 2, 6, 5) % 256).astype(np.uint8)
+    tifffile.imwrite(
+        os.path.join(OUT, "tifffile_hyperstack.tif"),
+        hyper,
+        imagej=True,
+        metadata={"axes": "TZCYX", "spacing": 2.0},
+    )
+    wide = (volume(1, 3, 1, 6, 5)[0, :, 0] - 70000).astype(np.int32)
+    tifffile.imwrite(
+        os.path.join(OUT, "tifffile_zstd_i32.tif"), wide, compression="zstd", photometric="minisblack"
+    )
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     nifti()
+    tiffs()
     dicom_series("dicom_ct", "1.2.826.0.1.3680043.8.498.10", 16, 12, 10, 2.5, (1, -1024), np.uint16)
     dicom_series("dicom_mr", "1.2.826.0.1.3680043.8.498.20", 8, 8, 3, 1.0, (1, 0), np.int16, seed=2)
     dicom_series("dicom_tilt", "1.2.826.0.1.3680043.8.498.30", 4, 4, 3, 2.0, (1, 0), np.int16, tilt=0.5)

@@ -388,3 +388,56 @@ fn malformed_new_formats_fail_with_one_line_and_leave_nothing() {
     assert_eq!(o.status.code(), Some(2));
     assert!(!d.join("a.jpg").exists());
 }
+
+/// x + 10 y + 100 z + 1000 c + 5000 t over a stack.
+fn tiff_values(nx: i64, ny: i64, nz: i64, c: i64, t: i64, f: impl Fn(i64) -> i64) -> Vec<f32> {
+    let mut v = Vec::new();
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                v.push(f(x + 10 * y + 100 * z + 1000 * c + 5000 * t) as f32);
+            }
+        }
+    }
+    v
+}
+
+#[test]
+fn tifffile_ome_hyperstacks_and_zstd_int32() {
+    // OME-TIFF: physical sizes, and one channel of ZCYX.
+    let p = fixture("tifffile_ome.ome.tif");
+    let e = fails(tool("vol-info").arg(&p), "--channel");
+    assert!(e.contains("ZCYX"), "{e}");
+    let v = samples(&p, &["--channel", "1"]);
+    assert_eq!(v, tiff_values(6, 8, 5, 1, 0, |v| v));
+    let d = tempfile::tempdir().unwrap();
+    let o = d.path().join("ome.nrrd");
+    ok(tool("vol-convert")
+        .arg(&p)
+        .args(["--channel", "1", "-q", "-o"])
+        .arg(&o));
+    let j = info(&o, &[]);
+    assert!(close(&j["spacing"], &[0.25, 0.25, 1.5]), "{j}");
+    // ImageJ hyperstack TZCYX: the error lists the axes; a pick reads one stack.
+    let p = fixture("tifffile_hyperstack.tif");
+    let e = fails(
+        tool("vol-convert").arg(&p).arg("-o").arg(&o),
+        "--channel C --time T",
+    );
+    assert!(e.contains("TZCYX"), "{e}");
+    let v = samples(&p, &["--channel", "1", "--time", "1"]);
+    assert_eq!(v, tiff_values(5, 6, 4, 1, 1, |v| v % 256));
+    fails(
+        tool("vol-convert")
+            .arg(&p)
+            .args(["--channel", "2", "--time", "0", "-o"])
+            .arg(&o),
+        "channels 0..1",
+    );
+    // zstd-compressed int32 pages: narrowed by their values (they fit f32 only).
+    let p = fixture("tifffile_zstd_i32.tif");
+    let j = info(&p, &[]);
+    assert_eq!(j["dims"], serde_json::json!([5, 6, 3]));
+    assert_eq!(j["type"], "f32");
+    assert_eq!(samples(&p, &[]), tiff_values(5, 6, 3, 0, 0, |v| v - 70000));
+}

@@ -195,7 +195,12 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
         InputKind::Stdin => open_stdin(path, opts)?,
         InputKind::TiffDir => {
             let files = crate::tiff::list_dir(path)?;
-            Box::new(crate::tiff::open_files(path, files, opts.channel)?)
+            Box::new(crate::tiff::open_files(
+                path,
+                files,
+                opts.channel,
+                opts.time,
+            )?)
         }
         InputKind::TiffGlob => {
             let files = crate::tiff::list_glob(path)?;
@@ -219,7 +224,7 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
                 RawFileReader::open(
                     path,
                     ij.dims,
-                    ij.sample_type.into(),
+                    ij.sample_type,
                     ij.big_endian,
                     ij.offset,
                     false,
@@ -231,6 +236,7 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
                 path,
                 vec![path.to_path_buf()],
                 opts.channel,
+                opts.time,
             )?),
         },
         InputKind::Nrrd => {
@@ -287,6 +293,7 @@ fn open_listed(
         path,
         files,
         opts.channel,
+        opts.time,
     )?))
 }
 

@@ -144,7 +144,8 @@ impl Geometry {
                 return Err(format!("direction of axis {a} has zero length"));
             }
             for r in 0..3 {
-                direction[r][a] = v[r] / n;
+                // `+ 0.0` turns -0 into 0 (printed as such).
+                direction[r][a] = v[r] / n + 0.0;
             }
         }
         let g = Geometry { origin, direction };
@@ -167,9 +168,9 @@ impl Geometry {
     pub fn flip_xy(&self) -> Geometry {
         let mut g = *self;
         for r in 0..2 {
-            g.origin[r] = -g.origin[r];
+            g.origin[r] = -g.origin[r] + 0.0;
             for a in 0..3 {
-                g.direction[r][a] = -g.direction[r][a];
+                g.direction[r][a] = -g.direction[r][a] + 0.0;
             }
         }
         g
@@ -206,7 +207,7 @@ impl Geometry {
         for a in 0..3 {
             if flip[a] {
                 for r in 0..3 {
-                    g.direction[r][a] = -g.direction[r][a];
+                    g.direction[r][a] = -g.direction[r][a] + 0.0;
                 }
             }
         }
