@@ -22,6 +22,7 @@ pub mod fingerprint;
 pub mod mhd;
 pub mod nifti;
 pub mod nrrd;
+pub mod omezarr;
 pub mod open;
 pub mod output;
 pub mod pipeline;

@@ -56,6 +56,8 @@ pub enum InputKind {
     DicomDir,
     /// One DICOM file, or a glob or list file naming DICOM files.
     Dicom,
+    /// An OME-Zarr directory (NGFF 0.4 or 0.5).
+    OmeZarr,
     /// Native `.vvol`.
     Vvol,
     /// Thesis `.vol`.
@@ -72,6 +74,9 @@ fn has_glob_chars(s: &str) -> bool {
 pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
     if path.as_os_str() == "-" {
         return Ok(InputKind::Stdin);
+    }
+    if crate::omezarr::is_zarr(path) && path.is_dir() {
+        return Ok(InputKind::OmeZarr);
     }
     if path.is_dir() {
         return dir_kind(path);
@@ -173,6 +178,7 @@ impl InputKind {
             InputKind::Mhd => "metaimage",
             InputKind::Nifti => "nifti",
             InputKind::DicomDir | InputKind::Dicom => "dicom",
+            InputKind::OmeZarr => "ome-zarr",
             InputKind::Vvol => "vvol",
             InputKind::ThesisVol => "vol",
             InputKind::Raw => "raw",
@@ -213,6 +219,13 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
         InputKind::DicomDir => {
             let files = crate::dicom::list_files(path, None)?;
             Box::new(crate::dicom::open(path, files, opts.series.as_deref())?)
+        }
+        InputKind::OmeZarr => {
+            let c = match opts.channel {
+                ChannelSel::Channel(c) => Some(c as u64),
+                _ => None,
+            };
+            Box::new(crate::omezarr::open(path, c, opts.time)?)
         }
         InputKind::Dicom => Box::new(crate::dicom::open(
             path,

@@ -33,7 +33,8 @@ use volkit_cli::{json, usage, RawSpec};
 /// The output format follows OUTPUT: .vvol (sliced or bricked, optional
 /// zstd per brick), .vol (thesis format, u8), .raw (little-endian, x
 /// fastest), .tif/.tiff (one multipage file), .nii/.nii.gz/.hdr (NIfTI),
-/// .nrrd/.nhdr (NRRD, attached or detached), .mha/.mhd (MetaImage), a path
+/// .nrrd/.nhdr (NRRD, attached or detached), .mha/.mhd (MetaImage),
+/// NAME.ome.zarr (OME-Zarr, NGFF 0.5 with --pyramid N levels), a path
 /// ending in / (a directory of TIFF slices), or - (a sliced .vvol stream on
 /// stdout). Origin and axis directions are carried into every format that
 /// stores them (.vvol, NIfTI, NRRD, MetaImage).
@@ -85,6 +86,13 @@ struct Cli {
     /// Colour TIFF: keep the luma 0.299 R + 0.587 G + 0.114 B.
     #[arg(long)]
     luma: bool,
+    /// OME-Zarr output: pyramid levels, the full resolution included.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pyramid: u32,
+    /// OME-Zarr output: how each pyramid level is made from the one above
+    /// (2x2x2 blocks): mean or max.
+    #[arg(long, default_value = "mean", value_parser = ["mean", "max"])]
+    downsample: String,
     /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
     #[arg(long, value_name = "T")]
     time: Option<u64>,
@@ -263,6 +271,25 @@ fn target(cli: &Cli) -> Result<Target> {
         }
         Ok(())
     };
+    if volformats::omezarr::is_zarr(out) && !out.is_file() {
+        sliced_only("OME-Zarr")?;
+        no_compress("OME-Zarr (chunks are zstd)")?;
+        return Ok(Target::OmeZarr {
+            path: PathBuf::from(text.trim_end_matches('/')),
+            levels: cli.pyramid,
+            downsample: if cli.downsample == "max" {
+                volformats::omezarr::Downsample::Max
+            } else {
+                volformats::omezarr::Downsample::Mean
+            },
+        });
+    }
+    if cli.pyramid > 1 {
+        return Err(usage_at(
+            out,
+            "--pyramid applies to OME-Zarr output (NAME.ome.zarr)",
+        ));
+    }
     if text == "-" {
         sliced_only("stdout (a .vvol stream)")?;
         no_compress("a stream")?;
@@ -324,7 +351,7 @@ fn target(cli: &Cli) -> Result<Target> {
         }
         _ => Err(usage_at(
             out,
-            "unknown output type: use .vvol, .vol, .raw, .tif, .nii, .nii.gz, .hdr, .nrrd, .nhdr, .mha, .mhd, a directory ending in /, or -",
+            "unknown output type: use .vvol, .vol, .raw, .tif, .nii, .nii.gz, .hdr, .nrrd, .nhdr, .mha, .mhd, .ome.zarr, a directory ending in /, or -",
         )),
     }
 }

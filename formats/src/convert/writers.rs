@@ -57,6 +57,15 @@ pub enum Target {
     /// An in-memory [`Volume`], left in the slot (what
     /// [`crate::open::load`] uses).
     Memory(MemorySlot),
+    /// An OME-Zarr (NGFF 0.5, Zarr v3) directory with a multiscale pyramid.
+    OmeZarr {
+        /// Output directory (must not exist, or be empty).
+        path: PathBuf,
+        /// Pyramid levels, the full resolution included (at least 1).
+        levels: u32,
+        /// How each level is made from the one above.
+        downsample: crate::omezarr::Downsample,
+    },
     /// A header format with its samples (NIfTI, NRRD, MetaImage): in the
     /// header's file or a detached one, raw or compressed.
     Headed {
@@ -182,7 +191,8 @@ impl Target {
             | Target::Raw { path }
             | Target::Tiff { path }
             | Target::TiffDir { path }
-            | Target::Headed { path, .. } => path,
+            | Target::Headed { path, .. }
+            | Target::OmeZarr { path, .. } => path,
             Target::VvolStream(_) | Target::Memory(_) => Path::new("-"),
         }
     }
@@ -190,7 +200,7 @@ impl Target {
     /// Check what can be checked before any work: a directory target
     /// must not exist or be empty.
     pub fn preflight(&self) -> CResult<()> {
-        if let Target::TiffDir { path } = self {
+        if let Target::TiffDir { path } | Target::OmeZarr { path, .. } = self {
             check_dir_target(path)?;
         }
         Ok(())
@@ -202,7 +212,7 @@ impl Target {
             Target::VvolStream(_) | Target::Memory(_) => std::env::temp_dir(),
             other => {
                 let p = other.path();
-                let p = if matches!(other, Target::TiffDir { .. }) {
+                let p = if matches!(other, Target::TiffDir { .. } | Target::OmeZarr { .. }) {
                     p.components().as_path()
                 } else {
                     p
@@ -362,6 +372,36 @@ pub(crate) fn run_target<T: SliceSample>(
             codec,
             ..
         } => write_headed::<T>(&path, format, data.as_deref(), codec, spec, drive),
+        Target::OmeZarr {
+            levels, downsample, ..
+        } => {
+            let dir = PartialDir::create(&path)?;
+            let w = crate::omezarr::ZarrWriter::<T>::create(
+                dir.temp.path(),
+                dims,
+                spec.spacing,
+                &spec.geometry,
+                levels,
+                downsample,
+            )
+            .at(&path)?;
+            let mut sink = ZarrSink {
+                w: Some(w),
+                dims,
+                next_z: 0,
+                slab: crate::omezarr::CHUNK.min(dims.z),
+                done: 0,
+                progress: spec.progress,
+                path: &path,
+            };
+            drive(&mut sink)?;
+            if let Some(w) = sink.w.take() {
+                w.finish().at(&path)?;
+            }
+            let bytes = sink.done;
+            dir.commit()?;
+            Ok((bytes, None))
+        }
         Target::Memory(slot) => {
             let n = dims.checked_count().ok_or_else(|| {
                 ConvertError::new(&path, Error::invalid(format!("{dims} is too large")))
@@ -561,6 +601,37 @@ fn stream_samples<T: SliceSample>(
         path,
     };
     drive(&mut sink)
+}
+
+struct ZarrSink<'a, T: SliceSample> {
+    w: Option<crate::omezarr::ZarrWriter<T>>,
+    dims: Dims,
+    next_z: u64,
+    slab: u64,
+    done: u64,
+    progress: &'a (dyn Fn(u64) + Sync),
+    path: &'a Path,
+}
+
+impl<T: SliceSample> SlabSink<T> for ZarrSink<'_, T> {
+    fn next_slices(&self) -> Range<u64> {
+        self.next_z..(self.next_z + self.slab).min(self.dims.z)
+    }
+    fn write_next(&mut self, win: &SliceWindow<T>) -> CResult<()> {
+        let zs = <Self as SlabSink<T>>::next_slices(self);
+        for z in zs.clone() {
+            let s = win.slice(z).ok_or_else(|| {
+                ConvertError::new(self.path, Error::invalid("slice missing (internal error)"))
+            })?;
+            if let Some(w) = self.w.as_mut() {
+                w.push(s.to_vec()).at(self.path)?;
+            }
+            self.done += std::mem::size_of_val(s) as u64;
+            (self.progress)(self.done);
+        }
+        self.next_z = zs.end;
+        Ok(())
+    }
 }
 
 struct MemorySink<'a, T> {
