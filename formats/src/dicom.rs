@@ -384,7 +384,7 @@ impl DicomReader {
                     s.rescale.output_type(stored)
                 }
             })
-            .fold(stored, |acc, t| widest(acc, t));
+            .fold(stored, widest);
         let dims =
             Dims::new(first.cols as u64, first.rows as u64, slices.len() as u64).at(input)?;
         let bytes = slices

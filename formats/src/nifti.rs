@@ -445,7 +445,7 @@ pub fn open(path: &Path, time: Option<u64>) -> Result<DataSpec> {
         0
     } else {
         let v = h.vox_offset;
-        if !(v.is_finite() && v >= 0.0 && v < 1e15) {
+        if !(0.0..1e15).contains(&v) {
             return Err(Error::invalid(format!(
                 "NIfTI vox_offset {v} is not an offset"
             )));

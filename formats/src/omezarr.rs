@@ -332,8 +332,8 @@ impl ZarrReader {
         let n = self.fixed.len();
         let d = self.info.dims;
         let mut ranges: Vec<Range<u64>> = vec![0..1; n];
-        for a in 0..n {
-            ranges[a] = match self.fixed[a] {
+        for (a, r) in ranges.iter_mut().enumerate() {
+            *r = match self.fixed[a] {
                 Some(i) => i..i + 1,
                 None if Some(a) == self.axis_z => zs.clone(),
                 None if a == self.axis_y => 0..d.y,
@@ -768,6 +768,6 @@ mod tests {
         let v: Vec<u16> = a
             .retrieve_array_subset::<Vec<u16>>(&[0..1, 0..1, 0..1])
             .unwrap();
-        assert_eq!(v[0], ((0.5 + 50.0 + 500.0) as f64).round() as u16);
+        assert_eq!(v[0], (0.5f64 + 50.0 + 500.0).round() as u16);
     }
 }

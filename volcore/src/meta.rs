@@ -204,10 +204,10 @@ impl Geometry {
         }
         let mut g = *self;
         g.origin = self.world(spacing, first);
-        for a in 0..3 {
-            if flip[a] {
-                for r in 0..3 {
-                    g.direction[r][a] = -g.direction[r][a] + 0.0;
+        for row in g.direction.iter_mut() {
+            for (v, &f) in row.iter_mut().zip(&flip) {
+                if f {
+                    *v = -*v + 0.0;
                 }
             }
         }

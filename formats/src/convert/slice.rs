@@ -186,7 +186,9 @@ impl SliceData {
     /// Sample `i` as `f64` (exact for every type).
     #[inline]
     pub fn value(&self, i: usize) -> f64 {
-        each_slice!(self, v => v[i] as f64)
+        #[allow(clippy::unnecessary_cast)]
+        let v = each_slice!(self, v => v[i] as f64);
+        v
     }
 
     /// The samples as native-order bytes.

@@ -479,7 +479,7 @@ pub fn open_files(
         info: InputInfo {
             path: input.to_path_buf(),
             dims,
-            sample_type: sample_type.into(),
+            sample_type,
             spacing,
             geometry: volcore::Geometry::IDENTITY,
             format,
