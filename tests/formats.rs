@@ -378,6 +378,14 @@ fn malformed_new_formats_fail_with_one_line_and_leave_nothing() {
     .unwrap();
     fails(tool("vol-convert").arg(&p).arg("-o").arg(&out), "space");
     assert!(!out.exists() && leftovers(d).is_empty());
+    // An OME-Zarr whose metadata is not JSON, and one without multiscales.
+    let z = d.join("bad.ome.zarr");
+    std::fs::create_dir(&z).unwrap();
+    std::fs::write(z.join("zarr.json"), "{not json").unwrap();
+    fails(tool("vol-convert").arg(&z).arg("-o").arg(&out), "bad.ome.zarr");
+    std::fs::write(z.join("zarr.json"), r#"{"zarr_format":3,"node_type":"group","attributes":{}}"#).unwrap();
+    fails(tool("vol-info").arg(&z), "multiscales");
+    assert!(!out.exists() && leftovers(d).is_empty());
     // An output name no tool writes: usage error before any work.
     let o = tool("vol-convert")
         .arg(fixture("nibabel_int16.nii.gz"))
