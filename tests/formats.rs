@@ -382,8 +382,15 @@ fn malformed_new_formats_fail_with_one_line_and_leave_nothing() {
     let z = d.join("bad.ome.zarr");
     std::fs::create_dir(&z).unwrap();
     std::fs::write(z.join("zarr.json"), "{not json").unwrap();
-    fails(tool("vol-convert").arg(&z).arg("-o").arg(&out), "bad.ome.zarr");
-    std::fs::write(z.join("zarr.json"), r#"{"zarr_format":3,"node_type":"group","attributes":{}}"#).unwrap();
+    fails(
+        tool("vol-convert").arg(&z).arg("-o").arg(&out),
+        "bad.ome.zarr",
+    );
+    std::fs::write(
+        z.join("zarr.json"),
+        r#"{"zarr_format":3,"node_type":"group","attributes":{}}"#,
+    )
+    .unwrap();
     fails(tool("vol-info").arg(&z), "multiscales");
     assert!(!out.exists() && leftovers(d).is_empty());
     // An output name no tool writes: usage error before any work.

@@ -117,7 +117,10 @@ fn output_does_not_depend_on_thread_count() {
                 "bricked:8",
             ],
         ),
-        ("e_17x18x19_uint16.raw", &["sphere", "--dims", "17,18,19", "--type", "u16"]),
+        (
+            "e_17x18x19_uint16.raw",
+            &["sphere", "--dims", "17,18,19", "--type", "u16"],
+        ),
     ];
     for (name, args) in cases {
         let mut outputs = Vec::new();
@@ -405,7 +408,10 @@ fn raw_and_unknown_output_names_are_usage_errors_before_any_work() {
         assert_eq!(c.status().unwrap().code(), Some(2), "{name}");
         assert!(!d.join(name).exists());
     }
-    ok(tool("vol-gen").args(base).arg("-o").arg(d.join("x_8x8x8_uint8.raw")));
+    ok(tool("vol-gen")
+        .args(base)
+        .arg("-o")
+        .arg(d.join("x_8x8x8_uint8.raw")));
     // Completions and man pages come from the clap definitions.
     let bash = ok(tool("vol-gen").args(["--completions", "bash"]));
     assert!(bash.contains("vol-gen") && bash.contains("--dims"));
