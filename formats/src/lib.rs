@@ -15,22 +15,29 @@
 //! name and renamed into place only on success.
 
 pub mod convert;
+pub mod datafile;
 pub mod detect;
+pub mod dicom;
 pub mod error;
 pub mod fingerprint;
 pub mod image;
 pub mod mhd;
+pub mod nifti;
 pub mod nrrd;
+pub mod omezarr;
+pub mod open;
 pub mod output;
 pub mod pipeline;
 pub mod raw;
+pub mod stream;
 pub mod thesis;
 pub mod tiff;
 pub mod vvol;
 
-pub use detect::{open_volume, FileKind};
+pub use detect::FileKind;
 pub use error::{Error, Result};
 pub use fingerprint::fingerprint;
+pub use open::{open, open_input, open_volume, ReadOptions};
 
 #[cfg(test)]
 mod tests;

@@ -15,6 +15,7 @@ use volcore::{BrickGeometry, Compression, Dims, Layout, Sample, SampleType, Volu
 use volformats::output::{AtomicFile, Sink};
 use volformats::{thesis, vvol, FileKind};
 use volkit_cli::args::{self, LayoutArg};
+use volkit_cli::{json, usage};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum SceneName {
@@ -51,7 +52,9 @@ enum NoiseArg {
 ///
 /// The output format follows the extension: .vvol (native, sliced or
 /// bricked, optional zstd per brick), .vol (the thesis format, u8 only),
-/// .raw (x fastest, little-endian), or - for a sliced .vvol stream on stdout.
+/// .raw (x fastest, little-endian; the name must carry the dims and type,
+/// NAME_XxYxZ_TYPE.raw, so that the next tool can read it), or - for a
+/// sliced .vvol stream on stdout.
 /// The same arguments and seed always give the same bytes, whatever the
 /// number of threads.
 #[derive(Parser, Debug)]
@@ -111,13 +114,13 @@ struct Cli {
     /// and value/edge per voxel in the shell.
     #[arg(long)]
     edge: Option<f32>,
-    /// Output path (.vvol, .vol, .raw) or - for a sliced .vvol on stdout.
+    /// Output path (.vvol, .vol, NAME_XxYxZ_TYPE.raw) or - for a sliced .vvol on stdout.
     #[arg(short, long)]
     output: PathBuf,
     /// Print one JSON object with the figures (to stderr when -o -).
     #[arg(long)]
     json: bool,
-    /// No progress bar.
+    /// Print nothing but errors (no progress bar, no summary).
     #[arg(short, long)]
     quiet: bool,
 }
@@ -173,14 +176,52 @@ fn build_scene(cli: &Cli, dims: Dims) -> Box<dyn Scene> {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match volkit_cli::parse::<Cli>("vol-gen") {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
     volkit_cli::run("vol-gen", || generate(&cli))
+}
+
+/// Refuse an output name the tool cannot write, or a raw name the next
+/// tool could not read back, before any work (usage errors).
+fn check_output(cli: &Cli, dims: Dims) -> Result<()> {
+    let out = &cli.output;
+    if out.as_os_str() == "-" {
+        return Ok(());
+    }
+    let name = out.display();
+    match FileKind::of(out) {
+        None => Err(usage(format!(
+            "{name}: unknown output type: use a .vvol, .vol or .raw file name, or - for stdout"
+        ))),
+        Some(FileKind::Raw) => {
+            let want = format!(
+                "{}x{}x{}_{}",
+                dims.x,
+                dims.y,
+                dims.z,
+                volformats::raw::type_name(cli.sample_type)
+            );
+            match volformats::raw::parse_name(out) {
+                Some((d, t)) if d == dims && t == cli.sample_type => Ok(()),
+                Some(_) => Err(usage(format!(
+                    "{name}: the name says other dims or type than --dims and --type: name it NAME_{want}.raw"
+                ))),
+                None => Err(usage(format!(
+                    "{name}: a raw file does not record its dims and type: name it NAME_{want}.raw so the next tool can read it"
+                ))),
+            }
+        }
+        Some(_) => Ok(()),
+    }
 }
 
 fn generate(cli: &Cli) -> Result<()> {
     let start = Instant::now();
     let [x, y, z] = cli.dims;
     let dims = Dims::new(x, y, z)?;
+    check_output(cli, dims)?;
     let scene = build_scene(cli, dims);
     let stats = match cli.sample_type {
         SampleType::U8 => write_as::<u8>(cli, dims, scene.as_ref()),
@@ -194,7 +235,7 @@ fn generate(cli: &Cli) -> Result<()> {
         let v = serde_json::json!({
             "tool": "vol-gen",
             "scene": format!("{:?}", cli.scene).to_lowercase(),
-            "path": cli.output.display().to_string(),
+            "output": cli.output.display().to_string(),
             "dims": cli.dims,
             "type": cli.sample_type.name(),
             "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
@@ -206,11 +247,7 @@ fn generate(cli: &Cli) -> Result<()> {
             "seconds": seconds,
             "threads": rayon::current_num_threads(),
         });
-        if cli.output.as_os_str() == "-" {
-            eprintln!("{v}");
-        } else {
-            println!("{v}");
-        }
+        json::emit(&v, cli.output.as_os_str() == "-");
     } else if !cli.quiet && cli.output.as_os_str() != "-" {
         eprintln!(
             "vol-gen: wrote {} ({} bytes) in {:.2} s",
@@ -301,6 +338,7 @@ fn write_as<T: Sample>(cli: &Cli, dims: Dims, scene: &dyn Scene) -> Result<Writt
         range: volcore::ValueRange::EMPTY,
         layout,
         compression: cli.compress,
+        geometry: volcore::Geometry::IDENTITY,
     };
     let range_of = |r: volcore::ValueRange| {
         if r.is_empty() {
