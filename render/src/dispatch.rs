@@ -10,7 +10,7 @@
 use crate::accel::{FixedCells, IsoSides, NoSkipping, RunningMax, RunningMin};
 use crate::classify::{Classifier, TfTable, TfTable2d};
 use crate::integrator::dvr::{
-    Dvr, NoTermination, OpacityThreshold, Phong, Shading, Termination, Unshaded,
+    Dvr, NoTermination, OpacityThreshold, PhongShading, Shading, Termination, Unshaded,
 };
 use crate::integrator::iso::Iso;
 use crate::integrator::mip::{Maximum, Minimum, Mip};
@@ -52,7 +52,7 @@ pub struct DvrPlan<'a> {
     /// The classifier.
     pub classifier: ClassifierRef<'a>,
     /// Blinn-Phong shading, if the frame is shaded.
-    pub shading: Option<Phong>,
+    pub shading: Option<PhongShading<'a>>,
     /// Early termination threshold, if rays stop early.
     pub termination: Option<f32>,
     /// Transparent cells to skip, if skipping is on.
@@ -93,30 +93,56 @@ where
     T: Termination,
     V: IntegratorVisitor,
 {
-    fn go<R, G, K, S, T, A, V>(p: &DvrPlan<'_>, k: &K, s: S, t: T, a: A, v: V) -> V::Output
-    where
-        R: Reconstruct,
-        G: Gradient,
-        K: Classifier,
-        S: Shading,
-        T: Termination,
-        A: crate::accel::Accel<()>,
-        V: IntegratorVisitor,
-    {
-        v.visit(Dvr::<R, G, K, S, T, A>::new(p.geom, k, s, t, a))
-    }
     use ClassifierRef::{OneD, TwoD};
     use GradientMethod::{Analytic as A_, Central as C_};
-    match (p.classifier, p.shading, p.gradient) {
+    match (p.classifier, p.shading) {
         // Unshaded, 1D: no gradient, whatever the method.
-        (OneD(k), None, _) => go::<R, NoGradient, _, _, _, _, V>(p, k, Unshaded, t, a, v),
-        (OneD(k), Some(s), C_) => go::<R, Central, _, _, _, _, V>(p, k, s, t, a, v),
-        (OneD(k), Some(s), A_) => go::<R, Analytic, _, _, _, _, V>(p, k, s, t, a, v),
-        (TwoD(k), None, C_) => go::<R, Central, _, _, _, _, V>(p, k, Unshaded, t, a, v),
-        (TwoD(k), None, A_) => go::<R, Analytic, _, _, _, _, V>(p, k, Unshaded, t, a, v),
-        (TwoD(k), Some(s), C_) => go::<R, Central, _, _, _, _, V>(p, k, s, t, a, v),
-        (TwoD(k), Some(s), A_) => go::<R, Analytic, _, _, _, _, V>(p, k, s, t, a, v),
+        (OneD(k), None) => go::<R, NoGradient, _, _, _, _, V>(p, k, Unshaded, t, a, v),
+        (OneD(k), Some(s)) => dvr_shaded::<R, _, T, A, V>(p, k, s, t, a, v),
+        (TwoD(k), None) => match p.gradient {
+            C_ => go::<R, Central, _, _, _, _, V>(p, k, Unshaded, t, a, v),
+            A_ => go::<R, Analytic, _, _, _, _, V>(p, k, Unshaded, t, a, v),
+        },
+        (TwoD(k), Some(s)) => dvr_shaded::<R, _, T, A, V>(p, k, s, t, a, v),
     }
+}
+
+fn dvr_shaded<R, K, T, A, V>(
+    p: &DvrPlan<'_>,
+    k: &K,
+    s: PhongShading<'_>,
+    t: T,
+    a: A,
+    v: V,
+) -> V::Output
+where
+    R: Reconstruct,
+    K: Classifier,
+    T: Termination,
+    A: crate::accel::Accel<()>,
+    V: IntegratorVisitor,
+{
+    use GradientMethod::{Analytic as A_, Central as C_};
+    match (s, p.gradient) {
+        (PhongShading::OneLight(s), C_) => go::<R, Central, _, _, _, _, V>(p, k, s, t, a, v),
+        (PhongShading::OneLight(s), A_) => go::<R, Analytic, _, _, _, _, V>(p, k, s, t, a, v),
+        (PhongShading::Lights(s), C_) => go::<R, Central, _, _, _, _, V>(p, k, s, t, a, v),
+        (PhongShading::Lights(s), A_) => go::<R, Analytic, _, _, _, _, V>(p, k, s, t, a, v),
+    }
+}
+
+/// Run `v` with the DVR integrator of fully chosen parts.
+fn go<R, G, K, S, T, A, V>(p: &DvrPlan<'_>, k: &K, s: S, t: T, a: A, v: V) -> V::Output
+where
+    R: Reconstruct,
+    G: Gradient,
+    K: Classifier,
+    S: Shading,
+    T: Termination,
+    A: crate::accel::Accel<()>,
+    V: IntegratorVisitor,
+{
+    v.visit(Dvr::<R, G, K, S, T, A>::new(p.geom, k, s, t, a))
 }
 
 /// The choices of a MIP or MinIP frame.
@@ -192,7 +218,7 @@ pub struct IsoPlan<'a> {
     /// Linear surface colour.
     pub colour: Vec3,
     /// Light and reflection model.
-    pub lighting: Lighting,
+    pub lighting: &'a Lighting,
     /// Uniform cells to skip, if skipping is on.
     pub skip: Option<&'a IsoSides<'a>>,
 }

@@ -9,7 +9,7 @@ use crate::dispatch::{
 };
 use crate::error::RenderError;
 use crate::film::{Display, Film, Frame};
-use crate::integrator::dvr::Phong;
+use crate::integrator::dvr::PhongShading;
 use crate::integrator::xray::XrayOutput;
 use crate::integrator::{FrameGeometry, Integrator, RayResult};
 use crate::ray::intersect_box;
@@ -151,7 +151,7 @@ pub fn render_tf(
                 gradient: settings.gradient,
                 level,
                 colour: Vec3::from(settings.iso_colour.map(srgb_to_linear)),
-                lighting: settings.lighting,
+                lighting: &settings.lighting,
                 skip: sides.as_ref(),
             };
             (dispatch::iso(plan, tiles), Display::Colour)
@@ -176,12 +176,12 @@ fn dvr_frame(
     let hi = if hi > lo { hi } else { lo + 1.0 };
     let bins = TfTable::default_bins(lo, hi);
     let value_span = (range.1 - range.0).max(f32::MIN_POSITIVE);
-    let shading = settings.shading.then(|| Phong {
-        lighting: settings.lighting,
-        // Compared with squared lengths; never below 0, so a zero
-        // gradient is never normalised.
-        threshold2: (settings.gradient_threshold * value_span).max(0.0).powi(2),
-    });
+    // Compared with squared lengths; never below 0, so a zero gradient is
+    // never normalised.
+    let threshold2 = (settings.gradient_threshold * value_span).max(0.0).powi(2);
+    let shading = settings
+        .shading
+        .then(|| PhongShading::new(&settings.lighting, threshold2));
     let gradients = GradientBound {
         method: settings.gradient,
         inv_spacing: geom.inv_spacing,

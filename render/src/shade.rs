@@ -8,8 +8,6 @@ use glam::Vec3;
 /// The Blinn-Phong reflection model's weights.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlinnPhong {
-    /// Ambient weight.
-    pub ambient: f32,
     /// Diffuse weight.
     pub diffuse: f32,
     /// Specular weight.
@@ -21,7 +19,6 @@ pub struct BlinnPhong {
 impl Default for BlinnPhong {
     fn default() -> Self {
         BlinnPhong {
-            ambient: 0.25,
             diffuse: 0.65,
             specular: 0.35,
             shininess: 24.0,
@@ -29,49 +26,117 @@ impl Default for BlinnPhong {
     }
 }
 
-/// A light and the shading model that reflects it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+impl BlinnPhong {
+    /// The specular exponent when it is a whole number up to 256 (the
+    /// usual case: then by multiplication, not `powf`).
+    fn whole_exponent(&self) -> Option<u32> {
+        let whole = self.shininess.fract() == 0.0 && (0.0..=256.0).contains(&self.shininess);
+        whole.then_some(self.shininess as u32)
+    }
+
+    /// `(diffuse term, specular term)` for unit normal `n` facing the eye,
+    /// unit `l` towards the light and half vector `h`.
+    #[inline(always)]
+    fn terms(&self, n: Vec3, l: Vec3, h: Vec3, whole: Option<u32>) -> (f32, f32) {
+        let diff = n.dot(l).max(0.0);
+        let spec = if diff > 0.0 {
+            let c = n.dot(h).max(0.0);
+            match whole {
+                Some(e) => pow_whole(c, e),
+                None => c.powf(self.shininess),
+            }
+        } else {
+            0.0
+        };
+        (self.diffuse * diff, self.specular * spec)
+    }
+}
+
+/// Lights, an ambient term and the reflection model: everything shading
+/// needs. A lit point of colour `c` shows `c·(ambient + Σ Lᵢ·kd·max(n·lᵢ,
+/// 0)) + Σ Lᵢ·ks·(n·hᵢ)^shininess`, two-sided (the normal is flipped to
+/// face the viewer).
+#[derive(Clone, Debug, PartialEq)]
 pub struct Lighting {
-    /// The light.
-    pub light: Light,
+    /// The lights (none: ambient only).
+    pub lights: Vec<Light>,
+    /// Ambient light (linear RGB), reflected whatever the normal.
+    pub ambient: Vec3,
     /// The reflection model.
     pub model: BlinnPhong,
 }
 
 impl Default for Lighting {
+    /// A white headlight and an ambient term of 0.25.
     fn default() -> Self {
         Lighting {
-            light: Light::Headlight,
+            lights: vec![Light::HEADLIGHT],
+            ambient: Vec3::splat(0.25),
             model: BlinnPhong::default(),
         }
     }
 }
 
 impl Lighting {
-    /// Shade `colour` at a point with (unnormalised, nonzero) gradient
-    /// `grad`, seen along unit `view_dir` (from the eye into the scene).
-    /// Two-sided: the normal is flipped to face the viewer.
-    #[inline(always)]
-    pub fn shade(&self, colour: Vec3, grad: Vec3, view_dir: Vec3) -> Vec3 {
-        self.for_view(view_dir)
-            .shade_normal(colour, grad.normalize_or_zero())
+    /// Shade `colour` at world point `p` with (unnormalised) gradient
+    /// `grad`, seen along unit `view_dir` (from the eye into the scene);
+    /// a zero gradient gets the ambient term only.
+    pub fn shade_at(&self, colour: Vec3, grad: Vec3, view_dir: Vec3, p: Vec3) -> Vec3 {
+        let unit = grad.normalize_or_zero();
+        if unit == Vec3::ZERO {
+            return colour * self.ambient;
+        }
+        let to_eye = -view_dir;
+        let n = facing(unit, to_eye);
+        let whole = self.model.whole_exponent();
+        let (mut d, mut s) = (Vec3::ZERO, Vec3::ZERO);
+        for light in &self.lights {
+            let inc = light.at(p, view_dir);
+            let h = (inc.towards + to_eye).normalize_or_zero();
+            let (kd, ks) = self.model.terms(n, inc.towards, h, whole);
+            d += inc.radiance * kd;
+            s += inc.radiance * ks;
+        }
+        colour * (self.ambient + d) + s
+    }
+
+    /// The one light, when there is exactly one and it arrives from the
+    /// same direction all along a ray (then shading along a ray can be
+    /// worked out once per ray: [`Lighting::for_view`]).
+    pub fn single_per_ray_light(&self) -> Option<Light> {
+        match self.lights[..] {
+            [l] if l.is_per_ray() => Some(l),
+            _ => None,
+        }
     }
 
     /// What shading along one viewing direction needs, worked out once per
-    /// ray rather than per sample.
+    /// ray, for lighting with one per-ray light (see
+    /// [`Lighting::single_per_ray_light`]).
     #[inline(always)]
-    pub fn for_view(&self, view_dir: Vec3) -> ViewShading {
+    pub fn for_view(&self, light: Light, view_dir: Vec3) -> ViewShading {
         let to_eye = -view_dir;
-        let l = self.light.for_ray(view_dir).towards;
-        let m = self.model;
-        let whole = m.shininess.fract() == 0.0 && (0.0..=256.0).contains(&m.shininess);
+        let inc = light.for_ray(view_dir);
         ViewShading {
-            model: m,
+            model: self.model,
+            ambient: self.ambient,
+            radiance: inc.radiance,
             to_eye,
-            l,
-            h: (l + to_eye).normalize_or_zero(),
-            whole_exponent: whole.then_some(m.shininess as u32),
+            l: inc.towards,
+            h: (inc.towards + to_eye).normalize_or_zero(),
+            whole_exponent: self.model.whole_exponent(),
         }
+    }
+}
+
+/// The unit normal `-unit_grad`, flipped to face the eye.
+#[inline(always)]
+fn facing(unit_grad: Vec3, to_eye: Vec3) -> Vec3 {
+    let n = -unit_grad;
+    if n.dot(to_eye) < 0.0 {
+        -n
+    } else {
+        n
     }
 }
 
@@ -80,38 +145,26 @@ impl Lighting {
 #[derive(Clone, Copy, Debug)]
 pub struct ViewShading {
     model: BlinnPhong,
+    ambient: Vec3,
+    radiance: Vec3,
     /// Unit vector towards the eye.
     to_eye: Vec3,
     /// Unit vector towards the light.
     l: Vec3,
     /// The half vector.
     h: Vec3,
-    /// The specular exponent when it is a whole number up to 256 (the
-    /// usual case: then by multiplication, not `powf`).
     whole_exponent: Option<u32>,
 }
 
 impl ViewShading {
     /// Shade `colour` at a point whose unit gradient is `unit_grad` (or
-    /// zero). Two-sided: the normal is flipped to face the viewer.
+    /// zero). Two-sided: the normal is flipped to face the viewer. The
+    /// same arithmetic as [`Lighting::shade_at`] with one light.
     #[inline(always)]
     pub fn shade_normal(&self, colour: Vec3, unit_grad: Vec3) -> Vec3 {
-        let m = &self.model;
-        let mut n = -unit_grad;
-        if n.dot(self.to_eye) < 0.0 {
-            n = -n;
-        }
-        let diff = n.dot(self.l).max(0.0);
-        let spec = if diff > 0.0 {
-            let c = n.dot(self.h).max(0.0);
-            match self.whole_exponent {
-                Some(e) => pow_whole(c, e),
-                None => c.powf(m.shininess),
-            }
-        } else {
-            0.0
-        };
-        colour * (m.ambient + m.diffuse * diff) + Vec3::splat(m.specular * spec)
+        let n = facing(unit_grad, self.to_eye);
+        let (kd, ks) = self.model.terms(n, self.l, self.h, self.whole_exponent);
+        colour * (self.ambient + self.radiance * kd) + self.radiance * ks
     }
 }
 
@@ -139,25 +192,42 @@ mod tests {
         let l = Lighting::default();
         let view = Vec3::NEG_Z;
         // Gradient pointing away from the eye: the normal faces the viewer.
-        let c = l.shade(Vec3::ONE, Vec3::Z, view);
+        let c = l.shade_at(Vec3::ONE, Vec3::Z, view, Vec3::ZERO);
         let m = BlinnPhong::default();
-        let want = m.ambient + m.diffuse + m.specular;
+        let want = 0.25 + m.diffuse + m.specular;
         assert!((c - Vec3::splat(want)).length() < 1e-6, "{c}");
         // Two-sided: the opposite gradient shades the same.
-        assert_eq!(l.shade(Vec3::ONE, Vec3::NEG_Z, view), c);
+        assert_eq!(l.shade_at(Vec3::ONE, Vec3::NEG_Z, view, Vec3::ZERO), c);
+        // The per-ray path gives the same bits.
+        let v = l.for_view(Light::HEADLIGHT, view);
+        assert_eq!(v.shade_normal(Vec3::ONE, Vec3::Z), c);
     }
 
     #[test]
-    fn light_from_behind_leaves_ambient_only() {
-        let l = Lighting {
-            light: Light::directional(Vec3::Z).unwrap(),
+    fn light_from_the_side_leaves_ambient_only_and_lights_add_up() {
+        let side = Light::directional(Vec3::X).unwrap();
+        let mut l = Lighting {
+            lights: vec![Light::directional(Vec3::Z).unwrap()],
             ..Default::default()
         };
-        // Eye looks along -z (towards_eye = +z); the light is at +z too, so
-        // a surface facing +z is lit; one facing x is lit at grazing angle
-        // zero: ambient only.
-        let c = l.shade(Vec3::ONE, Vec3::X, Vec3::NEG_Z);
+        // A surface facing +x (its gradient points into it), lit from
+        // +z: grazing, so ambient only.
+        let c = l.shade_at(Vec3::ONE, Vec3::NEG_X, Vec3::NEG_Z, Vec3::ZERO);
         assert!((c - Vec3::splat(0.25)).length() < 1e-6, "{c}");
+        // Add a light from +x: its diffuse term adds on.
+        l.lights.push(side);
+        let c2 = l.shade_at(Vec3::ONE, Vec3::NEG_X, Vec3::NEG_Z, Vec3::ZERO);
+        assert!(c2.x > c.x + 0.6, "{c2}");
+        // No lights: ambient; a zero gradient: ambient.
+        l.lights.clear();
+        assert_eq!(
+            l.shade_at(Vec3::ONE, Vec3::X, Vec3::NEG_Z, Vec3::ZERO),
+            Vec3::splat(0.25)
+        );
+        assert_eq!(
+            Lighting::default().shade_at(Vec3::ONE, Vec3::ZERO, Vec3::NEG_Z, Vec3::ZERO),
+            Vec3::splat(0.25)
+        );
     }
 
     #[test]

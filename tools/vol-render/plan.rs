@@ -101,7 +101,7 @@ fn settings(cli: &Cli, vol: &Volume) -> Result<RenderSettings> {
             Some(light) => light,
             None => bail!("--light must not be the zero vector"),
         },
-        None => Light::Headlight,
+        None => Light::HEADLIGHT,
     };
     Ok(RenderSettings {
         mode,
@@ -116,7 +116,7 @@ fn settings(cli: &Cli, vol: &Volume) -> Result<RenderSettings> {
         },
         shading: cli.shading == ShadingArg::Phong,
         lighting: Lighting {
-            light,
+            lights: vec![light],
             ..Default::default()
         },
         ert: (!cli.no_ert).then_some(cli.ert),

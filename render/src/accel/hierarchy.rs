@@ -28,9 +28,26 @@ pub struct Hierarchy<'a> {
     /// Finds the voxel the sampler reads first at a point.
     locator: Locator,
     margin: f32,
-    /// log2 of each level's cell edge (edges are powers of two whenever the
-    /// finest is), so finding a cell is a shift, not a 64-bit division.
-    shifts: Option<Vec<u32>>,
+    /// Per level, what finding a cell needs, in one small array.
+    levels: Vec<LevelGeom>,
+    /// Whether every cell edge is a power of two (whenever the finest is),
+    /// so finding a cell is a shift, not a 64-bit division.
+    pow2: bool,
+}
+
+/// One level's cell geometry.
+#[derive(Clone, Copy, Debug)]
+struct LevelGeom {
+    /// Cell edge, voxels.
+    edge: u64,
+    /// log2 of the edge (when it is a power of two).
+    shift: u32,
+    /// Cells along x, and in an xy slab.
+    nx: u64,
+    nxy: u64,
+    /// Cells on all finer levels (where this level's cells start when the
+    /// levels' cells are numbered in one sequence).
+    offset: usize,
 }
 
 /// What a ray does next at a point (see [`Hierarchy::step`]).
@@ -59,19 +76,29 @@ impl<'a> Hierarchy<'a> {
     pub fn new(index: &'a MajorantIndex) -> Hierarchy<'a> {
         let dims = index.dims();
         let largest = dims.x.max(dims.y).max(dims.z) as f32;
-        let shifts = index
+        let mut offset = 0;
+        let levels: Vec<LevelGeom> = index
             .levels()
             .iter()
             .map(|l| {
-                l.edge()
-                    .is_power_of_two()
-                    .then(|| l.edge().trailing_zeros())
+                let c = l.cells();
+                let g = LevelGeom {
+                    edge: l.edge(),
+                    shift: l.edge().trailing_zeros(),
+                    nx: c[0],
+                    nxy: c[0] * c[1],
+                    offset,
+                };
+                offset += l.len();
+                g
             })
             .collect();
+        let pow2 = levels.iter().all(|g| g.edge.is_power_of_two());
         Hierarchy {
             index,
             locator: Locator::new(dims),
-            shifts,
+            levels,
+            pow2,
             // Well above the rounding of f32 positions at this size.
             margin: (largest * (1.0 / (1u32 << 20) as f32)).max(1e-3),
         }
@@ -87,52 +114,71 @@ impl<'a> Hierarchy<'a> {
     #[inline(always)]
     pub fn cell_at(&self, p: Vec3) -> usize {
         let v = self.locator.voxel(p.into());
-        let c = self.cell_of(0, v);
-        self.index.level(0).index(c[0], c[1], c[2])
+        let g = &self.levels[0];
+        g.linear(self.cell_of(g, v))
     }
 
-    /// The cell of level `l` holding voxel `v`.
+    /// The cell of a level holding voxel `v`.
     #[inline(always)]
-    fn cell_of(&self, l: usize, v: [u64; 3]) -> [u64; 3] {
-        match &self.shifts {
-            Some(s) => v.map(|c| c >> s[l]),
-            None => {
-                let e = self.index.level(l).edge();
-                v.map(|c| c / e)
-            }
+    fn cell_of(&self, g: &LevelGeom, v: [u64; 3]) -> [u64; 3] {
+        if self.pow2 {
+            v.map(|c| c >> g.shift)
+        } else {
+            v.map(|c| c / g.edge)
         }
     }
 
     /// What to do at voxel-space point `p` of `ray`: skip to the end of the
     /// largest cell around `p` qualifying under `qualifies(level, cell
-    /// index)`, or, when even the level-0 cell does not qualify, sample on
-    /// until the ray leaves that cell.
-    #[inline]
-    pub fn step(&self, p: Vec3, ray: &VoxelRay, qualifies: impl Fn(usize, usize) -> bool) -> Step {
+    /// index in the level, flat index)` (the flat index numbers the cells
+    /// of all levels in one sequence, finest first), or, when even the
+    /// level-0 cell does not qualify, sample on until the ray leaves that
+    /// cell.
+    #[inline(always)]
+    pub fn step(
+        &self,
+        p: Vec3,
+        ray: &VoxelRay,
+        qualifies: impl Fn(usize, usize, usize) -> bool,
+    ) -> Step {
         let v = self.locator.voxel(p.into());
-        let levels = self.index.levels();
-        let c0 = self.cell_of(0, v);
-        let cell = levels[0].index(c0[0], c0[1], c0[2]);
-        if !qualifies(0, cell) {
+        let Some((g0, coarser)) = self.levels.split_first() else {
+            return Step::Busy {
+                exit: f32::INFINITY,
+                cell: 0,
+            };
+        };
+        let c0 = self.cell_of(g0, v);
+        let cell = g0.linear(c0);
+        if !qualifies(0, cell, cell) {
             // Taking a sample is never wrong, so this needs no margin.
             return Step::Busy {
-                exit: exit(c0, levels[0].edge(), 0.0, ray),
+                exit: exit(c0, g0.edge, 0.0, ray),
                 cell,
             };
         }
-        let mut best = (c0, levels[0].edge());
-        for (li, level) in levels.iter().enumerate().skip(1) {
-            let c = self.cell_of(li, v);
-            if !qualifies(li, level.index(c[0], c[1], c[2])) {
+        let mut best = (c0, g0.edge);
+        for (li, g) in coarser.iter().enumerate() {
+            let c = self.cell_of(g, v);
+            let i = g.linear(c);
+            if !qualifies(li + 1, i, g.offset + i) {
                 break;
             }
-            best = (c, level.edge());
+            best = (c, g.edge);
         }
         // Stop the margin short of the faces (see the module notes).
         Step::Skip {
             until: exit(best.0, best.1, self.margin, ray),
             cell,
         }
+    }
+}
+
+impl LevelGeom {
+    /// The linear index of cell `c` in its level.
+    #[inline(always)]
+    fn linear(&self, c: [u64; 3]) -> usize {
+        (c[0] + self.nx * c[1] + self.nxy * c[2]) as usize
     }
 }
 

@@ -6,18 +6,13 @@ use super::{Accel, Hierarchy, Step, VoxelRay};
 use glam::Vec3;
 use volindex::MajorantIndex;
 
-/// Flags per level from a per-cell test over the index's levels.
-fn flags_of(index: &MajorantIndex, f: impl Fn(f32, f32) -> bool) -> Vec<Vec<u8>> {
+/// A flag per cell of every level, from a per-cell test of its range, in
+/// the hierarchy's flat order (finest level first).
+fn flags_of(index: &MajorantIndex, f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
     index
         .levels()
         .iter()
-        .map(|l| {
-            l.min()
-                .iter()
-                .zip(l.max())
-                .map(|(&lo, &hi)| f(lo, hi) as u8)
-                .collect()
-        })
+        .flat_map(|l| l.min().iter().zip(l.max()).map(|(&lo, &hi)| f(lo, hi)))
         .collect()
 }
 
@@ -27,8 +22,9 @@ fn flags_of(index: &MajorantIndex, f: impl Fn(f32, f32) -> bool) -> Vec<Vec<u8>>
 /// nothing to the sum).
 pub struct FixedCells<'a> {
     h: Hierarchy<'a>,
-    /// Per level, per cell: 1 when the cell may be skipped.
-    flags: Vec<Vec<u8>>,
+    /// Per cell of every level (flat order): 1 when the cell may be
+    /// skipped.
+    flags: Vec<u8>,
 }
 
 impl<'a> FixedCells<'a> {
@@ -38,10 +34,7 @@ impl<'a> FixedCells<'a> {
     pub fn transparent(index: &'a MajorantIndex, transparent: Vec<Vec<bool>>) -> Self {
         FixedCells {
             h: Hierarchy::new(index),
-            flags: transparent
-                .into_iter()
-                .map(|l| l.into_iter().map(u8::from).collect())
-                .collect(),
+            flags: transparent.into_iter().flatten().map(u8::from).collect(),
         }
     }
 
@@ -49,14 +42,15 @@ impl<'a> FixedCells<'a> {
     pub fn zero(index: &'a MajorantIndex) -> Self {
         FixedCells {
             h: Hierarchy::new(index),
-            flags: flags_of(index, |lo, hi| (lo == 0.0 && hi == 0.0) || lo > hi),
+            flags: flags_of(index, |lo, hi| ((lo == 0.0 && hi == 0.0) || lo > hi) as u8),
         }
     }
 
     /// The fraction of level-0 cells that may be skipped.
     pub fn skippable_fraction(&self) -> f64 {
-        let f = &self.flags[0];
-        f.iter().filter(|&&x| x != 0).count() as f64 / f.len().max(1) as f64
+        let n = self.h.index().levels().first().map_or(0, |l| l.len());
+        let f = &self.flags[..n];
+        f.iter().filter(|&&x| x != 0).count() as f64 / n.max(1) as f64
     }
 }
 
@@ -64,7 +58,7 @@ impl Accel<()> for FixedCells<'_> {
     const ON: bool = true;
     #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, _: ()) -> Step {
-        self.h.step(p, ray, |l, i| self.flags[l][i] != 0)
+        self.h.step(p, ray, |_, _, f| self.flags[f] != 0)
     }
 }
 
@@ -87,7 +81,7 @@ impl Accel<f32> for RunningMax<'_> {
     #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, best: f32) -> Step {
         let levels = self.h.index().levels();
-        self.h.step(p, ray, |l, i| levels[l].max()[i] <= best)
+        self.h.step(p, ray, |l, i, _| levels[l].max()[i] <= best)
     }
 }
 
@@ -111,7 +105,7 @@ impl Accel<f32> for RunningMin<'_> {
     #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, best: f32) -> Step {
         let levels = self.h.index().levels();
-        self.h.step(p, ray, |l, i| levels[l].min()[i] >= best)
+        self.h.step(p, ray, |l, i, _| levels[l].min()[i] >= best)
     }
 }
 
@@ -124,8 +118,9 @@ pub const ISO_ABOVE: u8 = 2;
 /// through them (the crossing cannot be inside).
 pub struct IsoSides<'a> {
     h: Hierarchy<'a>,
-    /// [`ISO_BELOW`], [`ISO_ABOVE`] or 0 (mixed) per cell.
-    flags: Vec<Vec<u8>>,
+    /// [`ISO_BELOW`], [`ISO_ABOVE`] or 0 (mixed) per cell of every level
+    /// (flat order).
+    flags: Vec<u8>,
 }
 
 impl<'a> IsoSides<'a> {
@@ -136,25 +131,15 @@ impl<'a> IsoSides<'a> {
         let nan_free = index.stats().nan_count == 0;
         IsoSides {
             h: Hierarchy::new(index),
-            flags: index
-                .levels()
-                .iter()
-                .map(|l| {
-                    l.min()
-                        .iter()
-                        .zip(l.max())
-                        .map(|(&lo, &hi)| {
-                            if hi < iso || lo > hi {
-                                ISO_BELOW
-                            } else if lo >= iso && nan_free {
-                                ISO_ABOVE
-                            } else {
-                                0
-                            }
-                        })
-                        .collect()
-                })
-                .collect(),
+            flags: flags_of(index, |lo, hi| {
+                if hi < iso || lo > hi {
+                    ISO_BELOW
+                } else if lo >= iso && nan_free {
+                    ISO_ABOVE
+                } else {
+                    0
+                }
+            }),
         }
     }
 }
@@ -165,11 +150,11 @@ impl Accel<bool> for IsoSides<'_> {
     #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, above: bool) -> Step {
         let side = if above { ISO_ABOVE } else { ISO_BELOW };
-        self.h.step(p, ray, |l, i| self.flags[l][i] == side)
+        self.h.step(p, ray, |_, _, f| self.flags[f] == side)
     }
     #[inline(always)]
     fn flag(&self, cell: usize) -> u8 {
-        self.flags[0][cell]
+        self.flags[cell]
     }
 }
 
@@ -224,7 +209,8 @@ mod tests {
                 // Odd rays skip one level-0 cell at a time: many more skips
                 // end near a face.
                 let finest = n % 2 == 1;
-                let qualifies = |l: usize, i: usize| zero.flags[l][i] != 0 && (l == 0 || !finest);
+                let qualifies =
+                    |l: usize, _: usize, f: usize| zero.flags[f] != 0 && (l == 0 || !finest);
                 let next = match zero.h.step(p, &w.ray, qualifies) {
                     Step::Skip { until, .. } => w.after_skip(k, until),
                     Step::Busy { .. } => None,
@@ -240,7 +226,7 @@ mod tests {
                             // Stronger, and independent of the data near the
                             // faces: the sample's own cell qualifies.
                             assert_ne!(
-                                zero.flags[0][zero.h.cell_at(q)],
+                                zero.flags[zero.h.cell_at(q)],
                                 0,
                                 "ray {n}: sample {j} at {q}"
                             );

@@ -5,10 +5,12 @@ use super::reconstruct::{Gradient, Reconstruct};
 use super::{FrameGeometry, Integrator, RayResult};
 use crate::accel::Accel;
 use crate::classify::Classifier;
+use crate::light::Light;
 use crate::ray::Ray;
 use crate::shade::{Lighting, ViewShading};
 use glam::Vec3;
 use std::marker::PhantomData;
+use volcore::grid::Locator;
 use volcore::Cursor;
 
 /// When a ray may stop before it leaves the volume.
@@ -47,11 +49,11 @@ pub trait Shading: Sync {
     /// Whether it shades at all (then the integrator computes gradients
     /// of visible samples).
     const ON: bool;
-    /// The per-ray part for a ray along unit `dir`.
-    fn for_ray(&self, dir: Vec3) -> Self::PerRay;
-    /// `colour` lit at a point whose world-space gradient is `grad`, of
-    /// squared length `len2`.
-    fn shade(&self, per_ray: &Self::PerRay, colour: Vec3, grad: Vec3, len2: f32) -> Vec3;
+    /// The per-ray part for `ray`.
+    fn for_ray(&self, ray: &Ray) -> Self::PerRay;
+    /// `colour` lit at ray parameter `t`, where the world-space gradient
+    /// is `grad`, of squared length `len2`.
+    fn shade(&self, per_ray: &Self::PerRay, colour: Vec3, grad: Vec3, len2: f32, t: f32) -> Vec3;
 }
 
 /// Classified colour as is.
@@ -62,33 +64,88 @@ impl Shading for Unshaded {
     type PerRay = ();
     const ON: bool = false;
     #[inline(always)]
-    fn for_ray(&self, _: Vec3) {}
+    fn for_ray(&self, _: &Ray) {}
     #[inline(always)]
-    fn shade(&self, _: &(), colour: Vec3, _: Vec3, _: f32) -> Vec3 {
+    fn shade(&self, _: &(), colour: Vec3, _: Vec3, _: f32, _: f32) -> Vec3 {
         colour
     }
 }
 
-/// Blinn-Phong where the gradient is long enough to give a normal.
+/// Blinn-Phong with one light that arrives from the same direction all
+/// along a ray (a headlight or a directional light): the light's part of
+/// the shading is worked out once per ray. Samples whose gradient is too
+/// short to give a normal keep their colour.
 #[derive(Clone, Copy, Debug)]
-pub struct Phong {
-    /// Light and reflection model.
-    pub lighting: Lighting,
-    /// Shade only where the squared gradient length exceeds this.
-    pub threshold2: f32,
+pub struct Phong<'a> {
+    lighting: &'a Lighting,
+    light: Light,
+    threshold2: f32,
 }
 
-impl Shading for Phong {
+/// Blinn-Phong with any lights (point lights, several lights): every
+/// light is evaluated at each shaded sample.
+#[derive(Clone, Copy, Debug)]
+pub struct PhongLights<'a> {
+    lighting: &'a Lighting,
+    threshold2: f32,
+}
+
+/// Blinn-Phong shading of a frame, as the lights allow it to be computed.
+#[derive(Clone, Copy, Debug)]
+pub enum PhongShading<'a> {
+    /// One per-ray light.
+    OneLight(Phong<'a>),
+    /// Any lights.
+    Lights(PhongLights<'a>),
+}
+
+impl<'a> PhongShading<'a> {
+    /// Shading with `lighting`, where the squared gradient length exceeds
+    /// `threshold2`: the per-ray form when the lighting allows it.
+    pub fn new(lighting: &'a Lighting, threshold2: f32) -> PhongShading<'a> {
+        match lighting.single_per_ray_light() {
+            Some(light) => PhongShading::OneLight(Phong {
+                lighting,
+                light,
+                threshold2,
+            }),
+            None => PhongShading::Lights(PhongLights {
+                lighting,
+                threshold2,
+            }),
+        }
+    }
+}
+
+impl Shading for Phong<'_> {
     type PerRay = ViewShading;
     const ON: bool = true;
     #[inline(always)]
-    fn for_ray(&self, dir: Vec3) -> ViewShading {
-        self.lighting.for_view(dir)
+    fn for_ray(&self, ray: &Ray) -> ViewShading {
+        self.lighting.for_view(self.light, ray.dir)
     }
     #[inline(always)]
-    fn shade(&self, view: &ViewShading, colour: Vec3, grad: Vec3, len2: f32) -> Vec3 {
+    fn shade(&self, view: &ViewShading, colour: Vec3, grad: Vec3, len2: f32, _: f32) -> Vec3 {
         if len2 > self.threshold2 {
             view.shade_normal(colour, grad * len2.sqrt().recip())
+        } else {
+            colour
+        }
+    }
+}
+
+impl Shading for PhongLights<'_> {
+    type PerRay = Ray;
+    const ON: bool = true;
+    #[inline(always)]
+    fn for_ray(&self, ray: &Ray) -> Ray {
+        *ray
+    }
+    #[inline(always)]
+    fn shade(&self, ray: &Ray, colour: Vec3, grad: Vec3, len2: f32, t: f32) -> Vec3 {
+        if len2 > self.threshold2 {
+            let p = ray.origin + ray.dir * t;
+            self.lighting.shade_at(colour, grad, ray.dir, p)
         } else {
             colour
         }
@@ -141,7 +198,9 @@ where
         let steps = RaySteps::new(&self.geom, ray, t0, t1);
         let mut st = DvrRay {
             dvr: self,
-            view: self.shading.for_ray(ray.dir),
+            loc: self.geom.locator,
+            inv_spacing: self.geom.inv_spacing,
+            view: self.shading.for_ray(ray),
             colour: Vec3::ZERO,
             alpha: 0.0,
             samples: 0,
@@ -158,6 +217,10 @@ where
 
 struct DvrRay<'d, 'a, R, G, K, S: Shading, T, A> {
     dvr: &'d Dvr<'a, R, G, K, S, T, A>,
+    // Copies of the frame geometry the samples read, local to the ray so
+    // they stay in registers.
+    loc: Locator,
+    inv_spacing: Vec3,
     view: S::PerRay,
     colour: Vec3,
     alpha: f32,
@@ -183,18 +246,18 @@ where
         &mut self,
         cur: &mut C,
         _: i64,
-        _: f32,
+        t: f32,
         p: Vec3,
         _: Option<usize>,
     ) -> Flow {
         let d = self.dvr;
-        let loc = &d.geom.locator;
+        let loc = &self.loc;
         let (v, early) = G::value::<C, R>(loc, cur, p);
         self.samples += 1;
         // A classifier that reads the gradient gets it first, and shading
         // reuses it; otherwise only visible samples compute one.
         let (e, mut grad, mut len2) = if K::NEEDS_GRADIENT {
-            let g = G::gradient(early, loc, cur, p) * d.geom.inv_spacing;
+            let g = G::gradient(early, loc, cur, p) * self.inv_spacing;
             let len2 = g.length_squared();
             (d.classifier.classify(v, len2.sqrt()), g, len2)
         } else {
@@ -204,10 +267,10 @@ where
             let mut c = Vec3::new(e[0], e[1], e[2]);
             if S::ON {
                 if !K::NEEDS_GRADIENT {
-                    grad = G::gradient(early, loc, cur, p) * d.geom.inv_spacing;
+                    grad = G::gradient(early, loc, cur, p) * self.inv_spacing;
                     len2 = grad.length_squared();
                 }
-                c = d.shading.shade(&self.view, c, grad, len2);
+                c = d.shading.shade(&self.view, c, grad, len2, t);
             }
             let weight = (1.0 - self.alpha) * e[3];
             self.colour += c * weight;

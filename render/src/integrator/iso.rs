@@ -20,17 +20,17 @@ const BISECTIONS: u32 = 20;
 /// two samples and refined by bisection, then shaded with the gradient
 /// from `G`. `A` skips cells whose every value is on the ray's side, and
 /// tells the class of a uniform cell without sampling it.
-pub struct Iso<R, G, A> {
+pub struct Iso<'a, R, G, A> {
     geom: FrameGeometry,
     accel: A,
     level: f32,
     /// Linear surface colour.
     colour: Vec3,
-    lighting: Lighting,
+    lighting: &'a Lighting,
     _choices: PhantomData<(R, G)>,
 }
 
-impl<R, G, A> Iso<R, G, A> {
+impl<'a, R, G, A> Iso<'a, R, G, A> {
     /// The integrator for iso value `level`, surface colour `colour`
     /// (linear) lit by `lighting`.
     pub fn new(
@@ -38,7 +38,7 @@ impl<R, G, A> Iso<R, G, A> {
         accel: A,
         level: f32,
         colour: Vec3,
-        lighting: Lighting,
+        lighting: &'a Lighting,
     ) -> Self {
         Iso {
             geom,
@@ -51,7 +51,7 @@ impl<R, G, A> Iso<R, G, A> {
     }
 }
 
-impl<R: Reconstruct, G: Gradient, A: Accel<bool>> Integrator for Iso<R, G, A> {
+impl<R: Reconstruct, G: Gradient, A: Accel<bool>> Integrator for Iso<'_, R, G, A> {
     fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult {
         let steps = RaySteps::new(&self.geom, ray, t0, t1);
         let mut st = IsoRay {
@@ -67,8 +67,8 @@ impl<R: Reconstruct, G: Gradient, A: Accel<bool>> Integrator for Iso<R, G, A> {
     }
 }
 
-struct IsoRay<'i, R, G, A> {
-    iso: &'i Iso<R, G, A>,
+struct IsoRay<'i, 'a, R, G, A> {
+    iso: &'i Iso<'a, R, G, A>,
     steps: &'i RaySteps,
     ray: &'i Ray,
     t0: f32,
@@ -77,7 +77,7 @@ struct IsoRay<'i, R, G, A> {
     out: RayResult,
 }
 
-impl<R: Reconstruct, G: Gradient, A: Accel<bool>> RayMarch for IsoRay<'_, R, G, A> {
+impl<R: Reconstruct, G: Gradient, A: Accel<bool>> RayMarch for IsoRay<'_, '_, R, G, A> {
     type Query = bool;
     const CACHE_BUSY: bool = false;
 
@@ -122,7 +122,7 @@ impl<R: Reconstruct, G: Gradient, A: Accel<bool>> RayMarch for IsoRay<'_, R, G, 
     }
 }
 
-impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, R, G, A> {
+impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, '_, R, G, A> {
     /// Bisect `[a, b]`, where the class at `b` is `class_b` and at `a` the
     /// opposite, down to `BISECTIONS` halvings; returns the midpoint.
     fn refine<C: Cursor>(&self, cur: &mut C, mut a: f32, mut b: f32, class_b: bool) -> f32 {
@@ -145,9 +145,10 @@ impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, R, G, A> {
         let (v, early) = G::value::<C, R>(loc, cur, p);
         let g = G::gradient(early, loc, cur, p) * iso.geom.inv_spacing;
         let c = if g.length() > 0.0 {
-            iso.lighting.shade(iso.colour, g, self.ray.dir)
+            let at = self.ray.origin + self.ray.dir * t;
+            iso.lighting.shade_at(iso.colour, g, self.ray.dir, at)
         } else {
-            iso.colour * iso.lighting.model.ambient
+            iso.colour * iso.lighting.ambient
         };
         self.out.rgba = [c.x, c.y, c.z, 1.0];
         self.out.value = v;

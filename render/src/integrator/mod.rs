@@ -17,7 +17,10 @@ pub mod mip;
 pub mod reconstruct;
 pub mod xray;
 
-pub use dvr::{Dvr, NoTermination, OpacityThreshold, Phong, Shading, Termination, Unshaded};
+pub use dvr::{
+    Dvr, NoTermination, OpacityThreshold, Phong, PhongLights, PhongShading, Shading, Termination,
+    Unshaded,
+};
 pub use iso::Iso;
 pub use mip::{Maximum, Minimum, Mip};
 pub use reconstruct::{Analytic, Central, Gradient, Nearest, NoGradient, Reconstruct, Trilinear};
