@@ -16,6 +16,7 @@ use nom::combinator::rest;
 use nom::{IResult, Parser};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
+use volcore::text::excerpt;
 use volcore::{Dims, SampleType};
 
 /// The fields of a MetaImage header volkit uses.
@@ -58,7 +59,8 @@ fn element_type(v: &str) -> Result<SampleType> {
         "MET_SHORT" => Ok(SampleType::I16),
         "MET_FLOAT" => Ok(SampleType::F32),
         other => Err(Error::invalid(format!(
-            "MetaImage ElementType {other} is not supported (volkit stores MET_UCHAR, MET_USHORT, MET_SHORT and MET_FLOAT)"
+            "MetaImage ElementType {} is not supported (volkit stores MET_UCHAR, MET_USHORT, MET_SHORT and MET_FLOAT)",
+            excerpt(other)
         ))),
     }
 }
@@ -88,9 +90,13 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
             continue;
         }
         let (_, (k, v)) = key_value(l).map_err(|_| {
-            Error::invalid(format!("header line {} is not 'Key = Value': '{l}'", n + 1))
+            Error::invalid(format!(
+                "header line {} is not 'Key = Value': '{}'",
+                n + 1,
+                excerpt(l)
+            ))
         })?;
-        let bad = |what: &str| Error::invalid(format!("bad MetaImage {what}: '{v}'"));
+        let bad = |what: &str| Error::invalid(format!("bad MetaImage {what}: '{}'", excerpt(v)));
         let floats = |what: &str| -> Result<Vec<f64>> {
             v.split_whitespace()
                 .map(|s| s.parse::<f64>().map_err(|_| bad(what)))
@@ -99,7 +105,8 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
         match k {
             "ObjectType" if v != "Image" => {
                 return Err(Error::invalid(format!(
-                    "MetaImage ObjectType {v} is not Image"
+                    "MetaImage ObjectType {} is not Image",
+                    excerpt(v)
                 )))
             }
             "NDims" => ndims = Some(v.parse::<u64>().map_err(|_| bad("NDims"))?),
