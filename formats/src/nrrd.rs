@@ -15,6 +15,7 @@ use nom::combinator::rest;
 use nom::{IResult, Parser};
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
+use volcore::text::excerpt;
 use volcore::{Dims, SampleType};
 
 /// The fields of a NRRD header volkit uses.
@@ -88,7 +89,8 @@ fn sample_type(t: &str) -> Result<SampleType> {
         }
         "float" => Ok(SampleType::F32),
         other => Err(Error::invalid(format!(
-            "NRRD type '{other}' is not supported (volkit stores uchar, short, ushort and float)"
+            "NRRD type '{}' is not supported (volkit stores uchar, short, ushort and float)",
+            excerpt(other)
         ))),
     }
 }
@@ -147,12 +149,13 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
             Some(_) => continue,
             None => {
                 return Err(Error::invalid(format!(
-                    "header line {} is not 'field: value': '{l}'",
-                    n + 2
+                    "header line {} is not 'field: value': '{}'",
+                    n + 2,
+                    excerpt(l)
                 )))
             }
         };
-        let bad = |what: &str| Error::invalid(format!("bad NRRD {what}: '{v}'"));
+        let bad = |what: &str| Error::invalid(format!("bad NRRD {what}: '{}'", excerpt(v)));
         match k.as_str() {
             "type" => ty = Some(sample_type(v)?),
             "dimension" => dimension = Some(v.parse::<u64>().map_err(|_| bad("dimension"))?),
@@ -177,7 +180,8 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
                     "gzip" | "gz" => Encoding::Gzip,
                     other => {
                         return Err(Error::invalid(format!(
-                            "NRRD encoding '{other}' is not supported (use raw or gzip)"
+                            "NRRD encoding '{}' is not supported (use raw or gzip)",
+                            excerpt(other)
                         )))
                     }
                 })
@@ -284,6 +288,34 @@ pub fn read_header_text(r: &mut dyn BufRead) -> Result<(String, u64)> {
     Ok((text, len))
 }
 
+/// Read and drop `lines` lines of `r` (without holding them: a "line" of
+/// binary data may be long), returning the bytes dropped. Every line read
+/// consumes input, so the loop ends with the input however many lines the
+/// header asks for.
+fn skip_lines_of(r: &mut dyn BufRead, lines: u64) -> Result<u64> {
+    let mut dropped = 0u64;
+    for done in 0..lines {
+        loop {
+            let buf = r.fill_buf()?;
+            if buf.is_empty() {
+                return Err(Error::invalid(format!(
+                    "data ends after {done} of the {lines} lines to skip (line skip)"
+                )));
+            }
+            let (n, end) = match buf.iter().position(|&b| b == b'\n') {
+                Some(i) => (i + 1, true),
+                None => (buf.len(), false),
+            };
+            r.consume(n);
+            dropped += n as u64;
+            if end {
+                break;
+            }
+        }
+    }
+    Ok(dropped)
+}
+
 /// Byte offset after `lines` lines of a file from `offset`.
 fn skip_lines(path: &Path, offset: u64, lines: u64) -> Result<u64> {
     if lines == 0 {
@@ -293,16 +325,7 @@ fn skip_lines(path: &Path, offset: u64, lines: u64) -> Result<u64> {
     use std::io::{Seek, SeekFrom};
     f.seek(SeekFrom::Start(offset))?;
     let mut r = std::io::BufReader::new(f);
-    let mut pos = offset;
-    for _ in 0..lines {
-        let mut l = Vec::new();
-        let n = r.read_until(b'\n', &mut l)?;
-        if n == 0 {
-            return Err(Error::invalid("data file ends inside the lines to skip"));
-        }
-        pos += n as u64;
-    }
-    Ok(pos)
+    Ok(offset + skip_lines_of(&mut r, lines)?)
 }
 
 /// Read a `.nrrd` or `.nhdr` file's header and locate its samples.
@@ -371,10 +394,7 @@ pub fn read_stream_header(r: &mut dyn BufRead) -> Result<NrrdHeader> {
             "a NRRD header on standard input must have its data attached",
         ));
     }
-    for _ in 0..h.line_skip {
-        let mut l = Vec::new();
-        r.read_until(b'\n', &mut l)?;
-    }
+    skip_lines_of(r, h.line_skip)?;
     if h.encoding == Encoding::Raw {
         if h.byte_skip < 0 {
             return Err(Error::invalid(
