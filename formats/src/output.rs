@@ -41,6 +41,13 @@ impl AtomicFile {
         })
     }
 
+    /// Remove the temporary file now (instead of when dropped), reporting
+    /// whether that worked: a caller that failed with a full disk says the
+    /// partial output is gone.
+    pub fn discard(self) -> io::Result<()> {
+        self.temp.close()
+    }
+
     /// The open temporary file.
     pub fn file(&mut self) -> &mut File {
         self.temp.as_file_mut()
@@ -64,6 +71,72 @@ impl AtomicFile {
             .map(|_| ())
             .map_err(|e| e.error)
     }
+}
+
+/// The directory a file at `target` will be created in.
+fn parent_dir(target: &Path) -> PathBuf {
+    match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// Bytes free for this user on the file system that holds (or will hold)
+/// `target`; `None` where that cannot be asked.
+pub fn free_space(target: &Path) -> Option<u64> {
+    #[cfg(unix)]
+    {
+        let v = rustix::fs::statvfs(parent_dir(target).as_path()).ok()?;
+        Some(v.f_bavail.saturating_mul(v.f_frsize))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = target;
+        None
+    }
+}
+
+/// Refuse, before anything is written, an output of `bytes` that cannot fit
+/// on the file system that holds `target`: an error of kind `StorageFull`
+/// that gives both numbers. Where the free space cannot be asked, nothing
+/// is refused (a full disk is still reported when a write fails).
+pub fn check_space(target: &Path, bytes: u64) -> io::Result<()> {
+    match free_space(target) {
+        Some(free) if bytes > free => Err(io::Error::new(
+            io::ErrorKind::StorageFull,
+            format!(
+                "the output needs {bytes} bytes ({}) but the file system holding {} has {free} bytes ({}) free",
+                human_bytes(bytes),
+                parent_dir(target).display(),
+                human_bytes(free)
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// A byte count for people: `1.5 GiB`, `281.0 TiB`.
+pub fn human_bytes(b: u64) -> String {
+    const UNITS: [&str; 7] = ["bytes", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
+    let mut v = b as f64;
+    let mut u = 0;
+    while v >= 1024.0 && u + 1 < UNITS.len() {
+        v /= 1024.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{b} bytes")
+    } else {
+        format!("{v:.1} {}", UNITS[u])
+    }
+}
+
+/// Whether an I/O error says the disk (or the user's quota) is full.
+pub fn is_disk_full(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::StorageFull | io::ErrorKind::QuotaExceeded | io::ErrorKind::FileTooLarge
+    )
 }
 
 /// Permissions for a new output file: `rw-r--r--` on Unix (temporary

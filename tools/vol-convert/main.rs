@@ -14,6 +14,7 @@ use volformats::convert::{
 use volformats::thesis::ThesisLayout;
 use volformats::tiff::ChannelSel;
 use volkit_cli::args::{self, LayoutArg};
+use volkit_cli::{noteln, outln};
 
 /// Convert a volume between formats, slice by slice.
 ///
@@ -157,25 +158,9 @@ fn stop_on_signals() {}
 fn main() -> ExitCode {
     tune_malloc();
     stop_on_signals();
-    let cli = match Cli::try_parse() {
+    let cli = match volkit_cli::run::parse_args::<Cli>("vol-convert") {
         Ok(c) => c,
-        Err(e) => {
-            use clap::error::ErrorKind;
-            if matches!(
-                e.kind(),
-                ErrorKind::DisplayHelp
-                    | ErrorKind::DisplayVersion
-                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
-            ) {
-                e.exit();
-            }
-            // Usage errors on one line, like every other error.
-            let text = e.to_string();
-            let first = text.lines().next().unwrap_or("invalid arguments");
-            let first = first.trim_start_matches("error: ");
-            eprintln!("vol-convert: {first} (see --help)");
-            return ExitCode::from(volkit_cli::run::EXIT_USAGE);
-        }
+        Err(code) => return code,
     };
     volkit_cli::run("vol-convert", || convert_cmd(&cli))
 }
@@ -353,7 +338,12 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         spacing: cli.spacing,
         temp_dir: None,
     };
-    let total = out_dims.count() * out_type.size() as u64;
+    let total = out_dims.count().saturating_mul(out_type.size() as u64);
+    // The samples alone must fit where the output goes (bricks add their
+    // aprons; compressed bricks may take less, so they are not checked).
+    if cli.output.as_os_str() != "-" && cli.compress == Compression::None {
+        volformats::output::check_space(&cli.output, total).map_err(|e| at(&cli.output, e))?;
+    }
     let bar = volkit_cli::progress::bytes_bar(total, "vol-convert", cli.quiet);
     let progress = |n: u64| bar.set_position(n);
     let report = convert::convert(reader, &plan, target, &progress)?;
@@ -390,12 +380,12 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             "threads": rayon::current_num_threads(),
         });
         if to_stdout {
-            eprintln!("{v}");
+            noteln!("{v}");
         } else {
-            println!("{v}");
+            outln!("{v}")?;
         }
     } else if !cli.quiet && !to_stdout {
-        eprintln!(
+        noteln!(
             "vol-convert: wrote {} ({} {}, {} bytes) in {:.2} s",
             cli.output.display(),
             report.dims,
