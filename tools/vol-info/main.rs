@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Compression, Layout, Volume};
 use volformats::{vvol, FileKind};
-use volkit_cli::RawArgs;
+use volkit_cli::{outln, RawArgs};
 
 /// Describe a volume file (.vvol, .vol, .raw, or - for a .vvol stream on
 /// stdin) and check it: the header against the file length, the brick table
@@ -34,7 +34,10 @@ const EXAMPLES: &str = "Examples:
   vol-info --raw-dims 256,256,256 --raw-type u16 --raw-big-endian scan.raw";
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match volkit_cli::run::parse_args::<Cli>("vol-info") {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
     volkit_cli::run("vol-info", || info(&cli))
 }
 
@@ -63,11 +66,11 @@ fn info(cli: &Cli) -> Result<()> {
     if let Some(e) = vol.error() {
         anyhow::bail!("{name}: {e}");
     }
-    report(cli, &vol, file_bytes, start.elapsed().as_secs_f64());
+    report(cli, &vol, file_bytes, start.elapsed().as_secs_f64())?;
     Ok(())
 }
 
-fn report(cli: &Cli, vol: &Volume, file_bytes: Option<u64>, seconds: f64) {
+fn report(cli: &Cli, vol: &Volume, file_bytes: Option<u64>, seconds: f64) -> std::io::Result<()> {
     let m = &vol.meta;
     let (brick, bricks) = match m.layout {
         Layout::Sliced => (None, None),
@@ -96,25 +99,25 @@ fn report(cli: &Cli, vol: &Volume, file_bytes: Option<u64>, seconds: f64) {
             "verified": cli.verify,
             "seconds": seconds,
         });
-        println!("{v}");
-        return;
+        return outln!("{v}");
     }
-    println!("{}: {}", cli.input.display(), m);
+    outln!("{}: {}", cli.input.display(), m)?;
     if let Some(b) = file_bytes {
         let samples = m.dims.count() * m.sample_type.size() as u64;
-        println!(
+        outln!(
             "  {b} bytes on disk, {samples} bytes of samples ({:.3}x)",
             b as f64 / samples.max(1) as f64
-        );
+        )?;
     }
     if let Some(n) = bricks {
-        println!("  {n} bricks");
+        outln!("  {n} bricks")?;
     }
     match range {
-        Some((lo, hi)) => println!("  values {lo} .. {hi}"),
-        None => println!("  values: none (all NaN)"),
+        Some((lo, hi)) => outln!("  values {lo} .. {hi}")?,
+        None => outln!("  values: none (all NaN)")?,
     }
     if cli.verify {
-        println!("  verified in {seconds:.2} s");
+        outln!("  verified in {seconds:.2} s")?;
     }
+    Ok(())
 }
