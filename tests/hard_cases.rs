@@ -981,42 +981,35 @@ fn gen_disk_full_on_a_stream_is_reported() {
     assert_eq!(err.lines().count(), 1);
 }
 
-#[test]
-fn gen_disk_full_mid_write_removes_the_partial_file() {
-    // A 256 KiB file system of its own, in a private mount namespace.
-    let d = tmp();
-    let mnt = d.path().join("small");
+/// Run `tool args... -o SMALL/x.vvol` with SMALL a 256 KiB file system of
+/// its own (tmpfs in a private mount namespace); where mounts are not
+/// allowed, a 1 MiB file size limit (EFBIG, SIGXFSZ ignored) stands in for
+/// the full disk. Returns the status and stderr, and checks that nothing
+/// is left on the small file system.
+fn on_a_full_disk(dir: &Path, tool_path: &str, args: &[&str]) -> (i32, String) {
+    let mnt = dir.join("small");
     std::fs::create_dir(&mnt).unwrap();
+    let quoted: Vec<String> = args.iter().map(|a| format!("'{a}'")).collect();
     let script = format!(
-        "mount -t tmpfs -o size=256k none '{m}' && '{g}' noise --dims 128,128,128 --layout bricked:32 --compress zstd -o '{m}/x.vvol' -q; echo \"status $?\"; ls -A '{m}'",
+        "mount -t tmpfs -o size=256k none '{m}' || exit 99; '{t}' {a} -q -o '{m}/x.vvol'; s=$?; ls -A '{m}' >&2; exit $s",
         m = mnt.display(),
-        g = env!("CARGO_BIN_EXE_vol-gen"),
+        t = tool_path,
+        a = quoted.join(" "),
     );
     let out = run(Command::new("unshare").args(["-m", "sh", "-c", &script]));
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let err = String::from_utf8_lossy(&out.stderr);
-    if !stdout.contains("status") {
-        // No private mounts here: a file size limit (EFBIG) stands in.
-        return disk_full_by_file_size_limit(d.path());
+    if out.status.code().is_some_and(|c| c != 99) {
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        // ls printed nothing: the partial file is gone.
+        assert_eq!(err.lines().count(), 1, "{err}");
+        return (code(&out), err);
     }
-    assert!(stdout.contains("status 1"), "{stdout} {err}");
-    assert!(err.contains("partial output was removed"), "{err}");
-    // Nothing is left on the full file system.
-    assert_eq!(stdout.lines().count(), 1, "{stdout}");
-}
-
-/// RLIMIT_FSIZE makes writes past 1 MiB fail (EFBIG, with SIGXFSZ
-/// ignored), as a full disk would.
-fn disk_full_by_file_size_limit(dir: &Path) {
     use std::os::unix::process::CommandExt;
     extern "C" {
         fn setrlimit(resource: i32, rlim: *const [u64; 2]) -> i32;
         fn signal(sig: i32, handler: usize) -> usize;
     }
-    let mut cmd = bin("vol-gen");
-    cmd.args(["noise", "--dims", "128,128,128", "--layout", "bricked:32"])
-        .args(["--compress", "zstd", "-q", "-o"])
-        .arg(dir.join("x.vvol"));
+    let mut cmd = Command::new(tool_path);
+    cmd.args(args).arg("-q").arg("-o").arg(mnt.join("x.vvol"));
     // SAFETY: only async-signal-safe calls between fork and exec.
     unsafe {
         cmd.pre_exec(|| {
@@ -1028,9 +1021,59 @@ fn disk_full_by_file_size_limit(dir: &Path) {
             Ok(())
         });
     }
-    let line = fails(&mut cmd, "partial output was removed");
-    assert!(line.contains("x.vvol"), "{line}");
-    assert_eq!(std::fs::read_dir(dir).unwrap().count(), 1); // only small/
+    let out = run(&mut cmd);
+    assert_eq!(std::fs::read_dir(&mnt).unwrap().count(), 0);
+    (
+        code(&out),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn gen_disk_full_mid_write_removes_the_partial_file() {
+    let d = tmp();
+    // Compressed bricks: the size is not known before writing.
+    let (status, err) = on_a_full_disk(
+        d.path(),
+        env!("CARGO_BIN_EXE_vol-gen"),
+        &[
+            "noise",
+            "--dims",
+            "128,128,128",
+            "--layout",
+            "bricked:32",
+            "--compress",
+            "zstd",
+        ],
+    );
+    assert_eq!(status, 1, "{err}");
+    assert!(
+        err.contains("out of space: the partial output was removed"),
+        "{err}"
+    );
+    assert!(err.contains("x.vvol"), "{err}");
+}
+
+#[test]
+fn convert_disk_full_mid_write_removes_the_partial_file() {
+    let d = tmp();
+    let v = gen(d.path(), "n.vvol", &["noise", "--dims", "128,128,128"]);
+    let (status, err) = on_a_full_disk(
+        d.path(),
+        env!("CARGO_BIN_EXE_vol-convert"),
+        &[
+            v.to_str().unwrap(),
+            "--layout",
+            "bricked:32",
+            "--compress",
+            "zstd",
+        ],
+    );
+    assert_eq!(status, 1, "{err}");
+    assert!(
+        err.contains("out of space: the partial output was removed"),
+        "{err}"
+    );
 }
 
 // ------------------------------------------------- documented ranges --
@@ -1157,7 +1200,7 @@ fn index_cell_and_bins_ranges_are_enforced() {
 }
 
 #[test]
-fn convert_window_crop_and_channel_ranges_are_enforced() {
+fn convert_window_and_crop_ranges_are_enforced() {
     let d = tmp();
     let v = gen(
         d.path(),

@@ -346,7 +346,15 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     }
     let bar = volkit_cli::progress::bytes_bar(total, "vol-convert", cli.quiet);
     let progress = |n: u64| bar.set_position(n);
-    let report = convert::convert(reader, &plan, target, &progress)?;
+    let report = convert::convert(reader, &plan, target, &progress).map_err(|e| {
+        // The output is written under a temporary name, removed on failure.
+        let e = anyhow::Error::new(e);
+        if volkit_cli::run::is_disk_full(&e) {
+            e.context("out of space: the partial output was removed")
+        } else {
+            e
+        }
+    })?;
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
     let to_stdout = cli.output.as_os_str() == "-";

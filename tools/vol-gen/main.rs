@@ -465,9 +465,9 @@ fn full_disk_note(e: anyhow::Error, removed: std::io::Result<()>) -> anyhow::Err
         return e;
     }
     match removed {
-        Ok(()) => e.context("the file system is full: the partial output was removed"),
+        Ok(()) => e.context("out of space: the partial output was removed"),
         Err(r) => e.context(format!(
-            "the file system is full, and the partial output could not be removed ({r})"
+            "out of space, and the partial output could not be removed ({r})"
         )),
     }
 }
