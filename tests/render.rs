@@ -198,3 +198,136 @@ fn bad_input_fails_cleanly() {
     assert!(!out.exists());
     assert!(leftovers(d).is_empty());
 }
+
+/// FNV-1a of some bytes.
+fn fnv(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// FNV-1a of a PNG's decoded samples (independent of the PNG encoder's
+/// compression settings).
+fn png_hash(p: &Path) -> u64 {
+    let img = volcompare::image::Image::load(p).unwrap();
+    let bytes: Vec<u8> = img.samples.iter().map(|&s| s as u8).collect();
+    fnv(&bytes) ^ ((img.width as u64) << 32 | img.height as u64) ^ img.channels() as u64
+}
+
+/// The tool's output files, hashed as recorded before the renderer was
+/// restructured: 8-bit sRGB PNG (with and without alpha), the linear PFM
+/// and the samples-per-pixel heat map, for every mode. Set GOLDEN_PRINT to
+/// print the current hashes instead of checking them.
+#[test]
+fn output_files_are_unchanged() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = gen(
+        d,
+        "s.vvol",
+        &[
+            "shapes", "--dims", "64,64,64", "--count", "10", "--size", "16", "--seed", "2",
+        ],
+    );
+    let cases: [(&str, &[&str], [u64; 3]); 7] = [
+        (
+            "dvr",
+            &[
+                "--tf",
+                "shapes",
+                "--shading",
+                "phong",
+                "--alpha",
+                "--background",
+                "40,80,120",
+            ],
+            [
+                0x0385_960c_1adc_3dfa,
+                0x902d_4da0_8505_9443,
+                0x3cff_e091_f193_4094,
+            ],
+        ),
+        (
+            "dvr-grey",
+            &["--tf", "grey", "--light", "1,2,3"],
+            [
+                0x4bdb_a7fc_0e5c_fa47,
+                0x2b65_3248_1160_9b48,
+                0x58da_3378_a746_8b72,
+            ],
+        ),
+        (
+            "mip",
+            &["--mode", "mip", "--ortho"],
+            [
+                0xa57b_1dc8_2b5b_2a84,
+                0x9ed5_db42_3ecf_5615,
+                0xb0ea_c2ac_2d05_96fa,
+            ],
+        ),
+        (
+            "minip",
+            &["--mode", "minip"],
+            [
+                0xf3fb_6a2d_eb5a_f316,
+                0xe1b7_6c14_dbf9_4e63,
+                0xec72_139b_4996_a812,
+            ],
+        ),
+        (
+            "xray",
+            &["--mode", "xray"],
+            [
+                0x9904_d2c8_bc80_d38b,
+                0x9099_83fa_02c7_6731,
+                0xb951_095c_b819_b3bb,
+            ],
+        ),
+        (
+            "xray-mean",
+            &["--mode", "xray-mean"],
+            [
+                0x9d77_ff85_0cf3_b480,
+                0x6df4_ac06_74bf_fc44,
+                0xb951_095c_b819_b3bb,
+            ],
+        ),
+        (
+            "iso",
+            &["--mode", "iso", "--iso", "95"],
+            [
+                0x63a9_b557_1401_62bc,
+                0xa7e0_9064_7468_4774,
+                0x6be2_2145_cb0e_f237,
+            ],
+        ),
+    ];
+    let print = std::env::var_os("GOLDEN_PRINT").is_some();
+    for (name, extra, want) in cases {
+        let (png, pfm, heat) = (
+            d.join(format!("{name}.png")),
+            d.join(format!("{name}.pfm")),
+            d.join(format!("{name}-heat.png")),
+        );
+        ok(tool("vol-render")
+            .arg(&vol)
+            .arg("-o")
+            .arg(&png)
+            .arg("--hdr")
+            .arg(&pfm)
+            .arg("--heatmap")
+            .arg(&heat)
+            .args(["--size", "64x48", "--quiet", "--step", "0.3"])
+            .args(extra));
+        let got = [
+            png_hash(&png),
+            fnv(&std::fs::read(&pfm).unwrap()),
+            png_hash(&heat),
+        ];
+        if print {
+            println!("{name}: {got:#018x?}");
+        } else {
+            assert_eq!(got, want, "{name}: png, pfm, heat map");
+        }
+    }
+}
