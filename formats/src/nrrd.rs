@@ -433,6 +433,22 @@ mod tests {
     }
 
     #[test]
+    fn line_skip_ends_with_the_input() {
+        let head = "NRRD0004\ntype: uchar\nsizes: 2 2 1\nencoding: raw\nline skip: 4294967295\n\n";
+        let mut r = std::io::Cursor::new(format!("{head}a\nb\n").into_bytes());
+        let e = read_stream_header(&mut r).unwrap_err().to_string();
+        assert!(e.contains("after 2 of the 4294967295 lines"), "{e}");
+        // Lines of any length are skipped without being held.
+        let long = "x".repeat(200_000);
+        let text = format!("NRRD0004\ntype: uchar\nsizes: 2 2 1\nencoding: raw\nline skip: 2\n\n{long}\n\n\x01\x02\x03\x04");
+        let mut r = std::io::Cursor::new(text.into_bytes());
+        read_stream_header(&mut r).unwrap();
+        let mut rest = Vec::new();
+        r.read_to_end(&mut rest).unwrap();
+        assert_eq!(rest, [1, 2, 3, 4]);
+    }
+
+    #[test]
     fn rejects_clearly() {
         assert!(parse("P5\n").unwrap_err().to_string().contains("NRRD"));
         let e = parse("NRRD0004\ntype: double\nsizes: 2 2 2\nencoding: raw\n")

@@ -160,3 +160,40 @@ pub enum Sink<'a> {
     /// A stream such as standard output (written once, front to back).
     Stream(&'a mut (dyn Write + Send)),
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn space_is_checked_against_the_file_system() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("out.vvol");
+        check_space(&target, 0).unwrap();
+        let e = check_space(&target, u64::MAX).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::StorageFull);
+        assert!(
+            e.to_string().contains("needs 18446744073709551615 bytes"),
+            "{e}"
+        );
+        assert!(is_disk_full(&e));
+        assert!(free_space(&target).is_some());
+    }
+
+    #[test]
+    fn byte_counts_for_people() {
+        assert_eq!(human_bytes(512), "512 bytes");
+        assert_eq!(human_bytes(1536), "1.5 KiB");
+        assert_eq!(human_bytes(1 << 48), "256.0 TiB");
+        assert_eq!(human_bytes(u64::MAX), "16.0 EiB");
+    }
+
+    #[test]
+    fn discard_removes_the_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut f = AtomicFile::create(&dir.path().join("a.raw")).unwrap();
+        f.file().write_all(b"partial").unwrap();
+        f.discard().unwrap();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}

@@ -666,3 +666,48 @@ pub fn imagej_raw(path: &Path) -> CResult<Option<ImageJRaw>> {
         spacing,
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn page(width: u32, height: u32, bits: u16, channels: u16) -> PageInfo {
+        PageInfo {
+            width,
+            height,
+            bits,
+            format: 1,
+            channels,
+        }
+    }
+
+    #[test]
+    fn pages_larger_than_the_file_can_expand_to_are_damaged() {
+        assert_eq!(page(512, 512, 16, 1).check_fits(600_000).unwrap(), 524_288);
+        // 100 bytes hold at most 409,600 decoded bytes.
+        assert!(page(640, 640, 8, 1).check_fits(100).is_ok());
+        let e = page(641, 640, 8, 1)
+            .check_fits(100)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("damaged directory"), "{e}");
+        let e = page(u32::MAX, u32::MAX, 32, 4)
+            .check_fits(1 << 40)
+            .unwrap_err();
+        assert!(e.to_string().contains("more than 2^64"), "{e}");
+    }
+
+    #[test]
+    fn limits_follow_the_file_and_the_page() {
+        let l = limits(1000, Some(64));
+        assert_eq!(l.ifd_value_size, 1000);
+        assert_eq!(l.intermediate_buffer_size, 1000);
+        // Directory values decode to larger structures than they take in
+        // the file: the buffer limit leaves room for them.
+        assert!(l.decoding_buffer_size >= 1000);
+        let l = limits(1000, Some(1 << 30));
+        assert_eq!(l.decoding_buffer_size, 1 << 30);
+        let l = limits(u64::MAX, None);
+        assert_eq!(l.decoding_buffer_size, usize::MAX);
+    }
+}
