@@ -624,6 +624,86 @@ fn mhd_truncated_data_is_reported() {
     assert!(leftovers(d.path()).is_empty());
 }
 
+#[test]
+fn nrrd_corrupt_gzip_data_fails_cleanly() {
+    let d = tmp();
+    let p = nrrd(
+        d.path(),
+        "gz.nrrd",
+        "NRRD0004\ntype: uchar\nsizes: 4 4 4\nencoding: gzip\n\n",
+        b"\x1f\x8b\x08\x00garbage that is not deflate at all",
+    );
+    fails(
+        bin("vol-convert")
+            .arg(&p)
+            .arg("-o")
+            .arg(d.path().join("o.vvol")),
+        "gz.nrrd",
+    );
+    assert!(!d.path().join("o.vvol").exists());
+    assert!(leftovers(d.path()).is_empty());
+}
+
+#[test]
+fn mhd_header_size_past_the_end_is_refused() {
+    let d = tmp();
+    let p = d.path().join("h.mha");
+    std::fs::write(
+        &p,
+        b"NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nHeaderSize = 9223372036854775807\nElementDataFile = LOCAL\n\0\0\0\0\0\0\0\0",
+    )
+    .unwrap();
+    fails(
+        bin("vol-convert")
+            .arg(&p)
+            .arg("-o")
+            .arg(d.path().join("o.vvol")),
+        "h.mha",
+    );
+}
+
+#[test]
+fn streams_on_stdin_truncated_or_too_long_fail_cleanly() {
+    let d = tmp();
+    let v = gen(d.path(), "a.vvol", &["ramp", "--dims", "8,8,8"]);
+    let full = std::fs::read(&v).unwrap();
+    let cut = d.path().join("cut.vvol");
+    std::fs::write(&cut, &full[..full.len() - 40]).unwrap();
+    fails(
+        bin("vol-info")
+            .arg("-")
+            .stdin(std::fs::File::open(&cut).unwrap()),
+        "truncated",
+    );
+    fails(
+        bin("vol-convert")
+            .args(["-", "-o"])
+            .arg(d.path().join("o.vvol"))
+            .stdin(std::fs::File::open(&cut).unwrap()),
+        "truncated",
+    );
+    // Raw samples: ten bytes short of 4x4x4, then ten bytes too many.
+    let short = d.path().join("short.bin");
+    std::fs::write(&short, [1u8; 54]).unwrap();
+    fails(
+        bin("vol-convert")
+            .args(["-", "--raw-dims", "4,4,4", "-o"])
+            .arg(d.path().join("o.vvol"))
+            .stdin(std::fs::File::open(&short).unwrap()),
+        "truncated",
+    );
+    let long = d.path().join("long.bin");
+    std::fs::write(&long, [1u8; 74]).unwrap();
+    fails(
+        bin("vol-convert")
+            .args(["-", "--raw-dims", "4,4,4", "-o"])
+            .arg(d.path().join("o.vvol"))
+            .stdin(std::fs::File::open(&long).unwrap()),
+        "10 bytes more",
+    );
+    assert!(!d.path().join("o.vvol").exists());
+}
+
 // ----------------------------------------------------------------- TIFF --
 
 /// A multipage BigTIFF of `d.z` pages of u16 ramps, deflated or not.
