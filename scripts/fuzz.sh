@@ -51,8 +51,9 @@ stat_of() { # FILE KEY
     awk -v k="$2" -F' *: *' '$1 == k {print $2}' "$1"
 }
 
-# One line per run of a target: the stats of that run (AFL++ resets its
-# counters when it resumes, so runs are added up here).
+# One line per run of a target: its stats after the run. A run resumes the
+# one before (-i -), and AFL++ then carries its counters on, so the last
+# line of a target holds its totals.
 record() { # TARGET
     local s="$OUT/$1/default/fuzzer_stats"
     [ -f "$s" ] || return 0
@@ -63,12 +64,9 @@ record() { # TARGET
 
 stats() {
     [ -f "$OUT/runs.tsv" ] || die "no runs recorded in $OUT/runs.tsv yet"
-    printf 'target\tseconds\texecs\tcorpus\tcrashes\thangs\n'
-    # Seconds and executions add up over runs; corpus, crashes and hangs
-    # are those of the latest run (they carry over when a run resumes).
-    awk -F'\t' '{s[$1]+=$2; e[$1]+=$3; c[$1]=$4; k[$1]=$5; h[$1]=$6; if (!($1 in o)) o[$1]=n++}
-        END {for (t in o) printf "%s\t%d\t%d\t%d\t%d\t%d\n", t, s[t], e[t], c[t], k[t], h[t]}' \
-        "$OUT/runs.tsv" | sort
+    printf 'target\truns\tseconds\texecs\tcorpus\tcrashes\thangs\n'
+    awk -F'\t' '{n[$1]++; last[$1]=$2 "\t" $3 "\t" $4 "\t" $5 "\t" $6}
+        END {for (t in n) printf "%s\t%d\t%s\n", t, n[t], last[t]}' "$OUT/runs.tsv" | sort
 }
 
 fuzz() { # TARGET SECONDS
