@@ -104,13 +104,20 @@ save() { # TARGET
     is_target "$t" || die "unknown target '$t'"
     [ -d "$q" ] || die "nothing found for $t yet ($q)"
     afl_env
-    tmp=$(mktemp -d)
+    # On disk: afl-cmin cannot write its traces under /dev/shm.
+    tmp=$(mktemp -d target/fuzz-save.XXXXXX)
     trap 'rm -rf "$tmp"' RETURN
     mkdir -p "$tmp/small"
     find "$q" -maxdepth 1 -type f -size -$((KEEP_BYTES + 1))c -exec cp {} "$tmp/small/" \;
     cp "fuzz/corpus/$t"/* "$tmp/small/" 2>/dev/null || true
-    AFL_NO_AFFINITY=1 nice -n 19 cargo afl cmin -t 5000 -m 4096 -i "$tmp/small" -o "$tmp/min" \
-        -- "$BIN" "$t" >/dev/null
+    # The shell afl-cmin of the AFL++ that cargo-afl built (its Python
+    # variant finds no coverage through this driver).
+    local bin
+    bin=$(ls -d "$HOME"/.local/share/afl.rs/rustc-"$(rustc --version | awk '{print $2}')"-*/afl.rs-*/afl/bin | tail -1)
+    [ -x "$bin/afl-cmin.bash" ] || die "no afl-cmin.bash under ~/.local/share/afl.rs: run a fuzz target first"
+    PATH="$bin:$PATH" AFL_PATH="$bin" nice -n 19 bash "$bin/afl-cmin.bash" -t 5000 -m 4096 \
+        -i "$tmp/small" -o "$tmp/min" -- "$BIN" "$t" >"$tmp/cmin.log" 2>&1 || { tail -5 "$tmp/cmin.log" >&2;
+        die "afl-cmin failed for $t"; }
     rm -rf "fuzz/corpus/$t"
     mkdir -p "fuzz/corpus/$t"
     # The smallest files that still cover every edge cmin kept, named by
