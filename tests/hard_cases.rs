@@ -757,6 +757,37 @@ fn tiff_bit_flips_in_a_bigtiff_directory_never_abort() {
 }
 
 #[test]
+fn tiff_huge_value_count_in_a_later_directory_is_refused() {
+    // Before the limits, the decoder read later directories unlimited and
+    // a count of 2^58 strip offsets panicked with "capacity overflow".
+    let d = tmp();
+    let p = d.path().join("count.tif");
+    bigtiff(&p, [8, 4, 3], false);
+    let mut b = std::fs::read(&p).unwrap();
+    let (off, n) = first_ifd(&b);
+    let next =
+        u64::from_le_bytes(b[off + 8 + n * 20..off + 16 + n * 20].try_into().unwrap()) as usize;
+    let n2 = u64::from_le_bytes(b[next..next + 8].try_into().unwrap()) as usize;
+    let mut patched = false;
+    for i in 0..n2 {
+        let e = next + 8 + i * 20;
+        if u16::from_le_bytes([b[e], b[e + 1]]) == 273 {
+            b[e + 4..e + 12].copy_from_slice(&(1u64 << 58).to_le_bytes());
+            patched = true;
+        }
+    }
+    assert!(patched);
+    std::fs::write(&p, &b).unwrap();
+    fails(
+        bin("vol-convert")
+            .arg(&p)
+            .arg("-o")
+            .arg(d.path().join("o.vvol")),
+        "damaged directory",
+    );
+}
+
+#[test]
 fn tiff_page_larger_than_its_file_can_hold_is_refused() {
     let d = tmp();
     let p = d.path().join("wide.tif");

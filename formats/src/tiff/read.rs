@@ -68,6 +68,9 @@ fn tiff_err(e: TiffError) -> Error {
             Error::invalid("file is truncated (it ends before the image data does)")
         }
         TiffError::IoError(io) => Error::Io(io),
+        TiffError::LimitsExceeded => Error::invalid(
+            "a directory describes more data than the file holds (damaged directory?)",
+        ),
         other => Error::invalid(format!(
             "not a readable TIFF: {}",
             volcore::text::clip(&other.to_string(), 200)
