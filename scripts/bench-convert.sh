@@ -65,9 +65,9 @@ timed() {
 SCENE=(spheres --dims "$DIM,$DIM,$DIM" --seed 3 --count 36 --size $((DIM / 8)) --quiet)
 if [ ! -d "$DIR/slices" ] || [ "$(ls "$DIR/slices" | wc -l)" -ne "$DIM" ]; then
     rm -rf "$DIR/slices"
-    "$B/vol-gen" "${SCENE[@]}" -o "$DIR/scene.raw"
-    "$B/vol-convert" "$DIR/scene.raw" --raw-dims "$DIM,$DIM,$DIM" --raw-type u8 -q -o "$DIR/slices/"
-    rm -f "$DIR/scene.raw"
+    "$B/vol-gen" "${SCENE[@]}" -o "$DIR/scene_${DIM}x${DIM}x${DIM}_uint8.raw"
+    "$B/vol-convert" "$DIR/scene_${DIM}x${DIM}x${DIM}_uint8.raw" -q -o "$DIR/slices/"
+    rm -f "$DIR/scene_${DIM}x${DIM}x${DIM}_uint8.raw"
 fi
 SLICE_BYTES=$(du -cb "$DIR"/slices/*.tif | tail -n 1 | cut -f 1)
 

@@ -58,8 +58,9 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
         ("threads", &["1", "2"]),
     ];
     let per_scene: usize = expected.iter().map(|(_, v)| v.len()).sum();
-    assert_eq!(rows.len(), 2 * per_scene, "{text}");
-    for scene in ["thesis", "noise"] {
+    let scenes = ["thesis", "noise", "boundary"];
+    assert_eq!(rows.len(), scenes.len() * per_scene, "{text}");
+    for scene in scenes {
         for (knob, values) in expected {
             for v in *values {
                 let key = (scene.to_string(), knob.to_string(), v.to_string());
@@ -94,6 +95,7 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
             "accuracy-thesis.png",
             "accuracy-thesis.svg",
             "accuracy-noise.svg",
+            "accuracy-boundary.svg",
         ] {
             let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
             assert!(len > 1000, "{f} missing or empty");

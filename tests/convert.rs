@@ -718,11 +718,19 @@ fn spacing_comes_from_tiff_tags_and_can_be_overridden() {
     let sx = j2["spacing"][0].as_f64().unwrap();
     assert!((sx - 1.0 / 72.0).abs() < 1e-6, "{j2}");
     assert_eq!(j2["spacing"][2], j2["spacing"][0]);
-    for key in ["seconds", "bytes_in", "bytes_out", "dims", "type"] {
+    for key in [
+        "seconds",
+        "bytes_in",
+        "bytes",
+        "dims",
+        "type",
+        "origin",
+        "direction",
+    ] {
         assert!(!j[key].is_null(), "missing {key}: {j}");
     }
     assert_eq!(
-        j["bytes_out"].as_u64().unwrap(),
+        j["bytes"].as_u64().unwrap(),
         std::fs::metadata(d.join("b.vvol")).unwrap().len()
     );
 }
@@ -855,6 +863,8 @@ fn interrupted_conversions_leave_nothing() {
             "-",
             "--raw-dims",
             "64,64,100",
+            "--raw-type",
+            "u8",
             "--layout",
             "bricked:8",
             "-o",
@@ -923,8 +933,8 @@ fn converts_in_a_pipe() {
         String::from_utf8_lossy(&out.stderr)
     );
     let j = json(&String::from_utf8_lossy(&out.stdout));
-    assert_eq!(j["input_format"], "vvol stream");
-    assert_eq!(j["bytes_in"].as_u64().unwrap(), 70 * 60 * 50 + 128 + 32);
+    assert_eq!(j["format"], "vvol stream");
+    assert_eq!(j["bytes_in"].as_u64().unwrap(), 70 * 60 * 50 + 256 + 32);
     assert_eq!(
         std::fs::read(&direct).unwrap(),
         std::fs::read(&piped).unwrap()

@@ -117,7 +117,10 @@ fn output_does_not_depend_on_thread_count() {
                 "bricked:8",
             ],
         ),
-        ("e.raw", &["sphere", "--dims", "17,18,19", "--type", "u16"]),
+        (
+            "e_17x18x19_uint16.raw",
+            &["sphere", "--dims", "17,18,19", "--type", "u16"],
+        ),
     ];
     for (name, args) in cases {
         let mut outputs = Vec::new();
@@ -346,7 +349,7 @@ fn malformed_files_are_rejected_by_every_reader() {
     std::fs::write(d.join("plain.raw"), [0u8; 10]).unwrap();
     fails(
         tool("vol-info").arg(d.join("plain.raw")),
-        "raw file needs dims",
+        "raw input needs dims",
     );
     fails(
         tool("vol-info")
@@ -387,4 +390,31 @@ fn thesis_files_written_by_vol_gen_read_back_equal_to_native() {
             (want["min"].clone(), want["max"].clone())
         );
     }
+}
+
+#[test]
+fn raw_and_unknown_output_names_are_usage_errors_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let base = ["solid", "--dims", "8,8,8"];
+    for (name, needle) in [
+        ("x.raw", "NAME_8x8x8_uint8.raw"),
+        ("x_8x8x9_uint8.raw", "other dims or type"),
+        ("x.jpg", "unknown output type"),
+    ] {
+        let mut c = tool("vol-gen");
+        c.args(base).arg("-o").arg(d.join(name));
+        fails(&mut c, needle);
+        assert_eq!(c.status().unwrap().code(), Some(2), "{name}");
+        assert!(!d.join(name).exists());
+    }
+    ok(tool("vol-gen")
+        .args(base)
+        .arg("-o")
+        .arg(d.join("x_8x8x8_uint8.raw")));
+    // Completions and man pages come from the clap definitions.
+    let bash = ok(tool("vol-gen").args(["--completions", "bash"]));
+    assert!(bash.contains("vol-gen") && bash.contains("--dims"));
+    let man = ok(tool("vol-convert").arg("--man"));
+    assert!(man.contains(".TH") && man.contains("raw\\-endian"), "{man}");
 }

@@ -274,7 +274,7 @@ fn json_figures_are_present_and_sane() {
             "max",
             "nan_count",
             "bytes",
-            "path",
+            "input",
             "index",
             "threads",
             "fingerprint",
@@ -423,7 +423,7 @@ fn bad_input_fails_cleanly_and_leaves_no_index() {
         "missing.vvol",
     );
     std::fs::write(d.join("x.png"), b"png").unwrap();
-    fails(tool("vol-index").arg(d.join("x.png")), "unknown file type");
+    fails(tool("vol-index").arg(d.join("x.png")), "unknown input type");
     fails(tool("vol-index").arg("-"), "stream");
     fails(tool("vol-index").arg(&vol).args(["-o", "-"]), "stdout");
     // Never write an index over a volume.

@@ -331,3 +331,53 @@ fn output_files_are_unchanged() {
         }
     }
 }
+
+/// A 2D transfer function file and the boundary preset render through the
+/// tool; malformed files (1D and 2D statements) are refused with one line
+/// naming the file and the line.
+#[test]
+fn two_d_transfer_functions_and_malformed_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = gen(
+        d,
+        "ball.vvol",
+        &[
+            "sphere", "--dims", "48,48,48", "--radius", "16", "--edge", "3",
+        ],
+    );
+    let tf = d.join("shell.tf");
+    std::fs::write(
+        &tf,
+        "# the sphere's shell: steep gradients at any value\ngradient-domain 0 120\nrect 1 255 20 1e30 255 200 120 0.5\n",
+    )
+    .unwrap();
+    for (i, t) in [tf.to_str().unwrap(), "boundary"].iter().enumerate() {
+        let out = d.join(format!("shell{i}.png"));
+        let v = render_json(&vol, &out, &["--tf", t, "--shading", "phong"]);
+        assert!(v["samples"].as_u64().unwrap() > 0);
+        let img = volcompare::image::Image::load(&out).unwrap();
+        assert!(img.samples.iter().any(|&s| s > 0.0), "{t}: black image");
+    }
+    for (text, line) in [
+        ("rect 1 2 3\n", 1),
+        ("point 0 0 0 0 0\nblob 1 2 0 3 0 0 0 1\n", 2),
+        ("gradient-domain 5 1\nrect 1 2 3 4 0 0 0 1\n", 1),
+        ("point 0 0 0 0 1\n\nrect 1 2 3 4 0 0 0 7\n", 3),
+        ("wobble 1 2\n", 1),
+    ] {
+        let bad = d.join("bad.tf");
+        std::fs::write(&bad, text).unwrap();
+        let msg = fails(
+            tool("vol-render")
+                .arg(&vol)
+                .arg("-o")
+                .arg(d.join("x.png"))
+                .arg("--tf")
+                .arg(&bad),
+            &format!("line {line}"),
+        );
+        assert!(msg.contains("bad.tf"), "{msg}");
+        assert!(!d.join("x.png").exists());
+    }
+}

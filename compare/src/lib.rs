@@ -2,12 +2,13 @@
 //!
 //! - [`image`]: loading PNG (8 and 16-bit; gray, gray-alpha, RGB, RGBA),
 //!   PFM and OpenEXR images into one [`Image`] type.
-//! - [`pfm`]: a reader and writer for the PFM float image format.
+//! - [`pfm`]: the PFM float image reader (the writer is
+//!   `volformats::image::pfm`, re-exported here).
 //! - [`metrics`]: the accumulator behind every figure, and [`Metrics`]
 //!   (MSE, PSNR, maximum absolute error, differing elements).
 //! - [`compare`]: [`compare_images`] and [`compare_volumes`].
-//! - [`heatmap`]: an error heat map with a colour scale bar, and
-//!   [`write_png8`], an 8-bit PNG writer other tools can reuse.
+//! - [`heatmap`]: heat maps with a colour scale bar, and [`write_png8`]
+//!   (both from `volformats::image`, where the image writers live).
 //!
 //! # Conventions
 //!
@@ -25,7 +26,6 @@
 
 pub mod compare;
 pub mod error;
-pub mod heatmap;
 pub mod image;
 pub mod metrics;
 pub mod pfm;
@@ -35,7 +35,8 @@ pub use compare::{
     VolumeOptions,
 };
 pub use error::{Error, Result};
-pub use heatmap::{write_heatmap, write_png8};
 pub use image::{Depth, Image};
 pub use metrics::{psnr, Accumulator, Metrics};
 pub use pfm::{read_pfm, write_pfm};
+pub use volformats::image::heatmap;
+pub use volformats::image::{write_heatmap, write_png8};

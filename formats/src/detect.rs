@@ -1,9 +1,7 @@
-//! Picking a format from a path.
+//! Naming the native output formats from a path (inputs are recognised
+//! by [`crate::open::input_kind`]).
 
-use crate::error::{Error, Result};
-use crate::{raw, thesis, vvol};
 use std::path::Path;
-use volcore::Volume;
 
 /// The volume formats volkit reads and writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,44 +26,5 @@ impl FileKind {
             "raw" => Some(FileKind::Raw),
             _ => None,
         }
-    }
-}
-
-/// Open any volume file by its extension (`-` reads a sliced `.vvol`
-/// stream from standard input). Raw files take dims and type from their
-/// name, or from `raw` when given.
-pub fn open_volume(
-    path: &Path,
-    opts: vvol::OpenOptions,
-    raw: Option<raw::RawSpec>,
-) -> Result<Volume> {
-    if path.as_os_str() == "-" {
-        return vvol::read_stream(&mut std::io::stdin().lock());
-    }
-    match FileKind::of(path) {
-        Some(FileKind::Vvol) => vvol::open(path, opts),
-        Some(FileKind::ThesisVol) => thesis::open(path)?.load(),
-        Some(FileKind::Raw) => {
-            let spec = match raw {
-                Some(s) => s,
-                None => {
-                    let (dims, sample_type) = raw::parse_name(path).ok_or_else(|| {
-                        Error::invalid(
-                            "raw file needs dims and type: name it NAME_XxYxZ_TYPE.raw or pass them",
-                        )
-                    })?;
-                    raw::RawSpec {
-                        dims,
-                        sample_type,
-                        big_endian: false,
-                        skip: 0,
-                    }
-                }
-            };
-            raw::open(path, spec)
-        }
-        None => Err(Error::invalid(
-            "unknown file type (expected .vvol, .vol or .raw)",
-        )),
     }
 }

@@ -3,12 +3,13 @@
 //!
 //! What is hashed depends on what the format offers:
 //!
-//! - **`.vvol`**: the 128-byte header and the 32-byte trailer, as stored.
+//! - **`.vvol`**: the header (128 or 256 bytes) and the 32-byte trailer, as
+//!   stored.
 //!   The header fixes dimensions, type, spacing, layout and compression; the
 //!   trailer holds the exact value range and a CRC-32 of the sample data
 //!   (sliced) or of the brick table, whose entries carry each brick's CRC-32
 //!   (bricked). Any change to a sample therefore changes the fingerprint
-//!   (up to CRC-32 collisions), while only 160 bytes are read. A sliced,
+//!   (up to CRC-32 collisions), while only a few hundred bytes are read. A sliced,
 //!   a bricked and a compressed copy of one volume have *different*
 //!   fingerprints: a sidecar belongs to one file.
 //! - **`.vol`** (thesis) and **`.raw`** carry no checksums. Their
@@ -90,20 +91,65 @@ pub fn fingerprint(path: &Path) -> Result<u64> {
             unchecked_fingerprint(path, b"volkit-fp1 vol", &header)
         }
         Some(FileKind::Raw) => unchecked_fingerprint(path, b"volkit-fp1 raw", &[]),
-        None => Err(Error::invalid(
-            "unknown file type (expected .vvol, .vol or .raw)",
-        )),
+        None if path.is_dir() => dir_fingerprint(path),
+        // Other formats (NRRD, MetaImage, NIfTI, TIFF, ...): the file as
+        // for raw files (a detached data file is not covered).
+        None => unchecked_fingerprint(path, b"volkit-fp1 file", &[]),
     }
+}
+
+/// Most directory entries a fingerprint walks.
+const MAX_DIR_ENTRIES: usize = 1 << 20;
+
+/// A directory (DICOM series, TIFF slices, OME-Zarr): the relative names,
+/// lengths and modification times of every file below it, in name order.
+fn dir_fingerprint(dir: &Path) -> Result<u64> {
+    let mut entries = Vec::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d)? {
+            let e = e?;
+            if entries.len() + todo.len() >= MAX_DIR_ENTRIES {
+                return Err(Error::invalid(format!(
+                    "directory holds more than {MAX_DIR_ENTRIES} entries"
+                )));
+            }
+            let m = e.metadata()?;
+            if m.is_dir() {
+                todo.push(e.path());
+            } else {
+                let nanos = match m.modified()?.duration_since(UNIX_EPOCH) {
+                    Ok(t) => t.as_nanos() as i128,
+                    Err(t) => -(t.duration().as_nanos() as i128),
+                };
+                let rel = e
+                    .path()
+                    .strip_prefix(dir)
+                    .map(|p| p.to_path_buf())
+                    .unwrap_or_default();
+                entries.push((rel.to_string_lossy().into_owned(), m.len(), nanos));
+            }
+        }
+    }
+    entries.sort();
+    let mut hash = Fnv64::new(b"volkit-fp1 dir");
+    for (name, len, nanos) in &entries {
+        hash.update(&(name.len() as u64).to_le_bytes());
+        hash.update(name.as_bytes());
+        hash.update(&len.to_le_bytes());
+        hash.update(&nanos.to_le_bytes());
+    }
+    Ok(hash.finish())
 }
 
 /// Header plus trailer of a `.vvol` file, both validated.
 fn vvol_fingerprint(path: &Path) -> Result<u64> {
     let mut f = File::open(path)?;
     let len = f.metadata()?.len();
-    let mut header = [0u8; vvol::HEADER_LEN as usize];
-    f.read_exact(&mut header)
-        .map_err(truncated("128-byte header"))?;
-    let h = vvol::Header::decode(&header)?;
+    let h = vvol::read_header_from(&mut f)?;
+    let mut header = vec![0u8; h.header_len as usize];
+    f.seek(SeekFrom::Start(0))?;
+    f.read_exact(&mut header).map_err(truncated("header"))?;
     let end = h.file_len().unwrap_or(u64::MAX);
     if end != len {
         return Err(Error::invalid(format!(
@@ -188,6 +234,7 @@ mod tests {
             range: ValueRange::EMPTY,
             layout,
             compression: c,
+            geometry: volcore::Geometry::IDENTITY,
         };
         let p = dir.join(name);
         let mut f = File::create(&p).unwrap();
@@ -328,13 +375,20 @@ mod tests {
     }
 
     #[test]
-    fn streams_and_unknown_kinds_have_no_fingerprint() {
+    fn streams_have_no_fingerprint_other_files_and_directories_do() {
         assert!(fingerprint(Path::new("-")).is_err());
         let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("x.png");
-        std::fs::write(&p, b"png").unwrap();
-        let e = fingerprint(&p).unwrap_err().to_string();
-        assert!(e.contains("unknown file type"), "{e}");
+        let p = dir.path().join("x.nrrd");
+        std::fs::write(&p, b"NRRD0004").unwrap();
+        let a = fingerprint(&p).unwrap();
+        std::fs::write(&p, b"NRRD0005").unwrap();
+        assert_ne!(fingerprint(&p).unwrap(), a);
+        let series = dir.path().join("series");
+        std::fs::create_dir(&series).unwrap();
+        std::fs::write(series.join("1.dcm"), b"a").unwrap();
+        let d1 = fingerprint(&series).unwrap();
+        std::fs::write(series.join("2.dcm"), b"b").unwrap();
+        assert_ne!(fingerprint(&series).unwrap(), d1);
         let e = fingerprint(&dir.path().join("missing.vvol")).unwrap_err();
         assert!(matches!(e, Error::Io(_)), "{e}");
     }

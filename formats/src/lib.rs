@@ -6,6 +6,7 @@
 //! - [`raw`]: headerless sample arrays, Open SciVis naming.
 //! - [`tiff`], [`nrrd`], [`mhd`]: TIFF stacks, NRRD and MetaImage, and
 //!   [`convert`], which turns any input into any output slice by slice.
+//! - [`image`]: the image files tools write (8-bit PNG, PFM, heat maps).
 //!
 //! Writers pull samples from a [`volcore::RegionSource`] and produce them in
 //! parallel batches that one thread writes in file order
@@ -14,21 +15,29 @@
 //! name and renamed into place only on success.
 
 pub mod convert;
+pub mod datafile;
 pub mod detect;
+pub mod dicom;
 pub mod error;
 pub mod fingerprint;
+pub mod image;
 pub mod mhd;
+pub mod nifti;
 pub mod nrrd;
+pub mod omezarr;
+pub mod open;
 pub mod output;
 pub mod pipeline;
 pub mod raw;
+pub mod stream;
 pub mod thesis;
 pub mod tiff;
 pub mod vvol;
 
-pub use detect::{open_volume, FileKind};
+pub use detect::FileKind;
 pub use error::{Error, Result};
 pub use fingerprint::fingerprint;
+pub use open::{open, open_input, open_volume, ReadOptions};
 
 #[cfg(test)]
 mod tests;

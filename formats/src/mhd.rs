@@ -1,14 +1,20 @@
 //! MetaImage headers (`.mhd` with a separate data file, `.mha` with the
 //! data after the header), parsed with `nom`.
 //!
-//! Supported: `NDims` 2 or 3, one channel, `ElementType` `MET_UCHAR`,
-//! `MET_USHORT`, `MET_SHORT`, `MET_FLOAT`; `BinaryDataByteOrderMSB` (or
-//! `ByteOrderMSB`); `CompressedData` (zlib); `HeaderSize` (including -1:
-//! data at the end of the file); `ElementSpacing` (or `ElementSize`);
-//! `ElementDataFile` as `LOCAL` or one file name. File lists and patterns
-//! are reported as unsupported.
+//! Supported: `NDims` 2 or 3, one channel, `ElementType` `MET_CHAR`,
+//! `MET_UCHAR`, `MET_SHORT`, `MET_USHORT`, `MET_INT`, `MET_UINT`,
+//! `MET_FLOAT`, `MET_DOUBLE`; `BinaryDataByteOrderMSB` (or `ByteOrderMSB`);
+//! `CompressedData` (zlib); `HeaderSize` (including -1: data at the end of
+//! the file); `ElementSpacing` (or `ElementSize`); `Offset` (or `Origin`,
+//! `Position`) and `TransformMatrix` (or `Rotation`, `Orientation`) for
+//! the origin and axis directions, in LPS as ITK writes them (each triple
+//! of the matrix is one axis' direction); `ElementDataFile` as `LOCAL` or
+//! one file name. File lists and patterns are reported as unsupported.
+//!
+//! [`write_header`] writes the header volkit's MetaImage output uses.
 
-use crate::convert::input::{DataSpec, DataStart, Encoding};
+use crate::convert::SliceType;
+use crate::datafile::{DataSpec, DataStart, Encoding};
 use crate::error::{Error, Result};
 use nom::bytes::complete::{tag, take_till1};
 use nom::character::complete::space0;
@@ -17,7 +23,51 @@ use nom::{IResult, Parser};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
 use volcore::text::excerpt;
+use volcore::Geometry;
 use volcore::{Dims, SampleType};
+
+/// The MetaImage name of a type volkit writes.
+pub fn type_name(t: SampleType) -> &'static str {
+    match t {
+        SampleType::U8 => "MET_UCHAR",
+        SampleType::U16 => "MET_USHORT",
+        SampleType::I16 => "MET_SHORT",
+        SampleType::F32 => "MET_FLOAT",
+    }
+}
+
+/// The header text of a MetaImage file volkit writes: `data_file` is
+/// `LOCAL` (`.mha`, samples follow) or the data file's name (`.mhd`).
+pub fn write_header(
+    dims: Dims,
+    t: SampleType,
+    spacing: [f32; 3],
+    geometry: &Geometry,
+    compressed: bool,
+    data_file: &str,
+) -> String {
+    let m: Vec<String> = (0..3)
+        .flat_map(|a| geometry.axis(a))
+        .map(|v| v.to_string())
+        .collect();
+    let o = geometry.origin;
+    format!(
+        "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\nCompressedData = {}\nTransformMatrix = {}\nOffset = {} {} {}\nCenterOfRotation = 0 0 0\nAnatomicalOrientation = {}\nElementSpacing = {} {} {}\nDimSize = {} {} {}\nElementType = {}\nElementDataFile = {data_file}\n",
+        if compressed { "True" } else { "False" },
+        m.join(" "),
+        o[0],
+        o[1],
+        o[2],
+        geometry.orientation().chars().map(|c| match c { 'L' => 'R', 'R' => 'L', 'P' => 'A', 'A' => 'P', 'S' => 'I', _ => 'S' }).collect::<String>(),
+        spacing[0],
+        spacing[1],
+        spacing[2],
+        dims.x,
+        dims.y,
+        dims.z,
+        type_name(t),
+    )
+}
 
 /// The fields of a MetaImage header volkit uses.
 #[derive(Clone, Debug, PartialEq)]
@@ -25,13 +75,15 @@ pub struct MhdHeader {
     /// Voxels per axis.
     pub dims: Dims,
     /// Sample type.
-    pub sample_type: SampleType,
+    pub sample_type: SliceType,
     /// Byte order.
     pub big_endian: bool,
     /// zlib-compressed data.
     pub compressed: bool,
     /// Voxel spacing.
     pub spacing: Option<[f32; 3]>,
+    /// Origin and directions (LPS).
+    pub geometry: Geometry,
     /// `ElementDataFile` (`LOCAL` for data after the header).
     pub data_file: String,
     /// `HeaderSize` (-1: data at the end of the file).
@@ -52,14 +104,18 @@ fn key_value(i: &str) -> IResult<&str, (&str, &str)> {
         .parse(i)
 }
 
-fn element_type(v: &str) -> Result<SampleType> {
+fn element_type(v: &str) -> Result<SliceType> {
     match v {
-        "MET_UCHAR" => Ok(SampleType::U8),
-        "MET_USHORT" => Ok(SampleType::U16),
-        "MET_SHORT" => Ok(SampleType::I16),
-        "MET_FLOAT" => Ok(SampleType::F32),
+        "MET_UCHAR" => Ok(SliceType::U8),
+        "MET_CHAR" => Ok(SliceType::I8),
+        "MET_USHORT" => Ok(SliceType::U16),
+        "MET_SHORT" => Ok(SliceType::I16),
+        "MET_UINT" | "MET_ULONG" => Ok(SliceType::U32),
+        "MET_INT" | "MET_LONG" => Ok(SliceType::I32),
+        "MET_FLOAT" => Ok(SliceType::F32),
+        "MET_DOUBLE" => Ok(SliceType::F64),
         other => Err(Error::invalid(format!(
-            "MetaImage ElementType {} is not supported (volkit stores MET_UCHAR, MET_USHORT, MET_SHORT and MET_FLOAT)",
+            "MetaImage ElementType {} is not supported (volkit reads 8, 16 and 32-bit integers, MET_FLOAT and MET_DOUBLE)",
             excerpt(other)
         ))),
     }
@@ -80,6 +136,8 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
     let mut spacing: Option<Vec<f64>> = None;
     let mut element_size: Option<Vec<f64>> = None;
     let mut header_size = 0i64;
+    let mut offset: Option<Vec<f64>> = None;
+    let mut matrix: Option<Vec<f64>> = None;
     let mut channels = 1u64;
     let mut data_file = None;
     let mut len = 0u64;
@@ -125,6 +183,8 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
             "CompressedData" => compressed = is_true(v),
             "ElementSpacing" => spacing = Some(floats("ElementSpacing")?),
             "ElementSize" => element_size = Some(floats("ElementSize")?),
+            "Offset" | "Origin" | "Position" => offset = Some(floats(k)?),
+            "TransformMatrix" | "Rotation" | "Orientation" => matrix = Some(floats(k)?),
             "HeaderSize" => header_size = v.parse().map_err(|_| bad("HeaderSize"))?,
             "ElementNumberOfChannels" => {
                 channels = v.parse().map_err(|_| bad("ElementNumberOfChannels"))?
@@ -179,6 +239,28 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
     if header_size < -1 {
         return Err(Error::invalid("MetaImage HeaderSize must be -1 or more"));
     }
+    let origin = match offset.as_deref() {
+        None => [0.0; 3],
+        Some([x, y]) => [*x, *y, 0.0],
+        Some([x, y, z]) => [*x, *y, *z],
+        Some(_) => {
+            return Err(Error::invalid(
+                "MetaImage Offset does not have NDims values",
+            ))
+        }
+    };
+    let axes = match matrix.as_deref() {
+        None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        Some([a, b, c, d]) => [[*a, *b, 0.0], [*c, *d, 0.0], [0.0, 0.0, 1.0]],
+        Some(m) if m.len() == 9 => [[m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]],
+        Some(_) => {
+            return Err(Error::invalid(
+                "MetaImage TransformMatrix does not have NDims² values",
+            ))
+        }
+    };
+    let geometry = Geometry::from_axes(origin, axes)
+        .map_err(|e| Error::invalid(format!("MetaImage geometry: {e}")))?;
     if header_size == -1 && compressed {
         return Err(Error::invalid(
             "MetaImage HeaderSize -1 works with uncompressed data only",
@@ -191,6 +273,7 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
             big_endian: msb,
             compressed,
             spacing,
+            geometry,
             data_file,
             header_size,
         },
@@ -240,6 +323,8 @@ pub fn open(path: &Path) -> Result<DataSpec> {
         sample_type: h.sample_type,
         big_endian: h.big_endian,
         spacing: h.spacing,
+        geometry: h.geometry,
+        rescale: None,
         data_file,
         start,
         encoding: if h.compressed {
@@ -277,8 +362,9 @@ mod tests {
         let (h, len) = parse(text).unwrap();
         assert_eq!(len, text.len() as u64);
         assert_eq!(h.dims, Dims::new(10, 20, 30).unwrap());
-        assert_eq!(h.sample_type, SampleType::I16);
+        assert_eq!(h.sample_type, SliceType::I16);
         assert_eq!(h.spacing, Some([0.5, 0.5, 1.25]));
+        assert!(h.geometry.is_identity());
         assert_eq!(h.data_file, "scan.raw");
         let mha = "NDims=2\nDimSize=4 4\nElementType=MET_UCHAR\nCompressedData=True\nElementDataFile=LOCAL\n\x00\x01binary";
         let (h, len) = parse(mha).unwrap();
@@ -288,13 +374,39 @@ mod tests {
     }
 
     #[test]
+    fn geometry_round_trips() {
+        let g = Geometry::from_axes(
+            [1.5, -2.0, 30.0],
+            [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+        )
+        .unwrap();
+        let text = write_header(
+            Dims::new(3, 4, 5).unwrap(),
+            SampleType::I16,
+            [0.5, 0.75, 2.0],
+            &g,
+            true,
+            "x.zraw",
+        );
+        let (h, _) = parse(&text).unwrap();
+        assert_eq!(h.geometry, g);
+        assert_eq!(h.spacing, Some([0.5, 0.75, 2.0]));
+        assert!(h.compressed);
+        let (h, _) = parse(
+            "NDims = 3\nDimSize = 2 2 2\nElementType = MET_DOUBLE\nElementDataFile = a.raw\n",
+        )
+        .unwrap();
+        assert_eq!(h.sample_type, SliceType::F64);
+    }
+
+    #[test]
     fn rejects_clearly() {
         let e = parse(
-            "NDims = 3\nDimSize = 2 2 2\nElementType = MET_DOUBLE\nElementDataFile = a.raw\n",
+            "NDims = 3\nDimSize = 2 2 2\nElementType = MET_LONG_LONG\nElementDataFile = a.raw\n",
         )
         .unwrap_err()
         .to_string();
-        assert!(e.contains("MET_DOUBLE"), "{e}");
+        assert!(e.contains("MET_LONG_LONG"), "{e}");
         let e = parse("NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n")
             .unwrap_err()
             .to_string();

@@ -1,14 +1,19 @@
 //! NRRD headers (`.nrrd` with attached data, `.nhdr` with a detached data
 //! file), parsed with `nom`.
 //!
-//! Supported: 2 or 3 dimensions; types `uchar`/`uint8`, `short`/`int16`,
-//! `ushort`/`uint16` and `float` (with their NRRD aliases); `raw` and
-//! `gzip` encodings; `endian`; `byte skip` (including -1 for raw data at
-//! the end of the file) and `line skip`; `spacings` or `space directions`
-//! for the voxel spacing; one detached `data file`. File lists, format
-//! strings, `ascii`, `hex` and `bzip2` data are reported as unsupported.
+//! Supported: 2 or 3 dimensions; types `int8`, `uint8`, `int16`,
+//! `uint16`, `int32`, `uint32`, `float` and `double` (with their NRRD
+//! aliases); `raw` and `gzip` encodings; `endian`; `byte skip` (including
+//! -1 for raw data at the end of the file) and `line skip`; `spacings`, or
+//! `space directions` with `space origin` for spacing, origin and axis
+//! directions (signs kept; `space` `RAS`-like frames are turned into
+//! volkit's LPS); one detached `data file`. File lists, format strings,
+//! `ascii`, `hex` and `bzip2` data are reported as unsupported.
+//!
+//! [`write_header`] writes the header volkit's NRRD output uses.
 
-use crate::convert::input::{DataSpec, DataStart, Encoding};
+use crate::convert::SliceType;
+use crate::datafile::{DataSpec, DataStart, Encoding};
 use crate::error::{Error, Result};
 use nom::bytes::complete::{tag, take_until};
 use nom::combinator::rest;
@@ -16,7 +21,8 @@ use nom::{IResult, Parser};
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 use volcore::text::excerpt;
-use volcore::{Dims, SampleType};
+use volcore::Dims;
+use volcore::Geometry;
 
 /// The fields of a NRRD header volkit uses.
 #[derive(Clone, Debug, PartialEq)]
@@ -24,13 +30,16 @@ pub struct NrrdHeader {
     /// Voxels per axis (a 2D image has z = 1).
     pub dims: Dims,
     /// Sample type.
-    pub sample_type: SampleType,
+    pub sample_type: SliceType,
     /// Byte order (little-endian when absent).
     pub big_endian: bool,
     /// Raw or gzip.
     pub encoding: Encoding,
     /// Voxel spacing from `spacings` or `space directions`.
     pub spacing: Option<[f32; 3]>,
+    /// Origin and directions (LPS) from `space origin` and `space
+    /// directions`.
+    pub geometry: Geometry,
     /// Detached data file, as written.
     pub data_file: Option<String>,
     /// `byte skip` (-1: raw data at the end of the file).
@@ -78,20 +87,77 @@ fn magic(i: &str) -> IResult<&str, &str> {
         .parse(i)
 }
 
-fn sample_type(t: &str) -> Result<SampleType> {
+fn sample_type(t: &str) -> Result<SliceType> {
     match t.trim() {
-        "uchar" | "unsigned char" | "uint8" | "uint8_t" => Ok(SampleType::U8),
+        "uchar" | "unsigned char" | "uint8" | "uint8_t" => Ok(SliceType::U8),
+        "signed char" | "int8" | "int8_t" => Ok(SliceType::I8),
         "short" | "short int" | "signed short" | "signed short int" | "int16" | "int16_t" => {
-            Ok(SampleType::I16)
+            Ok(SliceType::I16)
         }
         "ushort" | "unsigned short" | "unsigned short int" | "uint16" | "uint16_t" => {
-            Ok(SampleType::U16)
+            Ok(SliceType::U16)
         }
-        "float" => Ok(SampleType::F32),
+        "int" | "signed int" | "int32" | "int32_t" => Ok(SliceType::I32),
+        "uint" | "unsigned int" | "uint32" | "uint32_t" => Ok(SliceType::U32),
+        "float" => Ok(SliceType::F32),
+        "double" => Ok(SliceType::F64),
         other => Err(Error::invalid(format!(
-            "NRRD type '{}' is not supported (volkit stores uchar, short, ushort and float)",
+            "NRRD type '{}' is not supported (volkit reads 8, 16 and 32-bit integers, float and double)",
             excerpt(other)
         ))),
+    }
+}
+
+/// The NRRD name of a type volkit writes.
+pub fn type_name(t: volcore::SampleType) -> &'static str {
+    match t {
+        volcore::SampleType::U8 => "uint8",
+        volcore::SampleType::U16 => "uint16",
+        volcore::SampleType::I16 => "int16",
+        volcore::SampleType::F32 => "float",
+    }
+}
+
+/// Per-axis signs that turn a NRRD `space` into LPS (`None`: not a
+/// patient frame, taken as is).
+fn space_signs(space: &str) -> Result<[f64; 3]> {
+    let code = match space.trim().to_ascii_lowercase().as_str() {
+        "left-posterior-superior" | "lps" => "LPS",
+        "right-anterior-superior" | "ras" => "RAS",
+        "left-anterior-superior" | "las" => "LAS",
+        "scanner-xyz" | "3d-right-handed" | "3d-left-handed" => "LPS",
+        other if other.contains("time") => {
+            return Err(Error::invalid(format!(
+                "NRRD space '{}' with time is not supported (3D volumes only)",
+                excerpt(other)
+            )))
+        }
+        other => {
+            return Err(Error::invalid(format!(
+                "NRRD space '{}' is not supported (use RAS, LAS or LPS)",
+                excerpt(other)
+            )))
+        }
+    };
+    let b = code.as_bytes();
+    Ok([
+        if b[0] == b'L' { 1.0 } else { -1.0 },
+        if b[1] == b'P' { 1.0 } else { -1.0 },
+        1.0,
+    ])
+}
+
+/// `(a,b,c)`: a vector of three numbers.
+fn vector(s: &str) -> Option<[f64; 3]> {
+    let inner = s.trim().strip_prefix('(')?.strip_suffix(')')?;
+    let c: Vec<f64> = inner
+        .split(',')
+        .map(|x| x.trim().parse().ok())
+        .collect::<Option<_>>()?;
+    match c[..] {
+        [a, b, c] => Some([a, b, c]),
+        [a, b] => Some([a, b, 0.0]),
+        _ => None,
     }
 }
 
@@ -101,25 +167,35 @@ fn numbers(v: &str) -> Vec<Option<f64>> {
         .collect()
 }
 
-/// Spacing from `space directions: (a,b,c) (d,e,f) (g,h,i)` (vector norms).
-fn directions(v: &str) -> Option<[f32; 3]> {
-    let vecs: Vec<f64> = v
+/// The axis vectors of `space directions: (a,b,c) (d,e,f) (g,h,i)`
+/// (`none` axes left out); a 2D image gets a third axis across its plane.
+fn directions(v: &str) -> Result<[[f64; 3]; 3]> {
+    let bad = || Error::invalid(format!("bad NRRD space directions: '{}'", excerpt(v)));
+    let vecs: Vec<[f64; 3]> = v
         .split_whitespace()
         .filter(|s| *s != "none")
-        .map(|s| {
-            let inner = s.trim_start_matches('(').trim_end_matches(')');
-            let c: Vec<f64> = inner
-                .split(',')
-                .filter_map(|x| x.trim().parse().ok())
-                .collect();
-            c.iter().map(|x| x * x).sum::<f64>().sqrt()
-        })
-        .collect();
+        .map(|s| vector(s).ok_or_else(bad))
+        .collect::<Result<_>>()?;
     match vecs[..] {
-        [a, b] => Some([a as f32, b as f32, 1.0]),
-        [a, b, c] => Some([a as f32, b as f32, c as f32]),
-        _ => None,
+        [a, b] => {
+            let c = [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ];
+            let n = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+            if n == 0.0 {
+                return Err(bad());
+            }
+            Ok([a, b, c.map(|x| x / n)])
+        }
+        [a, b, c] => Ok([a, b, c]),
+        _ => Err(bad()),
     }
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 /// Parse the header text (up to, not including, the blank line).
@@ -136,6 +212,8 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
     let mut encoding = None;
     let mut spacings = None;
     let mut dirs = None;
+    let mut space = None;
+    let mut origin = None;
     let mut data_file = None;
     let mut byte_skip = 0i64;
     let mut line_skip = 0u64;
@@ -187,7 +265,11 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
                 })
             }
             "spacings" => spacings = Some(numbers(v)),
-            "space directions" => dirs = directions(v),
+            "space directions" => dirs = Some(directions(v)?),
+            "space" => space = Some(space_signs(v)?),
+            "space origin" => {
+                origin = Some(vector(v).ok_or_else(|| bad("space origin"))?);
+            }
             "data file" | "datafile" => {
                 if v.starts_with("LIST") || v.contains('%') || v.split_whitespace().count() > 1 {
                     return Err(Error::invalid(
@@ -229,6 +311,7 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
         }
         None => false,
     };
+    let from_dirs = dirs.map(|d| d.map(|v| norm(v) as f32));
     let spacing = spacings
         .map(|s| {
             let v = |i: usize| {
@@ -240,7 +323,12 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
             };
             [v(0), v(1), if s.len() > 2 { v(2) } else { 1.0 }]
         })
-        .or(dirs.filter(|d| d.iter().all(|v| v.is_finite() && *v > 0.0)));
+        .or(from_dirs.filter(|d| d.iter().all(|v| v.is_finite() && *v > 0.0)));
+    let signs = space.unwrap_or([1.0; 3]);
+    let to_lps = |v: [f64; 3]| [v[0] * signs[0], v[1] * signs[1], v[2] * signs[2]];
+    let axes = dirs.unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    let geometry = Geometry::from_axes(to_lps(origin.unwrap_or([0.0; 3])), axes.map(to_lps))
+        .map_err(|e| Error::invalid(format!("NRRD geometry: {e}")))?;
     if byte_skip < -1 {
         return Err(Error::invalid("NRRD byte skip must be -1 or more"));
     }
@@ -255,10 +343,57 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
         big_endian,
         encoding,
         spacing,
+        geometry,
         data_file,
         byte_skip,
         line_skip,
     })
+}
+
+/// How a NRRD file written by volkit stores its samples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NrrdOut {
+    /// Dimensions.
+    pub dims: Dims,
+    /// Sample type.
+    pub sample_type: volcore::SampleType,
+    /// Voxel spacing.
+    pub spacing: [f32; 3],
+    /// Origin and directions (written in LPS).
+    pub geometry: Geometry,
+    /// gzip-compressed samples.
+    pub gzip: bool,
+    /// Detached data file name (relative to the header), or attached.
+    pub data_file: Option<String>,
+}
+
+/// The header text of a NRRD file volkit writes (little-endian, LPS,
+/// ending with the blank line).
+pub fn write_header(o: &NrrdOut) -> String {
+    let g = &o.geometry;
+    let vecs: Vec<String> = (0..3)
+        .map(|a| {
+            let v = g.axis(a).map(|c| c * o.spacing[a] as f64);
+            format!("({},{},{})", v[0], v[1], v[2])
+        })
+        .collect();
+    let mut h = format!(
+        "NRRD0004\n# written by volkit\ntype: {}\ndimension: 3\nspace: left-posterior-superior\nsizes: {} {} {}\nspace directions: {}\nkinds: domain domain domain\nendian: little\nencoding: {}\nspace origin: ({},{},{})\n",
+        type_name(o.sample_type),
+        o.dims.x,
+        o.dims.y,
+        o.dims.z,
+        vecs.join(" "),
+        if o.gzip { "gzip" } else { "raw" },
+        g.origin[0],
+        g.origin[1],
+        g.origin[2],
+    );
+    if let Some(f) = &o.data_file {
+        h.push_str(&format!("data file: {f}\n"));
+    }
+    h.push('\n');
+    h
 }
 
 /// Read header lines from `r` up to and including the blank line that
@@ -367,6 +502,8 @@ pub fn spec_for(path: &Path, h: &NrrdHeader, header_len: u64) -> Result<DataSpec
         sample_type: h.sample_type,
         big_endian: h.big_endian,
         spacing: h.spacing,
+        geometry: h.geometry,
+        rescale: None,
         data_file,
         start,
         encoding: h.encoding,
@@ -401,7 +538,7 @@ pub fn read_stream_header(r: &mut dyn BufRead) -> Result<NrrdHeader> {
                 "byte skip -1 cannot be used on standard input",
             ));
         }
-        crate::convert::input::skip_bytes(r, h.byte_skip as u64)?;
+        crate::stream::skip_bytes(r, h.byte_skip as u64)?;
     }
     Ok(h)
 }
@@ -415,11 +552,39 @@ mod tests {
         let text = "NRRD0004\n# Complete NRRD file format specification at:\ntype: short\ndimension: 3\nspace: left-posterior-superior\nsizes: 64 32 16\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,2)\nkinds: domain domain domain\nendian: big\nencoding: gzip\nspace origin: (0,0,0)\nmy key:=a: b\n\n";
         let h = parse(text).unwrap();
         assert_eq!(h.dims, Dims::new(64, 32, 16).unwrap());
-        assert_eq!(h.sample_type, SampleType::I16);
+        assert_eq!(h.sample_type, SliceType::I16);
         assert!(h.big_endian);
         assert_eq!(h.encoding, Encoding::Gzip);
         assert_eq!(h.spacing, Some([0.5, 0.5, 2.0]));
         assert_eq!(h.data_file, None);
+        assert!(h.geometry.is_identity());
+    }
+
+    #[test]
+    fn geometry_signs_and_origin() {
+        let text = "NRRD0004\ntype: int\ndimension: 3\nspace: right-anterior-superior\nsizes: 4 4 4\nspace directions: (-0.5,0,0) (0,-0.5,0) (0,0,2)\nendian: little\nencoding: raw\nspace origin: (10,20,30)\n";
+        let h = parse(text).unwrap();
+        assert_eq!(h.sample_type, SliceType::I32);
+        assert_eq!(h.spacing, Some([0.5, 0.5, 2.0]));
+        // RAS (-x, -y) is LPS (+x, +y); the origin flips to (-10, -20, 30).
+        assert_eq!(h.geometry.origin, [-10.0, -20.0, 30.0]);
+        assert_eq!(h.geometry.axis(0), [1.0, 0.0, 0.0]);
+        let out = NrrdOut {
+            dims: Dims::new(4, 4, 4).unwrap(),
+            sample_type: volcore::SampleType::I16,
+            spacing: [0.5, 0.5, 2.0],
+            geometry: h.geometry,
+            gzip: true,
+            data_file: Some("x.raw.gz".into()),
+        };
+        let back = parse(&write_header(&out)).unwrap();
+        assert_eq!(back.geometry, h.geometry);
+        assert_eq!(back.spacing, h.spacing);
+        assert_eq!(back.data_file.as_deref(), Some("x.raw.gz"));
+        for t in ["int8", "uint32", "double"] {
+            let text = format!("NRRD0004\ntype: {t}\nsizes: 2 2 2\nendian: big\nencoding: raw\n");
+            assert!(parse(&text).is_ok(), "{t}");
+        }
     }
 
     #[test]
@@ -451,10 +616,10 @@ mod tests {
     #[test]
     fn rejects_clearly() {
         assert!(parse("P5\n").unwrap_err().to_string().contains("NRRD"));
-        let e = parse("NRRD0004\ntype: double\nsizes: 2 2 2\nencoding: raw\n")
+        let e = parse("NRRD0004\ntype: long\nsizes: 2 2 2\nencoding: raw\n")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("double"), "{e}");
+        assert!(e.contains("long"), "{e}");
         let e = parse("NRRD0004\ntype: short\nsizes: 2 2 2\nencoding: raw\n")
             .unwrap_err()
             .to_string();

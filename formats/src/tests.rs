@@ -19,6 +19,7 @@ fn meta(dims: Dims, t: SampleType, layout: Layout, c: Compression) -> VolumeMeta
         range: volcore::ValueRange::EMPTY,
         layout,
         compression: c,
+        geometry: volcore::Geometry::IDENTITY,
     }
 }
 
@@ -313,14 +314,14 @@ fn malformed_vvol_files_are_rejected() {
 
     // Flipped sample byte: found only with verification.
     let p = sample_file(dir.path(), Layout::Sliced, Compression::None);
-    patch(&p, 128 + 4000, &[0xAB]);
+    patch(&p, vvol::HEADER_LEN + 4000, &[0xAB]);
     assert!(vvol::open(&p, Default::default()).is_ok());
     assert!(open_err(&p, true).contains("checksum"));
 
     // Brick table pointing outside the file.
     for c in [Compression::None, Compression::Zstd(1)] {
         let p = sample_file(dir.path(), Layout::Bricked(g), c);
-        patch(&p, 128 + 24, &(1u64 << 40).to_le_bytes());
+        patch(&p, vvol::HEADER_LEN + 24, &(1u64 << 40).to_le_bytes());
         assert!(open_err(&p, false).contains("outside"));
     }
 
@@ -333,6 +334,21 @@ fn malformed_vvol_files_are_rejected() {
     let v = vvol::open(&p, Default::default()).unwrap();
     let _ = v.to_f32_vec();
     assert!(v.error().is_some());
+
+    // Damaged geometry (version 2 block), and a singular direction matrix
+    // resealed.
+    let p = sample_file(dir.path(), Layout::Sliced, Compression::None);
+    patch(&p, 130, &[1]);
+    assert!(open_err(&p, false).contains("geometry is damaged"));
+    let p = sample_file(dir.path(), Layout::Sliced, Compression::None);
+    patch(&p, 152, &0f64.to_le_bytes());
+    patch(&p, 176, &0f64.to_le_bytes());
+    patch(&p, 200, &0f64.to_le_bytes());
+    let mut b = std::fs::read(&p).unwrap();
+    let crc = crc32fast::hash(&b[128..252]);
+    b[252..256].copy_from_slice(&crc.to_le_bytes());
+    std::fs::write(&p, b).unwrap();
+    assert!(open_err(&p, false).contains("zero length"));
 
     // Not a vvol at all.
     std::fs::write(&p, vec![7u8; 300]).unwrap();
@@ -454,16 +470,23 @@ fn raw_round_trips_and_reads_big_endian() {
     let q = dir.path().join("be.raw");
     std::fs::write(&q, &be).unwrap();
     let spec = raw::RawSpec {
-        dims,
-        sample_type: SampleType::U16,
-        big_endian: true,
+        endian: raw::Endian::Big,
         skip: 3,
+        ..raw::RawSpec::new(dims, SampleType::U16)
     };
-    let v = raw::open(&q, spec).unwrap();
+    let layout = spec.resolve(&q).unwrap();
+    let v = raw::open(&q, layout).unwrap();
     let got: Vec<u16> = v.to_f32_vec().iter().map(|&f| f as u16).collect();
     assert_eq!(got, want);
-    let v = raw::read_stream(&mut be.as_slice(), spec).unwrap();
-    assert_eq!(v.to_f32_vec().len(), want.len());
+    // The same through the shared open path (read, not mapped).
+    let opts = crate::ReadOptions {
+        raw: spec,
+        ..Default::default()
+    };
+    let v = crate::open(&q, &opts).unwrap();
+    let got: Vec<u16> = v.to_f32_vec().iter().map(|&f| f as u16).collect();
+    assert_eq!(got, want);
+    let spec = layout;
     // Wrong length.
     std::fs::write(&q, &be[..be.len() - 1]).unwrap();
     assert!(raw::open(&q, spec)
@@ -543,4 +566,57 @@ fn incremental_writer_reads_only_the_announced_slices() {
             "{l:?}"
         );
     }
+}
+
+#[test]
+fn geometry_round_trips_and_version_1_files_stay_readable() {
+    let dir = tempfile::tempdir().unwrap();
+    let dims = Dims::new(9, 7, 5).unwrap();
+    let scene = ShapesScene::new(dims, 3, 4, 3, 100.0);
+    let src = SceneSource::<u16>::new(&scene);
+    let g = volcore::Geometry::from_axes(
+        [-120.5, 30.25, 7.0],
+        [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+    )
+    .unwrap();
+    for layout in [
+        Layout::Sliced,
+        Layout::Bricked(BrickGeometry::new(dims, 4).unwrap()),
+    ] {
+        let mut m = meta(dims, SampleType::U16, layout, Compression::None);
+        m.geometry = g;
+        let p = dir.path().join("g.vvol");
+        write_file(&src, m, &p);
+        let v = vvol::open(&p, Default::default()).unwrap();
+        assert_eq!(v.meta.geometry, g);
+        assert_eq!(v.meta.spacing, [1.0, 0.5, 2.0]);
+    }
+    // A version 1 file (128-byte header, no geometry): identity, zero origin.
+    let m = meta(dims, SampleType::U16, Layout::Sliced, Compression::None);
+    let p = dir.path().join("v2.vvol");
+    write_file(&src, m, &p);
+    let b = std::fs::read(&p).unwrap();
+    let mut v1 = b[..128].to_vec();
+    v1[8..10].copy_from_slice(&1u16.to_le_bytes());
+    v1[10..12].copy_from_slice(&128u16.to_le_bytes());
+    v1[80..88].copy_from_slice(&128u64.to_le_bytes());
+    let crc = crc32fast::hash(&v1[..124]);
+    v1[124..128].copy_from_slice(&crc.to_le_bytes());
+    v1.extend_from_slice(&b[256..]);
+    let q = dir.path().join("v1.vvol");
+    std::fs::write(&q, &v1).unwrap();
+    let a = vvol::open(&p, Default::default()).unwrap();
+    let old = vvol::open(
+        &q,
+        vvol::OpenOptions {
+            verify: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(old.meta.geometry.is_identity());
+    assert_eq!(old.to_f32_vec(), a.to_f32_vec());
+    let s = vvol::read_stream(&mut v1.as_slice()).unwrap();
+    assert_eq!(s.to_f32_vec(), a.to_f32_vec());
+    assert!(crate::fingerprint(&q).is_ok());
 }

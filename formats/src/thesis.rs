@@ -11,12 +11,15 @@
 //!   `(bx, by, bz)` position `(i, j, k)` holds voxel
 //!   `(bx(B−1)+i, by(B−1)+j, bz(B−1)+k)`, and positions past the volume hold 0.
 
+use crate::convert::input::{Access, InputInfo, SliceReader};
+use crate::convert::{At, CResult, SliceData, SliceType};
 use crate::error::{truncated, Error, Result};
 use crate::pipeline::ordered;
 use memmap2::Mmap;
 use std::fs::File;
 use std::io::{Read, Write};
 use std::path::Path;
+
 use volcore::region::{pack_sliced, RegionSource};
 use volcore::{Dims, Volume};
 
@@ -278,4 +281,53 @@ pub fn write<R: RegionSource<Sample = u8>>(
     }
     out.flush()?;
     Ok(written)
+}
+
+/// The thesis `.vol` file read slice by slice.
+pub struct ThesisReader {
+    info: InputInfo,
+    file: crate::thesis::ThesisFile,
+    bytes: u64,
+}
+
+impl ThesisReader {
+    /// Open a `.vol` file.
+    pub fn open(path: &Path) -> CResult<ThesisReader> {
+        let file = crate::thesis::open(path).at(path)?;
+        let h = *file.header();
+        let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+        Ok(ThesisReader {
+            info: InputInfo {
+                path: path.to_path_buf(),
+                dims: h.dims,
+                sample_type: SliceType::U8,
+                spacing: Some(h.spacing),
+                geometry: volcore::Geometry::IDENTITY,
+                format: format!("thesis .vol ({:?})", h.layout).to_lowercase(),
+            },
+            file,
+            bytes,
+        })
+    }
+}
+
+impl SliceReader for ThesisReader {
+    fn info(&self) -> &InputInfo {
+        &self.info
+    }
+    fn access(&self) -> Access {
+        Access::Random
+    }
+    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        use volcore::RegionSource;
+        let d = self.info.dims;
+        let mut v = vec![0u8; d.slice_len() as usize];
+        for (y, row) in v.chunks_exact_mut(d.x as usize).enumerate() {
+            self.file.fill_row(0, y as u64, z, row);
+        }
+        Ok(SliceData::U8(v))
+    }
+    fn bytes_in(&self) -> u64 {
+        self.bytes
+    }
 }

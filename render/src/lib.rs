@@ -1,12 +1,20 @@
 //! volrender: a tiled, parallel CPU ray caster over volcore volumes.
 //!
-//! A frame is a [`Camera`], a [`RenderSettings`] (mode, step, interpolation,
-//! gradient, shading, early termination, empty-space skipping) and, for the
-//! modes that need one, a [`TransferFunction`]. [`render`] picks one
-//! monomorphised inner loop for that combination once per frame and runs it
-//! for every pixel, tile by tile on all threads. Every pixel is computed on
-//! its own from its own ray, so the image does not depend on the thread
-//! count or the tile order.
+//! A frame is a [`Camera`], [`RenderSettings`] (mode, step,
+//! interpolation, gradient, shading, early termination, empty-space
+//! skipping) and, for the modes that need one, a transfer function
+//! ([`tf`]). [`render`] resolves the settings into one concrete
+//! integrator type ([`dispatch`]) and runs it for every pixel, tile by
+//! tile on all threads, into a [`film::Film`] that resolves to a
+//! [`Frame`]. Every pixel is computed on its own from its own ray, so the
+//! image does not depend on the thread count or the tile order.
+//!
+//! The pieces, after pbrt's split: [`camera`] and [`ray`]; [`sampler`]
+//! (hashed random numbers for Monte Carlo work); [`film`]; [`light`] and
+//! [`shade`] (Blinn-Phong); [`tf`] (transfer functions as written) and
+//! [`classify`] (their per-frame tables); [`accel`] (macrocell skipping
+//! rules, DDA segments and majorants over the index); [`integrator`]
+//! (DVR, MIP/MinIP, X-ray, iso over one march loop).
 //!
 //! Conventions (VTK's image data): voxel `(i, j, k)` sits at world position
 //! `(i·sx, j·sy, k·sz)` and the volume's box is `[0, (dims − 1)·spacing]`.
@@ -14,18 +22,26 @@
 //! `k`, a grid fixed by the ray alone, so skipping and tiling never move a
 //! sample.
 
+pub mod accel;
 pub mod camera;
+pub mod classify;
+pub mod dispatch;
 pub mod error;
+pub mod film;
 pub mod frame;
-pub mod integrate;
+pub mod integrator;
 pub mod light;
 pub mod ray;
-pub mod skip;
+pub mod sampler;
+pub mod settings;
+pub mod shade;
 pub mod tf;
 
 pub use camera::{Camera, Projection};
 pub use error::RenderError;
-pub use frame::{render, Frame, FrameStats, RenderSettings};
-pub use integrate::{GradientMethod, Interp, Mode};
-pub use light::Lighting;
-pub use tf::TransferFunction;
+pub use film::{Frame, FrameStats};
+pub use frame::{render, render_tf};
+pub use light::Light;
+pub use settings::{GradientMethod, Interp, Mode, RenderSettings};
+pub use shade::{BlinnPhong, Lighting};
+pub use tf::{Tf, TransferFunction};

@@ -11,6 +11,27 @@ pub struct Ray {
     pub dir: Vec3,
 }
 
+/// `v` scaled to unit length, or `None` for the zero vector and for
+/// non-finite components. Where `v`'s squared length is an ordinary float
+/// this is `v.normalize()`; very small and very large vectors (whose
+/// squared length would underflow or overflow) are first divided by their
+/// largest component, so they keep their direction.
+pub fn unit(v: Vec3) -> Option<Vec3> {
+    if !v.is_finite() {
+        return None;
+    }
+    let len2 = v.length_squared();
+    if len2.is_normal() && len2.is_finite() {
+        return Some(v.normalize());
+    }
+    let m = v.abs().max_element();
+    if m == 0.0 {
+        return None;
+    }
+    let s = v / m;
+    Some(s / s.length())
+}
+
 /// The parameter interval `[t0, t1]` over which `ray` is inside the closed
 /// box `[lo, hi]`, clipped to `t >= 0`, or `None` if it misses.
 ///
@@ -103,6 +124,22 @@ mod tests {
         // Diagonal through a corner.
         let d = intersect_box(&ray([-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]), lo, hi).unwrap();
         assert!((d.0 - 3f32.sqrt()).abs() < 1e-5 && (d.1 - 11.0 * 3f32.sqrt()).abs() < 1e-4);
+    }
+
+    #[test]
+    fn unit_keeps_the_direction_of_tiny_and_huge_vectors() {
+        let want = Vec3::new(1.0, 1.0, 0.0).normalize();
+        for s in [1e-30f32, 1e-25, 1.0, 1e20, 1e30, 3e38] {
+            let u = unit(Vec3::new(s, s, 0.0)).unwrap();
+            assert!((u - want).length() < 1e-6, "{s}: {u}");
+        }
+        assert_eq!(unit(Vec3::new(1e-45, 0.0, 0.0)), Some(Vec3::X));
+        assert_eq!(unit(Vec3::ZERO), None);
+        assert_eq!(unit(Vec3::new(f32::NAN, 1.0, 0.0)), None);
+        assert_eq!(unit(Vec3::new(f32::INFINITY, 1.0, 0.0)), None);
+        // Ordinary vectors: exactly glam's normalize.
+        let v = Vec3::new(1.0, 2.0, 3.0);
+        assert_eq!(unit(v), Some(v.normalize()));
     }
 
     #[test]

@@ -15,6 +15,7 @@ pub fn tool(name: &str) -> Command {
         "vol-index" => env!("CARGO_BIN_EXE_vol-index"),
         "vol-render" => env!("CARGO_BIN_EXE_vol-render"),
         "vol-accuracy" => env!("CARGO_BIN_EXE_vol-accuracy"),
+        "vol-convert" => env!("CARGO_BIN_EXE_vol-convert"),
         other => panic!("unknown tool {other}"),
     };
     let mut c = Command::new(path);

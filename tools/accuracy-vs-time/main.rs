@@ -37,7 +37,8 @@ struct Cli {
     /// Runs per setting; the median is reported (default: 3, quick: 1).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     repeat: Option<u32>,
-    /// Only this scene (thesis or noise); default: both.
+    /// Only this scene (thesis, noise, or boundary: the noise volume through
+    /// the 2D boundary transfer function); default: all three.
     #[arg(long, value_name = "NAME")]
     scene: Option<String>,
     /// Directory holding vol-gen, vol-render and vol-psnr (default: next
@@ -153,7 +154,7 @@ fn run(cli: &Cli) -> Result<()> {
         Some(want) => {
             let s: Vec<Scene> = scenes.into_iter().filter(|s| s.name == want).collect();
             if s.is_empty() {
-                bail!("unknown scene '{want}' (thesis, noise)");
+                bail!("unknown scene '{want}' (thesis, noise, boundary)");
             }
             s
         }
@@ -249,6 +250,26 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: Some(NOISE_TF),
     };
+    // The same kind of volume through a 2D transfer function: the
+    // boundary preset (opacity rising with the gradient magnitude), whose
+    // classification reads a gradient at every sample.
+    let boundary = Scene {
+        name: "boundary",
+        gen: vec![
+            "noise".into(),
+            "--dims".into(),
+            format!("{noise_n},{noise_n},{noise_n}"),
+        ],
+        view: vec![
+            "--tf".into(),
+            "boundary".into(),
+            "--shading".into(),
+            "phong".into(),
+            "--size".into(),
+            img.into(),
+        ],
+        tf_file: None,
+    };
     let sweep = if quick {
         Sweep {
             step: vec!["0.05", "0.2", "0.8", "1.6"],
@@ -266,7 +287,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             threads: vec!["1", "2"],
         }
     };
-    (vec![thesis, noise], sweep)
+    (vec![thesis, noise, boundary], sweep)
 }
 
 /// Generate, render the reference, sweep every knob; returns the rows.

@@ -2,9 +2,10 @@
 //! progress bars, JSON output and the error-reporting `main` wrapper.
 
 pub mod args;
+pub mod json;
 pub mod progress;
 pub mod raw;
 pub mod run;
 
-pub use raw::RawArgs;
-pub use run::run;
+pub use raw::RawSpec;
+pub use run::{parse, run, usage};

@@ -1,6 +1,7 @@
-//! The common `main`: one-line errors, exit codes, and a quiet end when
-//! the reader of standard output goes away.
+//! The common `main`: argument parsing, one-line errors, exit codes, and
+//! a quiet end when the reader of standard output goes away.
 
+use clap::{Arg, ArgAction, CommandFactory, FromArgMatches};
 use std::fmt;
 use std::io::{self, Write};
 use std::process::ExitCode;
@@ -18,51 +19,130 @@ pub const EXIT_BROKEN_PIPE: u8 = 141;
 /// The longest error message printed, in characters; longer ones are cut.
 pub const MAX_MESSAGE_CHARS: usize = 1000;
 
+/// A usage error found after parsing (an output name the tool cannot
+/// write, options that do not fit together): exit status 2.
+#[derive(Debug)]
+pub struct Usage(pub String);
+
+impl std::fmt::Display for Usage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Usage {}
+
+/// A [`Usage`] error as an `anyhow` error.
+pub fn usage(msg: impl Into<String>) -> anyhow::Error {
+    anyhow::Error::new(Usage(msg.into()))
+}
+
 /// Run a tool's body and turn an error into `tool: message` on stderr (the
 /// whole context chain on one line, no backtrace, control characters
-/// escaped) and exit status 1; a closed standard output ends the tool
-/// quietly with [`EXIT_BROKEN_PIPE`].
+/// escaped) and exit status 1, or 2 for a [`Usage`] error; a closed
+/// standard output ends the tool quietly with [`EXIT_BROKEN_PIPE`].
 pub fn run(tool: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
     match body() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if is_broken_pipe(&e) => ExitCode::from(EXIT_BROKEN_PIPE),
         Err(e) => {
             report_error(tool, &format!("{e:#}"));
+            if e.downcast_ref::<Usage>().is_some() {
+                ExitCode::from(EXIT_USAGE)
+            } else {
+                ExitCode::from(EXIT_FAILURE)
+            }
+        }
+    }
+}
+
+/// The tool's clap command with the two options every tool has for its
+/// installation: `--completions SHELL` and `--man`.
+pub fn command<C: CommandFactory>() -> clap::Command {
+    C::command()
+        .arg(
+            Arg::new("completions")
+                .long("completions")
+                .value_name("SHELL")
+                .value_parser(clap::value_parser!(clap_complete::Shell))
+                .exclusive(true)
+                .help("Print the shell completion script (bash, zsh, fish, elvish, powershell) and exit"),
+        )
+        .arg(
+            Arg::new("man")
+                .long("man")
+                .action(ArgAction::SetTrue)
+                .exclusive(true)
+                .help("Print the man page (roff) and exit"),
+        )
+}
+
+/// Parse the command line. Usage errors print one line,
+/// `tool: problem (see --help)`, and exit with status 2; `--help`,
+/// `--version`, `--completions` and `--man` print and exit with 0 (141
+/// when standard output was closed).
+pub fn parse<C: CommandFactory + FromArgMatches>(tool: &str) -> Result<C, ExitCode> {
+    let m = match command::<C>().try_get_matches() {
+        Ok(m) => m,
+        Err(e) => return Err(clap_exit(tool, e)),
+    };
+    if let Some(shell) = m.get_one::<clap_complete::Shell>("completions") {
+        let mut cmd = command::<C>();
+        let mut text = Vec::new();
+        clap_complete::generate(*shell, &mut cmd, tool, &mut text);
+        return Err(print_bytes(tool, &text));
+    }
+    if m.get_flag("man") {
+        let page = clap_mangen::Man::new(command::<C>());
+        let mut text = Vec::new();
+        return Err(match page.render(&mut text) {
+            Ok(()) => print_bytes(tool, &text),
+            Err(e) => {
+                report_error(tool, &e.to_string());
+                ExitCode::from(EXIT_FAILURE)
+            }
+        });
+    }
+    C::from_arg_matches(&m).map_err(|e| clap_exit(tool, e))
+}
+
+/// Write `bytes` to standard output: success, a quiet 141 on a closed
+/// pipe, or the error.
+fn print_bytes(tool: &str, bytes: &[u8]) -> ExitCode {
+    let mut out = io::stdout().lock();
+    match out.write_all(bytes).and_then(|()| out.flush()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.kind() == io::ErrorKind::BrokenPipe => ExitCode::from(EXIT_BROKEN_PIPE),
+        Err(e) => {
+            report_error(tool, &format!("standard output: {e}"));
             ExitCode::from(EXIT_FAILURE)
         }
     }
 }
 
-/// Parse the command line. `--help` and `--version` print and exit as
-/// usual; a usage error is printed as one line, `tool: problem (see
-/// --help)`, and gives [`EXIT_USAGE`] to return from `main`.
-pub fn parse_args<C: clap::Parser>(tool: &str) -> Result<C, ExitCode> {
-    match C::try_parse() {
-        Ok(c) => Ok(c),
-        Err(e) => {
-            use clap::error::ErrorKind;
-            if matches!(
-                e.kind(),
-                ErrorKind::DisplayHelp
-                    | ErrorKind::DisplayVersion
-                    | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
-            ) {
-                // clap ignores a closed pipe when it prints the help.
-                e.exit();
-            }
-            // clap's message up to its usage block, on one line.
-            let text = e.to_string();
-            let lines: Vec<&str> = text
-                .lines()
-                .take_while(|l| !l.trim().is_empty())
-                .map(str::trim)
-                .collect();
-            let msg = lines.join(" ");
-            let msg = msg.trim_start_matches("error: ");
-            report_error(tool, &format!("{msg} (see --help)"));
-            Err(ExitCode::from(EXIT_USAGE))
-        }
+fn clap_exit(tool: &str, e: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if matches!(
+        e.kind(),
+        ErrorKind::DisplayHelp
+            | ErrorKind::DisplayVersion
+            | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+    ) {
+        // A closed pipe is ignored here: the help has nothing after it.
+        let _ = e.print();
+        return ExitCode::from(if e.use_stderr() { EXIT_USAGE } else { 0 });
     }
+    // clap's message up to its usage block, on one line.
+    let text = e.to_string();
+    let lines: Vec<&str> = text
+        .lines()
+        .take_while(|l| !l.trim().is_empty())
+        .map(str::trim)
+        .collect();
+    let msg = lines.join(" ");
+    let msg = msg.trim_start_matches("error: ");
+    report_error(tool, &format!("{msg} (see --help)"));
+    ExitCode::from(EXIT_USAGE)
 }
 
 /// Print `tool: message` on stderr as one line: newlines become spaces,

@@ -8,27 +8,36 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Compression, Dims, SampleType};
-use volformats::convert::{
-    self, open_input, InputOptions, Plan, RawArgs, Target, ValueMap, Window,
-};
+use volformats::convert::{self, Plan, Target, ValueMap, Window};
 use volformats::thesis::ThesisLayout;
 use volformats::tiff::ChannelSel;
+use volformats::{open_input, ReadOptions};
 use volkit_cli::args::{self, LayoutArg};
-use volkit_cli::{noteln, outln};
+use volkit_cli::{json, noteln, usage, RawSpec};
 
 /// Convert a volume between formats, slice by slice.
 ///
-/// INPUT is a TIFF file (multipage or BigTIFF), a directory of TIFF slices
-/// (natural order: slice2 before slice10), a glob such as 'scan/*.tif'
-/// (quote it), a .txt/.lst file listing slices, a .raw file (dims and type
-/// from flags or from NAME_XxYxZ_TYPE.raw), NRRD (.nrrd/.nhdr, raw or gzip),
-/// MetaImage (.mhd/.mha), a thesis .vol, a .vvol, or - for standard input
-/// (a .vvol stream, a NRRD with attached data, or raw with --raw-dims).
+/// INPUT is a NIfTI file (.nii, .nii.gz, .hdr/.img), a TIFF file
+/// (multipage or BigTIFF), a directory of TIFF slices (natural order:
+/// slice2 before slice10), a glob such as 'scan/*.tif' (quote it), a
+/// .txt/.lst file listing slices, a .raw file (dims and type from flags or
+/// from NAME_XxYxZ_TYPE.raw), NRRD (.nrrd/.nhdr, raw or gzip), MetaImage
+/// (.mhd/.mha), a thesis .vol, a .vvol, or - for standard input (a .vvol
+/// stream, a NRRD with attached data, or raw with --raw-dims).
+///
+/// 8, 16 and 32-bit integer and 32 and 64-bit float samples are read;
+/// types volkit does not store (i8, u32, i32, f64) become the smallest of
+/// u8, u16, i16, f32 that holds their values exactly, or need --type and
+/// --window.
 ///
 /// The output format follows OUTPUT: .vvol (sliced or bricked, optional
 /// zstd per brick), .vol (thesis format, u8), .raw (little-endian, x
-/// fastest), .tif/.tiff (one multipage file), a path ending in / (a
-/// directory of TIFF slices), or - (a sliced .vvol stream on stdout).
+/// fastest), .tif/.tiff (one multipage file), .nii/.nii.gz/.hdr (NIfTI),
+/// .nrrd/.nhdr (NRRD, attached or detached), .mha/.mhd (MetaImage),
+/// NAME.ome.zarr (OME-Zarr, NGFF 0.5 with --pyramid N levels), a path
+/// ending in / (a directory of TIFF slices), or - (a sliced .vvol stream on
+/// stdout). Origin and axis directions are carried into every format that
+/// stores them (.vvol, NIfTI, NRRD, MetaImage).
 ///
 /// Type conversion never loses values silently: a narrowing --type needs
 /// --window lo:hi (linear, clamped), auto[:P] (P-th and (100-P)-th
@@ -44,15 +53,17 @@ use volkit_cli::{noteln, outln};
 struct Cli {
     /// Input file, directory of slices, glob, list file, or -.
     input: PathBuf,
-    /// Output path (.vvol, .vol, .raw, .tif, DIR/, or -).
+    /// Output path (.vvol, .vol, .raw, .tif, .nii[.gz], .nrrd, .mha, DIR/, or -).
     #[arg(short, long)]
     output: PathBuf,
     /// Output layout: sliced, or bricked:B (.vvol and .vol).
     #[arg(long, default_value = "sliced", value_parser = args::layout)]
     layout: LayoutArg,
-    /// Per-brick compression for bricked .vvol: none, zstd or zstd:LEVEL.
-    #[arg(long, default_value = "none", value_parser = args::compression)]
-    compress: Compression,
+    /// Compression: none; zstd or zstd:LEVEL per brick for bricked .vvol;
+    /// gzip for NRRD (.nrrd, .nhdr), MetaImage (zlib: .mha, .mhd) and
+    /// NIfTI .hdr/.img data (.nii.gz is gzip by its name).
+    #[arg(long, default_value = "none", value_parser = compress_arg)]
+    compress: CompressArg,
     /// Output sample type: u8, u16, i16, f32 (default: the input's).
     #[arg(long = "type", value_parser = args::sample_type)]
     sample_type: Option<SampleType>,
@@ -68,28 +79,32 @@ struct Cli {
     /// Mirror along these axes, e.g. z or x,y.
     #[arg(long, value_delimiter = ',', value_parser = ["x", "y", "z"])]
     flip: Vec<String>,
-    /// Colour TIFF: keep this channel (0 = red).
+    /// Colour TIFF: keep this channel (0 = red); hyperstacks and OME data:
+    /// the channel (C index) to read.
     #[arg(long, conflicts_with = "luma")]
     channel: Option<u16>,
     /// Colour TIFF: keep the luma 0.299 R + 0.587 G + 0.114 B.
     #[arg(long)]
     luma: bool,
-    /// Raw input: dimensions X,Y,Z (otherwise from NAME_XxYxZ_TYPE.raw).
-    #[arg(long, value_parser = args::dims3)]
-    raw_dims: Option<[u64; 3]>,
-    /// Raw input: sample type.
-    #[arg(long, value_parser = args::sample_type)]
-    raw_type: Option<SampleType>,
-    /// Raw input: byte order.
-    #[arg(long, default_value = "little", value_parser = ["little", "big"])]
-    raw_endian: String,
-    /// Raw input: bytes to skip before the samples.
-    #[arg(long, default_value_t = 0)]
-    raw_skip: u64,
+    /// OME-Zarr output: pyramid levels, the full resolution included.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pyramid: u32,
+    /// OME-Zarr output: how each pyramid level is made from the one above
+    /// (2x2x2 blocks): mean or max.
+    #[arg(long, default_value = "mean", value_parser = ["mean", "max"])]
+    downsample: String,
+    /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
+    #[arg(long, value_name = "T")]
+    time: Option<u64>,
+    /// DICOM: the SeriesInstanceUID to read when the input holds several.
+    #[arg(long, value_name = "UID")]
+    series: Option<String>,
+    #[command(flatten)]
+    raw: RawSpec,
     /// Print one JSON object with what was done (to stderr when -o -).
     #[arg(long)]
     json: bool,
-    /// No progress bar.
+    /// Print nothing but errors (no progress bar, no summary).
     #[arg(short, long)]
     quiet: bool,
 }
@@ -158,7 +173,7 @@ fn stop_on_signals() {}
 fn main() -> ExitCode {
     tune_malloc();
     stop_on_signals();
-    let cli = match volkit_cli::run::parse_args::<Cli>("vol-convert") {
+    let cli = match volkit_cli::parse::<Cli>("vol-convert") {
         Ok(c) => c,
         Err(code) => return code,
     };
@@ -170,6 +185,11 @@ fn at(path: &Path, msg: impl std::fmt::Display) -> anyhow::Error {
     anyhow!("{}: {msg}", path.display())
 }
 
+/// A usage error about `path` (exit status 2).
+fn usage_at(path: &Path, msg: impl std::fmt::Display) -> anyhow::Error {
+    usage(format!("{}: {msg}", path.display()))
+}
+
 /// Standard output as an unbuffered file (a duplicate of descriptor 1).
 fn stdout_file() -> Result<std::fs::File> {
     use std::os::fd::AsFd;
@@ -177,12 +197,65 @@ fn stdout_file() -> Result<std::fs::File> {
     Ok(std::fs::File::from(fd))
 }
 
+/// The `--compress` choices.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum CompressArg {
+    /// Per-brick compression of a .vvol (or none).
+    Vvol(Compression),
+    /// gzip/zlib for the header formats.
+    Gzip,
+}
+
+fn compress_arg(s: &str) -> Result<CompressArg, String> {
+    if s == "gzip" {
+        return Ok(CompressArg::Gzip);
+    }
+    args::compression(s)
+        .map(CompressArg::Vvol)
+        .map_err(|e| format!("{e}, or gzip"))
+}
+
+impl CompressArg {
+    fn name(self) -> String {
+        match self {
+            CompressArg::Vvol(Compression::None) => "none".into(),
+            CompressArg::Vvol(Compression::Zstd(l)) => format!("zstd:{l}"),
+            CompressArg::Gzip => "gzip".into(),
+        }
+    }
+}
+
 fn target(cli: &Cli) -> Result<Target> {
     let out = &cli.output;
     let text = out.to_string_lossy();
+    if let Some(t) = Target::headed(out, cli.compress == CompressArg::Gzip) {
+        if cli.layout != LayoutArg::Sliced {
+            return Err(usage_at(
+                out,
+                "NIfTI, NRRD and MetaImage output is sliced only: drop --layout",
+            ));
+        }
+        if matches!(cli.compress, CompressArg::Vvol(Compression::Zstd(_))) {
+            return Err(usage_at(
+                out,
+                "--compress zstd applies to bricked .vvol output: use --compress gzip",
+            ));
+        }
+        return Ok(t);
+    }
+    if cli.compress == CompressArg::Gzip {
+        return Err(usage_at(
+            out,
+            "--compress gzip applies to NIfTI, NRRD and MetaImage output",
+        ));
+    }
+    let compress = match cli.compress {
+        CompressArg::Vvol(c) => c,
+        CompressArg::Gzip => Compression::None,
+    };
     let sliced_only = |what: &str| -> Result<()> {
         if cli.layout != LayoutArg::Sliced {
-            return Err(at(
+            return Err(usage_at(
                 out,
                 format!("{what} output is sliced only: drop --layout"),
             ));
@@ -190,14 +263,33 @@ fn target(cli: &Cli) -> Result<Target> {
         Ok(())
     };
     let no_compress = |what: &str| -> Result<()> {
-        if cli.compress != Compression::None {
-            return Err(at(
+        if compress != Compression::None {
+            return Err(usage_at(
                 out,
                 format!("--compress applies to bricked .vvol output, not {what}"),
             ));
         }
         Ok(())
     };
+    if volformats::omezarr::is_zarr(out) && !out.is_file() {
+        sliced_only("OME-Zarr")?;
+        no_compress("OME-Zarr (chunks are zstd)")?;
+        return Ok(Target::OmeZarr {
+            path: PathBuf::from(text.trim_end_matches('/')),
+            levels: cli.pyramid,
+            downsample: if cli.downsample == "max" {
+                volformats::omezarr::Downsample::Max
+            } else {
+                volformats::omezarr::Downsample::Mean
+            },
+        });
+    }
+    if cli.pyramid > 1 {
+        return Err(usage_at(
+            out,
+            "--pyramid applies to OME-Zarr output (NAME.ome.zarr)",
+        ));
+    }
     if text == "-" {
         sliced_only("stdout (a .vvol stream)")?;
         no_compress("a stream")?;
@@ -218,8 +310,8 @@ fn target(cli: &Cli) -> Result<Target> {
                 LayoutArg::Sliced => None,
                 LayoutArg::Bricked(b) => Some(b),
             };
-            if brick.is_none() && cli.compress != Compression::None {
-                return Err(at(
+            if brick.is_none() && compress != Compression::None {
+                return Err(usage_at(
                     out,
                     "--compress needs --layout bricked:B (compression is per brick)",
                 ));
@@ -227,7 +319,7 @@ fn target(cli: &Cli) -> Result<Target> {
             Ok(Target::Vvol {
                 path: out.clone(),
                 brick,
-                compression: cli.compress,
+                compression: compress,
             })
         }
         "vol" => {
@@ -236,7 +328,7 @@ fn target(cli: &Cli) -> Result<Target> {
                 LayoutArg::Sliced => ThesisLayout::Sliced,
                 LayoutArg::Bricked(b) if b <= 255 => ThesisLayout::Bricked(b as u8),
                 LayoutArg::Bricked(b) => {
-                    return Err(at(
+                    return Err(usage_at(
                         out,
                         format!("the .vol format takes bricks up to 255, not {b}"),
                     ))
@@ -257,38 +349,26 @@ fn target(cli: &Cli) -> Result<Target> {
             no_compress("TIFF")?;
             Ok(Target::Tiff { path: out.clone() })
         }
-        _ => Err(at(
+        _ => Err(usage_at(
             out,
-            "unknown output type: use .vvol, .vol, .raw, .tif, a directory ending in /, or -",
+            "unknown output type: use .vvol, .vol, .raw, .tif, .nii, .nii.gz, .hdr, .nrrd, .nhdr, .mha, .mhd, .ome.zarr, a directory ending in /, or -",
         )),
     }
 }
 
-fn input_options(cli: &Cli) -> Result<InputOptions> {
-    let raw_given = cli.raw_dims.is_some()
-        || cli.raw_type.is_some()
-        || cli.raw_skip != 0
-        || cli.raw_endian != "little";
-    let raw = if raw_given {
-        let dims = match cli.raw_dims {
-            Some([x, y, z]) => Some(Dims::new(x, y, z).map_err(|e| at(&cli.input, e))?),
-            None => None,
-        };
-        Some(RawArgs {
-            dims,
-            sample_type: cli.raw_type,
-            big_endian: cli.raw_endian == "big",
-            skip: cli.raw_skip,
-        })
-    } else {
-        None
-    };
+fn read_options(cli: &Cli) -> ReadOptions {
     let channel = match (cli.channel, cli.luma) {
         (Some(c), _) => ChannelSel::Channel(c),
         (None, true) => ChannelSel::Luma,
         (None, false) => ChannelSel::Single,
     };
-    Ok(InputOptions { raw, channel })
+    ReadOptions {
+        raw: cli.raw,
+        channel,
+        time: cli.time,
+        series: cli.series.clone(),
+        ..Default::default()
+    }
 }
 
 fn convert_cmd(cli: &Cli) -> Result<()> {
@@ -309,7 +389,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     // Check the output first: a bad output name should not cost a scan.
     let target = target(cli)?;
     target.preflight().map_err(anyhow::Error::new)?;
-    let opts = input_options(cli)?;
+    let opts = read_options(cli);
     let reader = open_input(&cli.input, &opts)?;
     let info = reader.info().clone();
     let crop = match &cli.crop {
@@ -320,7 +400,10 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         None => None,
     };
     let flip = ["x", "y", "z"].map(|a| cli.flip.iter().any(|f| f == a));
-    let out_type = cli.sample_type.unwrap_or(info.sample_type);
+    let out_type = cli
+        .sample_type
+        .or(info.sample_type.stored())
+        .unwrap_or(SampleType::F32);
     let out_dims = match &crop {
         Some(c) => Dims::new(
             c[0].end - c[0].start,
@@ -342,7 +425,8 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     // The samples alone must fit where the output goes (bricks add their
     // aprons; compressed bricks may take less, so they are not checked).
     if cli.output.as_os_str() != "-" && cli.compress == Compression::None {
-        volformats::output::check_space(&cli.output, total).map_err(|e| at(&cli.output, e))?;
+        volformats::output::check_space(&cli.output, total)
+            .map_err(|e| at(&cli.output, e))?;
     }
     let bar = volkit_cli::progress::bytes_bar(total, "vol-convert", cli.quiet);
     let progress = |n: u64| bar.set_position(n);
@@ -368,30 +452,31 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             _ => (None, None),
         };
         let d = report.dims;
+        let g = &report.geometry;
         let v = serde_json::json!({
             "tool": "vol-convert",
             "input": cli.input.display().to_string(),
-            "input_format": report.input_format,
+            "format": report.input_format,
+            "input_type": report.input_type.name(),
             "output": cli.output.display().to_string(),
             "dims": [d.x, d.y, d.z],
             "type": report.sample_type.name(),
             "spacing": report.spacing,
+            "origin": g.origin,
+            "direction": g.direction,
+            "orientation": g.orientation(),
             "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
-            "compression": match cli.compress { Compression::None => "none".to_string(), Compression::Zstd(l) => format!("zstd:{l}") },
+            "compression": cli.compress.name(),
             "window": window,
+            "bytes": report.bytes_out,
             "bytes_in": report.bytes_in,
-            "bytes_out": report.bytes_out,
             "min": min,
             "max": max,
             "spooled": report.spooled,
             "seconds": seconds,
             "threads": rayon::current_num_threads(),
         });
-        if to_stdout {
-            noteln!("{v}");
-        } else {
-            outln!("{v}")?;
-        }
+        json::emit(&v, to_stdout)?;
     } else if !cli.quiet && !to_stdout {
         noteln!(
             "vol-convert: wrote {} ({} {}, {} bytes) in {:.2} s",
@@ -405,5 +490,31 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     if report.bytes_out == 0 {
         bail!("{}: nothing was written", cli.output.display());
     }
+    raw_note(cli, &report);
     Ok(())
+}
+
+/// A raw output whose name does not say its dims and type: tell how to
+/// read it back.
+fn raw_note(cli: &Cli, report: &convert::Report) {
+    let is_raw = cli
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("raw"));
+    if !is_raw || cli.quiet || volformats::raw::parse_name(&cli.output).is_some() {
+        return;
+    }
+    let d = report.dims;
+    let t = report.sample_type;
+    noteln!(
+        "vol-convert: note: {} holds {d} {t} little-endian without a header: read it with --raw-dims {},{},{} --raw-type {t}, or name it NAME_{}x{}x{}_{}.raw",
+        cli.output.display(),
+        d.x,
+        d.y,
+        d.z,
+        d.x,
+        d.y,
+        d.z,
+        volformats::raw::type_name(t)
+    );
 }

@@ -15,7 +15,7 @@ use volcore::{BrickGeometry, Compression, Dims, Layout, Sample, SampleType, Volu
 use volformats::output::{AtomicFile, Sink};
 use volformats::{thesis, vvol, FileKind};
 use volkit_cli::args::{self, LayoutArg};
-use volkit_cli::{noteln, outln};
+use volkit_cli::{json, noteln, usage};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum SceneName {
@@ -52,7 +52,9 @@ enum NoiseArg {
 ///
 /// The output format follows the extension: .vvol (native, sliced or
 /// bricked, optional zstd per brick), .vol (the thesis format, u8 only),
-/// .raw (x fastest, little-endian), or - for a sliced .vvol stream on stdout.
+/// .raw (x fastest, little-endian; the name must carry the dims and type,
+/// NAME_XxYxZ_TYPE.raw, so that the next tool can read it), or - for a
+/// sliced .vvol stream on stdout.
 /// The same arguments and seed always give the same bytes, whatever the
 /// number of threads.
 #[derive(Parser, Debug)]
@@ -91,6 +93,7 @@ struct Cli {
     /// for shapes, solid and box, 255 otherwise).
     #[arg(long, allow_hyphen_values = true)]
     value: Option<f32>,
+
     /// noise: kind of lattice noise.
     #[arg(long, value_enum, default_value = "gradient")]
     noise: NoiseArg,
@@ -105,6 +108,7 @@ struct Cli {
     /// the smallest dimension, so that the box is not empty).
     #[arg(long, default_value_t = 0)]
     margin: u64,
+
     /// ramp: the axis the value grows along.
     #[arg(long, value_enum, default_value = "x")]
     axis: Axis,
@@ -112,13 +116,20 @@ struct Cli {
     /// the smallest dimension).
     #[arg(long, value_parser = positive_f32)]
     radius: Option<f32>,
-    /// Output path (.vvol, .vol, .raw) or - for a sliced .vvol on stdout.
+
+    /// sphere: a solid sphere of the full value whose surface is a linear
+    /// ramp this many voxels wide, centred on the radius (instead of the
+    /// cone-shaped radial profile): gradients are zero inside and outside
+    /// and value/edge per voxel in the shell (positive and finite).
+    #[arg(long, value_parser = positive_f32)]
+    edge: Option<f32>,
+    /// Output path (.vvol, .vol, NAME_XxYxZ_TYPE.raw) or - for a sliced .vvol on stdout.
     #[arg(short, long)]
     output: PathBuf,
     /// Print one JSON object with the figures (to stderr when -o -).
     #[arg(long)]
     json: bool,
-    /// No progress bar.
+    /// Print nothing but errors (no progress bar, no summary).
     #[arg(short, long)]
     quiet: bool,
 }
@@ -127,6 +138,7 @@ const EXAMPLES: &str = "Examples:
   vol-gen shapes --dims 800,800,800 --seed 2 --count 70 --size 70 --value 100 -o shapes.vvol
   vol-gen noise --dims 256,256,256 --layout bricked:32 --compress zstd -o noise.vvol
   vol-gen sphere --dims 64,64,64 --type f32 --radius 30 -o sphere.vvol
+  vol-gen sphere --dims 96,96,96 --radius 36 --edge 4 -o ball.vvol
   vol-gen shapes --dims 256,256,256 --layout bricked:16 -o thesis.vol
   vol-gen shapes --dims 128,128,128 -o - | vol-info -";
 
@@ -211,13 +223,16 @@ fn build_scene(cli: &Cli, dims: Dims) -> Box<dyn Scene> {
         SceneName::Sphere => {
             let smallest = dims.x.min(dims.y).min(dims.z) as f32;
             let r = cli.radius.unwrap_or(smallest / 2.0);
-            Box::new(SphereScene::new(dims, r, value(255.0)))
+            match cli.edge {
+                Some(e) => Box::new(SphereScene::with_edge(dims, r, value(255.0), e)),
+                None => Box::new(SphereScene::new(dims, r, value(255.0))),
+            }
         }
     }
 }
 
 fn main() -> ExitCode {
-    let cli = match volkit_cli::run::parse_args::<Cli>("vol-gen") {
+    let cli = match volkit_cli::parse::<Cli>("vol-gen") {
         Ok(c) => c,
         Err(code) => return code,
     };
@@ -228,10 +243,45 @@ fn main() -> ExitCode {
     volkit_cli::run("vol-gen", || generate(&cli))
 }
 
+/// Refuse an output name the tool cannot write, or a raw name the next
+/// tool could not read back, before any work (usage errors).
+fn check_output(cli: &Cli, dims: Dims) -> Result<()> {
+    let out = &cli.output;
+    if out.as_os_str() == "-" {
+        return Ok(());
+    }
+    let name = out.display();
+    match FileKind::of(out) {
+        None => Err(usage(format!(
+            "{name}: unknown output type: use a .vvol, .vol or .raw file name, or - for stdout"
+        ))),
+        Some(FileKind::Raw) => {
+            let want = format!(
+                "{}x{}x{}_{}",
+                dims.x,
+                dims.y,
+                dims.z,
+                volformats::raw::type_name(cli.sample_type)
+            );
+            match volformats::raw::parse_name(out) {
+                Some((d, t)) if d == dims && t == cli.sample_type => Ok(()),
+                Some(_) => Err(usage(format!(
+                    "{name}: the name says other dims or type than --dims and --type: name it NAME_{want}.raw"
+                ))),
+                None => Err(usage(format!(
+                    "{name}: a raw file does not record its dims and type: name it NAME_{want}.raw so the next tool can read it"
+                ))),
+            }
+        }
+        Some(_) => Ok(()),
+    }
+}
+
 fn generate(cli: &Cli) -> Result<()> {
     let start = Instant::now();
     let [x, y, z] = cli.dims;
     let dims = Dims::new(x, y, z)?;
+    check_output(cli, dims)?;
     let scene = build_scene(cli, dims);
     let stats = match cli.sample_type {
         SampleType::U8 => write_as::<u8>(cli, dims, scene.as_ref()),
@@ -245,7 +295,7 @@ fn generate(cli: &Cli) -> Result<()> {
         let v = serde_json::json!({
             "tool": "vol-gen",
             "scene": format!("{:?}", cli.scene).to_lowercase(),
-            "path": cli.output.display().to_string(),
+            "output": cli.output.display().to_string(),
             "dims": cli.dims,
             "type": cli.sample_type.name(),
             "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
@@ -257,11 +307,7 @@ fn generate(cli: &Cli) -> Result<()> {
             "seconds": seconds,
             "threads": rayon::current_num_threads(),
         });
-        if cli.output.as_os_str() == "-" {
-            noteln!("{v}");
-        } else {
-            outln!("{v}")?;
-        }
+        json::emit(&v, cli.output.as_os_str() == "-")?;
     } else if !cli.quiet && cli.output.as_os_str() != "-" {
         noteln!(
             "vol-gen: wrote {} ({} bytes) in {:.2} s",
@@ -352,6 +398,7 @@ fn write_as<T: Sample>(cli: &Cli, dims: Dims, scene: &dyn Scene) -> Result<Writt
         range: volcore::ValueRange::EMPTY,
         layout,
         compression: cli.compress,
+        geometry: volcore::Geometry::IDENTITY,
     };
     let range_of = |r: volcore::ValueRange| {
         if r.is_empty() {

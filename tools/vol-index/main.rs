@@ -11,13 +11,14 @@ use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Dims, SampleType};
 use volformats::output::AtomicFile;
-use volformats::{raw, thesis, vvol, FileKind};
+use volformats::{thesis, FileKind, ReadOptions};
 use volindex::build::DEFAULT_CELL_EDGE;
 use volindex::histogram::DEFAULT_BINS;
 use volindex::{BuildOptions, Histogram, IndexError, MajorantIndex};
-use volkit_cli::{noteln, outln, RawArgs};
+use volkit_cli::{noteln, outln, usage, RawSpec};
 
-/// Build the min/max macrocell index of a volume (.vvol, .vol or .raw) and
+/// Build the min/max macrocell index of a volume (any format vol-convert
+/// reads: .vvol, .vol, .raw, NRRD, MetaImage, NIfTI, DICOM, TIFF, OME-Zarr) and
 /// write it next to the volume as a .vidx file, with the volume's value
 /// range and histogram. The index does not depend on the transfer function,
 /// the layout or the thread count, and records a fingerprint of its volume
@@ -26,7 +27,7 @@ use volkit_cli::{noteln, outln, RawArgs};
 #[derive(Parser, Debug)]
 #[command(name = "vol-index", version, after_help = EXAMPLES)]
 struct Cli {
-    /// The volume file (.vvol, .vol or .raw).
+    /// The volume file (.vvol, .vol, .raw, NRRD, NIfTI, ...).
     volume: PathBuf,
     /// Output index file (default: the volume's path with .vidx appended).
     #[arg(short, long, value_name = "FILE.vidx", conflicts_with = "check")]
@@ -53,7 +54,7 @@ struct Cli {
     #[arg(short, long)]
     quiet: bool,
     #[command(flatten)]
-    raw: RawArgs,
+    raw: RawSpec,
 }
 
 const EXAMPLES: &str = "Examples:
@@ -83,7 +84,7 @@ const PERCENTILES: [(&str, f64); 7] = [
 const BUSIEST: usize = 5;
 
 fn main() -> ExitCode {
-    let cli = match volkit_cli::run::parse_args::<Cli>("vol-index") {
+    let cli = match volkit_cli::parse::<Cli>("vol-index") {
         Ok(c) => c,
         Err(code) => return code,
     };
@@ -113,9 +114,12 @@ fn default_output(volume: &Path) -> PathBuf {
     PathBuf::from(s)
 }
 
-/// The raw-file interpretation given on the command line, if any.
-fn raw_spec(cli: &Cli) -> Result<Option<raw::RawSpec>> {
-    cli.raw.spec().map_err(anyhow::Error::msg)
+/// How to read the volume.
+fn read_options(cli: &Cli) -> ReadOptions {
+    ReadOptions {
+        raw: cli.raw,
+        ..Default::default()
+    }
 }
 
 /// Streams have no fingerprint, and the index must name its file.
@@ -150,19 +154,22 @@ fn build(cli: &Cli) -> Result<()> {
         .unwrap_or_else(|| default_output(&cli.volume));
     let oname = name(&output);
     if output.as_os_str() == "-" {
-        bail!("-: the index is written to a file, not to stdout: use -o FILE.vidx");
+        return Err(usage(
+            "-: the index is written to a file, not to stdout: use -o FILE.vidx",
+        ));
     }
     if FileKind::of(&output).is_some() {
-        bail!("{oname}: refusing to write an index under a volume file name: use a .vidx name");
+        return Err(usage(format!(
+            "{oname}: refusing to write an index under a volume file name: use a .vidx name"
+        )));
     }
-    let spec = raw_spec(cli)?;
+    let read = read_options(cli);
 
     // Fingerprint first: if the file is replaced before it is opened, the
     // index holds the new samples under the old fingerprint and is rejected
     // as stale, never accepted for the wrong samples.
     let fp = volformats::fingerprint(&cli.volume).map_err(at(&vname))?;
-    let vol = volformats::open_volume(&cli.volume, vvol::OpenOptions::default(), spec)
-        .map_err(at(&vname))?;
+    let vol = volformats::open(&cli.volume, &read).map_err(|e| anyhow!("{e}"))?;
     let load_s = start.elapsed().as_secs_f64();
 
     let t = Instant::now();
@@ -192,6 +199,7 @@ fn build(cli: &Cli) -> Result<()> {
     if cli.json {
         let mut v = summary(&ix, &cli.volume, &output);
         v["mode"] = json!("build");
+        v["output"] = json!(oname);
         v["bytes"] = json!(timing.bytes);
         v["load_s"] = json!(timing.load_s);
         v["build_s"] = json!(timing.build_s);
@@ -235,12 +243,13 @@ fn write_index(ix: &MajorantIndex, path: &Path) -> Result<u64, IndexError> {
 }
 
 /// Dimensions and sample type of a volume, without reading its samples.
-fn volume_shape(path: &Path, spec: Option<raw::RawSpec>) -> volformats::Result<(Dims, SampleType)> {
+fn volume_shape(path: &Path, opts: &ReadOptions) -> Result<(Dims, SampleType)> {
     if FileKind::of(path) == Some(FileKind::ThesisVol) {
-        // open_volume would load the whole (z-fastest) file into memory.
-        return Ok((thesis::open(path)?.header().dims, SampleType::U8));
+        // Opening would load the whole (z-fastest) file into memory.
+        let h = *thesis::open(path).map_err(at(&name(path)))?.header();
+        return Ok((h.dims, SampleType::U8));
     }
-    let vol = volformats::open_volume(path, vvol::OpenOptions::default(), spec)?;
+    let vol = volformats::open(path, opts).map_err(|e| anyhow!("{e}"))?;
     Ok((vol.meta.dims, vol.meta.sample_type))
 }
 
@@ -249,9 +258,9 @@ fn check(cli: &Cli, index: &Path) -> Result<()> {
     refuse_stream(&cli.volume)?;
     let vname = name(&cli.volume);
     let iname = name(index);
-    let spec = raw_spec(cli)?;
+    let opts = read_options(cli);
     let fp = volformats::fingerprint(&cli.volume).map_err(at(&vname))?;
-    let (dims, sample_type) = volume_shape(&cli.volume, spec).map_err(at(&vname))?;
+    let (dims, sample_type) = volume_shape(&cli.volume, &opts)?;
     let file = std::fs::File::open(index).map_err(at(&iname))?;
     let ix = MajorantIndex::read_from(&mut BufReader::with_capacity(1 << 20, file), Some(fp))
         .and_then(|ix| ix.check_volume(dims, sample_type).map(|()| ix))
@@ -358,7 +367,7 @@ fn summary(ix: &MajorantIndex, volume: &Path, index: &Path) -> Value {
     }
     json!({
         "tool": "vol-index",
-        "path": name(volume),
+        "input": name(volume),
         "index": name(index),
         "dims": ix.dims().as_array(),
         "type": ix.sample_type().name(),

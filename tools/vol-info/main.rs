@@ -1,40 +1,61 @@
 //! vol-info: describe a volume file and optionally verify its checksums.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Parser;
+use serde_json::json;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use volcore::{Compression, Layout, Volume};
-use volformats::{vvol, FileKind};
-use volkit_cli::{outln, RawArgs};
+use volcore::{Layout, Volume};
+use volformats::open::{input_kind, InputKind};
+use volformats::{vvol, ReadOptions};
+use volkit_cli::json;
+use volkit_cli::{outln, RawSpec};
 
-/// Describe a volume file (.vvol, .vol, .raw, or - for a .vvol stream on
-/// stdin) and check it: the header against the file length, the brick table
-/// against the data and, with --verify, every checksum.
+/// Describe a volume (any format vol-convert reads: .vvol, .vol, .raw,
+/// NRRD, MetaImage, NIfTI, DICOM series, TIFF stacks, OME-Zarr, or - for a
+/// stream on stdin) and check it: the header against the file length, the
+/// brick table against the data and, with --verify, every checksum (for
+/// formats without checksums, --verify reads every sample).
+///
+/// Prints dimensions, sample type, spacing, layout, value range, and the
+/// geometry: the origin (world position of voxel 0,0,0), the direction of
+/// each index axis in LPS patient coordinates, and its orientation code.
 #[derive(Parser, Debug)]
 #[command(name = "vol-info", version, after_help = EXAMPLES)]
 struct Cli {
-    /// The volume file, or - for a sliced .vvol stream on stdin.
+    /// The volume, or - for a stream on stdin.
     input: PathBuf,
     /// Check every checksum (reads the whole file).
     #[arg(long)]
     verify: bool,
     #[command(flatten)]
-    raw: RawArgs,
+    raw: RawSpec,
+    /// DICOM: the SeriesInstanceUID to read when a directory holds several.
+    #[arg(long, value_name = "UID")]
+    series: Option<String>,
+    /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
+    #[arg(long, value_name = "T")]
+    time: Option<u64>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
+    /// Print nothing but errors: the exit status tells whether the volume
+    /// reads (and verifies).
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 const EXAMPLES: &str = "Examples:
   vol-info shapes.vvol
   vol-info --verify --json bricked.vvol
+  vol-info brain.nii.gz
+  vol-info ct-series/ --series 1.2.840.113619.2.55.3
   vol-gen noise --dims 64,64,64 -o - | vol-info -
-  vol-info --raw-dims 256,256,256 --raw-type u16 --raw-big-endian scan.raw";
+  vol-info --raw-dims 256,256,256 --raw-type u16 --raw-endian big scan.raw";
 
 fn main() -> ExitCode {
-    let cli = match volkit_cli::run::parse_args::<Cli>("vol-info") {
+    let cli = match volkit_cli::parse::<Cli>("vol-info") {
         Ok(c) => c,
         Err(code) => return code,
     };
@@ -44,64 +65,72 @@ fn main() -> ExitCode {
 fn info(cli: &Cli) -> Result<()> {
     let start = Instant::now();
     let name = cli.input.display().to_string();
-    let spec = cli.raw.spec().map_err(anyhow::Error::msg)?;
-    let opts = vvol::OpenOptions {
-        verify: cli.verify,
+    let opts = ReadOptions {
+        raw: cli.raw,
+        series: cli.series.clone(),
+        time: cli.time,
+        vvol: vvol::OpenOptions {
+            verify: cli.verify,
+            ..Default::default()
+        },
         ..Default::default()
     };
-    let vol = volformats::open_volume(&cli.input, opts, spec).with_context(|| name.clone())?;
-    let file_bytes = if cli.input.as_os_str() == "-" {
+    let kind = if cli.input.as_os_str() == "-" {
         None
     } else {
-        Some(
-            std::fs::metadata(&cli.input)
-                .with_context(|| name.clone())?
-                .len(),
-        )
+        Some(input_kind(&cli.input, &opts)?)
     };
-    // Thesis and raw files carry no checksums: verifying reads every sample.
-    if cli.verify && FileKind::of(&cli.input) != Some(FileKind::Vvol) {
+    let vol = volformats::open(&cli.input, &opts)?;
+    let file_bytes = match kind {
+        Some(_) if cli.input.is_file() => Some(std::fs::metadata(&cli.input)?.len()),
+        _ => None,
+    };
+    // Formats without checksums: verifying reads every sample.
+    if cli.verify && kind != Some(InputKind::Vvol) {
         let _ = vol.to_f32_vec();
     }
     if let Some(e) = vol.error() {
         anyhow::bail!("{name}: {e}");
     }
-    report(cli, &vol, file_bytes, start.elapsed().as_secs_f64())?;
+    if !cli.quiet {
+        let format = kind.map(|k| k.name()).unwrap_or("stream");
+        report(cli, &vol, format, file_bytes, start.elapsed().as_secs_f64())?;
+    }
     Ok(())
 }
 
-fn report(cli: &Cli, vol: &Volume, file_bytes: Option<u64>, seconds: f64) -> std::io::Result<()> {
+fn report(
+    cli: &Cli,
+    vol: &Volume,
+    format: &str,
+    file_bytes: Option<u64>,
+    seconds: f64,
+) -> std::io::Result<()> {
     let m = &vol.meta;
     let (brick, bricks) = match m.layout {
         Layout::Sliced => (None, None),
         Layout::Bricked(g) => (Some(g.brick()), Some(g.brick_count())),
     };
-    let compression = match m.compression {
-        Compression::None => "none".to_string(),
-        Compression::Zstd(l) => format!("zstd:{l}"),
-    };
-    let range = (!m.range.is_empty()).then_some((m.range.min, m.range.max));
     if cli.json {
-        let v = serde_json::json!({
+        let mut v = json!({
             "tool": "vol-info",
-            "path": cli.input.display().to_string(),
-            "format": format!("{:?}", FileKind::of(&cli.input)).to_lowercase().replace("some(", "").replace(')', ""),
-            "dims": m.dims.as_array(),
-            "type": m.sample_type.name(),
-            "spacing": m.spacing,
-            "layout": if brick.is_some() { "bricked" } else { "sliced" },
-            "brick": brick,
-            "bricks": bricks,
-            "compression": compression,
-            "min": range.map(|r| r.0),
-            "max": range.map(|r| r.1),
-            "file_bytes": file_bytes,
-            "verified": cli.verify,
-            "seconds": seconds,
+            "input": cli.input.display().to_string(),
+            "format": format,
         });
+        json::merge(&mut v, json::volume(m));
+        json::merge(
+            &mut v,
+            json!({
+                "brick": brick,
+                "bricks": bricks,
+                "bytes": file_bytes,
+                "verified": cli.verify,
+                "seconds": seconds,
+            }),
+        );
         return outln!("{v}");
     }
-    outln!("{}: {}", cli.input.display(), m)?;
+    outln!("{}: {} ({format})", cli.input.display(), m)?;
     if let Some(b) = file_bytes {
         let samples = m.dims.count() * m.sample_type.size() as u64;
         outln!(
@@ -112,10 +141,27 @@ fn report(cli: &Cli, vol: &Volume, file_bytes: Option<u64>, seconds: f64) -> std
     if let Some(n) = bricks {
         outln!("  {n} bricks")?;
     }
-    match range {
-        Some((lo, hi)) => outln!("  values {lo} .. {hi}")?,
-        None => outln!("  values: none (all NaN)")?,
+    if m.range.is_empty() {
+        outln!("  values: none (all NaN)")?;
+    } else {
+        outln!("  values {} .. {}", m.range.min, m.range.max)?;
     }
+    let g = &m.geometry;
+    let o = g.origin;
+    outln!("  origin {}, {}, {} (LPS)", o[0], o[1], o[2])?;
+    let axes: Vec<String> = (0..3)
+        .map(|a| {
+            let v = g.axis(a);
+            format!("({}, {}, {})", v[0], v[1], v[2])
+        })
+        .collect();
+    outln!(
+        "  directions i {} j {} k {}, orientation {}",
+        axes[0],
+        axes[1],
+        axes[2],
+        g.orientation()
+    )?;
     if cli.verify {
         outln!("  verified in {seconds:.2} s")?;
     }

@@ -10,8 +10,8 @@ use volcompare::{
     compare_images, compare_volumes, write_heatmap, Image, ImageComparison, ImageOptions, Metrics,
     VolumeComparison, VolumeOptions,
 };
-use volformats::{vvol, FileKind};
-use volkit_cli::{noteln, outln, RawArgs};
+use volformats::ReadOptions;
+use volkit_cli::{noteln, outln, RawSpec};
 
 /// Exit status: an input could not be read, or --diff not written.
 const EXIT_READ: u8 = 1;
@@ -28,8 +28,9 @@ const EXIT_BROKEN_PIPE: u8 = volkit_cli::run::EXIT_BROKEN_PIPE;
 /// and how many elements differ.
 ///
 /// A is the reference, B the candidate. Images are .png (8 or 16-bit; grey,
-/// grey+alpha, RGB, RGBA), .pfm or .exr (float); volumes are .vvol, .vol or
-/// .raw (or - for a .vvol stream on stdin). Both inputs must be of the same
+/// grey+alpha, RGB, RGBA), .pfm or .exr (float); volumes are anything
+/// vol-convert reads (.vvol, .vol, .raw, NRRD, MetaImage, NIfTI, DICOM
+/// series, TIFF stacks, OME-Zarr, or - for a stream on stdin). Both inputs must be of the same
 /// kind and size; images also of the same sample type and colour channels.
 ///
 /// Conventions: MSE is the mean of (a − b)² over every compared value,
@@ -75,7 +76,7 @@ struct Cli {
     #[arg(long, value_name = "OUT.png")]
     diff: Option<PathBuf>,
     #[command(flatten)]
-    raw: RawArgs,
+    raw: RawSpec,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -138,7 +139,7 @@ fn compare_fail(e: volcompare::Error) -> Fail {
 }
 
 fn main() -> ExitCode {
-    let cli = match volkit_cli::run::parse_args::<Cli>("vol-psnr") {
+    let cli = match volkit_cli::parse::<Cli>("vol-psnr") {
         Ok(c) => c,
         Err(code) => return code,
     };
@@ -167,20 +168,29 @@ enum Kind {
     Volume,
 }
 
+/// Images by their extension; anything else is a volume (what it is
+/// exactly is decided when it is opened).
 fn kind_of(path: &Path) -> Result<Kind, Fail> {
     if image_extension(path).is_some() {
-        Ok(Kind::Image)
-    } else if FileKind::of(path).is_some() {
-        Ok(Kind::Volume)
-    } else {
-        Err(Fail::new(
+        return Ok(Kind::Image);
+    }
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if matches!(
+        ext.as_str(),
+        "jpg" | "jpeg" | "gif" | "bmp" | "webp" | "ppm" | "pgm"
+    ) {
+        return Err(Fail::new(
             EXIT_READ,
             format!(
-                "{}: unknown file type (expected .png, .pfm, .exr, .vvol, .vol or .raw)",
+                "{}: unknown file type (images: .png, .pfm, .exr; volumes: any format vol-convert reads)",
                 path.display()
             ),
-        ))
+        ));
     }
+    Ok(Kind::Volume)
 }
 
 /// The figures a run reports, whatever the kind of input.
@@ -358,11 +368,12 @@ fn volumes(cli: &Cli) -> Result<Report, Fail> {
             "--alpha and --luma apply to images only",
         ));
     }
-    let spec = cli.raw.spec().map_err(|e| Fail::new(EXIT_USAGE, e))?;
-    let open = |p: &Path| {
-        volformats::open_volume(p, vvol::OpenOptions::default(), spec)
-            .map_err(|e| Fail::new(EXIT_READ, format!("{}: {e}", p.display())))
+    let opts = ReadOptions {
+        raw: cli.raw,
+        ..Default::default()
     };
+    let open =
+        |p: &Path| volformats::open(p, &opts).map_err(|e| Fail::new(EXIT_READ, e.to_string()));
     let (a, b) = (open(&cli.a)?, open(&cli.b)?);
     let opts = VolumeOptions {
         range: cli.range,

@@ -84,6 +84,161 @@ impl ValueRange {
     }
 }
 
+/// Where the voxel grid sits in the world (patient) frame, as ITK, DICOM
+/// and NRRD put it: voxel `(i, j, k)` is at
+/// `origin + D · (i·sx, j·sy, k·sz)`, where column `a` of the direction
+/// matrix `D` is the unit world direction of index axis `a`. The world
+/// frame is LPS (x to the patient's left, y posterior, z superior), the
+/// frame of DICOM, ITK and MetaImage; readers of RAS formats (NIfTI,
+/// NRRD `right-anterior-superior`) flip x and y.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry {
+    /// World position of voxel `(0, 0, 0)`.
+    pub origin: [f64; 3],
+    /// Direction cosines, row-major: `direction[row][axis]`.
+    pub direction: [[f64; 3]; 3],
+}
+
+impl Default for Geometry {
+    fn default() -> Self {
+        Geometry::IDENTITY
+    }
+}
+
+impl Geometry {
+    /// Zero origin, axes along x, y, z.
+    pub const IDENTITY: Geometry = Geometry {
+        origin: [0.0; 3],
+        direction: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+    };
+
+    /// Whether this is [`Geometry::IDENTITY`].
+    pub fn is_identity(&self) -> bool {
+        *self == Geometry::IDENTITY
+    }
+
+    /// The unit world direction of index axis `a` (column `a`).
+    pub fn axis(&self, a: usize) -> [f64; 3] {
+        [
+            self.direction[0][a],
+            self.direction[1][a],
+            self.direction[2][a],
+        ]
+    }
+
+    /// A geometry from per-axis direction vectors of any non-zero length
+    /// (they are normalised): `axes[a]` is the direction of index axis `a`.
+    /// Fails on non-finite values, zero-length or parallel axes.
+    pub fn from_axes(origin: [f64; 3], axes: [[f64; 3]; 3]) -> Result<Geometry, String> {
+        if origin
+            .iter()
+            .chain(axes.iter().flatten())
+            .any(|v| !v.is_finite())
+        {
+            return Err("origin or directions are not finite".into());
+        }
+        let mut direction = [[0.0; 3]; 3];
+        for (a, v) in axes.iter().enumerate() {
+            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            if n <= 1e-12 {
+                return Err(format!("direction of axis {a} has zero length"));
+            }
+            for r in 0..3 {
+                // `+ 0.0` turns -0 into 0 (printed as such).
+                direction[r][a] = v[r] / n + 0.0;
+            }
+        }
+        let g = Geometry { origin, direction };
+        if g.determinant().abs() < 1e-6 {
+            return Err("axis directions are parallel (the matrix is singular)".into());
+        }
+        Ok(g)
+    }
+
+    /// Determinant of the direction matrix (+1 or -1 for a rotation or a
+    /// reflection).
+    pub fn determinant(&self) -> f64 {
+        let d = &self.direction;
+        d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
+            - d[0][1] * (d[1][0] * d[2][2] - d[1][2] * d[2][0])
+            + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0])
+    }
+
+    /// The same geometry in the frame with x and y negated (LPS ↔ RAS).
+    pub fn flip_xy(&self) -> Geometry {
+        let mut g = *self;
+        for r in 0..2 {
+            g.origin[r] = -g.origin[r] + 0.0;
+            for a in 0..3 {
+                g.direction[r][a] = -g.direction[r][a] + 0.0;
+            }
+        }
+        g
+    }
+
+    /// World position of voxel index `ijk` with the given spacing.
+    pub fn world(&self, spacing: [f32; 3], ijk: [f64; 3]) -> [f64; 3] {
+        let s = [
+            ijk[0] * spacing[0] as f64,
+            ijk[1] * spacing[1] as f64,
+            ijk[2] * spacing[2] as f64,
+        ];
+        let d = &self.direction;
+        std::array::from_fn(|r| self.origin[r] + d[r][0] * s[0] + d[r][1] * s[1] + d[r][2] * s[2])
+    }
+
+    /// The geometry of a sub-volume starting at voxel `start`, with index
+    /// axes mirrored where `flip` is set (`dims`: the sub-volume's size).
+    pub fn cropped(
+        &self,
+        spacing: [f32; 3],
+        start: [u64; 3],
+        dims: [u64; 3],
+        flip: [bool; 3],
+    ) -> Geometry {
+        let mut first = [start[0] as f64, start[1] as f64, start[2] as f64];
+        for a in 0..3 {
+            if flip[a] {
+                first[a] += dims[a].saturating_sub(1) as f64;
+            }
+        }
+        let mut g = *self;
+        g.origin = self.world(spacing, first);
+        for row in g.direction.iter_mut() {
+            for (v, &f) in row.iter_mut().zip(&flip) {
+                if f {
+                    *v = -*v + 0.0;
+                }
+            }
+        }
+        g
+    }
+
+    /// The 3-letter orientation code of the index axes (DICOM/ITK style):
+    /// for each axis the patient direction it points to most, `L`/`R`,
+    /// `P`/`A`, `S`/`I` (e.g. `LPS` for the identity, `RAS` for a NIfTI
+    /// in its usual orientation).
+    pub fn orientation(&self) -> String {
+        (0..3)
+            .map(|a| {
+                let v = self.axis(a);
+                let r = (0..3)
+                    .max_by(|&i, &j| v[i].abs().total_cmp(&v[j].abs()))
+                    .unwrap_or(a);
+                let pos = v[r] >= 0.0;
+                match (r, pos) {
+                    (0, true) => 'L',
+                    (0, false) => 'R',
+                    (1, true) => 'P',
+                    (1, false) => 'A',
+                    (_, true) => 'S',
+                    (_, false) => 'I',
+                }
+            })
+            .collect()
+    }
+}
+
 /// Everything about a volume but its samples.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeMeta {
@@ -99,6 +254,8 @@ pub struct VolumeMeta {
     pub layout: Layout,
     /// Per-brick compression (always `None` for sliced layouts).
     pub compression: Compression,
+    /// Origin and axis directions in the world frame.
+    pub geometry: Geometry,
 }
 
 impl VolumeMeta {
@@ -111,7 +268,21 @@ impl VolumeMeta {
             range: ValueRange::EMPTY,
             layout: Layout::Sliced,
             compression: Compression::None,
+            geometry: Geometry::IDENTITY,
         }
+    }
+
+    /// The far corner of the volume's box in world units,
+    /// `(dims − 1)·spacing` per axis (the box starts at the origin: voxel
+    /// `(i, j, k)` sits at `(i·sx, j·sy, k·sz)`).
+    pub fn world_extent(&self) -> [f32; 3] {
+        let d = self.dims.as_array();
+        std::array::from_fn(|a| (d[a] - 1) as f32 * self.spacing[a])
+    }
+
+    /// The smallest of the three voxel spacings.
+    pub fn min_spacing(&self) -> f32 {
+        self.spacing.iter().copied().fold(f32::INFINITY, f32::min)
     }
 }
 
@@ -131,5 +302,39 @@ impl fmt::Display for VolumeMeta {
             write!(f, " zstd:{l}")?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn geometry_maps_and_flips() {
+        let g = Geometry::from_axes(
+            [10.0, 20.0, 30.0],
+            [[-2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]],
+        )
+        .unwrap();
+        assert_eq!(g.axis(0), [-1.0, 0.0, 0.0]);
+        assert_eq!(g.world([2.0, 1.0, 0.5], [1.0, 2.0, 4.0]), [8.0, 22.0, 32.0]);
+        assert_eq!(g.orientation(), "RPS");
+        assert_eq!(Geometry::IDENTITY.orientation(), "LPS");
+        assert_eq!(Geometry::IDENTITY.flip_xy().orientation(), "RAS");
+        assert_eq!(g.determinant(), -1.0);
+        // Cropping from voxel 1 along x, mirrored in z over 3 slices.
+        let c = g.cropped([2.0, 1.0, 0.5], [1, 0, 0], [4, 4, 3], [false, false, true]);
+        assert_eq!(c.origin, [8.0, 20.0, 31.0]);
+        assert_eq!(c.axis(2), [0.0, 0.0, -1.0]);
+        assert!(Geometry::from_axes(
+            [0.0; 3],
+            [[1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+        )
+        .is_err());
+        assert!(Geometry::from_axes(
+            [f64::NAN, 0.0, 0.0],
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        )
+        .is_err());
     }
 }

@@ -12,16 +12,17 @@
 //! place only when complete, so a failed conversion leaves nothing behind.
 
 pub mod input;
-pub mod open;
+pub mod rescale;
 pub mod slice;
+pub mod spool;
 pub mod window;
 mod writers;
 
+pub use crate::open::{open_input, ReadOptions};
 pub use input::{Access, InputInfo, SliceReader};
-pub use open::{open_input, InputOptions, RawArgs};
-pub use slice::{SliceData, SliceSample};
-pub use window::{Histogram, Mapper, ValueMap, Window};
-pub use writers::Target;
+pub use slice::{SliceData, SliceSample, SliceType};
+pub use window::{fit_type, Histogram, Mapper, ValueMap, Window};
+pub use writers::{MemorySlot, Target};
 
 use crate::error::Error;
 use rayon::prelude::*;
@@ -29,7 +30,7 @@ use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use volcore::{Dims, RegionSource, Sample, SampleType, ValueRange};
+use volcore::{Dims, Geometry, RegionSource, Sample, SampleType, ValueRange};
 
 /// An error tied to the file it concerns (the input, one slice file of a
 /// stack, or the output). Displays as `path: problem`, on one line.
@@ -159,6 +160,10 @@ pub struct Report {
     pub sample_type: SampleType,
     /// Output spacing.
     pub spacing: [f32; 3],
+    /// Output origin and axis directions.
+    pub geometry: Geometry,
+    /// The input's sample type.
+    pub input_type: SliceType,
     /// Input bytes read.
     pub bytes_in: u64,
     /// Output bytes written.
@@ -365,12 +370,7 @@ fn crop_xy(s: SliceData, dims: Dims, crop: &[Range<u64>; 3]) -> SliceData {
         }
         out
     }
-    match s {
-        SliceData::U8(v) => SliceData::U8(pick(&v, dims, crop)),
-        SliceData::U16(v) => SliceData::U16(pick(&v, dims, crop)),
-        SliceData::I16(v) => SliceData::I16(pick(&v, dims, crop)),
-        SliceData::F32(v) => SliceData::F32(pick(&v, dims, crop)),
-    }
+    slice::map_slice!(s, v => pick(&v, dims, crop))
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -424,15 +424,19 @@ pub fn convert(
             )),
         ));
     }
-    let out_type = plan.sample_type.unwrap_or(info.sample_type);
+    let from = info.sample_type;
+    // Wide inputs (i8, 32-bit integers, f64) are narrowed by their values:
+    // their range decides the output type or whether it fits.
+    let wide = from.stored().is_none();
     let needs_stats = match plan.window {
         Some(Window::Auto(_)) => true,
-        Some(Window::Full) => info.sample_type == SampleType::F32,
+        Some(Window::Full) => !from.is_integer() || from.size() == 4,
+        None => wide && !plan.sample_type.is_some_and(|t| window::is_exact(from, t)),
         _ => false,
     };
     // Fail early on a narrowing conversion without a window.
-    if plan.window.is_none() {
-        ValueMap::plan(info.sample_type, out_type, None, None).at(target.path())?;
+    if let (None, Some(t), Some(out)) = (plan.window, from.stored(), plan.sample_type) {
+        ValueMap::plan(t.into(), out, None, None).at(target.path())?;
     }
     let temp_dir = plan.temp_dir.clone().unwrap_or_else(|| target.temp_dir());
     let z_sel = crop[2].clone();
@@ -442,7 +446,7 @@ pub fn convert(
     if reader.access() == Access::Sequential && (plan.flip[2] || needs_stats) {
         let h = &mut hist;
         let mut z = 0u64;
-        let sp = input::Spooled::new(reader.as_ref(), &temp_dir, |s| {
+        let sp = spool::Spooled::new(reader.as_ref(), &temp_dir, |s| {
             if let Some(h) = h.as_mut() {
                 if z_sel.contains(&z) {
                     h.add(&crop_xy(s.clone(), d, &crop));
@@ -466,15 +470,22 @@ pub fn convert(
             .try_reduce(|| Histogram::new(t), |a, b| Ok(a.merge(b)))?;
         hist = Some(h.merge(merged));
     }
-    let map =
-        ValueMap::plan(info.sample_type, out_type, plan.window, hist.as_ref()).at(&in_path)?;
-    let spacing = plan.spacing.or(info.spacing).unwrap_or([1.0; 3]);
+    let out_type = output_type(&info, plan.sample_type, hist.as_ref()).at(&in_path)?;
+    let map = ValueMap::plan(from, out_type, plan.window, hist.as_ref()).at(&in_path)?;
+    let in_spacing = info.spacing.unwrap_or([1.0; 3]);
+    let spacing = plan.spacing.unwrap_or(in_spacing);
+    let out_dims = [0, 1, 2].map(|a| crop[a].end - crop[a].start);
+    let start = [0, 1, 2].map(|a| crop[a].start);
+    let geometry = info
+        .geometry
+        .cropped(in_spacing, start, out_dims, plan.flip);
     let args = RunArgs {
         reader: reader.as_ref(),
         crop,
         flip: plan.flip,
         map,
         spacing,
+        geometry,
         temp_dir,
     };
     let mut report = match out_type {
@@ -485,8 +496,29 @@ pub fn convert(
     };
     report.bytes_in = reader.bytes_in();
     report.input_format = info.format.clone();
+    report.input_type = from;
     report.spooled = spooled;
     Ok(report)
+}
+
+/// The output sample type: the one asked for, else the input's stored
+/// type, else (wide inputs) the smallest stored type holding the values.
+pub fn output_type(
+    info: &InputInfo,
+    asked: Option<SampleType>,
+    stats: Option<&Histogram>,
+) -> crate::Result<SampleType> {
+    if let Some(t) = asked.or(info.sample_type.stored()) {
+        return Ok(t);
+    }
+    let range = stats.and_then(|h| h.range());
+    fit_type(info.sample_type, range).ok_or_else(|| {
+        let (lo, hi) = range.unwrap_or((0.0, 0.0));
+        Error::invalid(format!(
+            "{} values {lo}..{hi} fit no stored type exactly: pass --type and --window",
+            info.sample_type
+        ))
+    })
 }
 
 struct RunArgs<'a> {
@@ -495,6 +527,7 @@ struct RunArgs<'a> {
     flip: [bool; 3],
     map: ValueMap,
     spacing: [f32; 3],
+    geometry: Geometry,
     temp_dir: PathBuf,
 }
 
@@ -534,6 +567,7 @@ fn run<T: SliceSample>(
     let spec = writers::OutSpec {
         dims,
         spacing: args.spacing,
+        geometry: args.geometry,
         temp_dir: &args.temp_dir,
         progress,
     };
@@ -542,6 +576,8 @@ fn run<T: SliceSample>(
         dims,
         sample_type: T::TYPE,
         spacing: args.spacing,
+        geometry: args.geometry,
+        input_type: info.sample_type,
         bytes_in: 0,
         bytes_out,
         range,

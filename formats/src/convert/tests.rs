@@ -7,16 +7,12 @@ fn ramp(d: Dims) -> Vec<u16> {
 }
 
 fn read_back(path: &Path) -> Vec<f32> {
-    let r = open_input(path, &InputOptions::default()).unwrap();
+    let r = open_input(path, &ReadOptions::default()).unwrap();
     let d = r.info().dims;
     let mut out = Vec::new();
     for z in 0..d.z {
-        match r.read_slice(z).unwrap() {
-            SliceData::U8(v) => out.extend(v.iter().map(|&x| x as f32)),
-            SliceData::U16(v) => out.extend(v.iter().map(|&x| x as f32)),
-            SliceData::I16(v) => out.extend(v.iter().map(|&x| x as f32)),
-            SliceData::F32(v) => out.extend(v),
-        }
+        let s = r.read_slice(z).unwrap();
+        out.extend((0..s.len()).map(|i| s.value(i) as f32));
     }
     out
 }

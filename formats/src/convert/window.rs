@@ -15,8 +15,13 @@
 //! - Float to integer rounds half away from zero after the linear map.
 //! - NaN maps to the bottom of the output range for integer outputs (0 for
 //!   `u8`/`u16`, -32768 for `i16`) and stays NaN for `f32` output.
+//! - Wider inputs (`i8`, `u32`, `i32`, `f64`), which volkit does not store,
+//!   convert without a window when every value of the data fits the output
+//!   type exactly (integers within its range; `i32` to `f32` up to 2^24;
+//!   `f64` to `f32` rounds to the nearest `f32`). Without `--type` they
+//!   become the smallest stored type that holds them ([`fit_type`]).
 
-use super::slice::SliceData;
+use super::slice::{SliceData, SliceType};
 use crate::error::{Error, Result};
 use std::str::FromStr;
 use volcore::{Sample, SampleType};
@@ -78,9 +83,56 @@ impl FromStr for Window {
 }
 
 /// Whether every value of `from` is exactly representable in `to`.
-pub fn is_exact(from: SampleType, to: SampleType) -> bool {
-    use SampleType::*;
-    from == to || matches!((from, to), (U8, _) | (U16, F32) | (I16, F32))
+pub fn is_exact(from: SliceType, to: SampleType) -> bool {
+    use SampleType as S;
+    use SliceType as I;
+    from == to
+        || matches!(
+            (from, to),
+            (I::U8, _) | (I::U16, S::F32) | (I::I16, S::F32) | (I::I8, S::I16 | S::F32)
+        )
+}
+
+/// Largest integer magnitude `f32` holds exactly.
+const F32_EXACT_INT: f64 = 16_777_216.0;
+
+/// Whether data of type `from` with values `range` (min, max; `None`: no
+/// non-NaN value) fits `to` exactly (`f64` into `f32` rounds).
+pub fn fits(from: SliceType, range: Option<(f64, f64)>, to: SampleType) -> bool {
+    if is_exact(from, to) {
+        return true;
+    }
+    let Some((lo, hi)) = range else {
+        // No value but NaN: only floats hold that.
+        return !from.is_integer() && to == SampleType::F32;
+    };
+    match (from.is_integer(), to.integer_range()) {
+        (true, Some((a, b))) => lo >= a && hi <= b,
+        (true, None) => lo >= -F32_EXACT_INT && hi <= F32_EXACT_INT,
+        (false, None) => from == SliceType::F64 && lo >= f32::MIN as f64 && hi <= f32::MAX as f64,
+        (false, Some(_)) => false,
+    }
+}
+
+/// The smallest stored type that holds data of type `from` with values in
+/// `range` exactly: the type itself when it is stored, else `u8`, `u16`,
+/// `i16` or `f32` (integers), `f32` (`f64` data); `None` when no stored
+/// type does.
+pub fn fit_type(from: SliceType, range: Option<(f64, f64)>) -> Option<SampleType> {
+    if let Some(t) = from.stored() {
+        return Some(t);
+    }
+    let order: &[SampleType] = if from.is_integer() {
+        &[
+            SampleType::U8,
+            SampleType::U16,
+            SampleType::I16,
+            SampleType::F32,
+        ]
+    } else {
+        &[SampleType::F32]
+    };
+    order.iter().copied().find(|&t| fits(from, range, t))
 }
 
 /// The output range a window maps onto.
@@ -106,13 +158,23 @@ impl ValueMap {
     /// Decide the map for converting `from` to `to` with an optional window;
     /// `stats` must be given for `Auto` and for `Full` with `f32` input.
     pub fn plan(
-        from: SampleType,
+        from: SliceType,
         to: SampleType,
         window: Option<Window>,
         stats: Option<&Histogram>,
     ) -> Result<ValueMap> {
+        let range = stats.and_then(|h| h.range());
         let (lo, hi) = match window {
             None if is_exact(from, to) => return Ok(ValueMap::Exact),
+            None if from.stored().is_none() && stats.is_some() && fits(from, range, to) => {
+                return Ok(ValueMap::Exact)
+            }
+            None if from.stored().is_none() && stats.is_some() => {
+                let (lo, hi) = range.unwrap_or((0.0, 0.0));
+                return Err(Error::invalid(format!(
+                    "{from} values {lo}..{hi} do not fit {to}: pass --window lo:hi, --window auto or --window full"
+                )));
+            }
             None => {
                 return Err(Error::invalid(format!(
                     "converting {from} to {to} loses values: pass --window lo:hi, --window auto or --window full"
@@ -132,6 +194,14 @@ impl ValueMap {
                     .ok_or_else(|| Error::invalid("auto window: the volume has no non-NaN sample"))?
             }
             Some(Window::Full) => match from.integer_range() {
+                // 32-bit integers: the data's range, like floats (their
+                // type range would crush every real image to one value).
+                Some(_) if from.size() == 4 => {
+                    let h = stats.ok_or_else(|| Error::invalid("full window needs the range"))?;
+                    h.range().ok_or_else(|| {
+                        Error::invalid("full window: the volume has no non-NaN sample")
+                    })?
+                }
                 Some(r) => r,
                 None => {
                     let h = stats.ok_or_else(|| Error::invalid("full window needs the range"))?;
@@ -176,25 +246,31 @@ impl ValueMap {
 }
 
 /// Converts slices of any input type to output samples of type `T`,
-/// using a lookup table for integer inputs.
+/// using a lookup table for 8 and 16-bit inputs.
 pub struct Mapper<T: Sample> {
     map: ValueMap,
     lut: Option<Vec<T>>,
-    from: SampleType,
+    from: SliceType,
 }
 
 impl<T: Sample> Mapper<T> {
     /// A mapper for input of type `from`.
-    pub fn new(from: SampleType, map: ValueMap) -> Mapper<T> {
+    pub fn new(from: impl Into<SliceType>, map: ValueMap) -> Mapper<T> {
+        let from = from.into();
         let lut = match from {
-            SampleType::U8 => Some((0..=255u32).map(|v| map.apply(v as f64)).collect()),
-            SampleType::U16 => Some((0..=65535u32).map(|v| map.apply(v as f64)).collect()),
-            SampleType::I16 => Some(
+            SliceType::U8 => Some((0..=255u32).map(|v| map.apply(v as f64)).collect()),
+            SliceType::I8 => Some(
+                (0..=255u32)
+                    .map(|v| map.apply((v as u8 as i8) as f64))
+                    .collect(),
+            ),
+            SliceType::U16 => Some((0..=65535u32).map(|v| map.apply(v as f64)).collect()),
+            SliceType::I16 => Some(
                 (0..=65535u32)
                     .map(|v| map.apply((v as u16 as i16) as f64))
                     .collect(),
             ),
-            SampleType::F32 => None,
+            _ => None,
         };
         Mapper { map, lut, from }
     }
@@ -233,37 +309,33 @@ impl<T: Sample> Mapper<T> {
                     *o = l[s[i] as u16 as usize];
                 }
             }
+            (SliceData::I8(s), Some(l)) => {
+                for (o, i) in out.iter_mut().zip(idx) {
+                    *o = l[s[i] as u8 as usize];
+                }
+            }
             (SliceData::F32(s), _) => {
                 for (o, i) in out.iter_mut().zip(idx) {
                     *o = self.map.apply(s[i] as f64);
                 }
             }
-            // A slice of another type than planned: cannot happen, readers
-            // check every slice's type; convert through f64 regardless.
+            // Wide types, through f64.
             (other, _) => {
                 for (o, i) in out.iter_mut().zip(idx) {
-                    *o = self.map.apply(value_at(other, i));
+                    *o = self.map.apply(other.value(i));
                 }
             }
         }
     }
 }
 
-fn value_at(s: &SliceData, i: usize) -> f64 {
-    match s {
-        SliceData::U8(v) => v[i] as f64,
-        SliceData::U16(v) => v[i] as f64,
-        SliceData::I16(v) => v[i] as f64,
-        SliceData::F32(v) => v[i] as f64,
-    }
-}
-
-/// A histogram of sample values: exact bins for integer types, and for
-/// `f32` 65536 bins over the order-preserving top 16 bits of the float
-/// (sign, exponent and 7 mantissa bits: relative bin width 2^-7).
+/// A histogram of sample values: exact bins for 8 and 16-bit types, and
+/// for wider types 65536 bins over the order-preserving top 16 bits of the
+/// value as `f32` (sign, exponent and 7 mantissa bits: relative bin width
+/// 2^-7). The exact smallest and largest values are kept beside.
 #[derive(Clone, Debug)]
 pub struct Histogram {
-    t: SampleType,
+    t: SliceType,
     counts: Vec<u64>,
     min: f64,
     max: f64,
@@ -284,8 +356,9 @@ fn f32_of_key(k: usize, upper: bool) -> f64 {
 
 impl Histogram {
     /// An empty histogram for samples of type `t`.
-    pub fn new(t: SampleType) -> Histogram {
-        let bins = if t == SampleType::U8 { 256 } else { 65536 };
+    pub fn new(t: impl Into<SliceType>) -> Histogram {
+        let t = t.into();
+        let bins = if t.size() == 1 { 256 } else { 65536 };
         Histogram {
             t,
             counts: vec![0; bins],
@@ -300,16 +373,18 @@ impl Histogram {
         let c = &mut self.counts;
         match s {
             SliceData::U8(v) => v.iter().for_each(|&x| c[x as usize] += 1),
+            SliceData::I8(v) => v.iter().for_each(|&x| c[x as u8 as usize ^ 0x80] += 1),
             SliceData::U16(v) => v.iter().for_each(|&x| c[x as usize] += 1),
             SliceData::I16(v) => v.iter().for_each(|&x| c[x as u16 as usize ^ 0x8000] += 1),
-            SliceData::F32(v) => {
-                for &x in v {
+            other => {
+                for i in 0..other.len() {
+                    let x = other.value(i);
                     if x.is_nan() {
                         self.nan += 1;
                     } else {
-                        c[f32_key(x)] += 1;
-                        self.min = self.min.min(x as f64);
-                        self.max = self.max.max(x as f64);
+                        c[f32_key(x as f32)] += 1;
+                        self.min = self.min.min(x);
+                        self.max = self.max.max(x);
                     }
                 }
             }
@@ -334,14 +409,18 @@ impl Histogram {
 
     fn bin_value(&self, k: usize, upper: bool) -> f64 {
         match self.t {
-            SampleType::U8 | SampleType::U16 => k as f64,
-            SampleType::I16 => (k as i64 - 32768) as f64,
-            SampleType::F32 => f32_of_key(k, upper).clamp(self.min, self.max),
+            SliceType::U8 | SliceType::U16 => k as f64,
+            SliceType::I8 => (k as i64 - 128) as f64,
+            SliceType::I16 => (k as i64 - 32768) as f64,
+            _ => f32_of_key(k, upper).clamp(self.min, self.max),
         }
     }
 
     /// Smallest and largest non-NaN value, if any.
     pub fn range(&self) -> Option<(f64, f64)> {
+        if self.t.size() > 2 {
+            return (self.min <= self.max).then_some((self.min, self.max));
+        }
         let first = self.counts.iter().position(|&c| c > 0)?;
         let last = self.counts.iter().rposition(|&c| c > 0)?;
         Some((self.bin_value(first, false), self.bin_value(last, true)))
@@ -393,26 +472,73 @@ mod tests {
     #[test]
     fn narrowing_needs_a_window() {
         use SampleType::*;
+        let (u8_, u16_, i16_, f32_) = (
+            SliceType::U8,
+            SliceType::U16,
+            SliceType::I16,
+            SliceType::F32,
+        );
         assert_eq!(
-            ValueMap::plan(U8, U16, None, None).unwrap(),
+            ValueMap::plan(u8_, U16, None, None).unwrap(),
             ValueMap::Exact
         );
         assert_eq!(
-            ValueMap::plan(I16, F32, None, None).unwrap(),
+            ValueMap::plan(i16_, F32, None, None).unwrap(),
             ValueMap::Exact
         );
-        let e = ValueMap::plan(U16, U8, None, None).unwrap_err().to_string();
+        let e = ValueMap::plan(u16_, U8, None, None)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("--window"), "{e}");
-        assert!(ValueMap::plan(F32, I16, None, None).is_err());
-        assert!(ValueMap::plan(I16, U16, None, None).is_err());
-        assert!(ValueMap::plan(U8, U8, Some(Window::Range(3.0, 3.0)), None).is_err());
+        assert!(ValueMap::plan(f32_, I16, None, None).is_err());
+        assert!(ValueMap::plan(i16_, U16, None, None).is_err());
+        assert!(ValueMap::plan(u8_, U8, Some(Window::Range(3.0, 3.0)), None).is_err());
         assert_eq!(
-            ValueMap::plan(U16, U8, Some(Window::Full), None).unwrap(),
+            ValueMap::plan(u16_, U8, Some(Window::Full), None).unwrap(),
             ValueMap::Linear {
                 lo: 0.0,
                 hi: 65535.0
             }
         );
+    }
+
+    #[test]
+    fn wide_types_fit_by_their_values() {
+        use SampleType::*;
+        assert_eq!(fit_type(SliceType::I32, Some((-1024.0, 3071.0))), Some(I16));
+        assert_eq!(fit_type(SliceType::I32, Some((0.0, 255.0))), Some(U8));
+        assert_eq!(fit_type(SliceType::U32, Some((0.0, 60000.0))), Some(U16));
+        assert_eq!(fit_type(SliceType::I32, Some((0.0, 1e6))), Some(F32));
+        assert_eq!(fit_type(SliceType::I32, Some((0.0, 3e7))), None);
+        assert_eq!(fit_type(SliceType::F64, Some((-0.5, 2.0))), Some(F32));
+        assert_eq!(fit_type(SliceType::F64, Some((0.0, 1e300))), None);
+        assert_eq!(fit_type(SliceType::I8, None), Some(I16));
+        let mut h = Histogram::new(SliceType::I32);
+        h.add(&SliceData::I32(vec![-1024, 0, 3071]));
+        assert_eq!(h.range(), Some((-1024.0, 3071.0)));
+        assert_eq!(
+            ValueMap::plan(SliceType::I32, I16, None, Some(&h)).unwrap(),
+            ValueMap::Exact
+        );
+        let e = ValueMap::plan(SliceType::I32, U8, None, Some(&h))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("--window") && e.contains("3071"), "{e}");
+        assert_eq!(
+            ValueMap::plan(SliceType::I32, U8, Some(Window::Full), Some(&h)).unwrap(),
+            ValueMap::Linear {
+                lo: -1024.0,
+                hi: 3071.0
+            }
+        );
+        let m = Mapper::<i16>::new(SliceType::I32, ValueMap::Exact);
+        let mut out = [0i16; 3];
+        m.map_indexed(&SliceData::I32(vec![-1024, 0, 3071]), 0..3, &mut out);
+        assert_eq!(out, [-1024, 0, 3071]);
+        let m = Mapper::<i16>::new(SliceType::I8, ValueMap::Exact);
+        let mut out = [0i16; 2];
+        m.map_indexed(&SliceData::I8(vec![-128, 127]), 0..2, &mut out);
+        assert_eq!(out, [-128, 127]);
     }
 
     #[test]

@@ -13,9 +13,10 @@ use std::fs::File;
 use std::io::Write;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 use volcore::{
-    BrickGeometry, Compression, Dims, Layout, RegionSource, Sample, SampleType, ValueRange,
-    VolumeMeta,
+    BrickGeometry, Compression, Dims, Geometry, Layout, RegionSource, Sample, SampleType,
+    ValueRange, Volume, VolumeMeta,
 };
 
 /// Where and how to write the converted volume.
@@ -53,6 +54,132 @@ pub enum Target {
         /// Output directory (must not exist, or be empty).
         path: PathBuf,
     },
+    /// An in-memory [`Volume`], left in the slot (what
+    /// [`crate::open::load`] uses).
+    Memory(MemorySlot),
+    /// An OME-Zarr (NGFF 0.5, Zarr v3) directory with a multiscale pyramid.
+    OmeZarr {
+        /// Output directory (must not exist, or be empty).
+        path: PathBuf,
+        /// Pyramid levels, the full resolution included (at least 1).
+        levels: u32,
+        /// How each level is made from the one above.
+        downsample: crate::omezarr::Downsample,
+    },
+    /// A header format with its samples (NIfTI, NRRD, MetaImage): in the
+    /// header's file or a detached one, raw or compressed.
+    Headed {
+        /// The header file (or the single file).
+        path: PathBuf,
+        /// Which header.
+        format: HeaderFormat,
+        /// Where the samples go when not after the header.
+        data: Option<PathBuf>,
+        /// How the samples (for `.nii.gz`: the whole file) are compressed.
+        codec: DataCodec,
+    },
+}
+
+/// The header formats volkit writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HeaderFormat {
+    /// NIfTI-1 (NIfTI-2 for dimensions past 32767).
+    Nifti,
+    /// NRRD (`.nrrd` attached, `.nhdr` detached).
+    Nrrd,
+    /// MetaImage (`.mha` attached, `.mhd` detached).
+    MetaImage,
+}
+
+/// Compression of the samples of a [`Target::Headed`] file.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DataCodec {
+    /// Plain little-endian samples.
+    Raw,
+    /// gzip (NRRD `encoding: gzip`; for NIfTI the whole `.nii.gz`).
+    Gzip,
+    /// zlib (MetaImage `CompressedData = True`).
+    Zlib,
+}
+
+impl Target {
+    /// The target a file name asks for among the header formats: `.nii`,
+    /// `.nii.gz`, `.hdr` (+ `.img`), `.nrrd`, `.nhdr` (+ `.raw`), `.mha`,
+    /// `.mhd` (+ `.raw`); `compress` gzips NRRD data and zlibs MetaImage
+    /// data (`.nii.gz` is compressed by its name). `None` for other names.
+    pub fn headed(path: &Path, compress: bool) -> Option<Target> {
+        let s = path.to_string_lossy();
+        let l = s.to_ascii_lowercase();
+        let stem = |ext: &str| s[..s.len() - ext.len()].to_string();
+        let (format, data, codec) = if l.ends_with(".nii.gz") {
+            (HeaderFormat::Nifti, None, DataCodec::Gzip)
+        } else if l.ends_with(".nii") {
+            (HeaderFormat::Nifti, None, DataCodec::Raw)
+        } else if l.ends_with(".hdr") {
+            let codec = if compress {
+                DataCodec::Gzip
+            } else {
+                DataCodec::Raw
+            };
+            let img = stem(".hdr") + if compress { ".img.gz" } else { ".img" };
+            (HeaderFormat::Nifti, Some(PathBuf::from(img)), codec)
+        } else if l.ends_with(".nrrd") {
+            let codec = if compress {
+                DataCodec::Gzip
+            } else {
+                DataCodec::Raw
+            };
+            (HeaderFormat::Nrrd, None, codec)
+        } else if l.ends_with(".nhdr") {
+            let codec = if compress {
+                DataCodec::Gzip
+            } else {
+                DataCodec::Raw
+            };
+            let raw = stem(".nhdr") + if compress { ".raw.gz" } else { ".raw" };
+            (HeaderFormat::Nrrd, Some(PathBuf::from(raw)), codec)
+        } else if l.ends_with(".mha") {
+            let codec = if compress {
+                DataCodec::Zlib
+            } else {
+                DataCodec::Raw
+            };
+            (HeaderFormat::MetaImage, None, codec)
+        } else if l.ends_with(".mhd") {
+            let codec = if compress {
+                DataCodec::Zlib
+            } else {
+                DataCodec::Raw
+            };
+            let raw = stem(".mhd") + if compress { ".zraw" } else { ".raw" };
+            (HeaderFormat::MetaImage, Some(PathBuf::from(raw)), codec)
+        } else {
+            return None;
+        };
+        Some(Target::Headed {
+            path: path.to_path_buf(),
+            format,
+            data,
+            codec,
+        })
+    }
+}
+
+/// Where a [`Target::Memory`] conversion leaves its volume.
+#[derive(Clone, Default)]
+pub struct MemorySlot(Arc<Mutex<Option<Volume>>>);
+
+impl MemorySlot {
+    /// The volume, once the conversion is done.
+    pub fn take(&self) -> Option<Volume> {
+        self.0.lock().ok().and_then(|mut v| v.take())
+    }
+
+    fn put(&self, v: Volume) {
+        if let Ok(mut s) = self.0.lock() {
+            *s = Some(v);
+        }
+    }
 }
 
 impl Target {
@@ -63,15 +190,17 @@ impl Target {
             | Target::Thesis { path, .. }
             | Target::Raw { path }
             | Target::Tiff { path }
-            | Target::TiffDir { path } => path,
-            Target::VvolStream(_) => Path::new("-"),
+            | Target::TiffDir { path }
+            | Target::Headed { path, .. }
+            | Target::OmeZarr { path, .. } => path,
+            Target::VvolStream(_) | Target::Memory(_) => Path::new("-"),
         }
     }
 
     /// Check what can be checked before any work: a directory target
     /// must not exist or be empty.
     pub fn preflight(&self) -> CResult<()> {
-        if let Target::TiffDir { path } = self {
+        if let Target::TiffDir { path } | Target::OmeZarr { path, .. } = self {
             check_dir_target(path)?;
         }
         Ok(())
@@ -80,10 +209,10 @@ impl Target {
     /// Where temporary files go by default: beside the output.
     pub fn temp_dir(&self) -> PathBuf {
         match self {
-            Target::VvolStream(_) => std::env::temp_dir(),
+            Target::VvolStream(_) | Target::Memory(_) => std::env::temp_dir(),
             other => {
                 let p = other.path();
-                let p = if matches!(other, Target::TiffDir { .. }) {
+                let p = if matches!(other, Target::TiffDir { .. } | Target::OmeZarr { .. }) {
                     p.components().as_path()
                 } else {
                     p
@@ -109,6 +238,7 @@ pub(crate) trait SlabSink<T: Sample> {
 pub(crate) struct OutSpec<'a> {
     pub dims: Dims,
     pub spacing: [f32; 3],
+    pub geometry: Geometry,
     pub temp_dir: &'a Path,
     pub progress: &'a (dyn Fn(u64) + Sync),
 }
@@ -236,6 +366,73 @@ pub(crate) fn run_target<T: SliceSample>(
             file.commit().at(&path)?;
             Ok((bytes, None))
         }
+        Target::Headed {
+            format,
+            data,
+            codec,
+            ..
+        } => write_headed::<T>(&path, format, data.as_deref(), codec, spec, drive),
+        Target::OmeZarr {
+            levels, downsample, ..
+        } => {
+            let dir = PartialDir::create(&path)?;
+            let w = crate::omezarr::ZarrWriter::<T>::create(
+                dir.temp.path(),
+                dims,
+                spec.spacing,
+                &spec.geometry,
+                levels,
+                downsample,
+            )
+            .at(&path)?;
+            let mut sink = ZarrSink {
+                w: Some(w),
+                dims,
+                next_z: 0,
+                slab: crate::omezarr::CHUNK.min(dims.z),
+                done: 0,
+                progress: spec.progress,
+                path: &path,
+            };
+            drive(&mut sink)?;
+            if let Some(w) = sink.w.take() {
+                w.finish().at(&path)?;
+            }
+            let bytes = sink.done;
+            dir.commit()?;
+            Ok((bytes, None))
+        }
+        Target::Memory(slot) => {
+            let n = dims.checked_count().ok_or_else(|| {
+                ConvertError::new(&path, Error::invalid(format!("{dims} is too large")))
+            })?;
+            let mut samples: Vec<T> = Vec::new();
+            samples.try_reserve_exact(n as usize).map_err(|_| {
+                ConvertError::new(
+                    &path,
+                    Error::invalid(format!(
+                        "{dims} {} does not fit in memory: convert it to a .vvol file first",
+                        T::TYPE
+                    )),
+                )
+            })?;
+            {
+                let mut sink = MemorySink {
+                    out: &mut samples,
+                    dims,
+                    next_z: 0,
+                    slab: slab(dims, T::TYPE.size()),
+                };
+                drive(&mut sink)?;
+            }
+            let bytes = std::mem::size_of_val(samples.as_slice()) as u64;
+            let mut v = Volume::from_samples(dims, samples).at(&path)?;
+            v.meta.spacing = spec.spacing;
+            v.meta.geometry = spec.geometry;
+            let range = v.meta.range;
+            slot.put(v);
+            Ok((bytes, Some(range)))
+        }
         Target::TiffDir { .. } => {
             let dir = PartialDir::create(&path)?;
             let width = (dims.z.max(1) - 1).to_string().len().max(4);
@@ -255,6 +452,214 @@ pub(crate) fn run_target<T: SliceSample>(
             dir.commit()?;
             Ok((bytes, None))
         }
+    }
+}
+
+/// The header of a [`Target::Headed`] file for `T` samples; `data_name`
+/// is the detached data file's name, relative to the header.
+fn header_bytes<T: Sample>(
+    format: HeaderFormat,
+    spec: &OutSpec<'_>,
+    data_name: Option<&str>,
+    codec: DataCodec,
+) -> Vec<u8> {
+    match format {
+        HeaderFormat::Nifti => {
+            let layout = if data_name.is_some() {
+                crate::nifti::NiftiLayout::Pair
+            } else {
+                crate::nifti::NiftiLayout::Single
+            };
+            crate::nifti::encode_header(spec.dims, T::TYPE, spec.spacing, &spec.geometry, layout)
+        }
+        HeaderFormat::Nrrd => crate::nrrd::write_header(&crate::nrrd::NrrdOut {
+            dims: spec.dims,
+            sample_type: T::TYPE,
+            spacing: spec.spacing,
+            geometry: spec.geometry,
+            gzip: codec == DataCodec::Gzip,
+            data_file: data_name.map(str::to_string),
+        })
+        .into_bytes(),
+        HeaderFormat::MetaImage => crate::mhd::write_header(
+            spec.dims,
+            T::TYPE,
+            spec.spacing,
+            &spec.geometry,
+            codec == DataCodec::Zlib,
+            data_name.unwrap_or("LOCAL"),
+        )
+        .into_bytes(),
+    }
+}
+
+/// `w` behind the codec's encoder.
+fn encoder<'w>(w: &'w mut (dyn Write + Send), codec: DataCodec) -> Box<dyn FinishWrite + 'w> {
+    let level = flate2::Compression::new(6);
+    match codec {
+        DataCodec::Raw => Box::new(std::io::BufWriter::with_capacity(1 << 20, w)),
+        DataCodec::Gzip => Box::new(flate2::write::GzEncoder::new(w, level)),
+        DataCodec::Zlib => Box::new(flate2::write::ZlibEncoder::new(w, level)),
+    }
+}
+
+/// A writer that must be told when the data ends (compressors).
+trait FinishWrite: Write + Send {
+    fn finish_all(self: Box<Self>) -> std::io::Result<()>;
+}
+
+impl<W: Write + Send> FinishWrite for std::io::BufWriter<W> {
+    fn finish_all(mut self: Box<Self>) -> std::io::Result<()> {
+        self.flush()
+    }
+}
+
+impl<W: Write + Send> FinishWrite for flate2::write::GzEncoder<W> {
+    fn finish_all(self: Box<Self>) -> std::io::Result<()> {
+        self.finish().map(|_| ())
+    }
+}
+
+impl<W: Write + Send> FinishWrite for flate2::write::ZlibEncoder<W> {
+    fn finish_all(self: Box<Self>) -> std::io::Result<()> {
+        self.finish().map(|_| ())
+    }
+}
+
+/// Write a header format and its samples; both files appear only when
+/// complete (the data file first).
+fn write_headed<T: SliceSample>(
+    path: &Path,
+    format: HeaderFormat,
+    data: Option<&Path>,
+    codec: DataCodec,
+    spec: &OutSpec<'_>,
+    drive: &mut Drive<'_, T>,
+) -> CResult<(u64, Option<ValueRange>)> {
+    let data_name = data.map(|d| {
+        d.file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    });
+    let header = header_bytes::<T>(format, spec, data_name.as_deref(), codec);
+    let mut head_file = AtomicFile::create(path).at(path)?;
+    let mut data_file = match data {
+        Some(d) => Some((AtomicFile::create(d).at(d)?, d)),
+        None => None,
+    };
+    {
+        let mut head_out = std::io::BufWriter::with_capacity(1 << 16, head_file.file());
+        match data_file.as_mut() {
+            Some((f, d)) => {
+                head_out.write_all(&header).at(path)?;
+                let mut enc = encoder(f.file(), codec);
+                stream_samples::<T>(&mut *enc, spec, d, drive)?;
+                enc.finish_all().at(d)?;
+            }
+            // A .nii.gz is one gzip stream of header and samples.
+            None if format == HeaderFormat::Nifti => {
+                let mut enc = encoder(&mut head_out, codec);
+                enc.write_all(&header).at(path)?;
+                stream_samples::<T>(&mut *enc, spec, path, drive)?;
+                enc.finish_all().at(path)?;
+            }
+            // Attached data: a plain header, then the (compressed) samples.
+            None => {
+                head_out.write_all(&header).at(path)?;
+                let mut enc = encoder(&mut head_out, codec);
+                stream_samples::<T>(&mut *enc, spec, path, drive)?;
+                enc.finish_all().at(path)?;
+            }
+        }
+        head_out.flush().at(path)?;
+    }
+    let mut bytes = 0;
+    if let Some((f, d)) = data_file {
+        f.commit().at(d)?;
+        bytes += std::fs::metadata(d).map(|m| m.len()).unwrap_or(0);
+    }
+    head_file.commit().at(path)?;
+    bytes += std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    Ok((bytes, None))
+}
+
+/// Feed every sample of the conversion to `out`, slab by slab.
+fn stream_samples<T: SliceSample>(
+    out: &mut (dyn Write + Send),
+    spec: &OutSpec<'_>,
+    path: &Path,
+    drive: &mut Drive<'_, T>,
+) -> CResult<()> {
+    let mut sink = RawSink {
+        out,
+        dims: spec.dims,
+        next_z: 0,
+        slab: slab(spec.dims, T::TYPE.size()),
+        done: 0,
+        range: ValueRange::EMPTY,
+        progress: spec.progress,
+        path,
+    };
+    drive(&mut sink)
+}
+
+struct ZarrSink<'a, T: SliceSample> {
+    w: Option<crate::omezarr::ZarrWriter<T>>,
+    dims: Dims,
+    next_z: u64,
+    slab: u64,
+    done: u64,
+    progress: &'a (dyn Fn(u64) + Sync),
+    path: &'a Path,
+}
+
+impl<T: SliceSample> SlabSink<T> for ZarrSink<'_, T> {
+    fn next_slices(&self) -> Range<u64> {
+        self.next_z..(self.next_z + self.slab).min(self.dims.z)
+    }
+    fn write_next(&mut self, win: &SliceWindow<T>) -> CResult<()> {
+        let zs = <Self as SlabSink<T>>::next_slices(self);
+        for z in zs.clone() {
+            let s = win.slice(z).ok_or_else(|| {
+                ConvertError::new(self.path, Error::invalid("slice missing (internal error)"))
+            })?;
+            if let Some(w) = self.w.as_mut() {
+                w.push(s.to_vec()).at(self.path)?;
+            }
+            self.done += std::mem::size_of_val(s) as u64;
+            (self.progress)(self.done);
+        }
+        self.next_z = zs.end;
+        Ok(())
+    }
+}
+
+struct MemorySink<'a, T> {
+    out: &'a mut Vec<T>,
+    dims: Dims,
+    next_z: u64,
+    slab: u64,
+}
+
+impl<T: SliceSample> SlabSink<T> for MemorySink<'_, T> {
+    fn next_slices(&self) -> Range<u64> {
+        self.next_z..(self.next_z + self.slab).min(self.dims.z)
+    }
+    fn write_next(&mut self, win: &SliceWindow<T>) -> CResult<()> {
+        let zs = <Self as SlabSink<T>>::next_slices(self);
+        for z in zs.clone() {
+            match win.slice(z) {
+                Some(s) => self.out.extend_from_slice(s),
+                None => {
+                    return Err(ConvertError::new(
+                        Path::new("-"),
+                        Error::invalid("slice missing (internal error)"),
+                    ))
+                }
+            }
+        }
+        self.next_z = zs.end;
+        Ok(())
     }
 }
 
@@ -279,6 +684,7 @@ fn vvol_meta<T: Sample>(
         range: ValueRange::EMPTY,
         layout,
         compression,
+        geometry: spec.geometry,
     })
 }
 
@@ -319,7 +725,7 @@ impl<T: SliceSample> SlabSink<T> for VvolSink<'_, '_> {
 // ------------------------------------------------------------------ raw --
 
 struct RawSink<'a> {
-    out: &'a mut File,
+    out: &'a mut (dyn Write + Send),
     dims: Dims,
     next_z: u64,
     slab: u64,

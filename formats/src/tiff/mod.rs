@@ -3,10 +3,14 @@
 //! multipage file, or a directory of single-page files), through the
 //! `tiff` crate.
 //!
-//! Supported samples: 8-bit (unsigned; signed is widened to `i16`), 16-bit
-//! unsigned and signed, 32-bit float; every compression, predictor, strip
-//! and tile layout and byte order the crate decodes. Colour or multi-band
-//! slices are reduced to one channel only on request ([`ChannelSel`]).
+//! Supported samples: 8-bit (unsigned; signed is widened to `i16`), 16 and
+//! 32-bit unsigned and signed, 32 and 64-bit float; every compression
+//! (zstd included), predictor, strip and tile layout and byte order the
+//! crate decodes. Colour or multi-band slices are reduced to one channel
+//! only on request ([`ChannelSel`]). ImageJ hyperstacks and OME-TIFF files
+//! with several channels or time points give one 3D stack, picked with
+//! `--channel` and `--time` ([`axes`]); OME-XML `PhysicalSizeX/Y/Z` give
+//! the spacing.
 //!
 //! ImageJ stacks past 4 GiB, which ImageJ writes as one directory and all
 //! images back to back (`images=N` in the description), are read as the
@@ -19,6 +23,7 @@
 //! carry the same tags, so spacing survives a round trip and Fiji shows
 //! it.
 
+pub mod axes;
 mod read;
 mod stack;
 

@@ -2,7 +2,7 @@
 
 use super::ChannelSel;
 use crate::convert::input::{Access, InputInfo, SliceReader};
-use crate::convert::{At, CResult, ConvertError, SliceData};
+use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::Error;
 use ::tiff::decoder::{Decoder, DecodingResult, Limits};
 use ::tiff::tags::Tag;
@@ -11,7 +11,7 @@ use std::fs::File;
 use std::io::{BufReader, Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use volcore::{Dims, SampleType};
+use volcore::Dims;
 
 /// What one page holds, as far as a stack must agree on it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,16 +45,19 @@ impl PageInfo {
         )
     }
 
-    /// The volcore sample type slices of this page become.
-    pub fn sample_type(&self) -> Result<SampleType, String> {
+    /// The sample type slices of this page become.
+    pub fn sample_type(&self) -> Result<SliceType, String> {
         match (self.format, self.bits) {
-            (1, 8) => Ok(SampleType::U8),
-            (2, 8) => Ok(SampleType::I16), // widened
-            (1, 16) => Ok(SampleType::U16),
-            (2, 16) => Ok(SampleType::I16),
-            (3, 32) => Ok(SampleType::F32),
+            (1, 8) => Ok(SliceType::U8),
+            (2, 8) => Ok(SliceType::I16), // widened
+            (1, 16) => Ok(SliceType::U16),
+            (2, 16) => Ok(SliceType::I16),
+            (1, 32) => Ok(SliceType::U32),
+            (2, 32) => Ok(SliceType::I32),
+            (3, 32) => Ok(SliceType::F32),
+            (3, 64) => Ok(SliceType::F64),
             _ => Err(format!(
-                "{} samples are not supported (volkit stores 8/16-bit integers and 32-bit floats)",
+                "{} samples are not supported (volkit reads 8, 16 and 32-bit integers and 32 and 64-bit floats)",
                 self.describe()
             )),
         }
@@ -269,6 +272,9 @@ fn decode<R: Read + Seek>(
         DecodingResult::U16(v) => SliceData::U16(pick.apply(&v)?),
         DecodingResult::I16(v) => SliceData::I16(pick.apply(&v)?),
         DecodingResult::F32(v) => SliceData::F32(pick.apply(&v)?),
+        DecodingResult::U32(v) => SliceData::U32(pick.apply(&v)?),
+        DecodingResult::I32(v) => SliceData::I32(pick.apply(&v)?),
+        DecodingResult::F64(v) => SliceData::F64(pick.apply(&v)?),
         _ => {
             return Err(Error::invalid(format!(
                 "{} samples are not supported",
@@ -320,6 +326,13 @@ macro_rules! luma_int {
 luma_int!(u8);
 luma_int!(u16);
 luma_int!(i16);
+luma_int!(u32);
+luma_int!(i32);
+impl Luma for f64 {
+    fn luma(r: f64, g: f64, b: f64) -> f64 {
+        0.299 * r + 0.587 * g + 0.114 * b
+    }
+}
 impl Luma for f32 {
     fn luma(r: f32, g: f32, b: f32) -> f32 {
         (0.299 * r as f64 + 0.587 * g as f64 + 0.114 * b as f64) as f32
@@ -410,7 +423,12 @@ fn open_decoder<R: Read + Seek>(
 
 /// Open a stack of files (one file may be a multipage TIFF; several files
 /// each give their first full-resolution page).
-pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResult<TiffStackReader> {
+pub fn open_files(
+    input: &Path,
+    files: Vec<PathBuf>,
+    chan: ChannelSel,
+    time: Option<u64>,
+) -> CResult<TiffStackReader> {
     let first = files
         .first()
         .ok_or_else(|| ConvertError::new(input, Error::invalid("no slices")))?
@@ -436,6 +454,35 @@ pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResul
         ));
     }
     d.seek_to_image(ifds[0]).map_err(tiff_err).at(&first)?;
+    // Hyperstacks and OME-TIFF: one 3D stack of many.
+    let mut chan = chan;
+    let mut axes_note = String::new();
+    let mut axes_spacing = None;
+    if files.len() == 1 && ifds.len() > 1 {
+        let desc = d
+            .find_tag(Tag::ImageDescription)
+            .ok()
+            .flatten()
+            .and_then(|v| v.into_string().ok());
+        if let Some(a) = desc.as_deref().and_then(super::axes::Axes::parse) {
+            let c = match chan {
+                ChannelSel::Channel(c) if a.c > 1 => Some(c as u64),
+                _ => None,
+            };
+            let pick = a
+                .pages(c, time, ifds.len())
+                .map_err(Error::invalid)
+                .at(&first)?;
+            ifds = pick.into_iter().map(|i| ifds[i]).collect();
+            if a.c > 1 {
+                // The channel is a page of its own, not a sample.
+                chan = ChannelSel::Single;
+            }
+            axes_spacing = a.spacing;
+            axes_note = format!(", {} {}", a.source, a.names);
+            d.seek_to_image(ifds[0]).map_err(tiff_err).at(&first)?;
+        }
+    }
     let page = page_info(&mut d).at(&first)?;
     let first_len = std::fs::metadata(&first).at(&first)?.len();
     let page_bytes = page.check_fits(first_len).at(&first)?;
@@ -450,7 +497,7 @@ pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResul
             )),
         ));
     }
-    let spacing = spacing_of(&mut d);
+    let spacing = axes_spacing.or_else(|| spacing_of(&mut d));
     let (z, pages, format, bytes_in) = if files.len() == 1 {
         let z = ifds.len() as u64;
         let len = std::fs::metadata(&first).at(&first)?.len();
@@ -458,7 +505,7 @@ pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResul
         let _ = File::open(&first).and_then(|mut f| f.read_exact(&mut head));
         let bigtiff = head[2..4] == [43, 0] || head[2..4] == [0, 43];
         let format = format!(
-            "{} ({} page{})",
+            "{} ({} page{}{axes_note})",
             if bigtiff { "bigtiff" } else { "tiff" },
             z,
             if z == 1 { "" } else { "s" }
@@ -497,6 +544,7 @@ pub fn open_files(input: &Path, files: Vec<PathBuf>, chan: ChannelSel) -> CResul
             dims,
             sample_type,
             spacing,
+            geometry: volcore::Geometry::IDENTITY,
             format,
         },
         page,
@@ -596,7 +644,7 @@ pub struct ImageJRaw {
     /// Dimensions: the first page's width and height, `images` slices.
     pub dims: Dims,
     /// Sample type.
-    pub sample_type: SampleType,
+    pub sample_type: SliceType,
     /// Byte offset of the first sample.
     pub offset: u64,
     /// The file's byte order.

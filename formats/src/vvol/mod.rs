@@ -3,23 +3,31 @@
 //! [`read`].
 
 mod read;
+mod slices;
 mod write;
 
-pub use read::{from_bytes, open, parallel_crc, read_header, read_stream, OpenOptions};
+pub use read::{
+    from_bytes, open, parallel_crc, read_header, read_header_from, read_stream, OpenOptions,
+};
+pub use slices::{vvol_stream, VolumeReader};
 pub use write::{write, VvolWriter, WriteStats};
 
 use crate::error::{Error, Result};
 use volcore::grid::BrickEntry;
-use volcore::{BrickGeometry, Compression, Dims, Layout, SampleType, ValueRange, VolumeMeta};
+use volcore::{
+    BrickGeometry, Compression, Dims, Geometry, Layout, SampleType, ValueRange, VolumeMeta,
+};
 
 /// First eight bytes of every `.vvol` file.
 pub const MAGIC: [u8; 8] = *b"\x89VVOL\r\n\x1a";
 /// First eight bytes of the trailer.
 pub const TRAILER_MAGIC: [u8; 8] = *b"VVOLEND\0";
-/// The format version this code writes and reads.
-pub const VERSION: u16 = 1;
-/// Size of the fixed header.
-pub const HEADER_LEN: u64 = 128;
+/// The format version this code writes (it reads 1 and 2).
+pub const VERSION: u16 = 2;
+/// Size of the fixed header this code writes (version 2).
+pub const HEADER_LEN: u64 = 256;
+/// Size of the version 1 header, and of the part every version shares.
+pub const BASE_HEADER_LEN: u64 = 128;
 /// Size of one brick table entry.
 pub const ENTRY_LEN: u64 = 24;
 /// Size of the trailer.
@@ -34,6 +42,8 @@ const FLAG_RANGE: u32 = 1;
 pub struct Header {
     /// Volume metadata (range may be empty when the writer streamed).
     pub meta: VolumeMeta,
+    /// Header length: 128 (version 1) or 256 (version 2, with geometry).
+    pub header_len: u64,
     /// Byte offset of the data section.
     pub data_offset: u64,
     /// Length of the data section in bytes.
@@ -60,6 +70,11 @@ fn align_up(v: u64) -> u64 {
 impl Header {
     /// The header a writer uses for `meta` (range as given, may be empty).
     pub fn for_meta(meta: VolumeMeta) -> Result<Header> {
+        Header::for_meta_len(meta, HEADER_LEN)
+    }
+
+    /// The header for `meta` with a header of `header_len` bytes.
+    fn for_meta_len(meta: VolumeMeta, header_len: u64) -> Result<Header> {
         let size = meta.sample_type.size() as u64;
         match meta.layout {
             Layout::Sliced => {
@@ -68,7 +83,8 @@ impl Header {
                 }
                 Ok(Header {
                     meta,
-                    data_offset: HEADER_LEN,
+                    header_len,
+                    data_offset: header_len,
                     data_len: meta.dims.checked_bytes(size)?,
                     brick_count: 0,
                     brick_stride: 0,
@@ -79,7 +95,7 @@ impl Header {
                 let table = n
                     .checked_mul(ENTRY_LEN)
                     .ok_or_else(|| Error::invalid("brick table size overflows"))?;
-                let data_offset = align_up(HEADER_LEN + table);
+                let data_offset = align_up(header_len + table);
                 let (stride, data_len) = match meta.compression {
                     Compression::None => {
                         let stride = align_up(g.stored_len() as u64 * size);
@@ -89,6 +105,7 @@ impl Header {
                 };
                 Ok(Header {
                     meta,
+                    header_len,
                     data_offset,
                     data_len,
                     brick_count: n,
@@ -105,7 +122,7 @@ impl Header {
             .checked_add(TRAILER_LEN)
     }
 
-    /// Encode as the 128-byte header.
+    /// Encode as the 256-byte version 2 header.
     pub fn encode(&self) -> [u8; HEADER_LEN as usize] {
         let m = &self.meta;
         let mut b = [0u8; HEADER_LEN as usize];
@@ -139,37 +156,71 @@ impl Header {
         b[104..112].copy_from_slice(&self.brick_stride.to_le_bytes());
         let crc = crc32fast::hash(&b[..124]);
         b[124..128].copy_from_slice(&crc.to_le_bytes());
+        let g = &m.geometry;
+        for (a, v) in g.origin.iter().enumerate() {
+            b[128 + 8 * a..136 + 8 * a].copy_from_slice(&v.to_le_bytes());
+        }
+        for (i, v) in g.direction.iter().flatten().enumerate() {
+            b[152 + 8 * i..160 + 8 * i].copy_from_slice(&v.to_le_bytes());
+        }
+        let crc = crc32fast::hash(&b[128..252]);
+        b[252..256].copy_from_slice(&crc.to_le_bytes());
         b
     }
 
-    /// Decode and validate a 128-byte header (not yet against a file length).
-    pub fn decode(b: &[u8]) -> Result<Header> {
-        if b.len() < HEADER_LEN as usize {
+    /// The length of the header that starts with `b` (at least 16 bytes):
+    /// 128 for version 1, 256 for version 2.
+    pub fn length_of(b: &[u8]) -> Result<u64> {
+        if b.len() < 16 {
             return Err(Error::invalid(
-                "file is truncated (shorter than the 128-byte header)",
+                "file is truncated (shorter than the .vvol header)",
             ));
         }
         if b[0..8] != MAGIC {
             return Err(Error::invalid("not a .vvol file (bad magic)"));
         }
-        let u16_at = |o: usize| u16::from_le_bytes([b[o], b[o + 1]]);
+        let version = u16::from_le_bytes([b[8], b[9]]);
+        let len = u16::from_le_bytes([b[10], b[11]]) as u64;
+        match (version, len) {
+            (1, BASE_HEADER_LEN) | (2, HEADER_LEN) => Ok(len),
+            (1 | 2, other) => Err(Error::invalid(format!(
+                "header size field {other} is wrong for .vvol version {version}"
+            ))),
+            (v, _) => Err(Error::invalid(format!(
+                "unsupported .vvol version {v} (this build reads 1 and {VERSION})"
+            ))),
+        }
+    }
+
+    /// Decode and validate a header of either version (not yet against a
+    /// file length); `b` holds at least [`Header::length_of`] bytes.
+    pub fn decode(b: &[u8]) -> Result<Header> {
+        let header_len = Header::length_of(b)?;
+        if (b.len() as u64) < header_len {
+            return Err(Error::invalid(format!(
+                "file is truncated (shorter than the {header_len}-byte header)"
+            )));
+        }
         let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().unwrap_or_default());
         let u64_at = |o: usize| u64::from_le_bytes(b[o..o + 8].try_into().unwrap_or_default());
         let f32_at = |o: usize| f32::from_bits(u32_at(o));
         let f64_at = |o: usize| f64::from_bits(u64_at(o));
-        let version = u16_at(8);
-        if version != VERSION {
-            return Err(Error::invalid(format!(
-                "unsupported .vvol version {version} (this build reads {VERSION})"
-            )));
-        }
-        if u16_at(10) as u64 != HEADER_LEN {
-            return Err(Error::invalid("header size field is not 128"));
-        }
         let crc = crc32fast::hash(&b[..124]);
         if crc != u32_at(124) {
             return Err(Error::Checksum("header is damaged".into()));
         }
+        let geometry = if header_len == HEADER_LEN {
+            if crc32fast::hash(&b[128..252]) != u32_at(252) {
+                return Err(Error::Checksum("header geometry is damaged".into()));
+            }
+            let origin = [0, 1, 2].map(|a| f64_at(128 + 8 * a));
+            let d = |i: usize| f64_at(152 + 8 * i);
+            let axes = [0, 1, 2].map(|a| [d(a), d(3 + a), d(6 + a)]);
+            Geometry::from_axes(origin, axes)
+                .map_err(|e| Error::invalid(format!("geometry: {e}")))?
+        } else {
+            Geometry::IDENTITY
+        };
         let dims = Dims::new(u64_at(16), u64_at(24), u64_at(32))?;
         let spacing = [f32_at(40), f32_at(44), f32_at(48)];
         if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
@@ -215,16 +266,18 @@ impl Header {
             range,
             layout,
             compression,
+            geometry,
         };
         let h = Header {
             meta,
+            header_len,
             data_offset: u64_at(80),
             data_len: u64_at(88),
             brick_count: u64_at(96),
             brick_stride: u64_at(104),
         };
         // The layout fixes everything but the compressed data length.
-        let expect = Header::for_meta(meta)?;
+        let expect = Header::for_meta_len(meta, header_len)?;
         let consistent = h.data_offset == expect.data_offset
             && h.brick_count == expect.brick_count
             && h.brick_stride == expect.brick_stride

@@ -1,6 +1,6 @@
 //! Opening `.vvol` files and streams.
 
-use super::{decode_table, Header, Trailer, ENTRY_LEN, HEADER_LEN, TRAILER_LEN};
+use super::{decode_table, Header, Trailer, BASE_HEADER_LEN, ENTRY_LEN, HEADER_LEN, TRAILER_LEN};
 use crate::error::{truncated, Error, Result};
 use memmap2::Mmap;
 use rayon::prelude::*;
@@ -16,7 +16,7 @@ use volcore::{
 };
 
 /// How to open a `.vvol` file.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OpenOptions {
     /// Check every checksum before returning (reads the whole file).
     pub verify: bool,
@@ -39,13 +39,23 @@ impl Default for OpenOptions {
     }
 }
 
+/// Read and decode a header of either version from the start of `r`.
+pub fn read_header_from(r: &mut dyn Read) -> Result<Header> {
+    let mut b = [0u8; HEADER_LEN as usize];
+    let base = BASE_HEADER_LEN as usize;
+    r.read_exact(&mut b[..base])
+        .map_err(truncated(".vvol header"))?;
+    let len = Header::length_of(&b)? as usize;
+    r.read_exact(&mut b[base..len])
+        .map_err(truncated(".vvol header"))?;
+    Header::decode(&b[..len])
+}
+
 /// Header and trailer of a file, checked against its length.
 pub fn read_header(path: &Path) -> Result<(Header, Trailer)> {
     let mut f = File::open(path)?;
     let len = f.metadata()?.len();
-    let mut b = [0u8; HEADER_LEN as usize];
-    f.read_exact(&mut b).map_err(truncated("128-byte header"))?;
-    let h = Header::decode(&b)?;
+    let h = read_header_from(&mut f)?;
     check_len(&h, len)?;
     f.seek(SeekFrom::Start(h.data_offset + h.data_len))?;
     let mut t = [0u8; TRAILER_LEN as usize];
@@ -86,8 +96,8 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
     let table = match meta.layout {
         Layout::Sliced => Vec::new(),
         Layout::Bricked(_) => {
-            let end = (HEADER_LEN + h.brick_count * ENTRY_LEN) as usize;
-            let raw = &source.map[HEADER_LEN as usize..end];
+            let end = (h.header_len + h.brick_count * ENTRY_LEN) as usize;
+            let raw = &source.map[h.header_len as usize..end];
             if opts.verify && crc32fast::hash(raw) != t.crc32 {
                 return Err(Error::Checksum("brick table is damaged".into()));
             }
@@ -247,9 +257,7 @@ pub fn parallel_crc(bytes: &[u8]) -> u32 {
 /// memory, checking its trailer checksum. Memory grows with the data that
 /// actually arrives, never with what a header claims.
 pub fn read_stream(r: &mut dyn Read) -> Result<Volume> {
-    let mut b = [0u8; HEADER_LEN as usize];
-    r.read_exact(&mut b).map_err(truncated("128-byte header"))?;
-    let h = Header::decode(&b)?;
+    let h = read_header_from(r)?;
     if h.meta.layout != Layout::Sliced {
         return Err(Error::invalid(
             "only sliced uncompressed .vvol data can be read from a stream",

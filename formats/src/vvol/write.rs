@@ -109,7 +109,7 @@ impl<'a> VvolWriter<'a> {
         let out = sink_writer(&mut sink);
         out.write_all(&header.encode())?;
         if let State::Bricked { .. } = state {
-            write_zeros(out, header.data_offset - HEADER_LEN)?;
+            write_zeros(out, header.data_offset - header.header_len)?;
         }
         Ok(VvolWriter {
             sink,

@@ -1,16 +1,19 @@
-//! Transfer functions: value → colour and opacity.
+//! Transfer functions as users describe them: value (and gradient
+//! magnitude) → colour and opacity.
 //!
 //! A [`TransferFunction`] is a list of piecewise-constant ranges (checked
 //! first, the first match wins) over a piecewise-linear function through
-//! control points. Colours are sRGB components in `[0, 1]` (converted to
-//! linear light for compositing); opacity is per unit of world length at
-//! the reference step `s0`, so a step `Δs` sees `1 − (1 − α)^(Δs/s0)`.
-//! Text format in [`parse`]; per-frame lookup tables in [`table`].
+//! control points. A [`TransferFunction2d`] adds rectangles and Gaussian
+//! blobs in (value, gradient magnitude). Colours are sRGB components in
+//! `[0, 1]` (converted to linear light for compositing); opacity is per
+//! unit of world length at the reference step `s0`, so a step `Δs` sees
+//! `1 − (1 − α)^(Δs/s0)`. Text format in [`parse`]; the per-frame lookup
+//! tables built from them are in [`crate::classify`].
 
 pub mod parse;
-pub mod table;
+pub mod tf2d;
 
-pub use table::TfTable;
+pub use tf2d::{Tf, TfBlob, TfRect, TransferFunction2d};
 
 /// A colour and opacity at one value.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,8 +52,9 @@ pub struct TransferFunction {
     pub reference_step: f32,
 }
 
-/// Names of the built-in presets.
-pub const PRESETS: [&str; 3] = ["grey", "ct", "shapes"];
+/// Names of the built-in presets (`boundary` is two-dimensional; see
+/// [`Tf::preset`]).
+pub const PRESETS: [&str; 4] = ["grey", "ct", "shapes", "boundary"];
 
 impl TransferFunction {
     /// Colour and opacity at `v` (transparent black where nothing applies,

@@ -130,11 +130,15 @@ impl Scene for RampScene {
 /// A single sphere at the volume's centre with a linear radial profile:
 /// `value · max(0, 1 − r / radius)`. Its maximum is `value` at the centre
 /// and the iso-surface of level `c` is the sphere of radius
-/// `radius · (1 − c / value)`.
+/// `radius · (1 − c / value)`. With an edge width `w`
+/// ([`SphereScene::with_edge`]) it is solid instead: `value` inside
+/// `radius − w/2`, 0 outside `radius + w/2`, linear between, so the
+/// gradient is `value / w` per voxel in that shell and 0 elsewhere.
 pub struct SphereScene {
     dims: Dims,
     radius: f32,
     value: f32,
+    edge: Option<f32>,
 }
 
 impl SphereScene {
@@ -144,6 +148,20 @@ impl SphereScene {
             dims,
             radius: radius.max(f32::MIN_POSITIVE),
             value,
+            edge: None,
+        }
+    }
+
+    /// A solid sphere of radius `radius` whose surface is a linear ramp
+    /// `edge` voxels wide (clamped to a small positive width).
+    pub fn with_edge(dims: Dims, radius: f32, value: f32, edge: f32) -> Self {
+        SphereScene {
+            edge: Some(if edge.is_finite() {
+                edge.max(1e-3)
+            } else {
+                1e-3
+            }),
+            ..SphereScene::new(dims, radius, value)
         }
     }
 
@@ -165,7 +183,14 @@ impl Scene for SphereScene {
         for (i, o) in out.iter_mut().enumerate() {
             let dx = (x0 + i as u64) as f64 - c[0];
             let dist = (dx * dx + dy * dy + dz * dz).sqrt();
-            *o = (self.value as f64 * (1.0 - dist / r).max(0.0)) as f32;
+            let f = match self.edge {
+                None => (1.0 - dist / r).max(0.0),
+                Some(w) => {
+                    let w = w as f64;
+                    ((r + 0.5 * w - dist) / w).clamp(0.0, 1.0)
+                }
+            };
+            *o = (self.value as f64 * f) as f32;
         }
         true
     }

@@ -1,45 +1,86 @@
-//! Per-frame lookup tables with opacity corrected for the step.
+//! The 1D lookup table: a transfer function sampled per value bin, with
+//! opacity corrected for the step.
 
-use super::TransferFunction;
+use super::entry;
+use super::{Classifier, GradientBound};
+use crate::error::RenderError;
+use crate::tf::TransferFunction;
+use volindex::{MajorantIndex, RangeMaxTable};
+
+/// Equal bins over a domain `[lo, hi]`, and the bin of a value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bins {
+    lo: f32,
+    scale: f32,
+    width: f32,
+    /// The last bin's index, as f32 (exact: at most [`MAX_BINS`] bins).
+    top: f32,
+    count: usize,
+}
+
+impl Bins {
+    /// `count` bins (1 ..= [`MAX_BINS`], clamped) over `[lo, hi]`.
+    pub fn new(lo: f32, hi: f32, count: usize) -> Bins {
+        let count = count.clamp(1, MAX_BINS);
+        let width = ((hi - lo) / count as f32).max(f32::MIN_POSITIVE);
+        Bins {
+            lo,
+            scale: 1.0 / width,
+            width,
+            top: (count - 1) as f32,
+            count,
+        }
+    }
+
+    /// Number of bins.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+
+    /// The value at the centre of bin `i`.
+    pub fn centre(&self, i: usize) -> f32 {
+        self.lo + (i as f32 + 0.5) * self.width
+    }
+
+    /// The domain the bins cover.
+    pub fn domain(&self) -> (f32, f32) {
+        (self.lo, self.lo + self.count as f32 / self.scale)
+    }
+
+    /// The bin of value `v` (values outside the domain clamp to the end
+    /// bins; NaN to the first).
+    #[inline(always)]
+    pub fn bin(&self, v: f32) -> usize {
+        let i = (v - self.lo) * self.scale;
+        // Clamp in floats (negative or NaN → 0, huge → the last bin), then
+        // a plain truncation: cheaper than a saturating cast and an integer
+        // clamp.
+        let top = self.top;
+        let i = if i > 0.0 {
+            if i < top {
+                i
+            } else {
+                top
+            }
+        } else {
+            0.0
+        };
+        volcore::grid::trunc_in_range(i) as usize
+    }
+}
 
 /// A transfer function sampled into bins over a value domain, with each
 /// bin's opacity already corrected for the frame's step, so the inner loop
 /// does one lookup and no `powf`. Colours are linear light.
 #[derive(Clone, Debug)]
 pub struct TfTable {
-    lo: f32,
-    scale: f32,
+    bins: Bins,
     /// `[r, g, b, alpha]` per bin.
     entries: Vec<[f32; 4]>,
-    /// The last bin's index, as f32 (exact: at most [`MAX_BINS`] bins).
-    top: f32,
 }
 
 /// Most bins a table has: far below 2^24, so bin indices are exact in f32.
 pub const MAX_BINS: usize = 1 << 20;
-
-/// Step-corrected opacity `1 − (1 − α)^ratio`, computed as
-/// `−expm1(ratio · ln(1 − α))`, which stays accurate for small α and
-/// small ratios; exact at α = 0 (gives 0) and α = 1 (gives 1).
-pub fn correct_opacity(alpha: f32, ratio: f64) -> f32 {
-    if alpha <= 0.0 || alpha.is_nan() {
-        return 0.0;
-    }
-    if alpha >= 1.0 {
-        return 1.0;
-    }
-    let a = -((ratio * (-(alpha as f64)).ln_1p()).exp_m1());
-    a.clamp(0.0, 1.0) as f32
-}
-
-/// sRGB transfer curve to linear light.
-pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
 
 impl TfTable {
     /// Bins for a domain: four per unit of value when that gives at most
@@ -56,23 +97,15 @@ impl TfTable {
     /// Sample `tf` at the centres of `bins` bins (1 ..= [`MAX_BINS`]) over
     /// `[lo, hi]` and correct opacities for a step of `step` world units.
     pub fn new(tf: &TransferFunction, lo: f32, hi: f32, bins: usize, step: f32) -> TfTable {
-        let bins = bins.clamp(1, MAX_BINS);
-        let width = ((hi - lo) / bins as f32).max(f32::MIN_POSITIVE);
+        let bins = Bins::new(lo, hi, bins);
         let ratio = step as f64 / tf.reference_step as f64;
-        let entries: Vec<[f32; 4]> = (0..bins)
+        let entries: Vec<[f32; 4]> = (0..bins.count())
             .map(|i| {
-                let v = lo + (i as f32 + 0.5) * width;
-                let (rgb, alpha) = tf.eval(v);
-                let lin = rgb.map(srgb_to_linear);
-                [lin[0], lin[1], lin[2], correct_opacity(alpha, ratio)]
+                let (rgb, alpha) = tf.eval(bins.centre(i));
+                entry(rgb, alpha, ratio)
             })
             .collect();
-        TfTable {
-            lo,
-            scale: 1.0 / width,
-            top: (entries.len() - 1) as f32,
-            entries,
-        }
+        TfTable { bins, entries }
     }
 
     /// Number of bins.
@@ -82,27 +115,14 @@ impl TfTable {
 
     /// The value domain.
     pub fn domain(&self) -> (f32, f32) {
-        (self.lo, self.lo + self.entries.len() as f32 / self.scale)
+        self.bins.domain()
     }
 
     /// The bin of value `v` (values outside the domain clamp to the end
     /// bins). NaN must be handled by the caller.
     #[inline(always)]
     pub fn bin(&self, v: f32) -> usize {
-        let i = (v - self.lo) * self.scale;
-        // Clamp in floats (negative → 0, huge → the last bin), then a plain
-        // truncation: cheaper than a saturating cast and an integer clamp.
-        let top = self.top;
-        let i = if i > 0.0 {
-            if i < top {
-                i
-            } else {
-                top
-            }
-        } else {
-            0.0
-        };
-        volcore::grid::trunc_in_range(i) as usize
+        self.bins.bin(v)
     }
 
     /// `[r, g, b, alpha]` for value `v`; NaN is transparent.
@@ -111,18 +131,49 @@ impl TfTable {
         if v.is_nan() {
             return [0.0; 4];
         }
-        self.entries[self.bin(v)]
+        self.entries[self.bins.bin(v)]
     }
 
     /// Corrected opacity per bin, for building skipping tables.
     pub fn alphas(&self) -> Vec<f32> {
         self.entries.iter().map(|e| e[3]).collect()
     }
+
+    /// The largest corrected opacity per value range, as a range-maximum
+    /// table over the bins.
+    pub fn opacity_bounds(&self) -> Result<RangeMaxTable, RenderError> {
+        let (lo, hi) = self.domain();
+        RangeMaxTable::from_bin_maxima(lo, hi, self.alphas())
+            .map_err(|e| RenderError::Index(e.to_string()))
+    }
+}
+
+impl Classifier for TfTable {
+    const NEEDS_GRADIENT: bool = false;
+
+    #[inline(always)]
+    fn classify(&self, v: f32, _gradient: f32) -> [f32; 4] {
+        self.lookup(v)
+    }
+
+    fn transparent_cells(
+        &self,
+        index: &MajorantIndex,
+        _: &GradientBound,
+    ) -> Result<Vec<Vec<bool>>, RenderError> {
+        let bounds = self.opacity_bounds()?;
+        Ok(index
+            .levels()
+            .iter()
+            .map(|l| l.majorants(&bounds).iter().map(|&m| m <= 0.0).collect())
+            .collect())
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::classify::correct_opacity;
 
     #[test]
     fn opacity_correction_is_stable_at_the_edges() {

@@ -1,4 +1,5 @@
-//! Error heat maps with a colour scale, and an 8-bit PNG writer.
+//! Heat maps with a colour scale (errors for vol-psnr, samples per pixel
+//! for vol-render).
 //!
 //! [`render_heatmap`] maps values from 0 to their largest finite value
 //! through a perceptual colour map (viridis: dark purple for 0, yellow for
@@ -6,11 +7,9 @@
 //! labelled with the scale's range in a tiny built-in 3×5 pixel font (drawn
 //! at twice that size). No font files, no text-rendering dependency.
 
+use super::png::write_png8;
 use crate::error::{Error, Result};
-use image::ImageEncoder;
-use std::io::{BufWriter, Write};
 use std::path::Path;
-use volformats::output::AtomicFile;
 
 /// Viridis at t = 0, 1/8, 2/8, …, 1; colours in between are interpolated
 /// linearly.
@@ -218,63 +217,6 @@ pub fn write_heatmap(path: &Path, values: &[f32], width: u32, height: u32) -> Re
     let map = render_heatmap(values, width, height)?;
     write_png8(path, map.width, map.height, 3, &map.rgb)?;
     Ok(map)
-}
-
-/// Encode an 8-bit PNG to `out`: `channels` is 1 (grey), 2 (grey-alpha),
-/// 3 (RGB) or 4 (RGBA); `data` holds `width × height × channels` bytes,
-/// interleaved, rows from the top down.
-pub fn encode_png8(
-    out: impl Write,
-    width: u32,
-    height: u32,
-    channels: usize,
-    data: &[u8],
-) -> Result<()> {
-    use image::ExtendedColorType as C;
-    let color = match channels {
-        1 => C::L8,
-        2 => C::La8,
-        3 => C::Rgb8,
-        4 => C::Rgba8,
-        _ => {
-            return Err(Error::invalid(format!(
-                "an 8-bit PNG has 1 to 4 channels, not {channels}"
-            )))
-        }
-    };
-    let want = (width as u64) * (height as u64) * channels as u64;
-    if width == 0 || height == 0 || want != data.len() as u64 {
-        return Err(Error::invalid(format!(
-            "{} bytes do not make a {width}x{height} image with {channels} channel(s)",
-            data.len()
-        )));
-    }
-    image::codecs::png::PngEncoder::new(out)
-        .write_image(data, width, height, color)
-        .map_err(|e| match e {
-            image::ImageError::IoError(io) => Error::Io(io),
-            other => Error::invalid(other),
-        })
-}
-
-/// Write an 8-bit PNG at `path` (see [`encode_png8`] for the arguments).
-/// The file appears only when complete: it is written under a temporary
-/// name and renamed into place.
-pub fn write_png8(
-    path: &Path,
-    width: u32,
-    height: u32,
-    channels: usize,
-    data: &[u8],
-) -> Result<()> {
-    let mut file = AtomicFile::create(path)?;
-    {
-        let mut w = BufWriter::new(file.file());
-        encode_png8(&mut w, width, height, channels, data)?;
-        w.flush()?;
-    }
-    file.commit()?;
-    Ok(())
 }
 
 #[cfg(test)]

@@ -1,0 +1,147 @@
+//! The samples a header describes (NRRD, MetaImage, NIfTI): in the header's
+//! own file or a detached one, at an offset or at the end, raw or
+//! compressed; opened as a random-access or a streaming slice reader.
+
+use crate::convert::input::SliceReader;
+use crate::convert::{At, CResult, ConvertError, SliceType};
+use crate::error::Error;
+use crate::raw::RawFileReader;
+use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use volcore::{Dims, Geometry};
+
+/// How the samples after a header are encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Encoding {
+    /// Plain samples.
+    Raw,
+    /// A gzip stream (NRRD `encoding: gzip`).
+    Gzip,
+    /// A zlib stream (MetaImage `CompressedData = True`).
+    Zlib,
+}
+
+/// Where the samples a header describes start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DataStart {
+    /// At this byte offset of the data file.
+    At(u64),
+    /// At the end of the data file: the last `size` bytes (raw only).
+    AtEnd,
+}
+
+/// What a NRRD, MetaImage or NIfTI header says about its samples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DataSpec {
+    /// Voxels per axis.
+    pub dims: Dims,
+    /// Sample type.
+    pub sample_type: SliceType,
+    /// Byte order of the samples.
+    pub big_endian: bool,
+    /// Voxel spacing, when given.
+    pub spacing: Option<[f32; 3]>,
+    /// Origin and axis directions (LPS).
+    pub geometry: Geometry,
+    /// A linear map from stored to real values (NIfTI `scl_slope`,
+    /// `scl_inter`), applied as the slices are read.
+    pub rescale: Option<crate::convert::rescale::Rescale>,
+    /// The file holding the samples.
+    pub data_file: PathBuf,
+    /// Where in it the (possibly compressed) data starts.
+    pub start: DataStart,
+    /// Raw or compressed.
+    pub encoding: Encoding,
+    /// Decompressed bytes to skip before the samples (NRRD `byte skip`
+    /// with compressed encodings).
+    pub skip_after_decode: u64,
+    /// Format name for reports.
+    pub format: String,
+}
+
+/// A reader for the samples a header describes; `input` is the header's
+/// path (named in errors about the header, while errors about the data
+/// name the data file).
+pub fn open_data(input: &Path, spec: &DataSpec) -> CResult<Box<dyn SliceReader>> {
+    let r = open_stored(input, spec)?;
+    Ok(match spec.rescale {
+        Some(m) if !m.is_identity() => Box::new(crate::convert::rescale::Rescaled::new(r, m)),
+        _ => r,
+    })
+}
+
+fn open_stored(input: &Path, spec: &DataSpec) -> CResult<Box<dyn SliceReader>> {
+    let path = &spec.data_file;
+    let size = spec
+        .dims
+        .checked_bytes(spec.sample_type.size() as u64)
+        .at(input)?;
+    match spec.encoding {
+        Encoding::Raw => {
+            let (offset, exact) = match spec.start {
+                DataStart::At(o) => (o, false),
+                DataStart::AtEnd => {
+                    let len = std::fs::metadata(path).at(path)?.len();
+                    let o = len.checked_sub(size).ok_or_else(|| {
+                        ConvertError::new(
+                            path,
+                            Error::invalid(format!(
+                                "{} {} needs {size} bytes but the file has {len}",
+                                spec.dims, spec.sample_type
+                            )),
+                        )
+                    })?;
+                    (o, true)
+                }
+            };
+            let r = RawFileReader::open(
+                path,
+                spec.dims,
+                spec.sample_type,
+                spec.big_endian,
+                offset,
+                exact,
+                &spec.format,
+            )?
+            .with_geometry(spec.spacing, spec.geometry)
+            .named(input);
+            Ok(Box::new(r))
+        }
+        Encoding::Gzip | Encoding::Zlib => {
+            let offset = match spec.start {
+                DataStart::At(o) => o,
+                DataStart::AtEnd => {
+                    return Err(ConvertError::new(
+                        input,
+                        Error::invalid("compressed data cannot be located from the file's end"),
+                    ))
+                }
+            };
+            let mut f = std::fs::File::open(path).at(path)?;
+            use std::io::Seek;
+            f.seek(std::io::SeekFrom::Start(offset)).at(path)?;
+            let counted = Counted::new(std::io::BufReader::with_capacity(1 << 20, f));
+            let counter = counted.counter();
+            let mut dec: Box<dyn Read + Send> = match spec.encoding {
+                Encoding::Gzip => Box::new(flate2::read::MultiGzDecoder::new(counted)),
+                _ => Box::new(flate2::read::ZlibDecoder::new(counted)),
+            };
+            skip_bytes(&mut dec, spec.skip_after_decode).at(path)?;
+            let r = StreamReader::new(
+                path,
+                dec,
+                counter,
+                SampleLayout {
+                    dims: spec.dims,
+                    sample_type: spec.sample_type,
+                    big_endian: spec.big_endian,
+                },
+                StreamEnd::Ignore,
+                &spec.format,
+            )
+            .with_geometry(spec.spacing, spec.geometry);
+            Ok(Box::new(r))
+        }
+    }
+}

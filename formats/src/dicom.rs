@@ -1,0 +1,612 @@
+//! DICOM series (a directory of files, a glob or a list file) read as one
+//! volume, through dicom-rs (`dicom-object` for the data sets,
+//! `dicom-pixeldata` for the pixel data and its codecs: native, RLE,
+//! JPEG, deflate).
+//!
+//! - Files are grouped by SeriesInstanceUID; with several series `--series
+//!   UID` picks one, and without it the error lists them.
+//! - Slices are sorted by ImagePositionPatient projected on the slice
+//!   normal (the cross product of the ImageOrientationPatient rows), not by
+//!   file name or InstanceNumber.
+//! - Spacing: PixelSpacing (rows, then columns) for y and x; z from the
+//!   measured positions. Gaps that differ from the median by more than 1%
+//!   (or 0.01 mm) are refused: a whole multiple of the spacing is reported
+//!   as missing slices, anything else as uneven spacing. Positions that do
+//!   not follow the normal (gantry tilt), mixed sizes or orientations, and
+//!   two slices at one position are refused too.
+//! - RescaleSlope/RescaleIntercept are applied per slice: CT pixels become
+//!   Hounsfield units (integers, so `i16` when they fit, else `f32`).
+//! - Geometry: origin at the first slice's ImagePositionPatient, axes
+//!   along the row, column and normal directions (DICOM is LPS, like volkit).
+
+use crate::convert::input::{Access, InputInfo, SliceReader};
+use crate::convert::rescale::Rescale;
+use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
+use crate::error::Error;
+use dicom_dictionary_std::tags;
+use dicom_object::{DefaultDicomObject, OpenFileOptions};
+use dicom_pixeldata::PixelDecoder;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use volcore::{Dims, Geometry};
+
+/// Relative tolerance of slice gaps (and at least this many mm).
+const GAP_TOLERANCE: f64 = 0.01;
+const GAP_TOLERANCE_MM: f64 = 0.01;
+
+/// Whether bytes start like a DICOM Part 10 file (`DICM` after the
+/// 128-byte preamble).
+pub fn sniff(b: &[u8]) -> bool {
+    b.len() >= 132 && &b[128..132] == b"DICM"
+}
+
+/// Whether the file at `path` is a DICOM Part 10 file.
+pub fn is_dicom_file(path: &Path) -> bool {
+    use std::io::Read;
+    let mut b = [0u8; 132];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut b))
+        .map(|_| sniff(&b))
+        .unwrap_or(false)
+}
+
+/// What one file of a series says about its slice.
+#[derive(Clone, Debug)]
+struct SliceHeader {
+    path: PathBuf,
+    series: String,
+    modality: String,
+    rows: u16,
+    cols: u16,
+    position: [f64; 3],
+    orientation: [f64; 6],
+    pixel_spacing: [f64; 2],
+    rescale: Rescale,
+    bits_allocated: u16,
+    bits_stored: u16,
+    signed: bool,
+    frames: u32,
+}
+
+fn text(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<String> {
+    obj.element_opt(tag)
+        .ok()
+        .flatten()
+        .and_then(|e| e.to_str().ok())
+        .map(|s| s.trim().trim_end_matches('\0').to_string())
+}
+
+fn floats(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<Vec<f64>> {
+    obj.element_opt(tag)
+        .ok()
+        .flatten()
+        .and_then(|e| e.to_multi_float64().ok())
+}
+
+fn int(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<i64> {
+    obj.element_opt(tag)
+        .ok()
+        .flatten()
+        .and_then(|e| e.to_int::<i64>().ok())
+}
+
+fn bad(path: &Path, msg: impl Into<String>) -> ConvertError {
+    ConvertError::new(path, Error::invalid(msg.into()))
+}
+
+/// Read the data set of one file up to (not including) its pixel data.
+fn read_header(path: &Path) -> CResult<SliceHeader> {
+    let obj = OpenFileOptions::new()
+        .read_until(tags::PIXEL_DATA)
+        .open_file(path)
+        .map_err(|e| bad(path, format!("not a readable DICOM file: {e}")))?;
+    let need = |tag, name: &str| -> CResult<Vec<f64>> {
+        floats(&obj, tag).ok_or_else(|| bad(path, format!("DICOM image without {name}")))
+    };
+    let series = text(&obj, tags::SERIES_INSTANCE_UID)
+        .ok_or_else(|| bad(path, "DICOM file without SeriesInstanceUID"))?;
+    let rows = int(&obj, tags::ROWS).unwrap_or(0);
+    let cols = int(&obj, tags::COLUMNS).unwrap_or(0);
+    if !(1..=65535).contains(&rows) || !(1..=65535).contains(&cols) {
+        return Err(bad(path, "DICOM image without Rows and Columns"));
+    }
+    let p = need(tags::IMAGE_POSITION_PATIENT, "ImagePositionPatient")?;
+    let o = need(tags::IMAGE_ORIENTATION_PATIENT, "ImageOrientationPatient")?;
+    let s = floats(&obj, tags::PIXEL_SPACING).unwrap_or_else(|| vec![1.0, 1.0]);
+    if p.len() != 3 || o.len() != 6 || s.len() != 2 {
+        return Err(bad(
+            path,
+            "DICOM ImagePositionPatient, ImageOrientationPatient or PixelSpacing has the wrong number of values",
+        ));
+    }
+    if p.iter().chain(&o).chain(&s).any(|v| !v.is_finite()) || s.iter().any(|v| *v <= 0.0) {
+        return Err(bad(
+            path,
+            "DICOM position, orientation or spacing is not finite and positive",
+        ));
+    }
+    let spp = int(&obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1);
+    if spp != 1 {
+        return Err(bad(
+            path,
+            format!("DICOM image with {spp} samples per pixel (colour): volkit reads grey images"),
+        ));
+    }
+    let bits_allocated = int(&obj, tags::BITS_ALLOCATED).unwrap_or(16) as u16;
+    if !matches!(bits_allocated, 8 | 16 | 32) {
+        return Err(bad(
+            path,
+            format!("DICOM BitsAllocated {bits_allocated} is not supported (8, 16 or 32)"),
+        ));
+    }
+    let bits_stored = (int(&obj, tags::BITS_STORED).unwrap_or(bits_allocated as i64) as u16)
+        .clamp(1, bits_allocated);
+    let slope = floats(&obj, tags::RESCALE_SLOPE)
+        .and_then(|v| v.first().copied())
+        .unwrap_or(1.0);
+    let intercept = floats(&obj, tags::RESCALE_INTERCEPT)
+        .and_then(|v| v.first().copied())
+        .unwrap_or(0.0);
+    if !(slope.is_finite() && intercept.is_finite()) || slope == 0.0 {
+        return Err(bad(
+            path,
+            "DICOM RescaleSlope or RescaleIntercept is not usable",
+        ));
+    }
+    let ts = obj
+        .meta()
+        .transfer_syntax()
+        .trim_end_matches('\0')
+        .to_string();
+    check_transfer_syntax(path, &ts)?;
+    Ok(SliceHeader {
+        path: path.to_path_buf(),
+        series,
+        modality: text(&obj, tags::MODALITY).unwrap_or_default(),
+        rows: rows as u16,
+        cols: cols as u16,
+        position: [p[0], p[1], p[2]],
+        orientation: [o[0], o[1], o[2], o[3], o[4], o[5]],
+        pixel_spacing: [s[0], s[1]],
+        rescale: Rescale { slope, intercept },
+        bits_allocated,
+        bits_stored,
+        signed: int(&obj, tags::PIXEL_REPRESENTATION) == Some(1),
+        frames: int(&obj, tags::NUMBER_OF_FRAMES).unwrap_or(1).max(1) as u32,
+    })
+}
+
+/// Fail clearly on a transfer syntax this build cannot decode.
+fn check_transfer_syntax(path: &Path, uid: &str) -> CResult<()> {
+    use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
+    match TransferSyntaxRegistry.get(uid) {
+        Some(ts) if ts.can_decode_all() => Ok(()),
+        Some(ts) => Err(bad(
+            path,
+            format!(
+                "DICOM transfer syntax {} ({uid}) cannot be decoded by volkit: convert the series to an uncompressed, RLE or JPEG transfer syntax first (e.g. with dcmdjpeg or gdcmconv --raw)",
+                ts.name()
+            ),
+        )),
+        None => Err(bad(path, format!("unknown DICOM transfer syntax {uid}"))),
+    }
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// The files of a DICOM input: a directory (every regular, non-hidden
+/// file that is DICOM), a glob or a list file.
+pub fn list_files(input: &Path, files: Option<Vec<PathBuf>>) -> CResult<Vec<PathBuf>> {
+    let files = match files {
+        Some(f) => f,
+        None => {
+            let mut v = Vec::new();
+            for e in std::fs::read_dir(input).at(input)? {
+                let e = e.at(input)?;
+                let hidden = e.file_name().to_string_lossy().starts_with('.');
+                if !hidden && e.path().is_file() && is_dicom_file(&e.path()) {
+                    v.push(e.path());
+                }
+            }
+            v
+        }
+    };
+    if files.is_empty() {
+        return Err(bad(input, "holds no DICOM files"));
+    }
+    Ok(files)
+}
+
+/// A DICOM series, read slice by slice (any slice from any thread).
+pub struct DicomReader {
+    info: InputInfo,
+    slices: Vec<SliceHeader>,
+    bytes: u64,
+}
+
+/// Open the series in `files` (from `input`), the one with UID `series`
+/// when there are several.
+pub fn open(input: &Path, files: Vec<PathBuf>, series: Option<&str>) -> CResult<DicomReader> {
+    use rayon::prelude::*;
+    let headers: Vec<SliceHeader> = files
+        .par_iter()
+        .map(|f| read_header(f))
+        .collect::<CResult<_>>()?;
+    let mut by_series: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
+    for h in headers {
+        by_series.entry(h.series.clone()).or_default().push(h);
+    }
+    let describe = |m: &BTreeMap<String, Vec<SliceHeader>>| {
+        m.iter()
+            .map(|(uid, v)| {
+                format!(
+                    "{uid} ({}{} images of {}x{})",
+                    if v[0].modality.is_empty() {
+                        String::new()
+                    } else {
+                        format!("{}, ", v[0].modality)
+                    },
+                    v.len(),
+                    v[0].cols,
+                    v[0].rows
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let slices = match series {
+        Some(uid) => by_series.remove(uid).ok_or_else(|| {
+            bad(
+                input,
+                format!("no series {uid}; the input holds {}", describe(&by_series)),
+            )
+        })?,
+        None if by_series.len() == 1 => by_series.into_values().next().unwrap_or_default(),
+        None => {
+            return Err(bad(
+                input,
+                format!(
+                    "holds {} DICOM series: pick one with --series UID: {}",
+                    by_series.len(),
+                    describe(&by_series)
+                ),
+            ))
+        }
+    };
+    DicomReader::new(input, slices)
+}
+
+impl DicomReader {
+    fn new(input: &Path, mut slices: Vec<SliceHeader>) -> CResult<DicomReader> {
+        let first = slices[0].clone();
+        for s in &slices {
+            if (s.rows, s.cols) != (first.rows, first.cols) {
+                return Err(bad(
+                    &s.path,
+                    format!(
+                        "image is {}x{} but {} is {}x{}: mixed sizes in one series",
+                        s.cols,
+                        s.rows,
+                        first.path.display(),
+                        first.cols,
+                        first.rows
+                    ),
+                ));
+            }
+            if s.orientation
+                .iter()
+                .zip(&first.orientation)
+                .any(|(a, b)| (a - b).abs() > 1e-4)
+            {
+                return Err(bad(
+                    &s.path,
+                    "ImageOrientationPatient differs from the rest of the series",
+                ));
+            }
+            if s.pixel_spacing
+                .iter()
+                .zip(&first.pixel_spacing)
+                .any(|(a, b)| (a - b).abs() > 1e-4)
+            {
+                return Err(bad(
+                    &s.path,
+                    "PixelSpacing differs from the rest of the series",
+                ));
+            }
+            if (s.bits_allocated, s.signed) != (first.bits_allocated, first.signed) {
+                return Err(bad(
+                    &s.path,
+                    "pixel type differs from the rest of the series",
+                ));
+            }
+            if s.frames != 1 {
+                return Err(bad(
+                    &s.path,
+                    format!("multi-frame DICOM image ({} frames): volkit reads series of single-frame images", s.frames),
+                ));
+            }
+        }
+        let o = first.orientation;
+        let row = [o[0], o[1], o[2]];
+        let col = [o[3], o[4], o[5]];
+        let normal = cross(row, col);
+        let geometry_axes = |n: [f64; 3]| [row, col, n];
+        let nn = dot(normal, normal).sqrt();
+        if nn < 1e-6 {
+            return Err(bad(
+                &first.path,
+                "ImageOrientationPatient rows are parallel",
+            ));
+        }
+        let normal = normal.map(|v| v / nn);
+        slices.sort_by(|a, b| dot(a.position, normal).total_cmp(&dot(b.position, normal)));
+        let along: Vec<f64> = slices.iter().map(|s| dot(s.position, normal)).collect();
+        let spacing_z = check_gaps(input, &slices, &along)?;
+        if slices.len() > 1 {
+            // Gantry tilt: the slices' origins leave the normal.
+            let span = sub3(slices[slices.len() - 1].position, slices[0].position);
+            let d = dot(span, normal);
+            let lateral = sub3(span, normal.map(|v| v * d));
+            let off = dot(lateral, lateral).sqrt();
+            if off > (0.01 * d.abs()).max(0.01) {
+                return Err(bad(
+                    input,
+                    format!(
+                        "slice positions drift {off:.3} mm sideways over {:.3} mm (gantry tilt): volkit reads series whose slices stack along their normal; resample the series first",
+                        d.abs()
+                    ),
+                ));
+            }
+        }
+        let geometry = Geometry::from_axes(slices[0].position, geometry_axes(normal))
+            .map_err(|e| bad(&first.path, format!("DICOM geometry: {e}")))?;
+        let stored = stored_type(first.bits_allocated, first.signed);
+        let out = slices
+            .iter()
+            .map(|s| {
+                if s.rescale.is_identity() {
+                    stored
+                } else {
+                    s.rescale.output_type(stored)
+                }
+            })
+            .fold(stored, widest);
+        let dims =
+            Dims::new(first.cols as u64, first.rows as u64, slices.len() as u64).at(input)?;
+        let bytes = slices
+            .iter()
+            .map(|s| std::fs::metadata(&s.path).map(|m| m.len()).unwrap_or(0))
+            .sum();
+        Ok(DicomReader {
+            info: InputInfo {
+                path: input.to_path_buf(),
+                dims,
+                sample_type: out,
+                spacing: Some([
+                    first.pixel_spacing[1] as f32,
+                    first.pixel_spacing[0] as f32,
+                    spacing_z as f32,
+                ]),
+                geometry,
+                format: format!(
+                    "dicom series ({}{} images)",
+                    if first.modality.is_empty() {
+                        String::new()
+                    } else {
+                        format!("{}, ", first.modality)
+                    },
+                    slices.len()
+                ),
+            },
+            slices,
+            bytes,
+        })
+    }
+}
+
+/// The slice spacing of sorted positions `along` the normal, or an error
+/// naming the first bad gap.
+fn check_gaps(input: &Path, slices: &[SliceHeader], along: &[f64]) -> CResult<f64> {
+    if along.len() < 2 {
+        return Ok(1.0);
+    }
+    let gaps: Vec<f64> = along.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut sorted = gaps.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    for (k, &g) in gaps.iter().enumerate() {
+        let (a, b) = (&slices[k], &slices[k + 1]);
+        if g <= GAP_TOLERANCE_MM {
+            return Err(bad(
+                input,
+                format!(
+                    "{} and {} lie at the same position ({:.3} mm along the normal)",
+                    a.path.display(),
+                    b.path.display(),
+                    along[k]
+                ),
+            ));
+        }
+        let tol = (median * GAP_TOLERANCE).max(GAP_TOLERANCE_MM);
+        if (g - median).abs() > tol {
+            let ratio = g / median;
+            let whole = ratio.round();
+            if whole >= 2.0 && (g - whole * median).abs() <= tol * whole {
+                return Err(bad(
+                    input,
+                    format!(
+                        "{} slice{} missing between {:.3} mm and {:.3} mm along the normal (gap {:.3} mm, spacing {:.3} mm; after {})",
+                        whole as u64 - 1,
+                        if whole as u64 == 2 { " is" } else { "s are" },
+                        along[k],
+                        along[k + 1],
+                        g,
+                        median,
+                        a.path.display()
+                    ),
+                ));
+            }
+            return Err(bad(
+                input,
+                format!(
+                    "uneven slice spacing: gap of {g:.3} mm between {} and {} where the series spaces slices {median:.3} mm apart",
+                    a.path.display(),
+                    b.path.display()
+                ),
+            ));
+        }
+    }
+    Ok(median)
+}
+
+fn stored_type(bits: u16, signed: bool) -> SliceType {
+    match (bits, signed) {
+        (8, false) => SliceType::U8,
+        (8, true) => SliceType::I8,
+        (16, false) => SliceType::U16,
+        (16, true) => SliceType::I16,
+        (_, false) => SliceType::U32,
+        (_, true) => SliceType::I32,
+    }
+}
+
+/// The type that holds both (for slices rescaled differently).
+fn widest(a: SliceType, b: SliceType) -> SliceType {
+    if a == b {
+        a
+    } else if a.is_integer() && b.is_integer() {
+        SliceType::I32
+    } else {
+        SliceType::F64
+    }
+}
+
+impl DicomReader {
+    fn decode(&self, s: &SliceHeader) -> CResult<SliceData> {
+        let obj = dicom_object::open_file(&s.path)
+            .map_err(|e| bad(&s.path, format!("not a readable DICOM file: {e}")))?;
+        let px = obj
+            .decode_pixel_data()
+            .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?;
+        let bytes = px
+            .frame_data(0)
+            .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?;
+        let t = stored_type(s.bits_allocated, s.signed);
+        let n = s.rows as usize * s.cols as usize;
+        if bytes.len() < n * t.size() {
+            return Err(bad(
+                &s.path,
+                format!(
+                    "pixel data holds {} bytes, {}x{} {}-bit pixels need {}",
+                    bytes.len(),
+                    s.cols,
+                    s.rows,
+                    s.bits_allocated,
+                    n * t.size()
+                ),
+            ));
+        }
+        let mut d = SliceData::from_bytes(t, &bytes[..n * t.size()], false);
+        mask_bits(&mut d, s.bits_stored);
+        let d = if s.rescale.is_identity() {
+            d
+        } else {
+            s.rescale.apply(&d)
+        };
+        Ok(to_type(d, self.info.sample_type))
+    }
+}
+
+/// Keep the BitsStored low bits (sign-extended for signed pixels).
+fn mask_bits(d: &mut SliceData, bits: u16) {
+    macro_rules! unsigned {
+        ($v:expr, $w:expr) => {
+            if (bits as u32) < $w {
+                let m = (1u64 << bits) - 1;
+                $v.iter_mut().for_each(|x| *x = (*x as u64 & m) as _);
+            }
+        };
+    }
+    macro_rules! signed {
+        ($v:expr, $t:ty, $w:expr) => {
+            if (bits as u32) < $w {
+                let sh = $w - bits as u32;
+                $v.iter_mut().for_each(|x| *x = ((*x << sh) as $t) >> sh);
+            }
+        };
+    }
+    match d {
+        SliceData::U8(v) => unsigned!(v, 8),
+        SliceData::U16(v) => unsigned!(v, 16),
+        SliceData::U32(v) => unsigned!(v, 32),
+        SliceData::I8(v) => signed!(v, i8, 8),
+        SliceData::I16(v) => signed!(v, i16, 16),
+        SliceData::I32(v) => signed!(v, i32, 32),
+        _ => {}
+    }
+}
+
+/// `d` as type `t` (same values; `t` is at least as wide).
+fn to_type(d: SliceData, t: SliceType) -> SliceData {
+    if d.sample_type() == t {
+        return d;
+    }
+    let n = d.len();
+    match t {
+        SliceType::I32 => SliceData::I32((0..n).map(|i| d.value(i) as i32).collect()),
+        _ => SliceData::F64((0..n).map(|i| d.value(i)).collect()),
+    }
+}
+
+impl SliceReader for DicomReader {
+    fn info(&self) -> &InputInfo {
+        &self.info
+    }
+    fn access(&self) -> Access {
+        Access::Random
+    }
+    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        let s = self.slices.get(z as usize).ok_or_else(|| {
+            bad(
+                &self.info.path,
+                format!("slice {z} out of range (internal error)"),
+            )
+        })?;
+        self.decode(s)
+    }
+    fn bytes_in(&self) -> u64 {
+        self.bytes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn types_widen_to_hold_every_slice() {
+        assert_eq!(widest(SliceType::I32, SliceType::U16), SliceType::I32);
+        assert_eq!(widest(SliceType::I32, SliceType::F64), SliceType::F64);
+        assert_eq!(widest(SliceType::I16, SliceType::I16), SliceType::I16);
+        let mut d = SliceData::I16(vec![0x0fff, 0x0800, 0x07ff]);
+        mask_bits(&mut d, 12);
+        assert_eq!(d, SliceData::I16(vec![-1, -2048, 2047]));
+        let mut d = SliceData::U16(vec![0xf0ff]);
+        mask_bits(&mut d, 12);
+        assert_eq!(d, SliceData::U16(vec![0x00ff]));
+    }
+}

@@ -1,0 +1,454 @@
+//! The one way every tool opens a volume: [`open_input`] for a slice
+//! reader (what `vol-convert` streams), [`open`] for a whole [`Volume`]
+//! (what the other tools sample). Both read every format volkit knows,
+//! by existence, extension and first bytes.
+
+use crate::convert::input::SliceReader;
+use crate::convert::{self, At, CResult, ConvertError, Plan};
+use crate::datafile::Encoding;
+use crate::error::Error;
+use crate::raw::{RawFileReader, RawSpec};
+use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
+use crate::tiff::ChannelSel;
+use crate::{thesis, vvol};
+use std::io::{BufRead, Read};
+use std::path::Path;
+use volcore::{SampleType, Volume};
+
+/// How to read an input: what its file cannot say itself.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ReadOptions {
+    /// Raw input description (used when any field is given, or for
+    /// `.raw` files).
+    pub raw: RawSpec,
+    /// Channel choice: colour TIFF samples, or the C axis of an ImageJ
+    /// hyperstack or OME-TIFF.
+    pub channel: ChannelSel,
+    /// Time point of an ImageJ hyperstack or OME-TIFF/OME-Zarr with a T
+    /// axis.
+    pub time: Option<u64>,
+    /// DICOM: the SeriesInstanceUID to read when a directory holds several.
+    pub series: Option<String>,
+    /// How to open `.vvol` files.
+    pub vvol: vvol::OpenOptions,
+}
+
+/// What kind of input a path names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputKind {
+    /// Standard input.
+    Stdin,
+    /// A directory of TIFF slices.
+    TiffDir,
+    /// A shell pattern matching TIFF slices.
+    TiffGlob,
+    /// A text file listing TIFF slices.
+    TiffList,
+    /// One TIFF file (multipage or single page).
+    Tiff,
+    /// NRRD (`.nrrd`, `.nhdr`).
+    Nrrd,
+    /// MetaImage (`.mhd`, `.mha`).
+    Mhd,
+    /// NIfTI-1 or NIfTI-2 (`.nii`, `.nii.gz`, `.hdr`/`.img`).
+    Nifti,
+    /// A directory of DICOM files (one series, or several with `--series`).
+    DicomDir,
+    /// One DICOM file, or a glob or list file naming DICOM files.
+    Dicom,
+    /// An OME-Zarr directory (NGFF 0.4 or 0.5).
+    OmeZarr,
+    /// Native `.vvol`.
+    Vvol,
+    /// Thesis `.vol`.
+    ThesisVol,
+    /// Headerless samples.
+    Raw,
+}
+
+fn has_glob_chars(s: &str) -> bool {
+    s.contains(['*', '?', '['])
+}
+
+/// Decide what `path` is: by existence, extension, and first bytes.
+pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
+    if path.as_os_str() == "-" {
+        return Ok(InputKind::Stdin);
+    }
+    if crate::omezarr::is_zarr(path) && path.is_dir() {
+        return Ok(InputKind::OmeZarr);
+    }
+    if path.is_dir() {
+        return dir_kind(path);
+    }
+    let name = path.to_string_lossy();
+    if !path.exists() {
+        if has_glob_chars(&name) {
+            return Ok(InputKind::TiffGlob);
+        }
+        return Err(ConvertError::new(
+            path,
+            Error::invalid("no such file or directory"),
+        ));
+    }
+    if crate::nifti::is_nifti_name(path) {
+        return Ok(InputKind::Nifti);
+    }
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let by_ext = match ext.as_str() {
+        "tif" | "tiff" | "btf" | "tf8" => Some(InputKind::Tiff),
+        "nrrd" | "nhdr" => Some(InputKind::Nrrd),
+        "mhd" | "mha" => Some(InputKind::Mhd),
+        "vvol" => Some(InputKind::Vvol),
+        "vol" => Some(InputKind::ThesisVol),
+        "dcm" => Some(InputKind::Dicom),
+        "raw" => Some(InputKind::Raw),
+        "txt" | "lst" | "list" => Some(InputKind::TiffList),
+        _ => None,
+    };
+    if let Some(k) = by_ext {
+        return Ok(k);
+    }
+    if opts.raw.is_given() {
+        return Ok(InputKind::Raw);
+    }
+    let mut head = [0u8; 352];
+    let n = std::fs::File::open(path)
+        .and_then(|mut f| f.read(&mut head))
+        .at(path)?;
+    let head = &head[..n];
+    if crate::nifti::NiftiHeader::decode(head).is_ok() {
+        Ok(InputKind::Nifti)
+    } else if crate::dicom::sniff(head) {
+        Ok(InputKind::Dicom)
+    } else if is_tiff(head) {
+        Ok(InputKind::Tiff)
+    } else if crate::nrrd::sniff(head) {
+        Ok(InputKind::Nrrd)
+    } else if head.starts_with(&crate::vvol::MAGIC) {
+        Ok(InputKind::Vvol)
+    } else {
+        Err(ConvertError::new(
+            path,
+            Error::invalid(
+                "unknown input type (expected NIfTI, NRRD, MetaImage, TIFF, .vvol, .vol, .raw with --raw-dims, a DICOM series, an OME-Zarr, or a directory of slices)",
+            ),
+        ))
+    }
+}
+
+/// A directory: TIFF slices or a DICOM series.
+fn dir_kind(dir: &Path) -> CResult<InputKind> {
+    let mut dicom = false;
+    for (n, e) in std::fs::read_dir(dir).at(dir)?.enumerate() {
+        let e = e.at(dir)?;
+        let name = e.file_name().to_string_lossy().to_ascii_lowercase();
+        if name.starts_with('.') {
+            continue;
+        }
+        if name.ends_with(".tif") || name.ends_with(".tiff") {
+            return Ok(InputKind::TiffDir);
+        }
+        // Sniffing every file of a large directory is cheap next to
+        // reading it; stop at the first DICOM file after a few hundred.
+        if !dicom && n < 100_000 && e.path().is_file() && crate::dicom::is_dicom_file(&e.path()) {
+            dicom = true;
+        }
+    }
+    if dicom {
+        return Ok(InputKind::DicomDir);
+    }
+    Err(ConvertError::new(
+        dir,
+        Error::invalid("directory holds no .tif/.tiff slices and no DICOM files"),
+    ))
+}
+
+impl InputKind {
+    /// A short name for reports (`nrrd`, `tiff stack`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            InputKind::Stdin => "stream",
+            InputKind::TiffDir | InputKind::TiffGlob | InputKind::TiffList => "tiff stack",
+            InputKind::Tiff => "tiff",
+            InputKind::Nrrd => "nrrd",
+            InputKind::Mhd => "metaimage",
+            InputKind::Nifti => "nifti",
+            InputKind::DicomDir | InputKind::Dicom => "dicom",
+            InputKind::OmeZarr => "ome-zarr",
+            InputKind::Vvol => "vvol",
+            InputKind::ThesisVol => "vol",
+            InputKind::Raw => "raw",
+        }
+    }
+}
+
+/// Whether bytes start like a TIFF or BigTIFF file.
+pub fn is_tiff(b: &[u8]) -> bool {
+    matches!(
+        b.get(..4),
+        Some(b"II*\0") | Some(b"MM\0*") | Some(b"II+\0") | Some(b"MM\0+")
+    )
+}
+
+/// Open the input `path` names (see [`input_kind`]).
+pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> {
+    let kind = input_kind(path, opts)?;
+    Ok(match kind {
+        InputKind::Stdin => open_stdin(path, opts)?,
+        InputKind::TiffDir => {
+            let files = crate::tiff::list_dir(path)?;
+            Box::new(crate::tiff::open_files(
+                path,
+                files,
+                opts.channel,
+                opts.time,
+            )?)
+        }
+        InputKind::TiffGlob => {
+            let files = crate::tiff::list_glob(path)?;
+            open_listed(path, files, opts)?
+        }
+        InputKind::TiffList => {
+            let files = crate::tiff::list_file(path)?;
+            open_listed(path, files, opts)?
+        }
+        InputKind::DicomDir => {
+            let files = crate::dicom::list_files(path, None)?;
+            Box::new(crate::dicom::open(path, files, opts.series.as_deref())?)
+        }
+        InputKind::OmeZarr => {
+            let c = match opts.channel {
+                ChannelSel::Channel(c) => Some(c as u64),
+                _ => None,
+            };
+            Box::new(crate::omezarr::open(path, c, opts.time)?)
+        }
+        InputKind::Dicom => Box::new(crate::dicom::open(
+            path,
+            vec![path.to_path_buf()],
+            opts.series.as_deref(),
+        )?),
+        InputKind::Tiff => match crate::tiff::imagej_raw(path)? {
+            Some(ij) => Box::new(
+                RawFileReader::open(
+                    path,
+                    ij.dims,
+                    ij.sample_type,
+                    ij.big_endian,
+                    ij.offset,
+                    false,
+                    "tiff (imagej stack, one directory)",
+                )?
+                .with_geometry(ij.spacing, volcore::Geometry::IDENTITY),
+            ),
+            None => Box::new(crate::tiff::open_files(
+                path,
+                vec![path.to_path_buf()],
+                opts.channel,
+                opts.time,
+            )?),
+        },
+        InputKind::Nrrd => {
+            let spec = crate::nrrd::open(path).at(path)?;
+            crate::datafile::open_data(path, &spec)?
+        }
+        InputKind::Mhd => {
+            let spec = crate::mhd::open(path).at(path)?;
+            crate::datafile::open_data(path, &spec)?
+        }
+        InputKind::Nifti => {
+            let spec = crate::nifti::open(path, opts.time).at(path)?;
+            crate::datafile::open_data(path, &spec)?
+        }
+        InputKind::Vvol => {
+            let v = vvol::open(path, opts.vvol).at(path)?;
+            let format = format!("vvol ({})", v.meta.layout.describe());
+            Box::new(vvol::VolumeReader::new(path, v, &format))
+        }
+        InputKind::ThesisVol => Box::new(thesis::ThesisReader::open(path)?),
+        InputKind::Raw => {
+            let l = opts.raw.resolve(path).at(path)?;
+            Box::new(RawFileReader::open(
+                path,
+                l.dims,
+                l.sample_type,
+                l.big_endian,
+                l.skip,
+                true,
+                "raw",
+            )?)
+        }
+    })
+}
+
+/// Files named by a glob or a list: DICOM when the first is, else TIFF.
+fn open_listed(
+    path: &Path,
+    files: Vec<std::path::PathBuf>,
+    opts: &ReadOptions,
+) -> CResult<Box<dyn SliceReader>> {
+    if files
+        .first()
+        .is_some_and(|f| crate::dicom::is_dicom_file(f))
+    {
+        let files = crate::dicom::list_files(path, Some(files))?;
+        return Ok(Box::new(crate::dicom::open(
+            path,
+            files,
+            opts.series.as_deref(),
+        )?));
+    }
+    Ok(Box::new(crate::tiff::open_files(
+        path,
+        files,
+        opts.channel,
+        opts.time,
+    )?))
+}
+
+/// Standard input: a `.vvol` stream, a NRRD with attached data, or raw
+/// samples with `--raw-dims`.
+fn open_stdin(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> {
+    let mut r = std::io::BufReader::with_capacity(1 << 20, std::io::stdin());
+    let head = r.fill_buf().at(path)?.to_vec();
+    if head.is_empty() {
+        return Err(ConvertError::new(
+            path,
+            Error::invalid("standard input is empty"),
+        ));
+    }
+    if !opts.raw.is_given() && head.starts_with(&vvol::MAGIC) {
+        return Ok(Box::new(vvol::vvol_stream(path, Box::new(r))?));
+    }
+    if !opts.raw.is_given() && crate::nrrd::sniff(&head) {
+        let mut c = Counted::new(r);
+        let counter = c.counter();
+        let mut br = std::io::BufReader::new(&mut c);
+        let h = crate::nrrd::read_stream_header(&mut br).at(path)?;
+        // The BufReader may hold data already: keep reading through it.
+        let rest = br.buffer().to_vec();
+        drop(br);
+        let chained = std::io::Cursor::new(rest).chain(c);
+        let mut data: Box<dyn Read + Send> = match h.encoding {
+            Encoding::Raw => Box::new(chained),
+            _ => Box::new(flate2::read::MultiGzDecoder::new(chained)),
+        };
+        if h.encoding != Encoding::Raw {
+            skip_bytes(&mut data, h.byte_skip.max(0) as u64).at(path)?;
+        }
+        let end = if h.encoding == Encoding::Raw {
+            StreamEnd::Exact
+        } else {
+            StreamEnd::Ignore
+        };
+        return Ok(Box::new(
+            StreamReader::new(
+                path,
+                data,
+                counter,
+                SampleLayout {
+                    dims: h.dims,
+                    sample_type: h.sample_type,
+                    big_endian: h.big_endian,
+                },
+                end,
+                "nrrd stream",
+            )
+            .with_geometry(h.spacing, h.geometry),
+        ));
+    }
+    if !opts.raw.is_given() {
+        return Err(ConvertError::new(
+            path,
+            Error::invalid(
+                "standard input is not a .vvol or NRRD stream: for raw samples pass --raw-dims X,Y,Z and --raw-type T",
+            ),
+        ));
+    }
+    let l = opts.raw.resolve(path).at(path)?;
+    let mut c = Counted::new(r);
+    let counter = c.counter();
+    skip_bytes(&mut c, l.skip).at(path)?;
+    Ok(Box::new(StreamReader::new(
+        path,
+        Box::new(c),
+        counter,
+        SampleLayout {
+            dims: l.dims,
+            sample_type: l.sample_type,
+            big_endian: l.big_endian,
+        },
+        StreamEnd::Exact,
+        "raw stream",
+    )))
+}
+
+/// Open any input as a whole [`Volume`]: `.vvol` files are memory-mapped
+/// (compressed bricks decoded on demand), raw files of a stored type
+/// mapped too, everything else read into memory through [`open_input`]
+/// (wider sample types become the smallest stored type that holds their
+/// values, as `vol-convert` would pick). Origin and directions are kept.
+pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
+    if path.as_os_str() != "-" {
+        match input_kind(path, opts)? {
+            InputKind::Vvol => return vvol::open(path, opts.vvol).at(path),
+            InputKind::ThesisVol => return thesis::open(path).and_then(|f| f.load()).at(path),
+            InputKind::Raw => {
+                let l = opts.raw.resolve(path).at(path)?;
+                if l.sample_type.stored().is_some() && l.skip == 0 {
+                    return crate::raw::open(path, l).at(path);
+                }
+            }
+            _ => {}
+        }
+    }
+    load(open_input(path, opts)?, None)
+}
+
+/// Read everything `reader` holds into memory, as `sample_type` (or the
+/// input's own type, or the smallest stored type holding its values).
+pub fn load(reader: Box<dyn SliceReader>, sample_type: Option<SampleType>) -> CResult<Volume> {
+    let slot = convert::MemorySlot::default();
+    let plan = Plan {
+        sample_type,
+        temp_dir: Some(std::env::temp_dir()),
+        ..Plan::default()
+    };
+    convert::convert(
+        reader,
+        &plan,
+        convert::Target::Memory(slot.clone()),
+        &|_| {},
+    )?;
+    slot.take().ok_or_else(|| {
+        ConvertError::new(
+            Path::new("-"),
+            Error::invalid("nothing was read (internal error)"),
+        )
+    })
+}
+
+/// [`open`] with the options of the `.vvol` reader and an optional raw
+/// description; errors name no path (callers add it).
+pub fn open_volume(
+    path: &Path,
+    opts: vvol::OpenOptions,
+    raw: Option<RawSpec>,
+) -> crate::Result<Volume> {
+    let opts = ReadOptions {
+        raw: raw.unwrap_or_default(),
+        vvol: opts,
+        ..ReadOptions::default()
+    };
+    open(path, &opts).map_err(|e| {
+        if e.path == path {
+            e.error
+        } else {
+            Error::invalid(e.to_string())
+        }
+    })
+}

@@ -1,0 +1,248 @@
+//! The axes of multi-dimensional TIFF files: ImageJ hyperstacks (the
+//! `channels=`, `slices=`, `frames=` of their description, pages in CZT
+//! order) and OME-TIFF (the `Pixels` element of the OME-XML: sizes,
+//! `DimensionOrder` and `PhysicalSizeX/Y/Z`). A file with several channels
+//! or time points holds many 3D stacks; [`Axes::pages`] picks one.
+
+/// The non-spatial layout of a file's pages.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Axes {
+    /// Planes along z, channels and time points.
+    pub z: u64,
+    /// Channels.
+    pub c: u64,
+    /// Time points.
+    pub t: u64,
+    /// Page strides of z, c and t.
+    pub strides: [u64; 3],
+    /// Physical voxel size, when the file gives it.
+    pub spacing: Option<[f32; 3]>,
+    /// Where the axes came from (`ImageJ hyperstack`, `OME-TIFF`).
+    pub source: &'static str,
+    /// The axes as tifffile names them (`TZCYX`).
+    pub names: String,
+}
+
+/// The value of `key=` in ImageJ description lines.
+fn imagej_value(desc: &str, key: &str) -> Option<u64> {
+    desc.lines()
+        .find_map(|l| l.trim().strip_prefix(key)?.strip_prefix('='))
+        .and_then(|v| v.trim().parse().ok())
+}
+
+/// The value of attribute `name` in the XML tag text `tag`.
+fn attr<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
+    let mut rest = tag;
+    loop {
+        let i = rest.find(name)?;
+        let before = rest[..i].chars().last();
+        let after = &rest[i + name.len()..];
+        let after_t = after.trim_start();
+        if matches!(before, Some(c) if c.is_whitespace()) && after_t.starts_with('=') {
+            let v = after_t[1..].trim_start();
+            let q = v.chars().next()?;
+            if q == '"' || q == '\'' {
+                let end = v[1..].find(q)?;
+                return Some(&v[1..1 + end]);
+            }
+            return None;
+        }
+        rest = after;
+    }
+}
+
+impl Axes {
+    /// Axes from an image description: ImageJ or OME-XML; `None` for a
+    /// description without them (or with one 3D stack and no sizes).
+    pub fn parse(desc: &str) -> Option<Axes> {
+        if desc.starts_with("ImageJ") {
+            let c = imagej_value(desc, "channels").unwrap_or(1).max(1);
+            let t = imagej_value(desc, "frames").unwrap_or(1).max(1);
+            let images = imagej_value(desc, "images").unwrap_or(1);
+            let z = imagej_value(desc, "slices")
+                .unwrap_or((images / (c * t).max(1)).max(1))
+                .max(1);
+            if c == 1 && t == 1 {
+                return None;
+            }
+            let mut names = String::new();
+            if t > 1 {
+                names.push('T');
+            }
+            if z > 1 {
+                names.push('Z');
+            }
+            if c > 1 {
+                names.push('C');
+            }
+            names.push_str("YX");
+            return Some(Axes {
+                z,
+                c,
+                t,
+                strides: [c, 1, c * z],
+                spacing: None,
+                source: "ImageJ hyperstack",
+                names,
+            });
+        }
+        let start = desc.find("<Pixels").or_else(|| desc.find(":Pixels"))?;
+        let tag = &desc[start..start + desc[start..].find('>')?];
+        let size = |k: &str| {
+            attr(tag, k)
+                .and_then(|v| v.parse::<u64>().ok())
+                .unwrap_or(1)
+                .max(1)
+        };
+        let (z, c, t) = (size("SizeZ"), size("SizeC"), size("SizeT"));
+        let order = attr(tag, "DimensionOrder").unwrap_or("XYZCT");
+        let mut strides = [0u64; 3];
+        let mut s = 1u64;
+        for ch in order.chars().skip(2) {
+            match ch {
+                'Z' => {
+                    strides[0] = s;
+                    s *= z;
+                }
+                'C' => {
+                    strides[1] = s;
+                    s *= c;
+                }
+                'T' => {
+                    strides[2] = s;
+                    s *= t;
+                }
+                _ => return None,
+            }
+        }
+        if strides.contains(&0) {
+            return None;
+        }
+        let phys = |k: &str| {
+            attr(tag, k)
+                .and_then(|v| v.parse::<f32>().ok())
+                .filter(|v| v.is_finite() && *v > 0.0)
+        };
+        let (px, py, pz) = (
+            phys("PhysicalSizeX"),
+            phys("PhysicalSizeY"),
+            phys("PhysicalSizeZ"),
+        );
+        let spacing = (px.is_some() || py.is_some() || pz.is_some()).then(|| {
+            let x = px.unwrap_or(1.0);
+            [x, py.unwrap_or(x), pz.unwrap_or(x)]
+        });
+        // tifffile's names: slowest first.
+        let mut names: String = order
+            .chars()
+            .skip(2)
+            .filter(|ch| match ch {
+                'Z' => z > 1,
+                'C' => c > 1,
+                _ => t > 1,
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
+        names.push_str("YX");
+        Some(Axes {
+            z,
+            c,
+            t,
+            strides,
+            spacing,
+            source: "OME-TIFF",
+            names,
+        })
+    }
+
+    /// The page indices of the 3D stack at channel `c` and time `t`, in z
+    /// order; an error naming the axes when a choice is missing or out of
+    /// range.
+    pub fn pages(
+        &self,
+        c: Option<u64>,
+        t: Option<u64>,
+        pages: usize,
+    ) -> Result<Vec<usize>, String> {
+        let need = self.z * self.c * self.t;
+        if (pages as u64) < need {
+            return Err(format!(
+                "{} with axes {} ({} planes) has only {pages} pages",
+                self.source, self.names, need
+            ));
+        }
+        let pick = |v: Option<u64>, n: u64, what: &str, flag: &str| -> Result<u64, String> {
+            match v {
+                Some(i) if i < n => Ok(i),
+                Some(i) => Err(format!(
+                    "{flag} {i} asked for, but the file has {what} 0..{}",
+                    n - 1
+                )),
+                None if n == 1 => Ok(0),
+                None => Err(String::new()),
+            }
+        };
+        let ci = pick(c, self.c, "channels", "--channel");
+        let ti = pick(t, self.t, "time points", "--time");
+        let (ci, ti) = match (ci, ti) {
+            (Ok(c), Ok(t)) => (c, t),
+            (Err(e), _) | (_, Err(e)) if !e.is_empty() => return Err(e),
+            _ => {
+                return Err(format!(
+                    "{} with axes {} ({} slices, {} channels, {} time points) holds {} 3D stacks: pick one with{}{}",
+                    self.source,
+                    self.names,
+                    self.z,
+                    self.c,
+                    self.t,
+                    self.c * self.t,
+                    if self.c > 1 { " --channel C" } else { "" },
+                    if self.t > 1 { " --time T" } else { "" },
+                ))
+            }
+        };
+        Ok((0..self.z)
+            .map(|z| (z * self.strides[0] + ci * self.strides[1] + ti * self.strides[2]) as usize)
+            .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn imagej_hyperstacks_pick_one_stack() {
+        let d = "ImageJ=1.11a\nimages=80\nchannels=2\nslices=10\nframes=4\nhyperstack=true\nmode=grayscale\n";
+        let a = Axes::parse(d).unwrap();
+        assert_eq!((a.z, a.c, a.t), (10, 2, 4));
+        assert_eq!(a.names, "TZCYX");
+        let e = a.pages(None, None, 80).unwrap_err();
+        assert!(
+            e.contains("TZCYX") && e.contains("--channel C --time T"),
+            "{e}"
+        );
+        assert_eq!(a.pages(Some(1), Some(2), 80).unwrap()[..3], [41, 43, 45]);
+        assert!(a
+            .pages(Some(2), Some(0), 80)
+            .unwrap_err()
+            .contains("channels 0..1"));
+        assert!(Axes::parse("ImageJ=1.11a\nimages=10\nslices=10\nspacing=2\n").is_none());
+    }
+
+    #[test]
+    fn ome_xml_sizes_order_and_physical_sizes() {
+        let x = r#"<?xml version="1.0"?><OME xmlns="http://www.openmicroscopy.org/Schemas/OME/2016-06"><Image ID="Image:0"><Pixels ID="Pixels:0" DimensionOrder="XYCZT" Type="uint16" SizeX="64" SizeY="32" SizeZ="5" SizeC="3" SizeT="1" PhysicalSizeX="0.25" PhysicalSizeY="0.25" PhysicalSizeZ="1.5"><Channel ID="Channel:0:0"/></Pixels></Image></OME>"#;
+        let a = Axes::parse(x).unwrap();
+        assert_eq!((a.z, a.c, a.t), (5, 3, 1));
+        assert_eq!(a.spacing, Some([0.25, 0.25, 1.5]));
+        assert_eq!(a.names, "ZCYX");
+        assert!(a.pages(None, None, 15).unwrap_err().contains("--channel C"));
+        assert_eq!(a.pages(Some(2), None, 15).unwrap(), vec![2, 5, 8, 11, 14]);
+        let one = x.replace("SizeC=\"3\"", "SizeC=\"1\"");
+        let a = Axes::parse(&one).unwrap();
+        assert_eq!(a.pages(None, None, 5).unwrap(), vec![0, 1, 2, 3, 4]);
+    }
+}

@@ -1,0 +1,118 @@
+//! `.vvol` inputs read slice by slice: open files (any layout) and
+//! streams (sliced, from a pipe).
+
+use crate::convert::input::{Access, InputInfo, SliceReader};
+use crate::convert::At;
+use crate::convert::{CResult, ConvertError, SliceData};
+use crate::error::Error;
+use crate::stream::{Counted, SampleLayout, StreamEnd, StreamReader};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use volcore::{SampleType, Volume, VolumeVisitor, VoxelSource};
+
+/// Open a `.vvol` stream (as written by `vol-gen -o -`): the header is read
+/// now, the samples slice by slice, and the trailer's checksum is checked
+/// by [`SliceReader::finish`].
+pub fn vvol_stream(path: &Path, reader: Box<dyn Read + Send>) -> CResult<StreamReader> {
+    let mut r = Counted::new(reader);
+    let counter = r.counter();
+    let h = super::read::read_header_from(&mut r).at(path)?;
+    if h.meta.layout != volcore::Layout::Sliced {
+        return Err(ConvertError::new(
+            path,
+            Error::invalid("only sliced .vvol data can be read from a stream"),
+        ));
+    }
+    Ok(StreamReader::new(
+        path,
+        Box::new(r),
+        counter,
+        SampleLayout {
+            dims: h.meta.dims,
+            sample_type: h.meta.sample_type.into(),
+            big_endian: false,
+        },
+        StreamEnd::VvolTrailer,
+        "vvol stream",
+    )
+    .with_geometry(Some(h.meta.spacing), h.meta.geometry))
+}
+
+/// An open volume (`.vvol`, `.vol`) read slice by slice.
+pub struct VolumeReader {
+    info: InputInfo,
+    path: PathBuf,
+    volume: Volume,
+    bytes: u64,
+}
+
+impl VolumeReader {
+    /// Wrap an open volume read from `path`.
+    pub fn new(path: &Path, volume: Volume, format: &str) -> VolumeReader {
+        let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+        VolumeReader {
+            info: InputInfo {
+                path: path.to_path_buf(),
+                dims: volume.meta.dims,
+                sample_type: volume.meta.sample_type.into(),
+                spacing: Some(volume.meta.spacing),
+                geometry: volume.meta.geometry,
+                format: format.to_string(),
+            },
+            path: path.to_path_buf(),
+            volume,
+            bytes,
+        }
+    }
+}
+
+struct ReadSlice(u64);
+
+impl VolumeVisitor for ReadSlice {
+    type Output = SliceData;
+    fn visit<S: VoxelSource>(self, src: &S) -> SliceData {
+        let d = src.dims();
+        let mut v = vec![S::Sample::default(); d.slice_len() as usize];
+        for (y, row) in v.chunks_exact_mut(d.x as usize).enumerate() {
+            src.read_row(0, y as u64, self.0, row);
+        }
+        to_slice_data(v)
+    }
+}
+
+/// Wrap samples of any volcore sample type.
+fn to_slice_data<T: volcore::Sample>(v: Vec<T>) -> SliceData {
+    match T::TYPE {
+        SampleType::U8 => SliceData::U8(cast_vec_or_copy(v)),
+        SampleType::U16 => SliceData::U16(cast_vec_or_copy(v)),
+        SampleType::I16 => SliceData::I16(cast_vec_or_copy(v)),
+        SampleType::F32 => SliceData::F32(cast_vec_or_copy(v)),
+    }
+}
+
+/// `v` reinterpreted (same size and alignment), else copied.
+fn cast_vec_or_copy<A: bytemuck::Pod, B: bytemuck::Pod>(v: Vec<A>) -> Vec<B> {
+    match bytemuck::try_cast_vec(v) {
+        Ok(b) => b,
+        Err((_, v)) => bytemuck::pod_collect_to_vec(&v),
+    }
+}
+
+impl SliceReader for VolumeReader {
+    fn info(&self) -> &InputInfo {
+        &self.info
+    }
+    fn access(&self) -> Access {
+        Access::Random
+    }
+    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        let s = self.volume.visit(ReadSlice(z));
+        if let Some(e) = self.volume.error() {
+            return Err(ConvertError::new(&self.path, Error::invalid(e)));
+        }
+        Ok(s)
+    }
+    fn bytes_in(&self) -> u64 {
+        self.bytes
+    }
+}

@@ -1,0 +1,96 @@
+//! Acceleration over the index's macrocells: empty-space skipping for the
+//! ray caster, and majorant segments for tracking along a ray.
+//!
+//! - [`hierarchy`]: the index's levels queried at a point, answering "how
+//!   far can the ray jump from here" under a rule.
+//! - [`skip`]: the rules (transparent under the transfer function, zero,
+//!   cannot beat the running MIP/MinIP value, on one side of the iso
+//!   value), each an [`Accel`] the march loop is compiled for; their flags
+//!   stay private.
+//! - [`dda`]: the macrocells a ray crosses, in order, as segments
+//!   `(t_enter, t_exit, cell)` (pbrt's majorant-iterator shape).
+//! - [`majorant`]: per-cell maximum extinction under a transfer function
+//!   (or a density mapping), for shadow rays and delta tracking.
+
+pub mod dda;
+pub mod hierarchy;
+pub mod majorant;
+pub mod skip;
+
+pub use hierarchy::{Hierarchy, Step};
+pub use skip::{FixedCells, IsoSides, RunningMax, RunningMin};
+
+use glam::Vec3;
+
+/// A ray in voxel coordinates: `o + t·d`, with `t` the world-space ray
+/// parameter (the direction is the world direction divided by the
+/// spacing), and `d`'s element-wise reciprocal in f64 (infinite along
+/// axes the ray does not move along).
+#[derive(Clone, Copy, Debug)]
+pub struct VoxelRay {
+    /// Origin, voxel units.
+    pub o: Vec3,
+    /// Direction, voxels per unit of the ray parameter.
+    pub d: Vec3,
+    /// `1 / d` per axis.
+    pub inv_d: [f64; 3],
+}
+
+impl VoxelRay {
+    /// The voxel-space ray with origin `o` and direction `d`.
+    pub fn new(o: Vec3, d: Vec3) -> VoxelRay {
+        VoxelRay {
+            o,
+            d,
+            inv_d: d.to_array().map(|c| 1.0 / c as f64),
+        }
+    }
+
+    /// The point at ray parameter `t`.
+    #[inline(always)]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.o + self.d * t
+    }
+}
+
+/// Empty-space skipping under one rule, as the march loop sees it. `Q` is
+/// what the ray's own state adds to the rule (`()` for rules fixed for the
+/// frame, the running value for MIP, the side for iso).
+pub trait Accel<Q: Copy>: Sync {
+    /// Whether this skips at all (the loop leaves the skipping code out
+    /// when it does not).
+    const ON: bool;
+    /// What to do at voxel-space point `p` of `ray`.
+    fn step(&self, p: Vec3, ray: &VoxelRay, q: Q) -> Step;
+    /// The rule's per-frame flag of a level-0 cell (0 when it has none).
+    fn flag(&self, _cell: usize) -> u8 {
+        0
+    }
+}
+
+/// No skipping: every sample is taken.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoSkipping;
+
+impl<Q: Copy> Accel<Q> for NoSkipping {
+    const ON: bool = false;
+    #[inline(always)]
+    fn step(&self, _: Vec3, _: &VoxelRay, _: Q) -> Step {
+        Step::Busy {
+            exit: f32::INFINITY,
+            cell: 0,
+        }
+    }
+}
+
+impl<Q: Copy, A: Accel<Q>> Accel<Q> for &A {
+    const ON: bool = A::ON;
+    #[inline(always)]
+    fn step(&self, p: Vec3, ray: &VoxelRay, q: Q) -> Step {
+        (**self).step(p, ray, q)
+    }
+    #[inline(always)]
+    fn flag(&self, cell: usize) -> u8 {
+        (**self).flag(cell)
+    }
+}

@@ -1,0 +1,82 @@
+//! Classification: what colour and opacity a sample has.
+//!
+//! A [`Classifier`] maps a sample's value (and, when it asks for it, its
+//! gradient magnitude) to linear colour and step-corrected opacity, and
+//! tells the skipping which macrocells can hold nothing but transparent
+//! samples. The 1D table ([`TfTable`]) and the 2D table over value and
+//! gradient magnitude ([`TfTable2d`]) are its implementations; both are
+//! built once per frame from a transfer function ([`crate::tf`]).
+
+pub mod table;
+pub mod table2d;
+
+pub use table::{Bins, TfTable, MAX_BINS};
+pub use table2d::TfTable2d;
+
+use crate::error::RenderError;
+use crate::settings::GradientMethod;
+use glam::Vec3;
+use volindex::MajorantIndex;
+
+/// How gradients are computed in the frame, for bounding their length
+/// over a cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GradientBound {
+    /// The gradient method the frame uses.
+    pub method: GradientMethod,
+    /// `1 / spacing` per axis (gradients are per world unit).
+    pub inv_spacing: Vec3,
+}
+
+/// Maps samples to colour and opacity (see the module docs).
+pub trait Classifier: Sync {
+    /// Whether classification reads the gradient magnitude (then each
+    /// sample's gradient is computed before it is classified, and shared
+    /// with shading).
+    const NEEDS_GRADIENT: bool;
+
+    /// `[r, g, b, alpha]`: linear colour and opacity corrected for the
+    /// frame's step, for a sample of value `v` whose world-space gradient
+    /// has length `gradient` (ignored unless [`Self::NEEDS_GRADIENT`]).
+    /// NaN values are transparent.
+    fn classify(&self, v: f32, gradient: f32) -> [f32; 4];
+
+    /// For every level of `index` and every cell: `true` when no sample
+    /// the cell can produce (any value in its range, any gradient the
+    /// frame's gradient method can give there) has nonzero opacity.
+    fn transparent_cells(
+        &self,
+        index: &MajorantIndex,
+        gradients: &GradientBound,
+    ) -> Result<Vec<Vec<bool>>, RenderError>;
+}
+
+/// Step-corrected opacity `1 − (1 − α)^ratio`, computed as
+/// `−expm1(ratio · ln(1 − α))`, which stays accurate for small α and
+/// small ratios; exact at α = 0 (gives 0) and α = 1 (gives 1).
+pub fn correct_opacity(alpha: f32, ratio: f64) -> f32 {
+    if alpha <= 0.0 || alpha.is_nan() {
+        return 0.0;
+    }
+    if alpha >= 1.0 {
+        return 1.0;
+    }
+    let a = -((ratio * (-(alpha as f64)).ln_1p()).exp_m1());
+    a.clamp(0.0, 1.0) as f32
+}
+
+/// sRGB transfer curve to linear light.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// A table entry: sRGB colour to linear light, opacity corrected for a
+/// step `ratio` times the reference step.
+pub(crate) fn entry(rgb: [f32; 3], alpha: f32, ratio: f64) -> [f32; 4] {
+    let lin = rgb.map(srgb_to_linear);
+    [lin[0], lin[1], lin[2], correct_opacity(alpha, ratio)]
+}

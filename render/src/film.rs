@@ -1,0 +1,263 @@
+//! The film: per-pixel accumulation of what rays bring back, and its
+//! resolution into a displayable frame.
+//!
+//! Samples are summed per pixel in f64 (a ray caster adds one per pixel; a
+//! Monte Carlo integrator adds many, always in sample-index order, so the
+//! sums do not depend on the thread count). Resolving divides by the
+//! count, maps the mode's scalar to grey where the mode is a projection
+//! (MIP, MinIP, X-ray), and composites over the background. The result
+//! stays linear light; [`Frame::srgb8`] encodes it for 8-bit output.
+
+use crate::integrator::RayResult;
+use glam::Vec3;
+
+/// Counts and times for one frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameStats {
+    /// Rays that met the volume.
+    pub rays: u64,
+    /// Samples taken (interpolations of the volume, bisection included).
+    pub samples: u64,
+    /// Jumps over empty cells.
+    pub skips: u64,
+    /// Seconds spent rendering.
+    pub render_s: f64,
+}
+
+/// How a pixel's accumulated result becomes a colour.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Display {
+    /// The integrator's own colour (DVR, iso).
+    Colour,
+    /// The mode's scalar as grey from `lo` (black) to `hi` (white): MIP
+    /// and MinIP over the volume's value range.
+    Grey {
+        /// Value shown black.
+        lo: f32,
+        /// Value shown white.
+        hi: f32,
+    },
+    /// The scalar as grey from 0 to the frame's largest finite value
+    /// (X-ray).
+    GreyToLargest,
+}
+
+/// Per-pixel sums (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Film {
+    width: u32,
+    height: u32,
+    rgba: Vec<[f64; 4]>,
+    count: Vec<u32>,
+    value: Vec<f32>,
+    depth: Vec<f32>,
+    samples: Vec<u32>,
+    stats: FrameStats,
+}
+
+impl Film {
+    /// An empty film of `width × height` pixels.
+    pub fn new(width: u32, height: u32) -> Film {
+        let n = width as usize * height as usize;
+        Film {
+            width,
+            height,
+            rgba: vec![[0.0; 4]; n],
+            count: vec![0; n],
+            value: vec![f32::NAN; n],
+            depth: vec![f32::NAN; n],
+            samples: vec![0; n],
+            stats: FrameStats::default(),
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Add one ray's result to pixel `(x, y)` (row 0 at the top). The
+    /// mode's scalar and depth are the last ray's.
+    #[inline]
+    pub fn add(&mut self, x: u32, y: u32, r: &RayResult) {
+        let p = (y * self.width + x) as usize;
+        for (s, c) in self.rgba[p].iter_mut().zip(r.rgba) {
+            *s += c as f64;
+        }
+        self.count[p] += 1;
+        self.value[p] = r.value;
+        self.depth[p] = r.depth;
+        self.samples[p] += r.samples;
+        self.stats.rays += (r.samples > 0 || r.skips > 0) as u64;
+        self.stats.samples += r.samples as u64;
+        self.stats.skips += r.skips as u64;
+    }
+
+    /// The totals so far.
+    pub fn stats(&self) -> FrameStats {
+        self.stats
+    }
+
+    /// Record the time spent rendering into the film.
+    pub fn set_render_seconds(&mut self, s: f64) {
+        self.stats.render_s = s;
+    }
+
+    /// The frame: mean colour per pixel, mapped by `display`, over the
+    /// linear `background`.
+    pub fn resolve(&self, display: Display, background: Vec3) -> Frame {
+        let mut rgba: Vec<[f32; 4]> = self
+            .rgba
+            .iter()
+            .zip(&self.count)
+            .map(|(s, &n)| {
+                if n == 0 {
+                    [0.0; 4]
+                } else {
+                    s.map(|c| (c / n as f64) as f32)
+                }
+            })
+            .collect();
+        let grey = |g: f32| [g, g, g, 1.0];
+        match display {
+            Display::Colour => {}
+            Display::Grey { lo, hi } => {
+                let span = hi - lo;
+                for (px, &v) in rgba.iter_mut().zip(&self.value) {
+                    if !v.is_nan() {
+                        let g = if span > 0.0 { (v - lo) / span } else { 1.0 };
+                        *px = grey(g.clamp(0.0, 1.0));
+                    }
+                }
+            }
+            Display::GreyToLargest => {
+                let top = self
+                    .value
+                    .iter()
+                    .cloned()
+                    .filter(|v| v.is_finite())
+                    .fold(0.0f32, f32::max);
+                for (px, &v) in rgba.iter_mut().zip(&self.value) {
+                    if v.is_finite() {
+                        let g = if top > 0.0 { v / top } else { 0.0 };
+                        *px = grey(g.clamp(0.0, 1.0));
+                    }
+                }
+            }
+        }
+        for px in rgba.iter_mut() {
+            let a = px[3];
+            for c in 0..3 {
+                px[c] += (1.0 - a) * background[c];
+            }
+        }
+        Frame {
+            width: self.width,
+            height: self.height,
+            rgba,
+            value: self.value.clone(),
+            depth: self.depth.clone(),
+            samples: self.samples.clone(),
+            stats: self.stats,
+        }
+    }
+}
+
+/// A rendered frame: per-pixel results, row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Linear RGB composited over the background, and coverage alpha.
+    pub rgba: Vec<[f32; 4]>,
+    /// The mode's scalar per pixel (see [`RayResult::value`]).
+    pub value: Vec<f32>,
+    /// Ray parameter of the iso hit or MIP extreme (NaN when none).
+    pub depth: Vec<f32>,
+    /// Samples taken per pixel.
+    pub samples: Vec<u32>,
+    /// Totals.
+    pub stats: FrameStats,
+}
+
+impl Frame {
+    /// 8-bit sRGB pixels, rows from the top: RGB, or RGBA with the
+    /// coverage alpha when `alpha`.
+    pub fn srgb8(&self, alpha: bool) -> Vec<u8> {
+        let channels = if alpha { 4 } else { 3 };
+        let mut data = Vec::with_capacity(self.rgba.len() * channels);
+        for px in &self.rgba {
+            data.extend([srgb8(px[0]), srgb8(px[1]), srgb8(px[2])]);
+            if alpha {
+                data.push((px[3].clamp(0.0, 1.0) * 255.0 + 0.5) as u8);
+            }
+        }
+        data
+    }
+
+    /// Linear RGB per pixel, rows from the top (for float image files).
+    pub fn linear_rgb(&self) -> Vec<f32> {
+        self.rgba
+            .iter()
+            .flat_map(|px| [px[0], px[1], px[2]])
+            .collect()
+    }
+
+    /// Samples per pixel as floats (for a heat map).
+    pub fn sample_counts(&self) -> Vec<f32> {
+        self.samples.iter().map(|&s| s as f32).collect()
+    }
+}
+
+/// Linear light to an 8-bit sRGB code (clamped; NaN gives 0).
+pub fn srgb8(c: f32) -> u8 {
+    let c = c.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_codes_at_the_ends_and_the_middle() {
+        assert_eq!(srgb8(0.0), 0);
+        assert_eq!(srgb8(1.0), 255);
+        assert_eq!(srgb8(2.0), 255);
+        assert_eq!(srgb8(-1.0), 0);
+        assert_eq!(srgb8(f32::NAN), 0);
+        // Linear 0.216 is sRGB 0.502.
+        assert_eq!(srgb8(0.2159), 128);
+    }
+
+    #[test]
+    fn many_samples_average_and_one_sample_is_exact() {
+        let mut f = Film::new(2, 1);
+        let r = |v: f32| RayResult {
+            rgba: [v, v, v, 1.0],
+            samples: 1,
+            ..RayResult::empty()
+        };
+        f.add(0, 0, &r(0.1));
+        for i in 0..1000 {
+            f.add(1, 0, &r(if i % 2 == 0 { 0.25 } else { 0.75 }));
+        }
+        let fr = f.resolve(Display::Colour, Vec3::ZERO);
+        assert_eq!(fr.rgba[0][0], 0.1);
+        assert_eq!(fr.rgba[1][0], 0.5);
+        assert_eq!(fr.samples, vec![1, 1000]);
+        assert_eq!(fr.stats.rays, 1001);
+    }
+}

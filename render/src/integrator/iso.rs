@@ -1,0 +1,156 @@
+//! Iso-surfaces: the first crossing, refined by bisection, shaded.
+
+use super::march::{march, Flow, RayMarch, RaySteps};
+use super::reconstruct::{Gradient, Reconstruct};
+use super::{FrameGeometry, Integrator, RayResult};
+use crate::accel::skip::{ISO_ABOVE, ISO_BELOW};
+use crate::accel::Accel;
+use crate::ray::Ray;
+use crate::shade::Lighting;
+use glam::Vec3;
+use std::marker::PhantomData;
+use volcore::Cursor;
+
+/// Bisection steps refining a crossing (the bracket shrinks 2^-20-fold).
+const BISECTIONS: u32 = 20;
+
+/// The first crossing of `level`: march until the sample class (value ≥
+/// level, NaN counting as below) changes between consecutive samples;
+/// outside the volume counts as below. The crossing is bracketed by those
+/// two samples and refined by bisection, then shaded with the gradient
+/// from `G`. `A` skips cells whose every value is on the ray's side, and
+/// tells the class of a uniform cell without sampling it.
+pub struct Iso<R, G, A> {
+    geom: FrameGeometry,
+    accel: A,
+    level: f32,
+    /// Linear surface colour.
+    colour: Vec3,
+    lighting: Lighting,
+    _choices: PhantomData<(R, G)>,
+}
+
+impl<R, G, A> Iso<R, G, A> {
+    /// The integrator for iso value `level`, surface colour `colour`
+    /// (linear) lit by `lighting`.
+    pub fn new(
+        geom: FrameGeometry,
+        accel: A,
+        level: f32,
+        colour: Vec3,
+        lighting: Lighting,
+    ) -> Self {
+        Iso {
+            geom,
+            accel,
+            level,
+            colour,
+            lighting,
+            _choices: PhantomData,
+        }
+    }
+}
+
+impl<R: Reconstruct, G: Gradient, A: Accel<bool>> Integrator for Iso<R, G, A> {
+    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult {
+        let steps = RaySteps::new(&self.geom, ray, t0, t1);
+        let mut st = IsoRay {
+            iso: self,
+            steps: &steps,
+            ray,
+            t0,
+            prev: false,
+            out: RayResult::empty(),
+        };
+        let skips = march(&mut st, &self.accel, cur, &steps);
+        RayResult { skips, ..st.out }
+    }
+}
+
+struct IsoRay<'i, R, G, A> {
+    iso: &'i Iso<R, G, A>,
+    steps: &'i RaySteps,
+    ray: &'i Ray,
+    t0: f32,
+    /// The class of the previous sample (above the level or not).
+    prev: bool,
+    out: RayResult,
+}
+
+impl<R: Reconstruct, G: Gradient, A: Accel<bool>> RayMarch for IsoRay<'_, R, G, A> {
+    type Query = bool;
+    const CACHE_BUSY: bool = false;
+
+    #[inline(always)]
+    fn query(&self) -> bool {
+        self.prev
+    }
+
+    #[inline(always)]
+    fn sample<C: Cursor>(
+        &mut self,
+        cur: &mut C,
+        k: i64,
+        t: f32,
+        p: Vec3,
+        cell: Option<usize>,
+    ) -> Flow {
+        let iso = self.iso;
+        // A uniform cell tells the class without a sample.
+        let known = match cell.map(|c| iso.accel.flag(c)) {
+            Some(ISO_ABOVE) => Some(true),
+            Some(ISO_BELOW) => Some(false),
+            _ => None,
+        };
+        let class = match known {
+            Some(c) => c,
+            None => {
+                self.out.samples += 1;
+                R::value(&iso.geom.locator, cur, p) >= iso.level
+            }
+        };
+        if class != self.prev {
+            let s = self.steps;
+            let lo_t = if k > s.k0 { s.t(k - 1) } else { self.t0.min(t) };
+            let hit = self.refine(cur, lo_t, t, class);
+            self.out.samples += BISECTIONS;
+            self.shade_hit(cur, hit);
+            return Flow::Stop;
+        }
+        self.prev = class;
+        Flow::Next
+    }
+}
+
+impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, R, G, A> {
+    /// Bisect `[a, b]`, where the class at `b` is `class_b` and at `a` the
+    /// opposite, down to `BISECTIONS` halvings; returns the midpoint.
+    fn refine<C: Cursor>(&self, cur: &mut C, mut a: f32, mut b: f32, class_b: bool) -> f32 {
+        let loc = &self.iso.geom.locator;
+        for _ in 0..BISECTIONS {
+            let m = 0.5 * (a + b);
+            if (R::value(loc, cur, self.steps.at(m)) >= self.iso.level) == class_b {
+                b = m;
+            } else {
+                a = m;
+            }
+        }
+        0.5 * (a + b)
+    }
+
+    fn shade_hit<C: Cursor>(&mut self, cur: &mut C, t: f32) {
+        let iso = self.iso;
+        let loc = &iso.geom.locator;
+        let p = self.steps.at(t);
+        let (v, early) = G::value::<C, R>(loc, cur, p);
+        let g = G::gradient(early, loc, cur, p) * iso.geom.inv_spacing;
+        let c = if g.length() > 0.0 {
+            iso.lighting.shade(iso.colour, g, self.ray.dir)
+        } else {
+            iso.colour * iso.lighting.model.ambient
+        };
+        self.out.rgba = [c.x, c.y, c.z, 1.0];
+        self.out.value = v;
+        self.out.depth = t;
+    }
+}

@@ -1,0 +1,176 @@
+//! The one loop that walks a ray's samples, with or without skipping.
+//!
+//! Samples lie at `t = k·step` for whole `k` (a grid fixed by the ray
+//! alone, so skipping and tiling never move a sample). At each sample the
+//! loop asks the frame's [`Accel`] whether the sample's cell can be jumped
+//! over; if so it moves to the first sample past the jump, otherwise the
+//! integrator takes the sample. Integrators whose skipping rule is fixed
+//! for the frame let the loop stop asking until the ray leaves a cell
+//! found busy.
+
+use super::FrameGeometry;
+use crate::accel::{Accel, Step, VoxelRay};
+use crate::ray::Ray;
+use glam::Vec3;
+use volcore::grid::Locator;
+use volcore::Cursor;
+
+/// The ray in voxel coordinates and its sample range `k0 ..= k1`
+/// (samples at `t = k·step`).
+#[derive(Clone, Copy)]
+pub struct RaySteps {
+    /// The ray in voxel coordinates.
+    pub ray: VoxelRay,
+    /// First sample.
+    pub k0: i64,
+    /// Last sample.
+    pub k1: i64,
+    /// Distance between samples.
+    pub step: f64,
+    /// `1 / step`.
+    pub inv_step: f64,
+    /// Locates sample points in the volume.
+    pub loc: Locator,
+}
+
+impl RaySteps {
+    /// The samples of world-space `ray` over `[t0, t1]` in a frame.
+    pub fn new(geom: &FrameGeometry, ray: &Ray, t0: f32, t1: f32) -> RaySteps {
+        let (o, d) = (ray.origin * geom.inv_spacing, ray.dir * geom.inv_spacing);
+        RaySteps::voxel_space(o, d, t0, t1, geom.step as f64, geom.locator)
+    }
+
+    /// The samples of a ray already in voxel coordinates (origin `o`,
+    /// direction `d`) over `[t0, t1]`, `step` apart.
+    pub fn voxel_space(o: Vec3, d: Vec3, t0: f32, t1: f32, step: f64, loc: Locator) -> RaySteps {
+        RaySteps {
+            ray: VoxelRay::new(o, d),
+            k0: (t0 as f64 / step).ceil() as i64,
+            k1: (t1 as f64 / step).floor() as i64,
+            step,
+            inv_step: 1.0 / step,
+            loc,
+        }
+    }
+
+    /// Ray parameter of sample `k` (always this expression, so a sample
+    /// lands at the same place whatever skipped or refined around it).
+    #[inline(always)]
+    pub fn t(&self, k: i64) -> f32 {
+        (k as f64 * self.step) as f32
+    }
+
+    /// Voxel-space position at ray parameter `t`.
+    #[inline(always)]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.ray.at(t)
+    }
+
+    /// After a skip covering every sample up to parameter `u`, the first
+    /// sample past `u`, if that moves past `k` (every sample from `k` to it
+    /// is skipped; the one returned is taken normally).
+    #[inline(always)]
+    pub fn after_skip(&self, k: i64, u: f32) -> Option<i64> {
+        let last = self.last_before(u);
+        (last >= k).then_some(last.saturating_add(1))
+    }
+
+    /// The last sample at or before ray parameter `u`.
+    #[inline(always)]
+    pub fn last_before(&self, u: f32) -> i64 {
+        // A reciprocal instead of a division (on the path from one skip to
+        // the next sample): in f64, its rounding can move `u / step` across
+        // an integer only when `u` lies within ~1e-12 of a sample, far
+        // inside the margin skips keep from cell faces.
+        floor_i64(u as f64 * self.inv_step)
+    }
+}
+
+/// `floor(x)` as an integer (saturating; NaN gives 0), without a call to
+/// libm's `floor`, which the baseline x86-64 target cannot inline.
+#[inline(always)]
+fn floor_i64(x: f64) -> i64 {
+    let i = x as i64;
+    i - ((i as f64) > x) as i64
+}
+
+/// Whether the march goes on after a sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    /// On to the next sample.
+    Next,
+    /// The ray is done.
+    Stop,
+}
+
+/// An integrator's state along one ray, as the march loop drives it.
+pub trait RayMarch {
+    /// What the ray's state adds to the skipping rule.
+    type Query: Copy;
+    /// Whether a cell found busy stays busy for the rest of the ray (the
+    /// rule is fixed for the frame), so the loop need not ask again until
+    /// the ray leaves it.
+    const CACHE_BUSY: bool;
+    /// The ray's current contribution to the rule.
+    fn query(&self) -> Self::Query;
+    /// Samples `from .. to` were skipped.
+    #[inline(always)]
+    fn skipped(&mut self, _from: i64, _to: i64) {}
+    /// Take sample `k` at ray parameter `t`, voxel-space point `p`;
+    /// `cell` is the sample's level-0 macrocell when the loop looked it up
+    /// for this sample.
+    fn sample<C: Cursor>(
+        &mut self,
+        cur: &mut C,
+        k: i64,
+        t: f32,
+        p: Vec3,
+        cell: Option<usize>,
+    ) -> Flow;
+}
+
+/// Walk the samples of `s` with `m`, skipping where `accel` allows;
+/// returns the number of skips made.
+#[inline(always)]
+pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
+    m: &mut M,
+    accel: &A,
+    cur: &mut C,
+    s: &RaySteps,
+) -> u32 {
+    let mut skips = 0;
+    let mut k = s.k0;
+    // With CACHE_BUSY, samples up to `busy_until` lie in (or just past) a
+    // level-0 cell found not skippable: they need no further check (its
+    // flags are fixed for the frame, and taking a sample is never wrong).
+    let mut busy_until = i64::MIN;
+    while k <= s.k1 {
+        let t = s.t(k);
+        let p = s.at(t);
+        let mut cell = None;
+        if A::ON && (!M::CACHE_BUSY || k > busy_until) {
+            match accel.step(p, &s.ray, m.query()) {
+                Step::Skip { until, cell: c } => {
+                    if let Some(kn) = s.after_skip(k, until) {
+                        m.skipped(k, kn);
+                        k = kn;
+                        skips += 1;
+                        continue;
+                    }
+                    cell = Some(c);
+                }
+                Step::Busy { exit, cell: c } => {
+                    if M::CACHE_BUSY {
+                        busy_until = s.last_before(exit);
+                    }
+                    cell = Some(c);
+                }
+            }
+        }
+        if m.sample(cur, k, t, p, cell) == Flow::Stop {
+            break;
+        }
+        k += 1;
+    }
+    skips
+}

@@ -1,0 +1,75 @@
+//! The integrators: what happens along one ray, per mode.
+//!
+//! Each integrator is a type ([`Dvr`], [`Mip`], [`Xray`], [`Iso`]) that
+//! owns its configuration and is generic over the choices that change its
+//! inner loop (reconstruction, gradient method, classifier, shading,
+//! termination, skipping rule), each a small type, so
+//! [`crate::dispatch`] builds exactly one specialised loop per frame and
+//! a choice that is off costs nothing: with shading off no gradient is
+//! computed, MIP, MinIP and X-ray never touch a transfer function, and a
+//! frame without skipping has no skipping code. They all walk the ray's
+//! samples with one loop, [`march::march`].
+
+pub mod dvr;
+pub mod iso;
+pub mod march;
+pub mod mip;
+pub mod reconstruct;
+pub mod xray;
+
+pub use dvr::{Dvr, NoTermination, OpacityThreshold, Phong, Shading, Termination, Unshaded};
+pub use iso::Iso;
+pub use mip::{Maximum, Minimum, Mip};
+pub use reconstruct::{Analytic, Central, Gradient, Nearest, NoGradient, Reconstruct, Trilinear};
+pub use xray::Xray;
+
+use crate::ray::Ray;
+use glam::Vec3;
+use volcore::grid::Locator;
+use volcore::Cursor;
+
+/// One ray's integral through the volume, specialised for a frame.
+pub trait Integrator: Sync {
+    /// Integrate `ray` over the parameter range `[t0, t1]` (the part inside
+    /// the volume's box), reading samples through `cur`.
+    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult;
+}
+
+/// What is the same for every ray of a frame: where samples go and how
+/// world positions map to voxels.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameGeometry {
+    /// Distance between samples, world units.
+    pub step: f32,
+    /// 1 / spacing, to go from world to voxel coordinates.
+    pub inv_spacing: Vec3,
+    /// Locates sample points in the volume.
+    pub locator: Locator,
+}
+
+/// What one ray produced.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RayResult {
+    /// Linear colour, premultiplied by alpha, and alpha.
+    pub rgba: [f32; 4],
+    /// The mode's scalar: MIP/MinIP value, X-ray sum or mean, iso value
+    /// (NaN when none).
+    pub value: f32,
+    /// Ray parameter of the iso hit or MIP extreme (NaN when none).
+    pub depth: f32,
+    /// Samples taken.
+    pub samples: u32,
+    /// Skips made.
+    pub skips: u32,
+}
+
+impl RayResult {
+    /// A ray that met nothing.
+    pub fn empty() -> RayResult {
+        RayResult {
+            value: f32::NAN,
+            depth: f32::NAN,
+            ..Default::default()
+        }
+    }
+}

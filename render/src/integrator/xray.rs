@@ -1,0 +1,106 @@
+//! X-ray: the line integral, or the mean, of the value along the ray.
+
+use super::march::{march, Flow, RayMarch, RaySteps};
+use super::reconstruct::Reconstruct;
+use super::{FrameGeometry, Integrator, RayResult};
+use crate::accel::Accel;
+use crate::ray::Ray;
+use glam::Vec3;
+use std::marker::PhantomData;
+use volcore::Cursor;
+
+/// What an X-ray pixel reports.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum XrayOutput {
+    /// The line integral: the sum of `value × step` (value·world units).
+    Sum,
+    /// The mean sample value.
+    Mean,
+}
+
+/// X-ray projection (see [`XrayOutput`]). NaN samples count as 0; `A`
+/// skips cells holding only zeros (counting their samples, so the mean
+/// stays exact). Accumulates in f64.
+pub struct Xray<R, A> {
+    geom: FrameGeometry,
+    accel: A,
+    output: XrayOutput,
+    _choices: PhantomData<R>,
+}
+
+impl<R, A> Xray<R, A> {
+    /// The integrator.
+    pub fn new(geom: FrameGeometry, accel: A, output: XrayOutput) -> Self {
+        Xray {
+            geom,
+            accel,
+            output,
+            _choices: PhantomData,
+        }
+    }
+}
+
+impl<R: Reconstruct, A: Accel<()>> Integrator for Xray<R, A> {
+    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult {
+        let steps = RaySteps::new(&self.geom, ray, t0, t1);
+        let mut st = XrayRay::<R, A> {
+            xray: self,
+            sum: 0.0,
+            count: 0,
+            samples: 0,
+        };
+        let skips = march(&mut st, &self.accel, cur, &steps);
+        let value = if st.count == 0 {
+            f32::NAN
+        } else {
+            match self.output {
+                XrayOutput::Mean => (st.sum / st.count as f64) as f32,
+                XrayOutput::Sum => (st.sum * steps.step) as f32,
+            }
+        };
+        RayResult {
+            value,
+            samples: st.samples,
+            skips,
+            ..RayResult::empty()
+        }
+    }
+}
+
+struct XrayRay<'x, R, A> {
+    xray: &'x Xray<R, A>,
+    sum: f64,
+    count: i64,
+    samples: u32,
+}
+
+impl<R: Reconstruct, A> RayMarch for XrayRay<'_, R, A> {
+    type Query = ();
+    const CACHE_BUSY: bool = false;
+
+    #[inline(always)]
+    fn query(&self) {}
+
+    #[inline(always)]
+    fn skipped(&mut self, from: i64, to: i64) {
+        self.count += to - from;
+    }
+
+    #[inline(always)]
+    fn sample<C: Cursor>(
+        &mut self,
+        cur: &mut C,
+        _: i64,
+        _: f32,
+        p: Vec3,
+        _: Option<usize>,
+    ) -> Flow {
+        let v = R::value(&self.xray.geom.locator, cur, p);
+        self.samples += 1;
+        if !v.is_nan() {
+            self.sum += v as f64;
+        }
+        self.count += 1;
+        Flow::Next
+    }
+}

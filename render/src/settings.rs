@@ -1,0 +1,89 @@
+//! What a frame is asked to be: the user's choices, before they are
+//! resolved into concrete integrator types (see [`crate::dispatch`]).
+
+use crate::shade::Lighting;
+
+/// What a ray computes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Mode {
+    /// Emission-absorption, front to back, through a transfer function.
+    Dvr,
+    /// Maximum intensity projection.
+    Mip,
+    /// Minimum intensity projection.
+    Minip,
+    /// X-ray: the integral of the value along the ray (value × length).
+    XraySum,
+    /// X-ray: the mean sample value along the ray.
+    XrayMean,
+    /// The first crossing of this iso value, refined by bisection, shaded.
+    Iso(f32),
+}
+
+/// How values between voxels are reconstructed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interp {
+    /// The nearest voxel.
+    Nearest,
+    /// Trilinear interpolation.
+    Trilinear,
+}
+
+/// How gradients (for shading and for 2D classification) are computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GradientMethod {
+    /// Central differences of the interpolant (six more samples).
+    Central,
+    /// The exact gradient of the trilinear cell (no extra samples).
+    Analytic,
+}
+
+/// How to render a frame.
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    /// What each ray computes.
+    pub mode: Mode,
+    /// Distance between samples along a ray, world units (> 0).
+    pub step: f32,
+    /// Reconstruction between voxels.
+    pub interp: Interp,
+    /// Gradient method for shading and 2D classification.
+    pub gradient: GradientMethod,
+    /// Blinn-Phong shading (DVR); iso surfaces are always shaded.
+    pub shading: bool,
+    /// Light and material.
+    pub lighting: Lighting,
+    /// Shade only where the world-space gradient is longer than this
+    /// fraction of the volume's value range per world unit.
+    pub gradient_threshold: f32,
+    /// Early ray termination threshold for DVR, and whether MIP/MinIP stop
+    /// at the volume's extreme (`None` = off).
+    pub ert: Option<f32>,
+    /// Empty-space skipping (needs an index).
+    pub ess: bool,
+    /// Tile edge in pixels.
+    pub tile: u32,
+    /// Background colour, sRGB components in [0, 1].
+    pub background: [f32; 3],
+    /// Iso-surface colour, sRGB components in [0, 1].
+    pub iso_colour: [f32; 3],
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            mode: Mode::Dvr,
+            step: 0.5,
+            interp: Interp::Trilinear,
+            gradient: GradientMethod::Central,
+            shading: false,
+            lighting: Lighting::default(),
+            gradient_threshold: 0.01,
+            ert: Some(0.99),
+            ess: true,
+            tile: 16,
+            background: [0.0; 3],
+            iso_colour: [0.85, 0.85, 0.8],
+        }
+    }
+}

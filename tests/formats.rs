@@ -1,0 +1,537 @@
+//! End to end: files written by other tools (nibabel, pydicom: fixtures
+//! made by scripts/make-fixtures.py) read with the right spacing,
+//! orientation and values; round trips through every header format with
+//! geometry; every tool reading every format; malformed files refused.
+
+mod common;
+
+use common::{fails, json, leftovers, ok, tool};
+use std::path::{Path, PathBuf};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+/// The samples of any volume, through vol-convert to raw f32.
+fn samples(input: &Path, extra: &[&str]) -> Vec<f32> {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.raw");
+    ok(tool("vol-convert")
+        .arg(input)
+        .args(extra)
+        .args(["--type", "f32", "--quiet", "-o"])
+        .arg(&out));
+    let b = std::fs::read(&out).unwrap();
+    b.chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
+fn info(input: &Path, extra: &[&str]) -> serde_json::Value {
+    json(&ok(tool("vol-info").arg(input).args(extra).arg("--json")))
+}
+
+fn close(v: &serde_json::Value, want: &[f64]) -> bool {
+    let got: Vec<f64> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|x| match x.as_array() {
+            Some(row) => row.iter().map(|y| y.as_f64().unwrap()).collect(),
+            None => vec![x.as_f64().unwrap()],
+        })
+        .collect();
+    got.len() == want.len() && got.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-4)
+}
+
+#[test]
+fn nibabel_nifti_reads_with_geometry_and_rescale() {
+    let p = fixture("nibabel_int16.nii.gz");
+    let j = info(&p, &[]);
+    assert_eq!(j["dims"], serde_json::json!([8, 7, 6]));
+    // int16 with an integer rescale stays integer: i16.
+    assert_eq!(j["type"], "i16");
+    assert!(close(&j["spacing"], &[0.5, 0.75, 1.5]), "{j}");
+    // RAS affine (-x, +y, +z; origin 10, -20, 30) in LPS.
+    assert!(close(&j["origin"], &[-10.0, 20.0, 30.0]), "{j}");
+    assert!(
+        close(
+            &j["direction"],
+            &[1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0]
+        ),
+        "{j}"
+    );
+    assert_eq!(j["orientation"], "LAS");
+    let v = samples(&p, &[]);
+    let mut want = Vec::new();
+    for k in 0..6 {
+        for jj in 0..7 {
+            for i in 0..8 {
+                want.push((2 * (i + 10 * jj + 100 * k) - 10) as f32);
+            }
+        }
+    }
+    assert_eq!(v, want);
+    // NIfTI-2, float64 written by nibabel.
+    let p = fixture("nibabel_f64.nii");
+    let j = info(&p, &[]);
+    assert_eq!(j["type"], "f32");
+    assert_eq!(j["format"], "nifti");
+    assert!(close(&j["spacing"], &[2.0, 2.0, 3.0]), "{j}");
+    let v = samples(&p, &[]);
+    assert_eq!(v[1 + 8], 0.25 + 1.0);
+}
+
+#[test]
+fn dicom_series_sorts_by_position_and_gives_hounsfield_units() {
+    let p = fixture("dicom_ct");
+    let j = info(&p, &[]);
+    assert_eq!(j["dims"], serde_json::json!([16, 12, 10]));
+    assert_eq!(j["type"], "i16");
+    assert!(close(&j["spacing"], &[0.7, 0.8, 2.5]), "{j}");
+    assert!(close(&j["origin"], &[-40.0, -30.0, 12.5]), "{j}");
+    assert_eq!(j["orientation"], "LPS");
+    let v = samples(&p, &[]);
+    let mut want = Vec::new();
+    for k in 0..10 {
+        for y in 0..12 {
+            for x in 0..16 {
+                want.push((10 * (x + 2 * y + 3 * k) - 1024) as f32);
+            }
+        }
+    }
+    assert_eq!(
+        v, want,
+        "files are shuffled: only the positions give this order"
+    );
+}
+
+fn copy_dir(from: &Path, to: &Path, skip: &[&str]) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let name = e.file_name().to_string_lossy().into_owned();
+        if !skip.contains(&name.as_str()) {
+            std::fs::copy(e.path(), to.join(&name)).unwrap();
+        }
+    }
+}
+
+/// The file of dicom_ct holding slice `k` (by position).
+fn ct_file(k: usize) -> String {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(fixture("dicom_ct"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    files.sort();
+    // The slice's pixels start at 10·3k: find the file by its position in
+    // the converted volume instead of parsing DICOM here.
+    let dir = tempfile::tempdir().unwrap();
+    for f in &files {
+        let one = dir.path().join("one");
+        let _ = std::fs::remove_dir_all(&one);
+        std::fs::create_dir(&one).unwrap();
+        std::fs::copy(f, one.join("a.dcm")).unwrap();
+        let v = samples(&one, &[]);
+        if v[0] == (30 * k as i32 - 1024) as f32 {
+            return f.file_name().unwrap().to_string_lossy().into_owned();
+        }
+    }
+    panic!("no file for slice {k}");
+}
+
+#[test]
+fn bad_dicom_series_are_refused_with_the_reason() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    // A missing slice: the gap is named.
+    let gap = d.join("gap");
+    copy_dir(&fixture("dicom_ct"), &gap, &[&ct_file(4)]);
+    let out = d.join("o.vvol");
+    let e = fails(tool("vol-convert").arg(&gap).arg("-o").arg(&out), "missing");
+    assert!(e.contains("20.000 mm") && e.contains("25.000 mm"), "{e}");
+    assert!(!out.exists() && leftovers(d).is_empty());
+    // Gantry tilt.
+    fails(
+        tool("vol-convert")
+            .arg(fixture("dicom_tilt"))
+            .arg("-o")
+            .arg(&out),
+        "gantry tilt",
+    );
+    // Two series: listed, then picked.
+    let two = d.join("two");
+    copy_dir(&fixture("dicom_ct"), &two, &[]);
+    copy_dir(&fixture("dicom_mr"), &two, &[]);
+    let e = fails(tool("vol-info").arg(&two), "--series");
+    assert!(
+        e.contains("1.2.826.0.1.3680043.8.498.10") && e.contains("1.2.826.0.1.3680043.8.498.20"),
+        "{e}"
+    );
+    let j = info(&two, &["--series", "1.2.826.0.1.3680043.8.498.20"]);
+    assert_eq!(j["dims"], serde_json::json!([8, 8, 3]));
+    fails(
+        tool("vol-info").arg(&two).args(["--series", "9.9"]),
+        "no series 9.9",
+    );
+    // A damaged file: one line naming it, nothing written.
+    let bad = d.join("bad");
+    copy_dir(&fixture("dicom_ct"), &bad, &[]);
+    let victim = bad.join(ct_file(2));
+    let mut b = std::fs::read(&victim).unwrap();
+    b.truncate(300);
+    std::fs::write(&victim, b).unwrap();
+    let e = fails(tool("vol-convert").arg(&bad).arg("-o").arg(&out), "dcm");
+    assert!(
+        e.contains(&victim.file_name().unwrap().to_string_lossy().into_owned()),
+        "{e}"
+    );
+    assert!(!out.exists() && leftovers(d).is_empty());
+}
+
+#[test]
+fn header_formats_round_trip_with_geometry() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let src = fixture("nibabel_int16.nii.gz");
+    let want = info(&src, &[]);
+    let vvol = d.join("ref.vvol");
+    ok(tool("vol-convert").arg(&src).arg("-o").arg(&vvol).arg("-q"));
+    for (name, extra) in [
+        ("a.nii", &[][..]),
+        ("b.nii.gz", &[]),
+        ("c.hdr", &[]),
+        ("c2.hdr", &["--compress", "gzip"]),
+        ("d.nrrd", &[]),
+        ("e.nrrd", &["--compress", "gzip"]),
+        ("f.nhdr", &["--compress", "gzip"]),
+        ("g.mha", &[]),
+        ("h.mhd", &["--compress", "gzip"]),
+        ("i.vvol", &[]),
+    ] {
+        let out = d.join(name);
+        ok(tool("vol-convert")
+            .arg(&vvol)
+            .args(extra)
+            .arg("-o")
+            .arg(&out)
+            .arg("-q"));
+        let j = info(&out, &[]);
+        for key in ["dims", "type"] {
+            assert_eq!(j[key], want[key], "{name}: {key}");
+        }
+        for key in ["spacing", "origin", "direction"] {
+            let w: Vec<f64> = want[key]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|x| match x.as_array() {
+                    Some(r) => r.iter().map(|y| y.as_f64().unwrap()).collect(),
+                    None => vec![x.as_f64().unwrap()],
+                })
+                .collect();
+            assert!(
+                close(&j[key], &w),
+                "{name}: {key} {} vs {}",
+                j[key],
+                want[key]
+            );
+        }
+        ok(tool("vol-psnr")
+            .arg(&vvol)
+            .arg(&out)
+            .args(["--min-psnr", "inf", "-q"]));
+    }
+    assert!(leftovers(d).is_empty());
+    // Crop and flip move the origin and turn the axis.
+    let out = d.join("crop.nrrd");
+    ok(tool("vol-convert")
+        .arg(&src)
+        .args(["--crop", "2:8,:,:", "--flip", "z", "-q", "-o"])
+        .arg(&out));
+    let j = info(&out, &[]);
+    // Voxel 2 along x (LPS +x, 0.5 mm) and the last slice (5 · 1.5 mm up).
+    assert!(close(&j["origin"], &[-9.0, 20.0, 37.5]), "{j}");
+    assert_eq!(j["orientation"], "LAI");
+}
+
+#[test]
+fn every_tool_reads_every_format() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let nii = fixture("nibabel_int16.nii.gz");
+    let nrrd = d.join("a.nrrd");
+    let tif = d.join("a.tif");
+    ok(tool("vol-convert").arg(&nii).arg("-q").arg("-o").arg(&nrrd));
+    ok(tool("vol-convert").arg(&nii).arg("-q").arg("-o").arg(&tif));
+    ok(tool("vol-psnr")
+        .arg(&nrrd)
+        .arg(&nii)
+        .args(["--min-psnr", "inf", "-q"]));
+    ok(tool("vol-psnr")
+        .arg(&tif)
+        .arg(fixture("nibabel_int16.nii.gz"))
+        .args(["--min-psnr", "inf", "-q"]));
+    let j = info(&tif, &[]);
+    assert_eq!(j["dims"], serde_json::json!([8, 7, 6]));
+    ok(tool("vol-index").arg(&nrrd).arg("-q"));
+    assert!(d.join("a.nrrd.vidx").exists());
+    ok(tool("vol-index")
+        .arg("--check")
+        .arg(d.join("a.nrrd.vidx"))
+        .arg(&nrrd)
+        .arg("-q"));
+    ok(tool("vol-index")
+        .arg(fixture("dicom_ct"))
+        .arg("-o")
+        .arg(d.join("ct.vidx"))
+        .arg("-q"));
+}
+
+#[test]
+fn wide_integer_and_double_inputs_narrow_by_their_values() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    // An int32 NRRD as SimpleITK writes it: HU values fit i16.
+    let vals: Vec<i32> = (0..4 * 3 * 2).map(|i| i * 100 - 1024).collect();
+    let mut text = b"NRRD0004\ntype: int\ndimension: 3\nspace: left-posterior-superior\nsizes: 4 3 2\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,2)\nendian: little\nencoding: raw\nspace origin: (1,2,3)\n\n".to_vec();
+    for v in &vals {
+        text.extend_from_slice(&v.to_le_bytes());
+    }
+    let p = d.join("ct.nrrd");
+    std::fs::write(&p, &text).unwrap();
+    let j = info(&p, &[]);
+    assert_eq!(j["type"], "i16");
+    assert!(close(&j["origin"], &[1.0, 2.0, 3.0]), "{j}");
+    assert_eq!(
+        samples(&p, &[]),
+        vals.iter().map(|&v| v as f32).collect::<Vec<_>>()
+    );
+    // Asking for u8 without a window names the values and the way out.
+    let e = fails(
+        tool("vol-convert")
+            .arg(&p)
+            .args(["--type", "u8", "-o"])
+            .arg(d.join("o.vvol")),
+        "--window",
+    );
+    assert!(e.contains("-1024"), "{e}");
+    ok(tool("vol-convert")
+        .arg(&p)
+        .args(["--type", "u8", "--window", "full", "-q", "-o"])
+        .arg(d.join("o.vvol")));
+    // Raw int32 big-endian and f64 through the raw options.
+    let r = d.join("w.bin");
+    let be: Vec<u8> = vals.iter().flat_map(|v| v.to_be_bytes()).collect();
+    std::fs::write(&r, be).unwrap();
+    let v = samples(
+        &r,
+        &[
+            "--raw-dims",
+            "4,3,2",
+            "--raw-type",
+            "i32",
+            "--raw-endian",
+            "big",
+        ],
+    );
+    assert_eq!(v, vals.iter().map(|&v| v as f32).collect::<Vec<_>>());
+    let f = d.join("f_2x2x1_float64.raw");
+    let fb: Vec<u8> = [0.5f64, -1.25, 3.0, 1e6]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    std::fs::write(&f, fb).unwrap();
+    assert_eq!(samples(&f, &[]), vec![0.5, -1.25, 3.0, 1e6]);
+}
+
+#[test]
+fn malformed_new_formats_fail_with_one_line_and_leave_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let out = d.join("o.vvol");
+    // Truncated gzip NIfTI.
+    let b = std::fs::read(fixture("nibabel_int16.nii.gz")).unwrap();
+    let p = d.join("short.nii.gz");
+    std::fs::write(&p, &b[..b.len() / 2]).unwrap();
+    fails(
+        tool("vol-convert").arg(&p).arg("-o").arg(&out),
+        "short.nii.gz",
+    );
+    assert!(!out.exists());
+    // Garbage with a NIfTI name, and a header whose data is missing.
+    let p = d.join("junk.nii");
+    std::fs::write(&p, vec![7u8; 400]).unwrap();
+    fails(tool("vol-info").arg(&p), "not a NIfTI");
+    let n = std::fs::read(fixture("nibabel_f64.nii")).unwrap();
+    let p = d.join("cut.nii");
+    std::fs::write(&p, &n[..600]).unwrap();
+    fails(tool("vol-convert").arg(&p).arg("-o").arg(&out), "cut.nii");
+    // A NRRD with a bad space.
+    let p = d.join("bad.nrrd");
+    std::fs::write(
+        &p,
+        "NRRD0004\ntype: uchar\nsizes: 2 2 2\nspace: sideways\nencoding: raw\n\n\0\0\0\0\0\0\0\0",
+    )
+    .unwrap();
+    fails(tool("vol-convert").arg(&p).arg("-o").arg(&out), "space");
+    assert!(!out.exists() && leftovers(d).is_empty());
+    // An OME-Zarr whose metadata is not JSON, and one without multiscales.
+    let z = d.join("bad.ome.zarr");
+    std::fs::create_dir(&z).unwrap();
+    std::fs::write(z.join("zarr.json"), "{not json").unwrap();
+    fails(
+        tool("vol-convert").arg(&z).arg("-o").arg(&out),
+        "bad.ome.zarr",
+    );
+    std::fs::write(
+        z.join("zarr.json"),
+        r#"{"zarr_format":3,"node_type":"group","attributes":{}}"#,
+    )
+    .unwrap();
+    fails(tool("vol-info").arg(&z), "multiscales");
+    assert!(!out.exists() && leftovers(d).is_empty());
+    // An output name no tool writes: usage error before any work.
+    let o = tool("vol-convert")
+        .arg(fixture("nibabel_int16.nii.gz"))
+        .arg("-o")
+        .arg(d.join("a.jpg"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!d.join("a.jpg").exists());
+}
+
+/// x + 10 y + 100 z + 1000 c + 5000 t over a stack.
+fn tiff_values(nx: i64, ny: i64, nz: i64, c: i64, t: i64, f: impl Fn(i64) -> i64) -> Vec<f32> {
+    let mut v = Vec::new();
+    for z in 0..nz {
+        for y in 0..ny {
+            for x in 0..nx {
+                v.push(f(x + 10 * y + 100 * z + 1000 * c + 5000 * t) as f32);
+            }
+        }
+    }
+    v
+}
+
+#[test]
+fn tifffile_ome_hyperstacks_and_zstd_int32() {
+    // OME-TIFF: physical sizes, and one channel of ZCYX.
+    let p = fixture("tifffile_ome.ome.tif");
+    let e = fails(tool("vol-info").arg(&p), "--channel");
+    assert!(e.contains("ZCYX"), "{e}");
+    let v = samples(&p, &["--channel", "1"]);
+    assert_eq!(v, tiff_values(6, 8, 5, 1, 0, |v| v));
+    let d = tempfile::tempdir().unwrap();
+    let o = d.path().join("ome.nrrd");
+    ok(tool("vol-convert")
+        .arg(&p)
+        .args(["--channel", "1", "-q", "-o"])
+        .arg(&o));
+    let j = info(&o, &[]);
+    assert!(close(&j["spacing"], &[0.25, 0.25, 1.5]), "{j}");
+    // ImageJ hyperstack TZCYX: the error lists the axes; a pick reads one stack.
+    let p = fixture("tifffile_hyperstack.tif");
+    let e = fails(
+        tool("vol-convert").arg(&p).arg("-o").arg(&o),
+        "--channel C --time T",
+    );
+    assert!(e.contains("TZCYX"), "{e}");
+    let v = samples(&p, &["--channel", "1", "--time", "1"]);
+    assert_eq!(v, tiff_values(5, 6, 4, 1, 1, |v| v % 256));
+    fails(
+        tool("vol-convert")
+            .arg(&p)
+            .args(["--channel", "2", "--time", "0", "-o"])
+            .arg(&o),
+        "channels 0..1",
+    );
+    // zstd-compressed int32 pages: narrowed by their values (they fit f32 only).
+    let p = fixture("tifffile_zstd_i32.tif");
+    let j = info(&p, &[]);
+    assert_eq!(j["dims"], serde_json::json!([5, 6, 3]));
+    assert_eq!(j["type"], "f32");
+    assert_eq!(samples(&p, &[]), tiff_values(5, 6, 3, 0, 0, |v| v - 70000));
+}
+
+#[test]
+fn ome_zarr_pyramids_round_trip_and_read_in_zarr_python() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let src = fixture("dicom_ct");
+    let z = d.join("ct.ome.zarr");
+    ok(tool("vol-convert")
+        .arg(&src)
+        .args(["--pyramid", "3", "-q", "-o"])
+        .arg(&z));
+    let j = info(&z, &[]);
+    assert_eq!(j["dims"], serde_json::json!([16, 12, 10]));
+    assert!(close(&j["spacing"], &[0.7, 0.8, 2.5]), "{j}");
+    assert!(close(&j["origin"], &[-40.0, -30.0, 12.5]), "{j}");
+    ok(tool("vol-psnr")
+        .arg(&src)
+        .arg(&z)
+        .args(["--min-psnr", "inf", "-q"]));
+    // An existing output is refused before any work.
+    let o = tool("vol-convert")
+        .arg(&src)
+        .arg("-o")
+        .arg(&z)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    // zarr-python reads what we wrote, with the right scale per level.
+    let script = format!(
+        r#"
+import json, sys
+try:
+    import zarr
+except ImportError:
+    print("SKIP zarr-python is not installed"); sys.exit(0)
+g = zarr.open_group({path:?}, mode="r")
+ms = g.attrs["ome"]["multiscales"][0]
+scales = [d["coordinateTransformations"][0]["scale"] for d in ms["datasets"]]
+shapes = [list(g[d["path"]].shape) for d in ms["datasets"]]
+a = g["0"][:]
+print(json.dumps({{"scales": scales, "shapes": shapes, "v": int(a[9, 11, 15])}}))
+"#,
+        path = z.to_string_lossy()
+    );
+    let out = match std::process::Command::new("python3")
+        .arg("-c")
+        .arg(&script)
+        .output()
+    {
+        Ok(o) => o,
+        Err(_) => {
+            eprintln!("SKIP: python3 is not installed; zarr-python read-back not run");
+            return;
+        }
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text} {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    if text.starts_with("SKIP") {
+        // CI installs zarr (.ci/run); a developer machine may not have it.
+        assert!(
+            std::env::var("CI").is_err(),
+            "CI must run the zarr-python read-back"
+        );
+        eprintln!("{text}");
+        return;
+    }
+    let j = json(&text);
+    assert_eq!(
+        j["shapes"],
+        serde_json::json!([[10, 12, 16], [5, 6, 8], [3, 3, 4]])
+    );
+    assert!(close(&j["scales"][0], &[2.5, 0.8, 0.7]), "{j}");
+    assert!(close(&j["scales"][2], &[10.0, 3.2, 2.8]), "{j}");
+    assert_eq!(j["v"], 10 * (15 + 2 * 11 + 3 * 9) - 1024);
+}

@@ -1,0 +1,217 @@
+//! vol-render's command line as parsed: flags and their values, before
+//! they are resolved against the volume into a render plan
+//! ([`crate::plan`]).
+
+use clap::{Parser, ValueEnum};
+use glam::Vec3;
+use std::path::PathBuf;
+
+/// `--mode`.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+pub enum ModeArg {
+    /// Emission-absorption through the transfer function.
+    Dvr,
+    /// Maximum intensity projection.
+    Mip,
+    /// Minimum intensity projection.
+    Minip,
+    /// X-ray: line integral of the value (value × world length).
+    Xray,
+    /// X-ray: mean sample value along the ray.
+    XrayMean,
+    /// Iso-surface at --iso.
+    Iso,
+}
+
+/// `--interp`.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+pub enum InterpArg {
+    /// The nearest voxel.
+    Nearest,
+    /// Trilinear interpolation.
+    Trilinear,
+}
+
+/// `--shading`.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+pub enum ShadingArg {
+    /// Classified colour as is.
+    None,
+    /// Blinn-Phong with the light.
+    Phong,
+}
+
+/// `--gradient`.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+pub enum GradientArg {
+    /// Central differences.
+    Central,
+    /// The analytic gradient of the trilinear cell.
+    Analytic,
+}
+
+/// Render a volume to an image with a tiled, parallel CPU ray caster.
+///
+/// World space follows VTK: voxel (i, j, k) sits at (i·sx, j·sy, k·sz) and the
+/// volume's box is [0, (dims − 1)·spacing]. The image is the same, bit for
+/// bit, whatever the thread count, tile size, storage layout, and whether
+/// empty-space skipping is on.
+#[derive(Parser, Debug)]
+#[command(name = "vol-render", version, after_help = EXAMPLES)]
+pub struct Cli {
+    /// The volume (.vvol, .vol, .raw).
+    pub volume: PathBuf,
+    /// Output PNG (8-bit sRGB).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// A .vidx index made by vol-index for this volume (otherwise one is
+    /// built in memory when skipping is on).
+    #[arg(long)]
+    pub index: Option<PathBuf>,
+    /// Transfer function: a file (1D or 2D), or a preset: grey, ct, shapes,
+    /// or boundary (2D: opacity rising with the gradient magnitude, so
+    /// boundaries between materials show and flat regions vanish).
+    #[arg(long, default_value = "grey")]
+    pub tf: String,
+    /// What each ray computes.
+    #[arg(long, value_enum, default_value = "dvr")]
+    pub mode: ModeArg,
+    /// Iso value for --mode iso (default: the middle of the value range).
+    #[arg(long, allow_hyphen_values = true)]
+    pub iso: Option<f32>,
+    /// Image size WxH.
+    #[arg(long, default_value = "512x512", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Camera position x,y,z (world units); needs --look-at.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<Vec3>,
+    /// Point the camera looks at (default: the volume's centre).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look_at: Option<Vec3>,
+    /// Up vector.
+    #[arg(long, value_parser = parse_vec3, default_value = "0,1,0", allow_hyphen_values = true)]
+    pub up: Vec3,
+    /// Orbit camera: azimuth, elevation (degrees) and distance from the
+    /// volume's centre (default when no --eye: 30,20 and 1.8 diagonals).
+    #[arg(long, value_parser = parse_vec3, conflicts_with = "eye", allow_hyphen_values = true)]
+    pub orbit: Option<Vec3>,
+    /// Vertical field of view in degrees (perspective).
+    #[arg(long, default_value_t = 45.0)]
+    pub fov: f32,
+    /// Orthographic projection with this image height in world units (0 =
+    /// fit the volume's diagonal).
+    #[arg(long, num_args = 0..=1, default_missing_value = "0")]
+    pub ortho: Option<f32>,
+    /// Distance between samples along a ray, world units (default: half the
+    /// smallest voxel spacing).
+    #[arg(long, allow_hyphen_values = true)]
+    pub step: Option<f32>,
+    /// Early ray termination threshold (accumulated opacity).
+    #[arg(long, default_value_t = 0.99)]
+    pub ert: f32,
+    /// Turn early ray termination off.
+    #[arg(long)]
+    pub no_ert: bool,
+    /// Turn empty-space skipping off.
+    #[arg(long)]
+    pub no_ess: bool,
+    /// Reconstruction between voxels.
+    #[arg(long, value_enum, default_value = "trilinear")]
+    pub interp: InterpArg,
+    /// Shading for DVR (iso surfaces are always shaded).
+    #[arg(long, value_enum, default_value = "none")]
+    pub shading: ShadingArg,
+    /// Gradient method for shading.
+    #[arg(long, value_enum, default_value = "central")]
+    pub gradient: GradientArg,
+    /// Direction towards the light x,y,z (default: a headlight).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub light: Option<Vec3>,
+    /// Background colour r,g,b (0-255).
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,0")]
+    pub background: Vec3,
+    /// Write an RGBA PNG with coverage alpha instead of compositing onto the background.
+    #[arg(long)]
+    pub alpha: bool,
+    /// Tile edge in pixels.
+    #[arg(long, default_value_t = 16)]
+    pub tile: u32,
+    /// Macrocell edge of an index built in memory.
+    #[arg(long, default_value_t = 8)]
+    pub cell: u32,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Read an uncompressed .vvol into memory (backed by huge pages where
+    /// the system offers them) instead of sampling the memory-mapped file
+    /// in place: start-up costs a copy of the file, frames cost about the
+    /// same.
+    #[arg(long)]
+    pub in_memory: bool,
+    /// Render this many times and report the median time (for benchmarks).
+    #[arg(long, default_value_t = 1)]
+    pub repeat: u32,
+    /// Also write the linear float image (.pfm).
+    #[arg(long)]
+    pub hdr: Option<PathBuf>,
+    /// Also write a samples-per-pixel heat map with a colour scale (.png).
+    #[arg(long)]
+    pub heatmap: Option<PathBuf>,
+    /// Print one JSON object with the figures.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress messages.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+const EXAMPLES: &str = "Examples:
+  vol-render shapes.vvol --tf shapes --shading phong -o shapes.png
+  vol-render shapes.vvol --tf shapes --shading phong --step 0.2 --size 700x700 \\
+      --eye 1100,1100,1100 --look-at 0,0,0 --fov 60 -o thesis.png --json
+  vol-render ct.vvol --tf ct --orbit 45,30,600 --hdr ct.pfm -o ct.png
+  vol-render sphere.vvol --mode iso --iso 128 -o iso.png
+  vol-render noise.vvol --mode mip --ortho -o mip.png --heatmap samples.png
+  vol-render shapes.vvol --index shapes.vvol.vidx --no-ert --threads 1 -o a.png
+
+  vol-render sphere.vvol --tf boundary --shading phong -o shell.png
+
+Transfer function files: one statement per line, # for comments:
+  domain 0 255              value range the table covers
+  step 1                    reference step for the opacities (world units)
+  range 85 95 255 0 0 0.02  [lo, hi): colour R G B (0-255), opacity per unit length
+  point 100 0 255 0 0.6     control point: value, R G B, opacity (linear between points)
+Two-dimensional ones, over value and gradient magnitude (per world unit), add:
+  gradient-domain 0 120     gradient magnitudes the table covers
+  rect 90 110 20 120 255 200 150 0.6   [v0, v1) x [g0, g1): colour, opacity
+  blob 100 60 8 15 255 255 255 0.9     centre v g, std devs, colour, peak opacity
+  (where parts overlap, the one with the largest opacity wins)";
+
+/// `WxH` within 1..=32768 per side.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', ','])
+        .ok_or_else(|| format!("'{s}' is not WxH"))?;
+    let p = |v: &str| {
+        v.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("'{s}' is not WxH"))
+    };
+    match (p(w)?, p(h)?) {
+        (w, h) if (1..=32768).contains(&w) && (1..=32768).contains(&h) => Ok((w, h)),
+        _ => Err(format!("'{s}': width and height must be 1..=32768")),
+    }
+}
+
+/// Three finite numbers `x,y,z`.
+pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not x,y,z"))?;
+    match v[..] {
+        [x, y, z] if [x, y, z].iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("'{s}' is not three finite numbers x,y,z")),
+    }
+}
