@@ -143,8 +143,8 @@ fn no_control_bytes(err: &[u8]) {
 /// Every slice of `path` through the converter's reader, in-process:
 /// errors are fine, panics and aborts are not.
 fn read_all(path: &Path) -> Result<(), String> {
-    use volformats::convert::{open_input, InputOptions};
-    let r = open_input(path, &InputOptions::default()).map_err(|e| e.to_string())?;
+    use volformats::open::{open_input, ReadOptions};
+    let r = open_input(path, &ReadOptions::default()).map_err(|e| e.to_string())?;
     let d = r.info().dims;
     for z in 0..d.z {
         r.read_slice(z).map_err(|e| e.to_string())?;

@@ -15,7 +15,7 @@
 
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
-use volformats::convert::{open_input, InputOptions};
+use volformats::open::{open_input, ReadOptions};
 
 /// Samples a target decodes at most from one input: larger volumes are
 /// opened and checked but their samples are not read (it would only make
@@ -122,7 +122,7 @@ fn touch_volume(v: &volcore::Volume) {
 /// Open `path` the way vol-convert does and read every slice of a small
 /// input, then the end of the input (trailers, checksums).
 fn convert_input(path: &Path) {
-    let Ok(reader) = open_input(path, &InputOptions::default()) else {
+    let Ok(reader) = open_input(path, &ReadOptions::default()) else {
         return;
     };
     let info = reader.info().clone();
@@ -198,36 +198,20 @@ fn raw(data: &[u8], scratch: &Path) {
     let split = data.iter().position(|&b| b == b'\n').unwrap_or(data.len());
     let (name, samples) = (&data[..split], data.get(split + 1..).unwrap_or(&[]));
     let name = String::from_utf8_lossy(name);
-    let Some((dims, sample_type)) = raw::parse_name(Path::new(name.as_ref())) else {
+    let Some((dims, _)) = raw::parse_name(Path::new(name.as_ref())) else {
         return;
     };
-    let spec = raw::RawSpec {
-        dims,
-        sample_type,
-        big_endian: samples.first().is_some_and(|b| b & 1 == 1),
-        skip: 0,
-    };
-    if dims.count() <= MAX_SAMPLES {
-        if let Ok(v) = raw::read_stream(&mut Cursor::new(samples), spec) {
-            touch_volume(&v);
-        }
+    // The file under a name of the same shape and type, so the real open
+    // path reads dims and type from it.
+    let stem = Path::new(name.as_ref())
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ty = stem.rsplit('_').next().unwrap_or("u8");
+    let file_name = format!("fuzz_{}x{}x{}_{ty}.raw", dims.x, dims.y, dims.z);
+    if let Some(p) = file(scratch, &file_name, samples) {
+        convert_input(&p);
     }
-    // The file under a name of the same shape, so the real open path reads
-    // dims and type from it.
-    let file_name = format!(
-        "fuzz_{}x{}x{}_{}.raw",
-        dims.x,
-        dims.y,
-        dims.z,
-        sample_type.name()
-    );
-    let Some(p) = file(scratch, &file_name, samples) else {
-        return;
-    };
-    if let Ok(v) = volformats::open_volume(&p, Default::default(), None) {
-        touch_volume(&v);
-    }
-    convert_input(&p);
 }
 
 fn nrrd(data: &[u8], scratch: &Path) {

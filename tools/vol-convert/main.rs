@@ -424,9 +424,9 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     let total = out_dims.count().saturating_mul(out_type.size() as u64);
     // The samples alone must fit where the output goes (bricks add their
     // aprons; compressed bricks may take less, so they are not checked).
-    if cli.output.as_os_str() != "-" && cli.compress == Compression::None {
-        volformats::output::check_space(&cli.output, total)
-            .map_err(|e| at(&cli.output, e))?;
+    if cli.output.as_os_str() != "-" && matches!(cli.compress, CompressArg::Vvol(Compression::None))
+    {
+        volformats::output::check_space(&cli.output, total).map_err(|e| at(&cli.output, e))?;
     }
     let bar = volkit_cli::progress::bytes_bar(total, "vol-convert", cli.quiet);
     let progress = |n: u64| bar.set_position(n);
