@@ -175,7 +175,7 @@ fn decode_with(path: &Path, format: image::ImageFormat) -> Result<Image> {
     let reader = image::ImageReader::with_format(std::io::BufReader::new(file), format);
     let img = reader.decode().map_err(|e| match e {
         image::ImageError::IoError(io) => Error::Io(io),
-        other => Error::invalid(other),
+        other => Error::invalid(volcore::text::clip(&other.to_string(), 200)),
     })?;
     Image::from_dynamic(img)
 }

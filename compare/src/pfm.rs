@@ -19,6 +19,7 @@
 use crate::error::{Error, Result};
 use crate::image::{Depth, Image};
 use std::path::Path;
+use volcore::text::excerpt;
 pub use volformats::image::pfm::{encode_pfm, write_pfm, write_pfm_channels};
 
 /// Read a PFM file.
@@ -42,15 +43,18 @@ pub fn decode_pfm(bytes: &[u8]) -> Result<Image> {
             .ok_or_else(|| Error::invalid(format!("PFM: header ends before the {what}")))
     };
     let (w, h, s) = (field("width")?, field("height")?, field("scale")?);
-    let width: u32 = w
-        .parse()
-        .map_err(|_| Error::invalid(format!("PFM: width '{w}' is not a whole number")))?;
-    let height: u32 = h
-        .parse()
-        .map_err(|_| Error::invalid(format!("PFM: height '{h}' is not a whole number")))?;
+    let width: u32 = w.parse().map_err(|_| {
+        Error::invalid(format!("PFM: width '{}' is not a whole number", excerpt(w)))
+    })?;
+    let height: u32 = h.parse().map_err(|_| {
+        Error::invalid(format!(
+            "PFM: height '{}' is not a whole number",
+            excerpt(h)
+        ))
+    })?;
     let scale: f64 = s
         .parse()
-        .map_err(|_| Error::invalid(format!("PFM: scale '{s}' is not a number")))?;
+        .map_err(|_| Error::invalid(format!("PFM: scale '{}' is not a number", excerpt(s))))?;
     if width == 0 || height == 0 {
         return Err(Error::invalid(format!("PFM: zero size {width}x{height}")));
     }

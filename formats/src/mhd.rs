@@ -22,6 +22,7 @@ use nom::combinator::rest;
 use nom::{IResult, Parser};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
+use volcore::text::excerpt;
 use volcore::Geometry;
 use volcore::{Dims, SampleType};
 
@@ -114,7 +115,8 @@ fn element_type(v: &str) -> Result<SliceType> {
         "MET_FLOAT" => Ok(SliceType::F32),
         "MET_DOUBLE" => Ok(SliceType::F64),
         other => Err(Error::invalid(format!(
-            "MetaImage ElementType {other} is not supported (volkit reads 8, 16 and 32-bit integers, MET_FLOAT and MET_DOUBLE)"
+            "MetaImage ElementType {} is not supported (volkit reads 8, 16 and 32-bit integers, MET_FLOAT and MET_DOUBLE)",
+            excerpt(other)
         ))),
     }
 }
@@ -146,9 +148,13 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
             continue;
         }
         let (_, (k, v)) = key_value(l).map_err(|_| {
-            Error::invalid(format!("header line {} is not 'Key = Value': '{l}'", n + 1))
+            Error::invalid(format!(
+                "header line {} is not 'Key = Value': '{}'",
+                n + 1,
+                excerpt(l)
+            ))
         })?;
-        let bad = |what: &str| Error::invalid(format!("bad MetaImage {what}: '{v}'"));
+        let bad = |what: &str| Error::invalid(format!("bad MetaImage {what}: '{}'", excerpt(v)));
         let floats = |what: &str| -> Result<Vec<f64>> {
             v.split_whitespace()
                 .map(|s| s.parse::<f64>().map_err(|_| bad(what)))
@@ -157,7 +163,8 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
         match k {
             "ObjectType" if v != "Image" => {
                 return Err(Error::invalid(format!(
-                    "MetaImage ObjectType {v} is not Image"
+                    "MetaImage ObjectType {} is not Image",
+                    excerpt(v)
                 )))
             }
             "NDims" => ndims = Some(v.parse::<u64>().map_err(|_| bad("NDims"))?),

@@ -20,6 +20,7 @@ use nom::combinator::rest;
 use nom::{IResult, Parser};
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
+use volcore::text::excerpt;
 use volcore::Dims;
 use volcore::Geometry;
 
@@ -101,7 +102,8 @@ fn sample_type(t: &str) -> Result<SliceType> {
         "float" => Ok(SliceType::F32),
         "double" => Ok(SliceType::F64),
         other => Err(Error::invalid(format!(
-            "NRRD type '{other}' is not supported (volkit reads 8, 16 and 32-bit integers, float and double)"
+            "NRRD type '{}' is not supported (volkit reads 8, 16 and 32-bit integers, float and double)",
+            excerpt(other)
         ))),
     }
 }
@@ -126,12 +128,14 @@ fn space_signs(space: &str) -> Result<[f64; 3]> {
         "scanner-xyz" | "3d-right-handed" | "3d-left-handed" => "LPS",
         other if other.contains("time") => {
             return Err(Error::invalid(format!(
-                "NRRD space '{other}' with time is not supported (3D volumes only)"
+                "NRRD space '{}' with time is not supported (3D volumes only)",
+                excerpt(other)
             )))
         }
         other => {
             return Err(Error::invalid(format!(
-                "NRRD space '{other}' is not supported (use RAS, LAS or LPS)"
+                "NRRD space '{}' is not supported (use RAS, LAS or LPS)",
+                excerpt(other)
             )))
         }
     };
@@ -166,7 +170,7 @@ fn numbers(v: &str) -> Vec<Option<f64>> {
 /// The axis vectors of `space directions: (a,b,c) (d,e,f) (g,h,i)`
 /// (`none` axes left out); a 2D image gets a third axis across its plane.
 fn directions(v: &str) -> Result<[[f64; 3]; 3]> {
-    let bad = || Error::invalid(format!("bad NRRD space directions: '{v}'"));
+    let bad = || Error::invalid(format!("bad NRRD space directions: '{}'", excerpt(v)));
     let vecs: Vec<[f64; 3]> = v
         .split_whitespace()
         .filter(|s| *s != "none")
@@ -223,12 +227,13 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
             Some(_) => continue,
             None => {
                 return Err(Error::invalid(format!(
-                    "header line {} is not 'field: value': '{l}'",
-                    n + 2
+                    "header line {} is not 'field: value': '{}'",
+                    n + 2,
+                    excerpt(l)
                 )))
             }
         };
-        let bad = |what: &str| Error::invalid(format!("bad NRRD {what}: '{v}'"));
+        let bad = |what: &str| Error::invalid(format!("bad NRRD {what}: '{}'", excerpt(v)));
         match k.as_str() {
             "type" => ty = Some(sample_type(v)?),
             "dimension" => dimension = Some(v.parse::<u64>().map_err(|_| bad("dimension"))?),
@@ -253,7 +258,8 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
                     "gzip" | "gz" => Encoding::Gzip,
                     other => {
                         return Err(Error::invalid(format!(
-                            "NRRD encoding '{other}' is not supported (use raw or gzip)"
+                            "NRRD encoding '{}' is not supported (use raw or gzip)",
+                            excerpt(other)
                         )))
                     }
                 })
@@ -417,6 +423,34 @@ pub fn read_header_text(r: &mut dyn BufRead) -> Result<(String, u64)> {
     Ok((text, len))
 }
 
+/// Read and drop `lines` lines of `r` (without holding them: a "line" of
+/// binary data may be long), returning the bytes dropped. Every line read
+/// consumes input, so the loop ends with the input however many lines the
+/// header asks for.
+fn skip_lines_of(r: &mut dyn BufRead, lines: u64) -> Result<u64> {
+    let mut dropped = 0u64;
+    for done in 0..lines {
+        loop {
+            let buf = r.fill_buf()?;
+            if buf.is_empty() {
+                return Err(Error::invalid(format!(
+                    "data ends after {done} of the {lines} lines to skip (line skip)"
+                )));
+            }
+            let (n, end) = match buf.iter().position(|&b| b == b'\n') {
+                Some(i) => (i + 1, true),
+                None => (buf.len(), false),
+            };
+            r.consume(n);
+            dropped += n as u64;
+            if end {
+                break;
+            }
+        }
+    }
+    Ok(dropped)
+}
+
 /// Byte offset after `lines` lines of a file from `offset`.
 fn skip_lines(path: &Path, offset: u64, lines: u64) -> Result<u64> {
     if lines == 0 {
@@ -426,16 +460,7 @@ fn skip_lines(path: &Path, offset: u64, lines: u64) -> Result<u64> {
     use std::io::{Seek, SeekFrom};
     f.seek(SeekFrom::Start(offset))?;
     let mut r = std::io::BufReader::new(f);
-    let mut pos = offset;
-    for _ in 0..lines {
-        let mut l = Vec::new();
-        let n = r.read_until(b'\n', &mut l)?;
-        if n == 0 {
-            return Err(Error::invalid("data file ends inside the lines to skip"));
-        }
-        pos += n as u64;
-    }
-    Ok(pos)
+    Ok(offset + skip_lines_of(&mut r, lines)?)
 }
 
 /// Read a `.nrrd` or `.nhdr` file's header and locate its samples.
@@ -506,10 +531,7 @@ pub fn read_stream_header(r: &mut dyn BufRead) -> Result<NrrdHeader> {
             "a NRRD header on standard input must have its data attached",
         ));
     }
-    for _ in 0..h.line_skip {
-        let mut l = Vec::new();
-        r.read_until(b'\n', &mut l)?;
-    }
+    skip_lines_of(r, h.line_skip)?;
     if h.encoding == Encoding::Raw {
         if h.byte_skip < 0 {
             return Err(Error::invalid(
@@ -573,6 +595,22 @@ mod tests {
         assert_eq!(h.spacing, Some([0.25, 1.0, 1.0]));
         assert_eq!(h.data_file.as_deref(), Some("./vol.raw"));
         assert_eq!(h.byte_skip, -1);
+    }
+
+    #[test]
+    fn line_skip_ends_with_the_input() {
+        let head = "NRRD0004\ntype: uchar\nsizes: 2 2 1\nencoding: raw\nline skip: 4294967295\n\n";
+        let mut r = std::io::Cursor::new(format!("{head}a\nb\n").into_bytes());
+        let e = read_stream_header(&mut r).unwrap_err().to_string();
+        assert!(e.contains("after 2 of the 4294967295 lines"), "{e}");
+        // Lines of any length are skipped without being held.
+        let long = "x".repeat(200_000);
+        let text = format!("NRRD0004\ntype: uchar\nsizes: 2 2 1\nencoding: raw\nline skip: 2\n\n{long}\n\n\x01\x02\x03\x04");
+        let mut r = std::io::Cursor::new(text.into_bytes());
+        read_stream_header(&mut r).unwrap();
+        let mut rest = Vec::new();
+        r.read_to_end(&mut rest).unwrap();
+        assert_eq!(rest, [1, 2, 3, 4]);
     }
 
     #[test]

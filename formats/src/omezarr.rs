@@ -204,7 +204,10 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
             other => {
                 return Err(ConvertError::new(
                     root,
-                    Error::invalid(format!("axis '{other}' is not supported (t, c, z, y, x)")),
+                    Error::invalid(format!(
+                        "axis '{}' is not supported (t, c, z, y, x)",
+                        volcore::text::excerpt(other)
+                    )),
                 ))
             }
         };
@@ -319,7 +322,8 @@ fn slice_type(name: &str) -> crate::Result<SliceType> {
         "float64" => SliceType::F64,
         other => {
             return Err(Error::invalid(format!(
-                "Zarr data type {other} is not supported (8, 16, 32-bit integers, float32, float64)"
+                "Zarr data type {} is not supported (8, 16, 32-bit integers, float32, float64)",
+                volcore::text::excerpt(other)
             )))
         }
     })

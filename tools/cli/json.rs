@@ -5,12 +5,14 @@
 use serde_json::{json, Value};
 use volcore::VolumeMeta;
 
-/// Print `v` on one line: on stderr when `stdout_has_data`, else stdout.
-pub fn emit(v: &Value, stdout_has_data: bool) {
+/// Print `v` on one line: on stderr when `stdout_has_data`, else stdout
+/// (a closed stdout is returned as an error, which `run` ends quietly on).
+pub fn emit(v: &Value, stdout_has_data: bool) -> std::io::Result<()> {
     if stdout_has_data {
-        eprintln!("{v}");
+        crate::noteln!("{v}");
+        Ok(())
     } else {
-        println!("{v}");
+        crate::outln!("{v}")
     }
 }
 

@@ -13,7 +13,7 @@ use volformats::thesis::ThesisLayout;
 use volformats::tiff::ChannelSel;
 use volformats::{open_input, ReadOptions};
 use volkit_cli::args::{self, LayoutArg};
-use volkit_cli::{json, usage, RawSpec};
+use volkit_cli::{json, noteln, usage, RawSpec};
 
 /// Convert a volume between formats, slice by slice.
 ///
@@ -421,10 +421,24 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         spacing: cli.spacing,
         temp_dir: None,
     };
-    let total = out_dims.count() * out_type.size() as u64;
+    let total = out_dims.count().saturating_mul(out_type.size() as u64);
+    // The samples alone must fit where the output goes (bricks add their
+    // aprons; compressed bricks may take less, so they are not checked).
+    if cli.output.as_os_str() != "-" && matches!(cli.compress, CompressArg::Vvol(Compression::None))
+    {
+        volformats::output::check_space(&cli.output, total).map_err(|e| at(&cli.output, e))?;
+    }
     let bar = volkit_cli::progress::bytes_bar(total, "vol-convert", cli.quiet);
     let progress = |n: u64| bar.set_position(n);
-    let report = convert::convert(reader, &plan, target, &progress)?;
+    let report = convert::convert(reader, &plan, target, &progress).map_err(|e| {
+        // The output is written under a temporary name, removed on failure.
+        let e = anyhow::Error::new(e);
+        if volkit_cli::run::is_disk_full(&e) {
+            e.context("out of space: the partial output was removed")
+        } else {
+            e
+        }
+    })?;
     bar.finish_and_clear();
     let seconds = start.elapsed().as_secs_f64();
     let to_stdout = cli.output.as_os_str() == "-";
@@ -462,9 +476,9 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             "seconds": seconds,
             "threads": rayon::current_num_threads(),
         });
-        json::emit(&v, to_stdout);
+        json::emit(&v, to_stdout)?;
     } else if !cli.quiet && !to_stdout {
-        eprintln!(
+        noteln!(
             "vol-convert: wrote {} ({} {}, {} bytes) in {:.2} s",
             cli.output.display(),
             report.dims,
@@ -492,7 +506,7 @@ fn raw_note(cli: &Cli, report: &convert::Report) {
     }
     let d = report.dims;
     let t = report.sample_type;
-    eprintln!(
+    noteln!(
         "vol-convert: note: {} holds {d} {t} little-endian without a header: read it with --raw-dims {},{},{} --raw-type {t}, or name it NAME_{}x{}x{}_{}.raw",
         cli.output.display(),
         d.x,

@@ -15,7 +15,7 @@ use volcore::{BrickGeometry, Compression, Dims, Layout, Sample, SampleType, Volu
 use volformats::output::{AtomicFile, Sink};
 use volformats::{thesis, vvol, FileKind};
 use volkit_cli::args::{self, LayoutArg};
-use volkit_cli::{json, usage};
+use volkit_cli::{json, noteln, usage};
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum SceneName {
@@ -81,38 +81,47 @@ struct Cli {
     /// Random seed; the same seed gives the same volume.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// shapes/spheres: number of objects.
-    #[arg(long, default_value_t = 70)]
-    count: usize,
-    /// shapes: nominal object size in voxels; spheres: nominal semi-axis.
-    #[arg(long, default_value_t = 70)]
+    /// shapes/spheres: number of objects (0-100000).
+    #[arg(long, default_value_t = 70, value_parser = clap::value_parser!(u64).range(0..=MAX_COUNT as u64))]
+    count: u64,
+    /// shapes: nominal object size in voxels; spheres: nominal semi-axis
+    /// (1-4294967295).
+    #[arg(long, default_value_t = 70, value_parser = clap::value_parser!(u64).range(1..=u32::MAX as u64))]
     size: u64,
-    /// Peak or inside value (default: 100 for shapes, solid and box, 255 otherwise).
-    #[arg(long)]
+    /// Peak or inside value, within the sample type's range (0-255 for u8,
+    /// 0-65535 for u16, -32768-32767 for i16, finite for f32; default: 100
+    /// for shapes, solid and box, 255 otherwise).
+    #[arg(long, allow_hyphen_values = true)]
     value: Option<f32>,
+
     /// noise: kind of lattice noise.
     #[arg(long, value_enum, default_value = "gradient")]
     noise: NoiseArg,
-    /// noise: lattice period of the first octave, in voxels.
-    #[arg(long, default_value_t = 64.0)]
+    /// noise: lattice period of the first octave, in voxels (at least 1,
+    /// finite).
+    #[arg(long, default_value_t = 64.0, value_parser = period)]
     period: f64,
     /// noise: number of octaves (1-16).
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=16))]
     octaves: u32,
-    /// box: empty voxels between the box and each face.
+    /// box: empty voxels between the box and each face (less than half of
+    /// the smallest dimension, so that the box is not empty).
     #[arg(long, default_value_t = 0)]
     margin: u64,
+
     /// ramp: the axis the value grows along.
     #[arg(long, value_enum, default_value = "x")]
     axis: Axis,
-    /// sphere: outer radius in voxels (default: half the smallest dimension).
-    #[arg(long)]
+    /// sphere: outer radius in voxels, positive and finite (default: half
+    /// the smallest dimension).
+    #[arg(long, value_parser = positive_f32)]
     radius: Option<f32>,
+
     /// sphere: a solid sphere of the full value whose surface is a linear
     /// ramp this many voxels wide, centred on the radius (instead of the
     /// cone-shaped radial profile): gradients are zero inside and outside
-    /// and value/edge per voxel in the shell.
-    #[arg(long)]
+    /// and value/edge per voxel in the shell (positive and finite).
+    #[arg(long, value_parser = positive_f32)]
     edge: Option<f32>,
     /// Output path (.vvol, .vol, NAME_XxYxZ_TYPE.raw) or - for a sliced .vvol on stdout.
     #[arg(short, long)]
@@ -133,20 +142,67 @@ const EXAMPLES: &str = "Examples:
   vol-gen shapes --dims 256,256,256 --layout bricked:16 -o thesis.vol
   vol-gen shapes --dims 128,128,128 -o - | vol-info -";
 
+/// The most objects a shapes or spheres scene takes (each is tested for
+/// every row it may cross).
+const MAX_COUNT: usize = 100_000;
+
+fn period(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 1.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a number of voxels of at least 1")),
+    }
+}
+
+fn positive_f32(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a positive finite number")),
+    }
+}
+
+/// The checks that need more than one option: the value against the
+/// sample type, the margin against the dimensions.
+fn validate(cli: &Cli) -> Result<(), String> {
+    if let Some(v) = cli.value {
+        let fits = match cli.sample_type.integer_range() {
+            Some((lo, hi)) => (lo..=hi).contains(&(v as f64)),
+            None => v.is_finite(),
+        };
+        if !fits {
+            let range = match cli.sample_type.integer_range() {
+                Some((lo, hi)) => format!("{lo}..={hi}"),
+                None => "a finite number".to_string(),
+            };
+            return Err(format!(
+                "--value {v} does not fit {} samples (use {range}, or another --type)",
+                cli.sample_type
+            ));
+        }
+    }
+    let smallest = cli.dims.iter().copied().min().unwrap_or(1);
+    if matches!(cli.scene, SceneName::Box) && cli.margin.saturating_mul(2) >= smallest {
+        return Err(format!(
+            "--margin {} leaves no box inside {}x{}x{} voxels (it must be below half of {smallest})",
+            cli.margin, cli.dims[0], cli.dims[1], cli.dims[2]
+        ));
+    }
+    Ok(())
+}
+
 fn build_scene(cli: &Cli, dims: Dims) -> Box<dyn Scene> {
     let value = |d: f32| cli.value.unwrap_or(d);
     match cli.scene {
         SceneName::Shapes => Box::new(ShapesScene::new(
             dims,
             cli.seed,
-            cli.count,
+            cli.count as usize,
             cli.size,
             value(100.0),
         )),
         SceneName::Spheres => Box::new(SpheresScene::new(
             dims,
             cli.seed,
-            cli.count,
+            cli.count as usize,
             cli.size,
             value(255.0),
         )),
@@ -180,6 +236,10 @@ fn main() -> ExitCode {
         Ok(c) => c,
         Err(code) => return code,
     };
+    if let Err(e) = validate(&cli) {
+        volkit_cli::run::report_error("vol-gen", &e);
+        return ExitCode::from(volkit_cli::run::EXIT_USAGE);
+    }
     volkit_cli::run("vol-gen", || generate(&cli))
 }
 
@@ -247,9 +307,9 @@ fn generate(cli: &Cli) -> Result<()> {
             "seconds": seconds,
             "threads": rayon::current_num_threads(),
         });
-        json::emit(&v, cli.output.as_os_str() == "-");
+        json::emit(&v, cli.output.as_os_str() == "-")?;
     } else if !cli.quiet && cli.output.as_os_str() != "-" {
-        eprintln!(
+        noteln!(
             "vol-gen: wrote {} ({} bytes) in {:.2} s",
             cli.output.display(),
             stats.bytes,
@@ -361,49 +421,100 @@ fn write_as<T: Sample>(cli: &Cli, dims: Dims, scene: &dyn Scene) -> Result<Writt
             max,
         });
     }
-    let mut file = AtomicFile::create(&cli.output)?;
-    let written = match kind {
-        FileKind::Vvol => {
-            let s = write_vvol_file(&src, meta, file.file(), &progress)?;
-            let (min, max) = range_of(s.range);
-            Written {
-                bytes: s.bytes,
-                min,
-                max,
-            }
+    // What the output kind refuses, and whether the output fits on its
+    // file system, before a byte is written.
+    let thesis_layout = match cli.layout {
+        LayoutArg::Sliced => thesis::ThesisLayout::Sliced,
+        LayoutArg::Bricked(b) if b <= 255 => thesis::ThesisLayout::Bricked(b as u8),
+        LayoutArg::Bricked(b) if kind == FileKind::ThesisVol => {
+            bail!("the thesis .vol format takes bricks up to 255, not {b}")
         }
+        LayoutArg::Bricked(_) => thesis::ThesisLayout::Sliced,
+    };
+    let expected = match kind {
+        // Compressed bricks: only the header and brick table are known.
+        FileKind::Vvol => vvol::Header::for_meta(meta)?.file_len(),
         FileKind::ThesisVol => {
             if T::TYPE != SampleType::U8 {
                 bail!("the thesis .vol format holds u8 samples only: use --type u8");
             }
-            let src8 = SceneSource::<u8>::new(scene);
-            let tl = match cli.layout {
-                LayoutArg::Sliced => thesis::ThesisLayout::Sliced,
-                LayoutArg::Bricked(b) if b <= 255 => thesis::ThesisLayout::Bricked(b as u8),
-                LayoutArg::Bricked(b) => {
-                    bail!("the thesis .vol format takes bricks up to 255, not {b}")
-                }
+            let h = thesis::ThesisHeader {
+                dims,
+                spacing: cli.spacing,
+                layout: thesis_layout,
             };
-            let bytes = thesis::write(&src8, cli.spacing, tl, file.file(), &progress)?;
-            Written {
-                bytes,
-                min: None,
-                max: None,
-            }
+            h.data_len().and_then(|n| n.checked_add(thesis::HEADER_LEN))
         }
         FileKind::Raw => {
             if !matches!(layout, Layout::Sliced) {
                 bail!(".raw output is sliced only: drop --layout");
             }
-            let bytes = volformats::raw::write(&src, file.file(), &progress)?;
-            Written {
-                bytes,
-                min: None,
-                max: None,
-            }
+            Some(total)
         }
     };
-    file.commit()?;
+    volformats::output::check_space(&cli.output, expected.unwrap_or(u64::MAX))?;
+    let mut file = AtomicFile::create(&cli.output)?;
+    let result = (|| -> Result<Written> {
+        Ok(match kind {
+            FileKind::Vvol => {
+                let s = write_vvol_file(&src, meta, file.file(), &progress)?;
+                let (min, max) = range_of(s.range);
+                Written {
+                    bytes: s.bytes,
+                    min,
+                    max,
+                }
+            }
+            FileKind::ThesisVol => {
+                let src8 = SceneSource::<u8>::new(scene);
+                let bytes =
+                    thesis::write(&src8, cli.spacing, thesis_layout, file.file(), &progress)?;
+                Written {
+                    bytes,
+                    min: None,
+                    max: None,
+                }
+            }
+            FileKind::Raw => {
+                let bytes = volformats::raw::write(&src, file.file(), &progress)?;
+                Written {
+                    bytes,
+                    min: None,
+                    max: None,
+                }
+            }
+        })
+    })();
+    let written = match result {
+        Ok(w) => w,
+        Err(e) => return Err(discard_when_full(e, file)),
+    };
+    file.commit()
+        .map_err(|e| full_disk_note(anyhow::Error::new(e), Ok(())))?;
     bar.finish_and_clear();
     Ok(written)
+}
+
+/// A write that failed on a full disk: remove the partial output now and
+/// say so. Other errors leave the removal to the file's drop.
+fn discard_when_full(e: anyhow::Error, file: AtomicFile) -> anyhow::Error {
+    if volkit_cli::run::is_disk_full(&e) {
+        let removed = file.discard();
+        full_disk_note(e, removed)
+    } else {
+        e
+    }
+}
+
+/// Name a full disk in the message, and what became of the partial file.
+fn full_disk_note(e: anyhow::Error, removed: std::io::Result<()>) -> anyhow::Error {
+    if !volkit_cli::run::is_disk_full(&e) {
+        return e;
+    }
+    match removed {
+        Ok(()) => e.context("out of space: the partial output was removed"),
+        Err(r) => e.context(format!(
+            "out of space, and the partial output could not be removed ({r})"
+        )),
+    }
 }

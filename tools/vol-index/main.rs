@@ -15,7 +15,7 @@ use volformats::{thesis, FileKind, ReadOptions};
 use volindex::build::DEFAULT_CELL_EDGE;
 use volindex::histogram::DEFAULT_BINS;
 use volindex::{BuildOptions, Histogram, IndexError, MajorantIndex};
-use volkit_cli::{usage, RawSpec};
+use volkit_cli::{noteln, outln, usage, RawSpec};
 
 /// Build the min/max macrocell index of a volume (any format vol-convert
 /// reads: .vvol, .vol, .raw, NRRD, MetaImage, NIfTI, DICOM, TIFF, OME-Zarr) and
@@ -206,15 +206,15 @@ fn build(cli: &Cli) -> Result<()> {
         v["write_s"] = json!(timing.write_s);
         v["seconds"] = json!(timing.seconds);
         v["threads"] = json!(rayon::current_num_threads());
-        println!("{v}");
+        outln!("{v}")?;
         return Ok(());
     }
     if cli.stats {
-        print_stats(&ix, &cli.volume);
+        print_stats(&ix, &cli.volume)?;
     }
     if !cli.quiet {
         let s = ix.stats();
-        eprintln!(
+        noteln!(
             "vol-index: wrote {oname} ({} bytes, {} cells of {}³, {} levels) in {:.3} s \
              (open {:.3} s, build {:.3} s, write {:.3} s)",
             timing.bytes,
@@ -277,20 +277,20 @@ fn check(cli: &Cli, index: &Path) -> Result<()> {
         v["ok"] = json!(true);
         v["bytes"] = json!(std::fs::metadata(index).map(|m| m.len()).ok());
         v["seconds"] = json!(seconds);
-        println!("{v}");
+        outln!("{v}")?;
         return Ok(());
     }
     if cli.stats {
-        print_stats(&ix, &cli.volume);
+        print_stats(&ix, &cli.volume)?;
     }
     if !cli.quiet {
-        println!(
+        outln!(
             "{iname}: ok, the index of {vname} ({} {}, cell {}, {} levels)",
             dims,
             sample_type,
             ix.cell_edge(),
             ix.level_count()
-        );
+        )?;
     }
     Ok(())
 }
@@ -392,21 +392,21 @@ fn summary(ix: &MajorantIndex, volume: &Path, index: &Path) -> Value {
 }
 
 /// The --stats text.
-fn print_stats(ix: &MajorantIndex, volume: &Path) {
+fn print_stats(ix: &MajorantIndex, volume: &Path) -> std::io::Result<()> {
     let s = ix.stats();
     let h = ix.histogram();
-    println!(
+    outln!(
         "{}: {} {}, cell {}",
         name(volume),
         ix.dims(),
         ix.sample_type(),
         ix.cell_edge()
-    );
+    )?;
     let (lo, hi) = s.value_range;
     if lo <= hi {
-        println!("  values {lo} .. {hi}, {} NaN", s.nan_count);
+        outln!("  values {lo} .. {hi}, {} NaN", s.nan_count)?;
     } else {
-        println!("  values: none ({} NaN)", s.nan_count);
+        outln!("  values: none ({} NaN)", s.nan_count)?;
     }
     let total = h.total();
     if total > 0 {
@@ -415,7 +415,7 @@ fn print_stats(ix: &MajorantIndex, volume: &Path) {
             .iter()
             .filter_map(|&(k, q)| percentile(h, q).map(|v| format!("{k} {}", v as f32)))
             .collect();
-        println!("  percentiles{exact}: {}", p.join(", "));
+        outln!("  percentiles{exact}: {}", p.join(", "))?;
         let b: Vec<String> = busiest(h, BUSIEST)
             .into_iter()
             .map(|i| {
@@ -423,25 +423,26 @@ fn print_stats(ix: &MajorantIndex, volume: &Path) {
                 format!("{} {pc:.1}%", bin_label(h, i))
             })
             .collect();
-        println!(
+        outln!(
             "  histogram: {} bins over [{}, {}); busiest: {}",
             h.bins(),
             h.lo() as f32,
             h.hi() as f32,
             b.join(", ")
-        );
+        )?;
     }
     for (l, lv) in ix.levels().iter().enumerate() {
         let [x, y, z] = lv.cells();
-        println!(
+        outln!(
             "  level {l}: {x}x{y}x{z} = {} cells of {}³ voxels",
             lv.len(),
             lv.edge()
-        );
+        )?;
     }
-    println!(
+    outln!(
         "  empty at threshold 0: {:.1}% of {} level-0 cells",
         100.0 * s.empty_fraction,
         s.cells
-    );
+    )?;
+    Ok(())
 }

@@ -10,7 +10,7 @@ use volcore::{Layout, Volume};
 use volformats::open::{input_kind, InputKind};
 use volformats::{vvol, ReadOptions};
 use volkit_cli::json;
-use volkit_cli::RawSpec;
+use volkit_cli::{outln, RawSpec};
 
 /// Describe a volume (any format vol-convert reads: .vvol, .vol, .raw,
 /// NRRD, MetaImage, NIfTI, DICOM series, TIFF stacks, OME-Zarr, or - for a
@@ -94,12 +94,18 @@ fn info(cli: &Cli) -> Result<()> {
     }
     if !cli.quiet {
         let format = kind.map(|k| k.name()).unwrap_or("stream");
-        report(cli, &vol, format, file_bytes, start.elapsed().as_secs_f64());
+        report(cli, &vol, format, file_bytes, start.elapsed().as_secs_f64())?;
     }
     Ok(())
 }
 
-fn report(cli: &Cli, vol: &Volume, format: &str, file_bytes: Option<u64>, seconds: f64) {
+fn report(
+    cli: &Cli,
+    vol: &Volume,
+    format: &str,
+    file_bytes: Option<u64>,
+    seconds: f64,
+) -> std::io::Result<()> {
     let m = &vol.meta;
     let (brick, bricks) = match m.layout {
         Layout::Sliced => (None, None),
@@ -122,42 +128,42 @@ fn report(cli: &Cli, vol: &Volume, format: &str, file_bytes: Option<u64>, second
                 "seconds": seconds,
             }),
         );
-        println!("{v}");
-        return;
+        return outln!("{v}");
     }
-    println!("{}: {} ({format})", cli.input.display(), m);
+    outln!("{}: {} ({format})", cli.input.display(), m)?;
     if let Some(b) = file_bytes {
         let samples = m.dims.count() * m.sample_type.size() as u64;
-        println!(
+        outln!(
             "  {b} bytes on disk, {samples} bytes of samples ({:.3}x)",
             b as f64 / samples.max(1) as f64
-        );
+        )?;
     }
     if let Some(n) = bricks {
-        println!("  {n} bricks");
+        outln!("  {n} bricks")?;
     }
     if m.range.is_empty() {
-        println!("  values: none (all NaN)");
+        outln!("  values: none (all NaN)")?;
     } else {
-        println!("  values {} .. {}", m.range.min, m.range.max);
+        outln!("  values {} .. {}", m.range.min, m.range.max)?;
     }
     let g = &m.geometry;
     let o = g.origin;
-    println!("  origin {}, {}, {} (LPS)", o[0], o[1], o[2]);
+    outln!("  origin {}, {}, {} (LPS)", o[0], o[1], o[2])?;
     let axes: Vec<String> = (0..3)
         .map(|a| {
             let v = g.axis(a);
             format!("({}, {}, {})", v[0], v[1], v[2])
         })
         .collect();
-    println!(
+    outln!(
         "  directions i {} j {} k {}, orientation {}",
         axes[0],
         axes[1],
         axes[2],
         g.orientation()
-    );
+    )?;
     if cli.verify {
-        println!("  verified in {seconds:.2} s");
+        outln!("  verified in {seconds:.2} s")?;
     }
+    Ok(())
 }

@@ -11,7 +11,7 @@ use volcompare::{
     VolumeComparison, VolumeOptions,
 };
 use volformats::ReadOptions;
-use volkit_cli::RawSpec;
+use volkit_cli::{noteln, outln, RawSpec};
 
 /// Exit status: an input could not be read, or --diff not written.
 const EXIT_READ: u8 = 1;
@@ -21,6 +21,8 @@ const EXIT_USAGE: u8 = 2;
 const EXIT_MISMATCH: u8 = 3;
 /// Exit status: the PSNR is below --min-psnr.
 const EXIT_BELOW: u8 = 4;
+/// Exit status: standard output was closed by its reader (nothing printed).
+const EXIT_BROKEN_PIPE: u8 = volkit_cli::run::EXIT_BROKEN_PIPE;
 
 /// Compare two images or two volumes: PSNR, MSE, maximum absolute error,
 /// and how many elements differ.
@@ -39,7 +41,8 @@ const EXIT_BELOW: u8 = 4;
 /// value range max − min; --range R overrides all. Identical inputs give
 /// PSNR = inf (JSON: "psnr": null, "identical": true). For 8-bit RGB this is
 /// scikit-image's peak_signal_noise_ratio. NaN equals NaN; a difference
-/// that is not finite counts as differing and is left out of MSE and max.
+/// that is not finite counts as differing, is left out of MSE and max,
+/// is counted as "not finite" (JSON: "nonfinite") and fails --min-psnr.
 /// Volume samples of any type are compared as their values.
 #[derive(Parser, Debug)]
 #[command(name = "vol-psnr", version, after_help = AFTER_HELP)]
@@ -63,7 +66,8 @@ struct Cli {
     #[arg(long)]
     per_channel: bool,
     /// Exit with status 4 when the PSNR is below X dB (inf: only identical
-    /// inputs pass).
+    /// inputs pass). Any difference that is not finite (NaN against a
+    /// number, an infinity) fails, whatever X.
     #[arg(long, value_name = "X", value_parser = not_nan)]
     min_psnr: Option<f64>,
     /// Write a heat map of the error with a colour scale as a PNG: for
@@ -87,7 +91,8 @@ const AFTER_HELP: &str = "Exit status:
   2  usage error
   3  the inputs cannot be compared: image against volume, different sizes or
      dimensions, sample types or channel counts
-  4  the PSNR is below --min-psnr
+  4  the PSNR is below --min-psnr, or some difference is not finite
+  141 standard output was closed by its reader (e.g. | head): nothing more is printed
 
 Examples:
   vol-psnr reference.png render.png
@@ -140,10 +145,20 @@ fn main() -> ExitCode {
     };
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(f) if f.status == EXIT_BROKEN_PIPE => ExitCode::from(f.status),
         Err(f) => {
-            eprintln!("vol-psnr: {}", f.msg.replace('\n', " "));
+            volkit_cli::run::report_error("vol-psnr", &f.msg);
             ExitCode::from(f.status)
         }
+    }
+}
+
+/// A failed write of the report: a closed pipe ends the tool quietly.
+fn print_fail(e: std::io::Error) -> Fail {
+    if e.kind() == std::io::ErrorKind::BrokenPipe {
+        Fail::new(EXIT_BROKEN_PIPE, "")
+    } else {
+        Fail::new(EXIT_READ, format!("standard output: {e}"))
     }
 }
 
@@ -230,14 +245,21 @@ fn run(cli: &Cli) -> Result<(), Fail> {
     }
     if !cli.quiet {
         if cli.json {
-            println!("{}", report.json);
+            outln!("{}", report.json).map_err(print_fail)?;
         } else {
             for l in &report.lines {
-                println!("{l}");
+                outln!("{l}").map_err(print_fail)?;
             }
         }
     }
     match cli.min_psnr {
+        Some(x) if m.nonfinite > 0 => Err(Fail::new(
+            EXIT_BELOW,
+            format!(
+                "{} of {} differences are not finite (NaN or infinite): no --min-psnr {x} passes",
+                m.nonfinite, m.count
+            ),
+        )),
         Some(x) if !passes(&m, x) => Err(Fail::new(
             EXIT_BELOW,
             format!("PSNR {:.2} dB is below --min-psnr {x}", m.psnr),
@@ -246,8 +268,11 @@ fn run(cli: &Cli) -> Result<(), Fail> {
     }
 }
 
+/// Whether the figures pass `--min-psnr min`: a difference that is not
+/// finite (NaN against a number, infinities) fails every gate, whatever
+/// the PSNR of the finite rest.
 fn passes(m: &Metrics, min: f64) -> bool {
-    m.psnr >= min
+    m.nonfinite == 0 && m.psnr >= min
 }
 
 fn images(cli: &Cli) -> Result<Report, Fail> {
@@ -273,7 +298,7 @@ fn diff(cli: &Cli, path: &Path, map: &[f32], w: u32, h: u32) -> Result<f64, Fail
     let m = write_heatmap(path, map, w, h)
         .map_err(|e| Fail::new(EXIT_READ, format!("{}: {e}", path.display())))?;
     if !cli.quiet && !cli.json {
-        eprintln!(
+        noteln!(
             "vol-psnr: wrote {} (error scale 0 to {})",
             path.display(),
             volcompare::heatmap::scale_label(m.max)

@@ -21,6 +21,7 @@ pub mod region;
 pub mod sample;
 pub mod scene;
 pub mod storage;
+pub mod text;
 pub mod volume;
 
 pub use brick::BrickGeometry;

@@ -87,7 +87,8 @@ impl FromStr for SampleType {
             "i16" | "int16" => Ok(SampleType::I16),
             "f32" | "float32" | "float" => Ok(SampleType::F32),
             other => Err(format!(
-                "unknown sample type '{other}' (expected u8, u16, i16 or f32)"
+                "unknown sample type '{}' (expected u8, u16, i16 or f32)",
+                crate::text::excerpt(other)
             )),
         }
     }

@@ -71,7 +71,13 @@ fn tiff_err(e: TiffError) -> Error {
             Error::invalid("file is truncated (it ends before the image data does)")
         }
         TiffError::IoError(io) => Error::Io(io),
-        other => Error::invalid(format!("not a readable TIFF: {other}")),
+        TiffError::LimitsExceeded => Error::invalid(
+            "a directory describes more data than the file holds (damaged directory?)",
+        ),
+        other => Error::invalid(format!(
+            "not a readable TIFF: {}",
+            volcore::text::clip(&other.to_string(), 200)
+        )),
     }
 }
 
@@ -81,9 +87,52 @@ type Dec<R> = Decoder<R>;
 /// (not mapped: resident memory stays at the pages in flight).
 type FileDec = Dec<BufReader<File>>;
 
-fn limits() -> Limits {
-    // Pages are checked against the first page's size before decoding.
-    Limits::unlimited()
+/// How many times larger than its whole file one decoded page may be. No
+/// compression the decoder reads expands more: deflate at most 1032:1,
+/// LZW (12-bit codes of strings up to 4 KiB) about 2730:1, PackBits 64:1.
+/// A directory whose width and height claim more is damaged.
+pub const MAX_EXPANSION: u64 = 4096;
+
+/// Decoder limits for a file of `file_len` bytes whose pages decode to
+/// `page_bytes` each (`None` before the first directory is read): nothing
+/// the file stores (a directory value, a compressed strip or tile) can be
+/// larger than the file, and no decoded buffer larger than a page, or than
+/// the file's values held as decoded values. A damaged count or offset is
+/// then an error instead of an allocation of up to 2^64 bytes.
+fn limits(file_len: u64, page_bytes: Option<u64>) -> Limits {
+    let to_usize = |v: u64| usize::try_from(v).unwrap_or(usize::MAX);
+    let value = std::mem::size_of::<::tiff::decoder::ifd::Value>() as u64;
+    let values = file_len.saturating_mul(value);
+    let page = page_bytes.unwrap_or_else(|| file_len.saturating_mul(MAX_EXPANSION));
+    let mut l = Limits::default();
+    l.decoding_buffer_size = to_usize(page.max(values));
+    l.ifd_value_size = to_usize(file_len);
+    l.intermediate_buffer_size = to_usize(file_len);
+    l
+}
+
+impl PageInfo {
+    /// Bytes of one decoded page, if that fits in 64 bits.
+    fn bytes(&self) -> Option<u64> {
+        (self.width as u64)
+            .checked_mul(self.height as u64)?
+            .checked_mul(self.channels as u64)?
+            .checked_mul((self.bits as u64).div_ceil(8))
+    }
+
+    /// Refuse a page that a file of `file_len` bytes cannot hold even
+    /// compressed (see [`MAX_EXPANSION`]): its directory is damaged.
+    fn check_fits(&self, file_len: u64) -> Result<u64, Error> {
+        let limit = file_len.max(1).saturating_mul(MAX_EXPANSION);
+        match self.bytes() {
+            Some(b) if b <= limit => Ok(b),
+            b => Err(Error::invalid(format!(
+                "the directory describes {} pages of {} bytes, more than a file of {file_len} bytes can hold even compressed (damaged directory?)",
+                self.describe(),
+                b.map_or("more than 2^64".to_string(), |b| b.to_string())
+            ))),
+        }
+    }
 }
 
 fn page_info<R: Read + Seek>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
@@ -347,18 +396,29 @@ enum Pages {
 pub struct TiffStackReader {
     info: InputInfo,
     page: PageInfo,
+    /// Bytes of one decoded page (the decoders' limit).
+    page_bytes: u64,
     chan: ChannelSel,
     pages: Pages,
     bytes_in: u64,
 }
 
-fn open_file(path: &Path) -> CResult<FileDec> {
+/// A decoder of the file at `path`, with limits from its length and, once
+/// known, the stack's page size.
+fn open_file(path: &Path, page_bytes: Option<u64>) -> CResult<FileDec> {
     let f = File::open(path).at(path)?;
-    open_decoder(BufReader::with_capacity(256 << 10, f)).at(path)
+    let len = f.metadata().at(path)?.len();
+    open_decoder(BufReader::with_capacity(256 << 10, f), len, page_bytes).at(path)
 }
 
-fn open_decoder<R: Read + Seek>(r: R) -> Result<Dec<R>, Error> {
-    Ok(Decoder::new(r).map_err(tiff_err)?.with_limits(limits()))
+fn open_decoder<R: Read + Seek>(
+    r: R,
+    file_len: u64,
+    page_bytes: Option<u64>,
+) -> Result<Dec<R>, Error> {
+    // The limits apply from the first directory on.
+    let limits = limits(file_len, page_bytes);
+    Ok(Decoder::new(r).map_err(tiff_err)?.with_limits(limits))
 }
 
 /// Open a stack of files (one file may be a multipage TIFF; several files
@@ -373,7 +433,7 @@ pub fn open_files(
         .first()
         .ok_or_else(|| ConvertError::new(input, Error::invalid("no slices")))?
         .clone();
-    let mut d = open_file(&first)?;
+    let mut d = open_file(&first, None)?;
     // Full-resolution pages of the first file.
     let mut ifds = Vec::new();
     let mut idx = 0usize;
@@ -424,6 +484,9 @@ pub fn open_files(
         }
     }
     let page = page_info(&mut d).at(&first)?;
+    let first_len = std::fs::metadata(&first).at(&first)?.len();
+    let page_bytes = page.check_fits(first_len).at(&first)?;
+    let mut d = d.with_limits(limits(first_len, Some(page_bytes)));
     let sample_type = page.sample_type().map_err(Error::invalid).at(&first)?;
     if page.channels > 1 && chan == ChannelSel::Single {
         return Err(ConvertError::new(
@@ -485,6 +548,7 @@ pub fn open_files(
             format,
         },
         page,
+        page_bytes,
         chan,
         pages,
         bytes_in,
@@ -504,7 +568,7 @@ impl TiffStackReader {
         let mut d = match taken {
             Some(d) => d,
             None => {
-                let mut d = open_file(path)?;
+                let mut d = open_file(path, Some(self.page_bytes))?;
                 // Walk the chain once so later seeks go straight to a page.
                 if let Some(&last) = ifds.last() {
                     d.seek_to_image(last).map_err(tiff_err).at(path)?;
@@ -552,7 +616,10 @@ impl SliceReader for TiffStackReader {
                     File::open(path)
                         .and_then(|mut f| f.read_to_end(&mut bytes))
                         .at(path)?;
-                    let mut d = open_decoder(Cursor::new(bytes.as_slice())).at(path)?;
+                    let len = bytes.len() as u64;
+                    let mut d =
+                        open_decoder(Cursor::new(bytes.as_slice()), len, Some(self.page_bytes))
+                            .at(path)?;
                     if is_thumbnail(&mut d) {
                         // The full-resolution page follows a leading thumbnail.
                         d.next_image().map_err(tiff_err).at(path)?;
@@ -589,7 +656,7 @@ pub struct ImageJRaw {
 /// Detect an ImageJ file whose images follow each other without
 /// directories of their own; `None` for every other TIFF.
 pub fn imagej_raw(path: &Path) -> CResult<Option<ImageJRaw>> {
-    let mut d = open_file(path)?;
+    let mut d = open_file(path, None)?;
     if d.more_images() {
         return Ok(None);
     }
@@ -649,4 +716,49 @@ pub fn imagej_raw(path: &Path) -> CResult<Option<ImageJRaw>> {
         big_endian,
         spacing,
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn page(width: u32, height: u32, bits: u16, channels: u16) -> PageInfo {
+        PageInfo {
+            width,
+            height,
+            bits,
+            format: 1,
+            channels,
+        }
+    }
+
+    #[test]
+    fn pages_larger_than_the_file_can_expand_to_are_damaged() {
+        assert_eq!(page(512, 512, 16, 1).check_fits(600_000).unwrap(), 524_288);
+        // 100 bytes hold at most 409,600 decoded bytes.
+        assert!(page(640, 640, 8, 1).check_fits(100).is_ok());
+        let e = page(641, 640, 8, 1)
+            .check_fits(100)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("damaged directory"), "{e}");
+        let e = page(u32::MAX, u32::MAX, 32, 4)
+            .check_fits(1 << 40)
+            .unwrap_err();
+        assert!(e.to_string().contains("more than 2^64"), "{e}");
+    }
+
+    #[test]
+    fn limits_follow_the_file_and_the_page() {
+        let l = limits(1000, Some(64));
+        assert_eq!(l.ifd_value_size, 1000);
+        assert_eq!(l.intermediate_buffer_size, 1000);
+        // Directory values decode to larger structures than they take in
+        // the file: the buffer limit leaves room for them.
+        assert!(l.decoding_buffer_size >= 1000);
+        let l = limits(1000, Some(1 << 30));
+        assert_eq!(l.decoding_buffer_size, 1 << 30);
+        let l = limits(u64::MAX, None);
+        assert_eq!(l.decoding_buffer_size, usize::MAX);
+    }
 }

@@ -1,0 +1,207 @@
+#!/usr/bin/env bash
+# Coverage-guided fuzzing of volkit's readers with AFL++ through cargo-afl
+# (stable toolchain). The targets are the functions of fuzz/src/lib.rs.
+#
+#   scripts/fuzz.sh TARGET SECONDS  fuzz one target for SECONDS (a second
+#                                   run resumes the first); prints its totals
+#   scripts/fuzz.sh seeds           remake the seed corpora with the tools
+#   scripts/fuzz.sh save TARGET     minimise what the fuzzer found into
+#                                   fuzz/corpus/TARGET; copy crashes and hangs
+#                                   to fuzz/regressions/TARGET
+#   scripts/fuzz.sh stats           totals of every target fuzzed so far
+#   scripts/fuzz.sh list            the targets
+#
+# Findings live in target/fuzz-out/TARGET (FUZZ_OUT overrides). Every run is
+# niced to 19: the machine is shared. CI does not fuzz: `cargo test
+# --workspace` runs the saved corpora and regressions through the targets.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png"
+OUT=${FUZZ_OUT:-target/fuzz-out}
+BIN=target/fuzz/release/volkit-fuzz
+# Corpus files kept per target, and their largest size.
+KEEP_MAX=40
+KEEP_BYTES=16384
+
+die() { echo "fuzz: $*" >&2; exit 1; }
+
+is_target() { for t in $TARGETS; do [ "$t" = "$1" ] && return 0; done; return 1; }
+
+setup() {
+    if ! cargo afl --version >/dev/null 2>&1; then
+        echo "fuzz: installing cargo-afl" >&2
+        cargo install cargo-afl --locked
+    fi
+    # Builds AFL++ once per toolchain; says so (and fails) when it exists.
+    cargo afl config --build >/dev/null 2>&1 || true
+    echo "fuzz: building the instrumented driver" >&2
+    CARGO_TARGET_DIR=target/fuzz nice -n 19 cargo afl build --release --quiet \
+        -p volkit-fuzz --features afl
+}
+
+afl_env() {
+    export AFL_SKIP_CPUFREQ=1 AFL_NO_UI=1 AFL_I_DONT_CARE_ABOUT_MISSING_CRASHES=1
+    export AFL_NO_AFFINITY=1
+    # Scratch files of the targets on a memory file system when there is one.
+    if [ -d /dev/shm ] && [ -w /dev/shm ]; then export TMPDIR=/dev/shm; fi
+}
+
+stat_of() { # FILE KEY
+    awk -v k="$2" -F' *: *' '$1 == k {print $2}' "$1"
+}
+
+# One line per run of a target: its stats after the run. A run resumes the
+# one before (-i -), and AFL++ then carries its counters on, so the last
+# line of a target holds its totals.
+record() { # TARGET
+    local s="$OUT/$1/default/fuzzer_stats"
+    [ -f "$s" ] || return 0
+    printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$1" "$(stat_of "$s" run_time)" \
+        "$(stat_of "$s" execs_done)" "$(stat_of "$s" corpus_count)" \
+        "$(stat_of "$s" saved_crashes)" "$(stat_of "$s" saved_hangs)" >>"$OUT/runs.tsv"
+}
+
+stats() {
+    [ -f "$OUT/runs.tsv" ] || die "no runs recorded in $OUT/runs.tsv yet"
+    printf 'target\truns\tseconds\texecs\tcorpus\tcrashes\thangs\n'
+    awk -F'\t' '{n[$1]++; last[$1]=$2 "\t" $3 "\t" $4 "\t" $5 "\t" $6}
+        END {for (t in n) printf "%s\t%d\t%s\n", t, n[t], last[t]}' "$OUT/runs.tsv" | sort
+}
+
+fuzz() { # TARGET SECONDS
+    local t=$1 secs=$2 in
+    is_target "$t" || die "unknown target '$t' (targets: $TARGETS)"
+    [[ "$secs" =~ ^[0-9]+$ ]] && [ "$secs" -gt 0 ] || die "SECONDS must be a positive whole number"
+    [ -d "fuzz/corpus/$t" ] || die "no seed corpus fuzz/corpus/$t: run scripts/fuzz.sh seeds"
+    setup
+    afl_env
+    mkdir -p "$OUT"
+    in="fuzz/corpus/$t"
+    if [ -d "$OUT/$t/default/queue" ]; then
+        in=-  # resume where the last run stopped
+    fi
+    # -m: an allocation past 4 GiB fails and aborts, so AFL++ reports it.
+    nice -n 19 cargo afl fuzz -V "$secs" -t 2000 -m 4096 -i "$in" -o "$OUT/$t" \
+        -- "$BIN" "$t" >"$OUT/$t.log" 2>&1 || {
+        tail -20 "$OUT/$t.log" >&2
+        die "afl-fuzz failed for $t (log: $OUT/$t.log)"
+    }
+    record "$t"
+    local s="$OUT/$t/default/fuzzer_stats"
+    echo "fuzz: $t: $(stat_of "$s" run_time) s, $(stat_of "$s" execs_done) execs," \
+        "corpus $(stat_of "$s" corpus_count), crashes $(stat_of "$s" saved_crashes)," \
+        "hangs $(stat_of "$s" saved_hangs)"
+    local n
+    n=$(find "$OUT/$t/default/crashes" "$OUT/$t/default/hangs" -type f -name 'id:*' 2>/dev/null | wc -l)
+    if [ "$n" -gt 0 ]; then
+        echo "fuzz: $t: $n crashing or hanging inputs in $OUT/$t/default/{crashes,hangs}" >&2
+    fi
+}
+
+save() { # TARGET
+    local t=$1 q="$OUT/$1/default/queue" tmp
+    is_target "$t" || die "unknown target '$t'"
+    [ -d "$q" ] || die "nothing found for $t yet ($q)"
+    afl_env
+    # On disk: afl-cmin cannot write its traces under /dev/shm.
+    tmp=$(mktemp -d target/fuzz-save.XXXXXX)
+    trap 'rm -rf "$tmp"' RETURN
+    mkdir -p "$tmp/small"
+    find "$q" -maxdepth 1 -type f -size -$((KEEP_BYTES + 1))c -exec cp {} "$tmp/small/" \;
+    cp "fuzz/corpus/$t"/* "$tmp/small/" 2>/dev/null || true
+    # The shell afl-cmin of the AFL++ that cargo-afl built (its Python
+    # variant finds no coverage through this driver).
+    local bin
+    bin=$(ls -d "$HOME"/.local/share/afl.rs/rustc-"$(rustc --version | awk '{print $2}')"-*/afl.rs-*/afl/bin | tail -1)
+    [ -x "$bin/afl-cmin.bash" ] || die "no afl-cmin.bash under ~/.local/share/afl.rs: run a fuzz target first"
+    PATH="$bin:$PATH" AFL_PATH="$bin" nice -n 19 bash "$bin/afl-cmin.bash" -t 5000 -m 4096 \
+        -i "$tmp/small" -o "$tmp/min" -- "$BIN" "$t" >"$tmp/cmin.log" 2>&1 || { tail -5 "$tmp/cmin.log" >&2;
+        die "afl-cmin failed for $t"; }
+    rm -rf "fuzz/corpus/$t"
+    mkdir -p "fuzz/corpus/$t"
+    # The smallest files that still cover every edge cmin kept, named by
+    # their content so that saving twice keeps one copy.
+    find "$tmp/min" -type f -printf '%s %p\n' | sort -n | head -n "$KEEP_MAX" |
+        while read -r _ f; do
+            cp "$f" "fuzz/corpus/$t/$(sha1sum "$f" | cut -c1-16)"
+        done
+    echo "fuzz: $t: kept $(find "fuzz/corpus/$t" -type f | wc -l) corpus files"
+    local d
+    for d in crashes hangs; do
+        for f in "$OUT/$t/default/$d"/id:*; do
+            [ -f "$f" ] || continue
+            mkdir -p "fuzz/regressions/$t"
+            cp "$f" "fuzz/regressions/$t/$(sha1sum "$f" | cut -c1-16)"
+        done
+    done
+}
+
+seeds() {
+    local tools=target/debug work
+    cargo build --quiet --bins
+    work=$(mktemp -d)
+    trap 'rm -rf "$work"' RETURN
+    local c=fuzz/corpus
+    mkdir -p "$c"/{vvol,thesis,raw,nrrd,mhd,tiff,vidx,tf,pfm,png}
+    local g="$tools/vol-gen" cv="$tools/vol-convert"
+    # .vvol: every type and layout, tiny.
+    "$g" solid --dims 3,2,2 --value 7 -o "$work/a.vvol" -q && cp "$work/a.vvol" "$c/vvol/u8-sliced"
+    "$g" ramp --dims 5,4,3 --type u16 --layout bricked:2 -o "$work/b.vvol" -q && cp "$work/b.vvol" "$c/vvol/u16-bricked"
+    "$g" sphere --dims 4,4,4 --type f32 --layout bricked:2 --compress zstd -o "$work/c.vvol" -q &&
+        cp "$work/c.vvol" "$c/vvol/f32-zstd"
+    "$g" noise --dims 4,3,2 --type i16 -o "$work/d.vvol" -q && cp "$work/d.vvol" "$c/vvol/i16-sliced"
+    # Thesis .vol, sliced and bricked.
+    "$g" shapes --dims 4,3,2 --count 2 --size 2 -o "$work/a.vol" -q && cp "$work/a.vol" "$c/thesis/sliced"
+    "$g" ramp --dims 4,3,3 --layout bricked:3 -o "$work/b.vol" -q && cp "$work/b.vol" "$c/thesis/bricked"
+    # Raw: the Open SciVis name on the first line, then the samples.
+    local t
+    for t in u8 u16 i16 f32; do
+        "$g" ramp --dims 3,2,2 --type "$t" -o "$work/r_3x2x2_$t.raw" -q
+        { printf 'r_3x2x2_%s.raw\n' "$t"; cat "$work/r_3x2x2_$t.raw"; } >"$c/raw/$t"
+    done
+    # NRRD and MetaImage: headers around samples the tools made.
+    "$g" ramp --dims 3,2,2 --type u16 -o "$work/s_3x2x2_u16.raw" -q
+    { printf 'NRRD0004\ntype: ushort\ndimension: 3\nsizes: 3 2 2\nspacings: 0.5 0.5 2\nendian: little\nencoding: raw\n\n'
+      cat "$work/s_3x2x2_u16.raw"; } >"$c/nrrd/raw"
+    { printf 'NRRD0005\n# a comment\ntype: uchar\nsizes: 3 2 2\nspace directions: (1,0,0) (0,1,0) (0,0,1)\nencoding: gzip\nline skip: 0\nbyte skip: 0\nkey:=value\n\n'
+      head -c 12 "$work/s_3x2x2_u16.raw" | gzip -c; } >"$c/nrrd/gzip"
+    { printf 'NRRD0004\ntype: float\nsizes: 3 2\nendian: big\nencoding: raw\nbyte skip: -1\n\n'
+      head -c 24 "$work/s_3x2x2_u16.raw"; } >"$c/nrrd/float-end"
+    { printf 'ObjectType = Image\nNDims = 3\nDimSize = 3 2 2\nElementType = MET_USHORT\nElementSpacing = 1 1 2\nBinaryDataByteOrderMSB = False\nElementDataFile = LOCAL\n'
+      cat "$work/s_3x2x2_u16.raw"; } >"$c/mhd/raw"
+    { printf 'NDims = 2\nDimSize = 3 2\nElementType = MET_UCHAR\nCompressedData = True\nElementDataFile = LOCAL\n'
+      head -c 6 "$work/s_3x2x2_u16.raw" | python3 -c 'import sys, zlib; sys.stdout.buffer.write(zlib.compress(sys.stdin.buffer.read()))' 2>/dev/null ||
+      head -c 6 "$work/s_3x2x2_u16.raw"; } >"$c/mhd/zlib"
+    # TIFF: multipage files of every type, and a BigTIFF.
+    for t in u8 u16 i16 f32; do
+        "$g" ramp --dims 3,2,2 --type "$t" -o "$work/t-$t.vvol" -q
+        "$cv" "$work/t-$t.vvol" -o "$work/t-$t.tif" -q
+        cp "$work/t-$t.tif" "$c/tiff/$t"
+    done
+    cargo run --quiet -p volkit-fuzz --example bigtiff -- "$work/t-u16.vvol" "$c/tiff/bigtiff-u16"
+    # Index sidecars.
+    "$tools/vol-index" "$work/t-u8.vvol" --cell 2 -o "$work/a.vidx" -q && cp "$work/a.vidx" "$c/vidx/u8"
+    "$tools/vol-index" "$work/c.vvol" --cell 2 --bins 8 -o "$work/b.vidx" -q && cp "$work/b.vidx" "$c/vidx/f32"
+    # Transfer functions: the README's example and the noise study's.
+    printf 'domain 0 255\nstep 1\nrange 85 95 255 0 0 0.02\npoint 100 0 255 0 0.6\n' >"$c/tf/readme"
+    printf '# comment\npoint 0 0 0 0 0\npoint 255 255 255 255 1 # end\n' >"$c/tf/points"
+    # Images: renders of a tiny volume, and a difference heat map.
+    "$tools/vol-render" "$work/t-u8.vvol" --size 4x3 -o "$work/a.png" --hdr "$work/a.pfm" >/dev/null 2>&1 &&
+        cp "$work/a.png" "$c/png/render" && cp "$work/a.pfm" "$c/pfm/render"
+    "$tools/vol-psnr" "$work/t-u8.vvol" "$work/t-u16.vvol" --range 1 --diff "$work/d.png" -q 2>/dev/null || true
+    [ -f "$work/d.png" ] && cp "$work/d.png" "$c/png/diff"
+    printf 'Pf\n2 1\n-1.0\n\0\0\200?\0\0\300\177' >"$c/pfm/grey"
+    for t in $TARGETS; do
+        echo "fuzz: seeds for $t: $(find "$c/$t" -type f | wc -l) files"
+    done
+}
+
+case "${1:-}" in
+    list) echo "$TARGETS" ;;
+    seeds) seeds ;;
+    stats) stats ;;
+    save) [ $# -eq 2 ] || die "usage: scripts/fuzz.sh save TARGET"; save "$2" ;;
+    ""|-h|--help) sed -n '2,17p' "$0" ;;
+    *) [ $# -eq 2 ] || die "usage: scripts/fuzz.sh TARGET SECONDS"; fuzz "$1" "$2" ;;
+esac
