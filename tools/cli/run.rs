@@ -82,6 +82,14 @@ pub fn command<C: CommandFactory>() -> clap::Command {
 /// `--version`, `--completions` and `--man` print and exit with 0 (141
 /// when standard output was closed).
 pub fn parse<C: CommandFactory + FromArgMatches>(tool: &str) -> Result<C, ExitCode> {
+    parse_matches(tool).map(|(c, _)| c)
+}
+
+/// [`parse`], also returning clap's matches (to tell options given on
+/// the command line from defaults).
+pub fn parse_matches<C: CommandFactory + FromArgMatches>(
+    tool: &str,
+) -> Result<(C, clap::ArgMatches), ExitCode> {
     let m = match command::<C>().try_get_matches() {
         Ok(m) => m,
         Err(e) => return Err(clap_exit(tool, e)),
@@ -103,7 +111,8 @@ pub fn parse<C: CommandFactory + FromArgMatches>(tool: &str) -> Result<C, ExitCo
             }
         });
     }
-    C::from_arg_matches(&m).map_err(|e| clap_exit(tool, e))
+    let c = C::from_arg_matches(&m).map_err(|e| clap_exit(tool, e))?;
+    Ok((c, m))
 }
 
 /// Write `bytes` to standard output: success, a quiet 141 on a closed

@@ -2,12 +2,15 @@
 //! they are resolved against the volume into a render plan
 //! ([`crate::plan`]).
 
+use crate::scene::LightSpec;
 use clap::{Parser, ValueEnum};
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
 /// `--mode`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ModeArg {
     /// Emission-absorption through the transfer function.
     Dvr,
@@ -24,7 +27,8 @@ pub enum ModeArg {
 }
 
 /// `--interp`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum InterpArg {
     /// The nearest voxel.
     Nearest,
@@ -33,7 +37,8 @@ pub enum InterpArg {
 }
 
 /// `--shading`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ShadingArg {
     /// Classified colour as is.
     None,
@@ -42,7 +47,8 @@ pub enum ShadingArg {
 }
 
 /// `--gradient`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum GradientArg {
     /// Central differences.
     Central,
@@ -59,11 +65,20 @@ pub enum GradientArg {
 #[derive(Parser, Debug)]
 #[command(name = "vol-render", version, after_help = EXAMPLES)]
 pub struct Cli {
-    /// The volume (.vvol, .vol, .raw).
-    pub volume: PathBuf,
-    /// Output PNG (8-bit sRGB).
+    /// The volume (any format vol-convert reads; or `volume` in --scene).
+    pub volume: Option<PathBuf>,
+    /// Output PNG (8-bit sRGB; or `output` in --scene).
     #[arg(short, long)]
-    pub output: PathBuf,
+    pub output: Option<PathBuf>,
+    /// A scene file (TOML) holding any of these options under the same
+    /// names, plus lights; options given here override it (see "Scene
+    /// files" below).
+    #[arg(long, value_name = "FILE.toml")]
+    pub scene: Option<PathBuf>,
+    /// Print the effective scene (the scene file, the options and the
+    /// defaults resolved against the volume) as TOML, and render nothing.
+    #[arg(long)]
+    pub print_scene: bool,
     /// A .vidx index made by vol-index for this volume (otherwise one is
     /// built in memory when skipping is on).
     #[arg(long)]
@@ -124,9 +139,19 @@ pub struct Cli {
     /// Gradient method for shading.
     #[arg(long, value_enum, default_value = "central")]
     pub gradient: GradientArg,
-    /// Direction towards the light x,y,z (default: a headlight).
+    /// Direction towards a white directional light x,y,z (default: a
+    /// headlight; a scene file can give any lights).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub light: Option<Vec3>,
+    /// Ambient light: a grey level, or linear r,g,b (default 0.25).
+    #[arg(long, value_parser = parse_colour)]
+    pub ambient: Option<Vec3>,
+    /// The scene file's lights (set by --scene; `None`: a headlight).
+    #[arg(skip)]
+    pub lights: Option<Vec<LightSpec>>,
+    /// The scene file's transfer function text (set by --scene).
+    #[arg(skip)]
+    pub tf_text: Option<String>,
     /// Background colour r,g,b (0-255).
     #[arg(long, value_parser = parse_vec3, default_value = "0,0,0")]
     pub background: Vec3,
@@ -175,6 +200,21 @@ const EXAMPLES: &str = "Examples:
   vol-render shapes.vvol --index shapes.vvol.vidx --no-ert --threads 1 -o a.png
 
   vol-render sphere.vvol --tf boundary --shading phong -o shell.png
+  vol-render --scene thesis.toml --size 256x256 -o small.png
+  vol-render shapes.vvol --tf shapes --orbit 30,20,700 --print-scene > shapes.toml
+
+Scene files (TOML) take every option above by the same name, and lights:
+  volume = \"shapes.vvol\"            # relative paths: from the scene file's folder
+  tf = \"shapes\"                     # or tf-text = \"\"\"...\"\"\" (the format below)
+  shading = \"phong\"
+  size = [700, 700]
+  eye = [1100, 1100, 1100]
+  look-at = [0, 0, 0]
+  ambient = 0.2                     # or [r, g, b], linear
+  [[lights]]
+  type = \"directional\"              # also \"point\" (position), \"headlight\"
+  direction = [-1, -1, -0.5]        # the direction the light travels
+  colour = [1.0, 0.9, 0.8]          # linear; intensity = 1.5 scales it
 
 Transfer function files: one statement per line, # for comments:
   domain 0 255              value range the table covers
@@ -213,5 +253,20 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
     match v[..] {
         [x, y, z] if [x, y, z].iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
         _ => Err(format!("'{s}' is not three finite numbers x,y,z")),
+    }
+}
+
+/// A grey level `g` or linear `r,g,b`, finite and not negative.
+pub fn parse_colour(s: &str) -> Result<Vec3, String> {
+    let c = match s.trim().parse::<f32>() {
+        Ok(g) => Vec3::splat(g),
+        Err(_) => parse_vec3(s).map_err(|_| format!("'{s}' is not a grey level or r,g,b"))?,
+    };
+    if c.is_finite() && c.min_element() >= 0.0 {
+        Ok(c)
+    } else {
+        Err(format!(
+            "'{s}': colour components must be finite and not negative"
+        ))
     }
 }

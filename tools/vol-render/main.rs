@@ -4,11 +4,13 @@
 
 mod args;
 mod plan;
+mod scene;
 
 use anyhow::{bail, Context, Result};
 use args::Cli;
-use clap::Parser;
+use clap::parser::ValueSource;
 use plan::Plan;
+use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::Volume;
@@ -18,11 +20,30 @@ use volindex::{BuildOptions, MajorantIndex};
 use volrender::{render_tf, Frame};
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    volkit_cli::run("vol-render", || run(&cli))
+    let (mut cli, matches) = match volkit_cli::run::parse_matches::<Cli>("vol-render") {
+        Ok(parsed) => parsed,
+        Err(code) => return code,
+    };
+    volkit_cli::run("vol-render", || {
+        let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
+        if let Some(path) = cli.scene.clone() {
+            let scene = scene::Scene::read(&path)?;
+            let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+            scene.apply(&dir, &mut cli, given);
+        }
+        let volume = cli.volume.clone().ok_or_else(|| {
+            volkit_cli::usage("no volume: give its path, or `volume` in the --scene file")
+        })?;
+        if cli.output.is_none() && !cli.print_scene {
+            return Err(volkit_cli::usage(
+                "no output: give -o FILE.png, or `output` in the --scene file",
+            ));
+        }
+        run(&cli, &volume)
+    })
 }
 
-fn run(cli: &Cli) -> Result<()> {
+fn run(cli: &Cli, volume: &Path) -> Result<()> {
     if let Some(n) = cli.threads {
         if n == 0 {
             bail!("--threads must be at least 1");
@@ -32,20 +53,29 @@ fn run(cli: &Cli) -> Result<()> {
             .build_global()
             .context("cannot start the worker threads")?;
     }
-    let name = cli.volume.display().to_string();
+    let name = volume.display().to_string();
     let t = Instant::now();
     let opts = vvol::OpenOptions {
         in_memory: cli.in_memory,
         ..Default::default()
     };
-    let vol = open_volume(&cli.volume, opts, None).with_context(|| name.clone())?;
+    let vol = open_volume(volume, opts, None).with_context(|| name.clone())?;
     let load_s = t.elapsed().as_secs_f64();
 
+    let plan = Plan::new(cli, &vol).with_context(|| name.clone())?;
+    let effective = scene::effective(cli, &plan.resolved);
+    if cli.print_scene {
+        volkit_cli::outln!("{}", scene::to_toml(&effective)?)?;
+        return Ok(());
+    }
+    let Some(output) = cli.output.as_deref() else {
+        bail!("no output")
+    };
+
     let t = Instant::now();
-    let index = load_index(cli, &vol)?;
+    let index = load_index(cli, volume, &vol)?;
     let index_s = t.elapsed().as_secs_f64();
 
-    let plan = Plan::new(cli, &vol)?;
     let mut times = Vec::new();
     let mut frame: Option<Frame> = None;
     for _ in 0..cli.repeat.max(1) {
@@ -68,20 +98,27 @@ fn run(cli: &Cli) -> Result<()> {
     }
     times.sort_by(f64::total_cmp);
     let render_s = times[times.len() / 2];
-    write_outputs(cli, &frame)?;
-    report(cli, &frame, load_s, index_s, render_s, &times);
+    write_outputs(cli, output, &frame)?;
+    let scene = serde_json::to_value(&effective)?;
+    let times = Times {
+        load_s,
+        index_s,
+        render_s,
+        runs: &times,
+    };
+    report(cli, volume, output, &frame, &times, scene)?;
     Ok(())
 }
 
-fn load_index(cli: &Cli, vol: &Volume) -> Result<Option<MajorantIndex>> {
+fn load_index(cli: &Cli, volume: &Path, vol: &Volume) -> Result<Option<MajorantIndex>> {
     if cli.no_ess {
         return Ok(None);
     }
     match &cli.index {
         Some(p) => {
             let name = p.display().to_string();
-            let fp = volformats::fingerprint(&cli.volume)
-                .with_context(|| cli.volume.display().to_string())?;
+            let fp =
+                volformats::fingerprint(volume).with_context(|| volume.display().to_string())?;
             let mut f =
                 std::io::BufReader::new(std::fs::File::open(p).with_context(|| name.clone())?);
             let ix = MajorantIndex::read_for_volume(&mut f, &vol.meta, fp)
@@ -94,18 +131,18 @@ fn load_index(cli: &Cli, vol: &Volume) -> Result<Option<MajorantIndex>> {
                 ..Default::default()
             };
             let ix = MajorantIndex::build_volume(vol, &opts, 0)
-                .with_context(|| format!("{}: building the index", cli.volume.display()))?;
+                .with_context(|| format!("{}: building the index", volume.display()))?;
             Ok(Some(ix))
         }
     }
 }
 
 /// The PNG, and the float image and heat map when asked for.
-fn write_outputs(cli: &Cli, frame: &Frame) -> Result<()> {
+fn write_outputs(cli: &Cli, output: &Path, frame: &Frame) -> Result<()> {
     let (w, h) = (frame.width, frame.height);
     let channels = if cli.alpha { 4 } else { 3 };
-    write_png8(&cli.output, w, h, channels, &frame.srgb8(cli.alpha))
-        .with_context(|| cli.output.display().to_string())?;
+    write_png8(output, w, h, channels, &frame.srgb8(cli.alpha))
+        .with_context(|| output.display().to_string())?;
     if let Some(p) = &cli.hdr {
         write_pfm(p, w, h, &frame.linear_rgb()).with_context(|| p.display().to_string())?;
     }
@@ -123,14 +160,30 @@ fn peak_rss_mb() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
-fn report(cli: &Cli, frame: &Frame, load_s: f64, index_s: f64, render_s: f64, times: &[f64]) {
+/// How long each part took, seconds.
+struct Times<'a> {
+    load_s: f64,
+    index_s: f64,
+    render_s: f64,
+    runs: &'a [f64],
+}
+
+fn report(
+    cli: &Cli,
+    volume: &Path,
+    output: &Path,
+    frame: &Frame,
+    t: &Times,
+    scene: serde_json::Value,
+) -> Result<()> {
     let s = &frame.stats;
+    let (load_s, index_s, render_s) = (t.load_s, t.index_s, t.render_s);
     let mpix = (frame.width as f64 * frame.height as f64) / 1e6;
     if cli.json {
         let v = serde_json::json!({
             "tool": "vol-render",
-            "path": cli.volume.display().to_string(),
-            "output": cli.output.display().to_string(),
+            "path": volume.display().to_string(),
+            "output": output.display().to_string(),
             "mode": format!("{:?}", cli.mode).to_lowercase(),
             "width": frame.width,
             "height": frame.height,
@@ -141,17 +194,18 @@ fn report(cli: &Cli, frame: &Frame, load_s: f64, index_s: f64, render_s: f64, ti
             "load_s": load_s,
             "index_s": index_s,
             "render_s": render_s,
-            "render_runs_s": times,
+            "render_runs_s": t.runs,
             "samples_per_s": s.samples as f64 / render_s.max(1e-12),
             "ert": !cli.no_ert,
             "ess": !cli.no_ess,
             "peak_rss_mb": peak_rss_mb(),
+            "scene": scene,
         });
-        println!("{v}");
+        volkit_cli::outln!("{v}")?;
     } else if !cli.quiet {
-        eprintln!(
+        volkit_cli::noteln!(
             "vol-render: {} {}x{} in {:.3} s ({:.1} Mpix/s), {} rays, {:.1} M samples, {} skips; load {:.2} s, index {:.2} s",
-            cli.output.display(),
+            output.display(),
             frame.width,
             frame.height,
             render_s,
@@ -163,4 +217,5 @@ fn report(cli: &Cli, frame: &Frame, load_s: f64, index_s: f64, render_s: f64, ti
             index_s
         );
     }
+    Ok(())
 }

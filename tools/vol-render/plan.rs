@@ -3,6 +3,7 @@
 //! default filled in from the volume's size, spacing and value range.
 
 use crate::args::{Cli, GradientArg, InterpArg, ModeArg, ShadingArg};
+use crate::scene::Resolved;
 use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use std::path::Path;
@@ -21,6 +22,9 @@ pub struct Plan {
     pub settings: RenderSettings,
     /// The transfer function (DVR only).
     pub tf: Option<Tf>,
+    /// The defaults as resolved against the volume (for the effective
+    /// scene).
+    pub resolved: Resolved,
 }
 
 impl Plan {
@@ -30,10 +34,24 @@ impl Plan {
             ModeArg::Dvr => Some(transfer_function(cli, vol)?),
             _ => None,
         };
+        let (camera, look_at, orbit) = camera(cli, vol)?;
+        let settings = settings(cli, vol)?;
+        let resolved = Resolved {
+            step: settings.step,
+            look_at,
+            orbit,
+            iso: match settings.mode {
+                Mode::Iso(v) => Some(v),
+                _ => None,
+            },
+            ambient: settings.lighting.ambient,
+            lights: settings.lighting.lights.clone(),
+        };
         Ok(Plan {
-            camera: camera(cli, vol)?,
-            settings: settings(cli, vol)?,
+            camera,
+            settings,
             tf,
+            resolved,
         })
     }
 }
@@ -43,8 +61,12 @@ fn value_range(vol: &Volume) -> (f32, f32) {
     (vol.meta.range.min as f32, vol.meta.range.max as f32)
 }
 
-/// `--tf`: a preset by name, else a file (1D or 2D).
+/// `--tf`: a preset by name, else a file (1D or 2D); or the scene file's
+/// `tf-text`.
 fn transfer_function(cli: &Cli, vol: &Volume) -> Result<Tf> {
+    if let Some(text) = &cli.tf_text {
+        return parse_any(text).context("the scene's tf-text");
+    }
     let range = value_range(vol);
     // The steepest a one-voxel jump across the whole range can be.
     let max_gradient = (range.1 - range.0) / vol.meta.min_spacing();
@@ -62,7 +84,9 @@ fn transfer_function(cli: &Cli, vol: &Volume) -> Result<Tf> {
     parse_any(&text).with_context(|| cli.tf.clone())
 }
 
-fn camera(cli: &Cli, vol: &Volume) -> Result<Camera> {
+/// The camera, the point it looks at, and the orbit that placed it (when
+/// no `--eye` did).
+fn camera(cli: &Cli, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
     let hi = Vec3::from(vol.meta.world_extent());
     let centre = hi * 0.5;
     let diagonal = hi.length().max(1.0);
@@ -73,12 +97,17 @@ fn camera(cli: &Cli, vol: &Volume) -> Result<Camera> {
     };
     let (w, h) = cli.size;
     let target = cli.look_at.unwrap_or(centre);
-    let cam = match (cli.eye, cli.orbit) {
+    let orbit = match (cli.eye, cli.orbit) {
+        (Some(_), _) => None,
+        (None, Some(o)) => Some(o),
+        (None, None) => Some(Vec3::new(30.0, 20.0, 1.8 * diagonal)),
+    };
+    let cam = match (cli.eye, orbit) {
         (Some(eye), _) => Camera::look_at(eye, target, cli.up, projection, w, h),
         (None, Some(o)) => Camera::orbit(target, o.x, o.y, o.z, projection, w, h),
-        (None, None) => Camera::orbit(target, 30.0, 20.0, 1.8 * diagonal, projection, w, h),
+        (None, None) => unreachable!("an orbit is chosen whenever no eye is given"),
     };
-    Ok(cam?)
+    Ok((cam?, target, orbit))
 }
 
 fn settings(cli: &Cli, vol: &Volume) -> Result<RenderSettings> {
@@ -96,13 +125,19 @@ fn settings(cli: &Cli, vol: &Volume) -> Result<RenderSettings> {
     if cli.iso.is_some() && cli.mode != ModeArg::Iso {
         bail!("--iso needs --mode iso");
     }
-    let light = match cli.light {
-        Some(l) => match Light::directional(l) {
-            Some(light) => light,
+    let lights = match (cli.light, &cli.lights) {
+        (Some(l), _) => match Light::directional(l) {
+            Some(light) => vec![light],
             None => bail!("--light must not be the zero vector"),
         },
-        None => Light::HEADLIGHT,
+        (None, Some(lights)) => lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| l.light().map_err(|e| anyhow::anyhow!("lights[{i}]: {e}")))
+            .collect::<Result<_>>()?,
+        (None, None) => vec![Light::HEADLIGHT],
     };
+    let defaults = Lighting::default();
     Ok(RenderSettings {
         mode,
         step: cli.step.unwrap_or(0.5 * vol.meta.min_spacing()),
@@ -116,8 +151,9 @@ fn settings(cli: &Cli, vol: &Volume) -> Result<RenderSettings> {
         },
         shading: cli.shading == ShadingArg::Phong,
         lighting: Lighting {
-            lights: vec![light],
-            ..Default::default()
+            lights,
+            ambient: cli.ambient.unwrap_or(defaults.ambient),
+            model: defaults.model,
         },
         ert: (!cli.no_ert).then_some(cli.ert),
         ess: !cli.no_ess,
