@@ -15,6 +15,7 @@ use volcore::Volume;
 use volformats::image::{write_heatmap, write_pfm, write_png8};
 use volformats::{open_volume, vvol};
 use volindex::{BuildOptions, MajorantIndex};
+use volkit_cli::{noteln, outln};
 use volrender::{render_tf, Frame};
 
 fn main() -> ExitCode {
@@ -45,7 +46,7 @@ fn run(cli: &Cli) -> Result<()> {
     let index = load_index(cli, &vol)?;
     let index_s = t.elapsed().as_secs_f64();
 
-    let plan = Plan::new(cli, &vol)?;
+    let plan = Plan::new(cli, &vol, index.as_ref()).with_context(|| name.clone())?;
     let mut times = Vec::new();
     let mut frame: Option<Frame> = None;
     for _ in 0..cli.repeat.max(1) {
@@ -69,8 +70,7 @@ fn run(cli: &Cli) -> Result<()> {
     times.sort_by(f64::total_cmp);
     let render_s = times[times.len() / 2];
     write_outputs(cli, &frame)?;
-    report(cli, &frame, load_s, index_s, render_s, &times);
-    Ok(())
+    report(cli, &frame, load_s, index_s, render_s, &times)
 }
 
 fn load_index(cli: &Cli, vol: &Volume) -> Result<Option<MajorantIndex>> {
@@ -123,7 +123,14 @@ fn peak_rss_mb() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
-fn report(cli: &Cli, frame: &Frame, load_s: f64, index_s: f64, render_s: f64, times: &[f64]) {
+fn report(
+    cli: &Cli,
+    frame: &Frame,
+    load_s: f64,
+    index_s: f64,
+    render_s: f64,
+    times: &[f64],
+) -> Result<()> {
     let s = &frame.stats;
     let mpix = (frame.width as f64 * frame.height as f64) / 1e6;
     if cli.json {
@@ -147,9 +154,9 @@ fn report(cli: &Cli, frame: &Frame, load_s: f64, index_s: f64, render_s: f64, ti
             "ess": !cli.no_ess,
             "peak_rss_mb": peak_rss_mb(),
         });
-        println!("{v}");
+        outln!("{v}")?;
     } else if !cli.quiet {
-        eprintln!(
+        noteln!(
             "vol-render: {} {}x{} in {:.3} s ({:.1} Mpix/s), {} rays, {:.1} M samples, {} skips; load {:.2} s, index {:.2} s",
             cli.output.display(),
             frame.width,
@@ -163,4 +170,5 @@ fn report(cli: &Cli, frame: &Frame, load_s: f64, index_s: f64, render_s: f64, ti
             index_s
         );
     }
+    Ok(())
 }
