@@ -1652,7 +1652,10 @@ fn render_spacing_that_implies_endless_rays_is_refused() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.contains("thin.vvol") && err.contains("samples per ray"), "{err}");
+    assert!(
+        err.contains("thin.vvol") && err.contains("samples per ray"),
+        "{err}"
+    );
     // A thesis .vol whose spacing field is damaged (1e-30 on y).
     let good = std::fs::read(gen(d.path(), "a.vol", &["solid", "--dims", "8,8,8"])).unwrap();
     let mut b = good.clone();
@@ -1665,7 +1668,10 @@ fn render_spacing_that_implies_endless_rays_is_refused() {
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.lines().count() == 1, "{err}");
-    assert!(err.contains("bad.vol") && err.contains("samples per ray"), "{err}");
+    assert!(
+        err.contains("bad.vol") && err.contains("samples per ray"),
+        "{err}"
+    );
     // An explicit step that implies too many samples per ray.
     fails(
         &mut render_cmd(d.path(), &v, "c", &["--step", "1e-6"]),
@@ -1687,8 +1693,25 @@ fn render_mip_and_minip_with_infinities_and_flt_max_are_finite() {
         let v: Vec<f32> = (0..n).map(|i| if i / 64 < 4 { lo } else { hi }).collect();
         let vol = raw_f32(d.path(), &format!("ext{lo}"), [8, 8, 8], &v);
         for mode in ["mip", "minip"] {
-            let img = render_hdr(d.path(), &vol, mode, &["--mode", mode, "--interp", "nearest", "--eye", "3.5,3.5,40", "--look-at", "3.5,3.5,0"]);
-            assert!(img.iter().all(|g| g.is_finite()), "{mode} {lo}..{hi}: {img:?}");
+            let img = render_hdr(
+                d.path(),
+                &vol,
+                mode,
+                &[
+                    "--mode",
+                    mode,
+                    "--interp",
+                    "nearest",
+                    "--eye",
+                    "3.5,3.5,40",
+                    "--look-at",
+                    "3.5,3.5,0",
+                ],
+            );
+            assert!(
+                img.iter().all(|g| g.is_finite()),
+                "{mode} {lo}..{hi}: {img:?}"
+            );
             // Every ray through the volume meets both halves: MIP shows
             // white, MinIP black, at the centre.
             let c = img[12 * 24 + 12];
@@ -1717,27 +1740,57 @@ fn render_xray_of_a_1e38_cube_is_not_black() {
 #[test]
 fn render_huge_and_tiny_camera_vectors_keep_their_direction() {
     let d = tmp();
-    let v = gen(d.path(), "s.vvol", &["shapes", "--dims", "24,24,24", "--count", "6", "--size", "6"]);
+    let v = gen(
+        d.path(),
+        "s.vvol",
+        &[
+            "shapes", "--dims", "24,24,24", "--count", "6", "--size", "6",
+        ],
+    );
     let r = |name: &str, args: &[&str]| {
         ok(&mut render_cmd(d.path(), &v, name, args));
         png_bytes(d.path(), name)
     };
-    let eye = ["--eye", "40,30,50", "--look-at", "12,12,12", "--tf", "shapes"];
+    let eye = [
+        "--eye",
+        "40,30,50",
+        "--look-at",
+        "12,12,12",
+        "--tf",
+        "shapes",
+    ];
     let up1 = r("up1", &[&eye[..], &["--up=1,1,0"]].concat());
     assert_eq!(r("up30", &[&eye[..], &["--up=1e30,1e30,0"]].concat()), up1);
-    assert_eq!(r("up-25", &[&eye[..], &["--up=1e-25,1e-25,0"]].concat()), up1);
+    assert_eq!(
+        r("up-25", &[&eye[..], &["--up=1e-25,1e-25,0"]].concat()),
+        up1
+    );
     let phong = [&eye[..], &["--shading", "phong"]].concat();
     let l1 = r("l1", &[&phong[..], &["--light=1,1,1"]].concat());
-    assert_eq!(r("l30", &[&phong[..], &["--light=1e30,1e30,1e30"]].concat()), l1);
+    assert_eq!(
+        r("l30", &[&phong[..], &["--light=1e30,1e30,1e30"]].concat()),
+        l1
+    );
     let lx = r("lx", &[&phong[..], &["--light=1,0,0"]].concat());
-    assert_eq!(r("l-25", &[&phong[..], &["--light=1e-25,0,0"]].concat()), lx);
+    assert_eq!(
+        r("l-25", &[&phong[..], &["--light=1e-25,0,0"]].concat()),
+        lx
+    );
     // An eye so far that f32 positions cannot tell samples apart: refused
     // for that reason, not as "the same point".
     let line = fails(
-        &mut render_cmd(d.path(), &v, "far", &["--eye=1e20,1e20,1e20", "--look-at", "12,12,12"]),
+        &mut render_cmd(
+            d.path(),
+            &v,
+            "far",
+            &["--eye=1e20,1e20,1e20", "--look-at", "12,12,12"],
+        ),
         "too far",
     );
-    assert!(line.contains("s.vvol") && !line.contains("same point"), "{line}");
+    assert!(
+        line.contains("s.vvol") && !line.contains("same point"),
+        "{line}"
+    );
     fails(
         &mut render_cmd(d.path(), &v, "same", &["--eye=3,3,3", "--look-at", "3,3,3"]),
         "same point",
@@ -1747,9 +1800,20 @@ fn render_huge_and_tiny_camera_vectors_keep_their_direction() {
 #[test]
 fn render_orbit_turns_around_up() {
     let d = tmp();
-    let v = gen(d.path(), "s.vvol", &["shapes", "--dims", "24,24,24", "--count", "6", "--size", "6"]);
+    let v = gen(
+        d.path(),
+        "s.vvol",
+        &[
+            "shapes", "--dims", "24,24,24", "--count", "6", "--size", "6",
+        ],
+    );
     let r = |name: &str, args: &[&str]| {
-        ok(&mut render_cmd(d.path(), &v, name, &[&["--tf", "shapes"][..], args].concat()));
+        ok(&mut render_cmd(
+            d.path(),
+            &v,
+            name,
+            &[&["--tf", "shapes"][..], args].concat(),
+        ));
         png_bytes(d.path(), name)
     };
     // Azimuth 0, elevation 0 puts the eye on the +z side whatever up is
@@ -1757,12 +1821,22 @@ fn render_orbit_turns_around_up() {
     let orbit = r("o", &["--orbit", "0,0,60", "--up", "1,0,0"]);
     let eye = r(
         "e",
-        &["--eye", "11.5,11.5,71.5", "--look-at", "11.5,11.5,11.5", "--up", "1,0,0"],
+        &[
+            "--eye",
+            "11.5,11.5,71.5",
+            "--look-at",
+            "11.5,11.5,11.5",
+            "--up",
+            "1,0,0",
+        ],
     );
     assert_eq!(orbit, eye, "--orbit ignored --up");
     assert_ne!(orbit, r("y", &["--orbit", "0,0,60"]));
     // Same framing, different up: different images.
-    assert_ne!(r("z", &["--orbit", "30,20,60", "--up", "0,0,1"]), r("w", &["--orbit", "30,20,60"]));
+    assert_ne!(
+        r("z", &["--orbit", "30,20,60", "--up", "0,0,1"]),
+        r("w", &["--orbit", "30,20,60"])
+    );
 }
 
 #[test]
@@ -1784,7 +1858,12 @@ fn render_up_patient_follows_the_direction_matrix() {
         &data,
     );
     let r = |vol: &Path, name: &str, up: &str| {
-        ok(&mut render_cmd(d.path(), vol, name, &["--orbit", "30,20,30", "--up", up]));
+        ok(&mut render_cmd(
+            d.path(),
+            vol,
+            name,
+            &["--orbit", "30,20,30", "--up", up],
+        ));
         png_bytes(d.path(), name)
     };
     assert_eq!(r(&coronal, "cp", "patient"), r(&coronal, "cy", "0,1,0"));
@@ -1798,17 +1877,36 @@ fn render_default_framing_at_spacing_1e_3_shows_the_volume() {
     let v = gen(
         d.path(),
         "mm.vvol",
-        &["solid", "--dims", "16,16,16", "--spacing", "0.001,0.001,0.001"],
+        &[
+            "solid",
+            "--dims",
+            "16,16,16",
+            "--spacing",
+            "0.001,0.001,0.001",
+        ],
     );
     let img = render_hdr(d.path(), &v, "a", &["--mode", "mip"]);
-    assert!(img[12 * 24 + 12] > 0.5, "centre pixel {}", img[12 * 24 + 12]);
+    assert!(
+        img[12 * 24 + 12] > 0.5,
+        "centre pixel {}",
+        img[12 * 24 + 12]
+    );
     let huge = gen(
         d.path(),
         "huge.vvol",
-        &["solid", "--dims", "16,16,16", "--spacing", "3.4e38,3.4e38,3.4e38"],
+        &[
+            "solid",
+            "--dims",
+            "16,16,16",
+            "--spacing",
+            "3.4e38,3.4e38,3.4e38",
+        ],
     );
     let line = fails(&mut render_cmd(d.path(), &huge, "b", &[]), "too large");
-    assert!(line.contains("huge.vvol") && !line.contains("orbit distance"), "{line}");
+    assert!(
+        line.contains("huge.vvol") && !line.contains("orbit distance"),
+        "{line}"
+    );
 }
 
 #[test]
@@ -1839,23 +1937,40 @@ fn render_iso_default_on_an_infinite_range_is_finite_or_refused_clearly() {
 fn render_tile_and_size_allocations_are_bounded() {
     let d = tmp();
     let v = gen(d.path(), "s.vvol", &["solid", "--dims", "8,8,8"]);
-    ok(&mut render_cmd(d.path(), &v, "a", &["--tile", "4", "--size", "16x16"]));
+    ok(&mut render_cmd(
+        d.path(),
+        &v,
+        "a",
+        &["--tile", "4", "--size", "16x16"],
+    ));
     let want = png_bytes(d.path(), "a");
     let out = run_within(
         &mut render_cmd(d.path(), &v, "b", &["--tile", "100000", "--size", "16x16"]),
         Duration::from_secs(30),
     );
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_eq!(png_bytes(d.path(), "b"), want);
     // The widest allowed image, one row: within the budget, so it renders.
-    ok(&mut render_cmd(d.path(), &v, "w", &["--size", "32768x1", "--tile", "32768"]));
+    ok(&mut render_cmd(
+        d.path(),
+        &v,
+        "w",
+        &["--size", "32768x1", "--tile", "32768"],
+    ));
     let out = run_within(
         &mut render_cmd(d.path(), &v, "c", &["--size", "32768x32768"]),
         Duration::from_secs(30),
     );
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.lines().count() == 1, "{err}");
-    assert!(err.contains("budget") && !err.contains("allocation"), "{err}");
+    assert!(
+        err.contains("budget") && !err.contains("allocation"),
+        "{err}"
+    );
     assert!(!d.path().join("c.png").exists());
 }
 

@@ -120,7 +120,9 @@ impl Camera {
         height: u32,
     ) -> Result<Camera, RenderError> {
         let up = Vec3::Y;
-        Camera::orbit_up(centre, azimuth, elevation, distance, up, projection, width, height)
+        Camera::orbit_up(
+            centre, azimuth, elevation, distance, up, projection, width, height,
+        )
     }
 
     /// A camera orbiting `centre` at `distance`, at `azimuth` degrees around
@@ -152,7 +154,11 @@ impl Camera {
         };
         // The orbit's frame: `front` (azimuth 0) and `side` (azimuth 90)
         // across `u`; exactly +z and +x for u = +y.
-        let reference = if u.z.abs() < 0.9 { Vec3::Z } else { Vec3::NEG_Y };
+        let reference = if u.z.abs() < 0.9 {
+            Vec3::Z
+        } else {
+            Vec3::NEG_Y
+        };
         let front = if u == Vec3::Y {
             Vec3::Z
         } else {
@@ -160,8 +166,8 @@ impl Camera {
         };
         let side = u.cross(front);
         let (az, el) = (azimuth.to_radians(), elevation.to_radians());
-        let offset =
-            (side * (el.cos() * az.sin()) + u * el.sin() + front * (el.cos() * az.cos())) * distance;
+        let offset = (side * (el.cos() * az.sin()) + u * el.sin() + front * (el.cos() * az.cos()))
+            * distance;
         let eye = centre + offset;
         if !eye.is_finite() {
             return Err(RenderError::Camera(format!(
@@ -289,7 +295,12 @@ mod tests {
     #[test]
     fn orbit_turns_around_any_up() {
         let c = Vec3::new(1.0, 2.0, 3.0);
-        for up in [Vec3::Y, Vec3::Z, Vec3::new(1e30, 1e30, 0.0), Vec3::new(0.3, -0.2, 0.9)] {
+        for up in [
+            Vec3::Y,
+            Vec3::Z,
+            Vec3::new(1e30, 1e30, 0.0),
+            Vec3::new(0.3, -0.2, 0.9),
+        ] {
             let u = unit(up).unwrap();
             for (az, el) in [(0.0f32, 0.0f32), (40.0, 25.0), (200.0, -60.0)] {
                 let cam =
@@ -309,8 +320,17 @@ mod tests {
         let eye = c + Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos()) * 9.0;
         let b = Camera::look_at(eye, c, Vec3::Y, Projection::Perspective(40.0), 8, 8).unwrap();
         assert_eq!(a, b);
-        assert!(Camera::orbit_up(c, 0.0, 0.0, 1.0, Vec3::ZERO, Projection::Perspective(40.0), 8, 8)
-            .is_err());
+        assert!(Camera::orbit_up(
+            c,
+            0.0,
+            0.0,
+            1.0,
+            Vec3::ZERO,
+            Projection::Perspective(40.0),
+            8,
+            8
+        )
+        .is_err());
     }
 
     #[test]
@@ -318,8 +338,15 @@ mod tests {
         let p = Projection::Perspective(45.0);
         let up = Vec3::new(1e30, 1e30, 0.0);
         let a = Camera::look_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, up, p, 8, 8).unwrap();
-        let b = Camera::look_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), p, 8, 8)
-            .unwrap();
+        let b = Camera::look_at(
+            Vec3::new(0.0, 0.0, 10.0),
+            Vec3::ZERO,
+            Vec3::new(1.0, 1.0, 0.0),
+            p,
+            8,
+            8,
+        )
+        .unwrap();
         assert_eq!(a, b);
         let far = Camera::look_at(Vec3::splat(1e20), Vec3::ZERO, Vec3::Y, p, 8, 8).unwrap();
         assert!(far.forward().is_finite());

@@ -31,9 +31,12 @@ pub const MAX_SAMPLES_PER_RAY: f64 = 1e7;
 /// extent `(dims − 1) × spacing` is not a finite f32 on some axis).
 pub fn world_diagonal(vol: &Volume) -> Option<f64> {
     let e = vol.meta.world_extent();
-    e.iter()
-        .all(|c| c.is_finite())
-        .then(|| e.iter().map(|&c| (c as f64) * (c as f64)).sum::<f64>().sqrt())
+    e.iter().all(|c| c.is_finite()).then(|| {
+        e.iter()
+            .map(|&c| (c as f64) * (c as f64))
+            .sum::<f64>()
+            .sqrt()
+    })
 }
 
 /// Memory a frame may use for its per-pixel buffers (film, ray results,

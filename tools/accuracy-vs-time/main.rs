@@ -301,7 +301,8 @@ fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
     let reference = ctx.out.join(format!("{}-reference.pfm", scene.name));
     noteln!(
         "vol-accuracy: {}: reference at step {}",
-        scene.name, ctx.ref_step
+        scene.name,
+        ctx.ref_step
     );
     let (median_s, min_s, max_s, samples) = render(
         ctx,
