@@ -1674,7 +1674,7 @@ fn render_spacing_that_implies_endless_rays_is_refused() {
     );
     // An explicit step that implies too many samples per ray.
     fails(
-        &mut render_cmd(d.path(), &v, "c", &["--step", "1e-6"]),
+        &mut render_cmd(d.path(), &v, "c", &["--step", "5e-7"]),
         "samples per ray",
     );
 }
