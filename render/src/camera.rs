@@ -1,7 +1,7 @@
 //! Pinhole and orthographic cameras, rays through pixel centres.
 
 use crate::error::RenderError;
-use crate::ray::Ray;
+use crate::ray::{unit, Ray};
 use glam::Vec3;
 
 /// How the image plane maps to rays.
@@ -48,10 +48,19 @@ impl Camera {
         if width == 0 || height == 0 || width > 1 << 15 || height > 1 << 15 {
             return bad("image size must be 1..=32768 pixels per side");
         }
-        let forward = (target - eye).normalize_or_zero();
-        if forward == Vec3::ZERO {
-            return bad("eye and look-at are the same point");
-        }
+        let Some(forward) = unit(target - eye) else {
+            if eye == target {
+                return bad(&format!(
+                    "eye and look-at are the same point {},{},{}",
+                    eye.x, eye.y, eye.z
+                ));
+            }
+            // Finite points whose difference overflows f32.
+            return bad(&format!(
+                "eye {},{},{} and look-at {},{},{} are too far apart for f32",
+                eye.x, eye.y, eye.z, target.x, target.y, target.z
+            ));
+        };
         let half_plane = match projection {
             Projection::Perspective(fov) if fov > 0.0 && fov < 180.0 => {
                 (fov.to_radians() * 0.5).tan()
@@ -66,8 +75,11 @@ impl Camera {
                 return bad(&format!("orthographic height {h} must be positive"))
             }
         };
+        // Any length of up will do: scaled to unit length first, so a huge
+        // or tiny one neither overflows nor underflows the cross product.
+        let up = unit(up).unwrap_or(Vec3::ZERO);
         let mut right = forward.cross(up);
-        if right.length() < 1e-6 * up.length().max(1e-30) || up == Vec3::ZERO {
+        if right.length() < 1e-6 || up == Vec3::ZERO {
             // Looking along the up vector: fall back to the world axis least
             // aligned with the view direction.
             let a = forward.abs();
@@ -97,7 +109,7 @@ impl Camera {
 
     /// A camera orbiting `centre` at `distance`, at `azimuth` degrees around
     /// the y axis (0 looks along −z) and `elevation` degrees above the xz
-    /// plane, with y up.
+    /// plane, with y up ([`Camera::orbit_up`] with +y).
     pub fn orbit(
         centre: Vec3,
         azimuth: f32,
@@ -107,14 +119,63 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> Result<Camera, RenderError> {
+        let up = Vec3::Y;
+        Camera::orbit_up(
+            centre, azimuth, elevation, distance, up, projection, width, height,
+        )
+    }
+
+    /// A camera orbiting `centre` at `distance`, at `azimuth` degrees around
+    /// the `up` axis and `elevation` degrees above the plane across it,
+    /// with `up` up (any length). Azimuth 0 puts the eye on the side of
+    /// +z seen from the centre (of −y when `up` is within about 25° of
+    /// ±z), looking back; with `up` = +y: around the y axis, 0 looking
+    /// along −z, elevation above the xz plane.
+    #[allow(clippy::too_many_arguments)]
+    pub fn orbit_up(
+        centre: Vec3,
+        azimuth: f32,
+        elevation: f32,
+        distance: f32,
+        up: Vec3,
+        projection: Projection,
+        width: u32,
+        height: u32,
+    ) -> Result<Camera, RenderError> {
         if !(distance > 0.0 && distance.is_finite()) {
             return Err(RenderError::Camera(format!(
-                "orbit distance {distance} must be positive"
+                "orbit distance {distance} must be a positive finite number"
             )));
         }
+        let Some(u) = unit(up) else {
+            return Err(RenderError::Camera(
+                "the up vector must not be the zero vector".into(),
+            ));
+        };
+        // The orbit's frame: `front` (azimuth 0) and `side` (azimuth 90)
+        // across `u`; exactly +z and +x for u = +y.
+        let reference = if u.z.abs() < 0.9 {
+            Vec3::Z
+        } else {
+            Vec3::NEG_Y
+        };
+        let front = if u == Vec3::Y {
+            Vec3::Z
+        } else {
+            unit(reference - u * reference.dot(u)).unwrap_or(Vec3::Z)
+        };
+        let side = u.cross(front);
         let (az, el) = (azimuth.to_radians(), elevation.to_radians());
-        let offset = Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos()) * distance;
-        Camera::look_at(centre + offset, centre, Vec3::Y, projection, width, height)
+        let offset = (side * (el.cos() * az.sin()) + u * el.sin() + front * (el.cos() * az.cos()))
+            * distance;
+        let eye = centre + offset;
+        if !eye.is_finite() {
+            return Err(RenderError::Camera(format!(
+                "orbit distance {distance} from {},{},{} leaves f32 range",
+                centre.x, centre.y, centre.z
+            )));
+        }
+        Camera::look_at(eye, centre, u, projection, width, height)
     }
 
     /// Image width in pixels.
@@ -229,6 +290,70 @@ mod tests {
             8
         )
         .is_err());
+    }
+
+    #[test]
+    fn orbit_turns_around_any_up() {
+        let c = Vec3::new(1.0, 2.0, 3.0);
+        for up in [
+            Vec3::Y,
+            Vec3::Z,
+            Vec3::new(1e30, 1e30, 0.0),
+            Vec3::new(0.3, -0.2, 0.9),
+        ] {
+            let u = unit(up).unwrap();
+            for (az, el) in [(0.0f32, 0.0f32), (40.0, 25.0), (200.0, -60.0)] {
+                let cam =
+                    Camera::orbit_up(c, az, el, 10.0, up, Projection::Perspective(45.0), 8, 8)
+                        .unwrap();
+                let off = cam.eye() - c;
+                // Elevation above the plane across up, at the distance.
+                assert!((off.length() - 10.0).abs() < 1e-4, "{up} {az} {el}");
+                assert!((off.dot(u) - 10.0 * el.to_radians().sin()).abs() < 1e-4);
+                // The image's up is on up's side.
+                assert!(cam.up.dot(u) > 0.0 || el.abs() > 89.0, "{up} {az} {el}");
+            }
+        }
+        // With +y it is the classic orbit, bit for bit.
+        let a = Camera::orbit(c, 33.0, 21.0, 9.0, Projection::Perspective(40.0), 8, 8).unwrap();
+        let (az, el) = (33f32.to_radians(), 21f32.to_radians());
+        let eye = c + Vec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos()) * 9.0;
+        let b = Camera::look_at(eye, c, Vec3::Y, Projection::Perspective(40.0), 8, 8).unwrap();
+        assert_eq!(a, b);
+        assert!(Camera::orbit_up(
+            c,
+            0.0,
+            0.0,
+            1.0,
+            Vec3::ZERO,
+            Projection::Perspective(40.0),
+            8,
+            8
+        )
+        .is_err());
+    }
+
+    #[test]
+    fn far_apart_and_huge_vectors_say_what_is_wrong() {
+        let p = Projection::Perspective(45.0);
+        let up = Vec3::new(1e30, 1e30, 0.0);
+        let a = Camera::look_at(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, up, p, 8, 8).unwrap();
+        let b = Camera::look_at(
+            Vec3::new(0.0, 0.0, 10.0),
+            Vec3::ZERO,
+            Vec3::new(1.0, 1.0, 0.0),
+            p,
+            8,
+            8,
+        )
+        .unwrap();
+        assert_eq!(a, b);
+        let far = Camera::look_at(Vec3::splat(1e20), Vec3::ZERO, Vec3::Y, p, 8, 8).unwrap();
+        assert!(far.forward().is_finite());
+        let e = Camera::look_at(Vec3::splat(3e38), Vec3::splat(-3e38), Vec3::Y, p, 8, 8)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("too far apart"), "{e}");
     }
 
     #[test]

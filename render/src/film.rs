@@ -49,7 +49,7 @@ pub struct Film {
     height: u32,
     rgba: Vec<[f64; 4]>,
     count: Vec<u32>,
-    value: Vec<f32>,
+    value: Vec<f64>,
     depth: Vec<f32>,
     samples: Vec<u32>,
     stats: FrameStats,
@@ -64,7 +64,7 @@ impl Film {
             height,
             rgba: vec![[0.0; 4]; n],
             count: vec![0; n],
-            value: vec![f32::NAN; n],
+            value: vec![f64::NAN; n],
             depth: vec![f32::NAN; n],
             samples: vec![0; n],
             stats: FrameStats::default(),
@@ -128,10 +128,26 @@ impl Film {
             Display::Colour => {}
             Display::Grey { lo, hi } => {
                 let span = hi - lo;
-                for (px, &v) in rgba.iter_mut().zip(&self.value) {
-                    if !v.is_nan() {
-                        let g = if span > 0.0 { (v - lo) / span } else { 1.0 };
-                        *px = grey(g.clamp(0.0, 1.0));
+                if lo.is_finite() && span.is_finite() {
+                    for (px, &v) in rgba.iter_mut().zip(&self.value) {
+                        if !v.is_nan() {
+                            let v = v as f32;
+                            let g = if span > 0.0 { (v - lo) / span } else { 1.0 };
+                            *px = grey(g.clamp(0.0, 1.0));
+                        }
+                    }
+                } else {
+                    // A range with infinities, or one whose span overflows
+                    // f32: map in f64 over its finite part (±inf go to the
+                    // ends), never computing inf − inf.
+                    let lo = (lo as f64).max(-f32::MAX as f64);
+                    let hi = (hi as f64).min(f32::MAX as f64);
+                    let span = hi - lo;
+                    for (px, &v) in rgba.iter_mut().zip(&self.value) {
+                        if !v.is_nan() {
+                            let g = if span > 0.0 { (v - lo) / span } else { 1.0 };
+                            *px = grey(g.clamp(0.0, 1.0) as f32);
+                        }
                     }
                 }
             }
@@ -141,10 +157,21 @@ impl Film {
                     .iter()
                     .cloned()
                     .filter(|v| v.is_finite())
-                    .fold(0.0f32, f32::max);
+                    .fold(0.0f64, f64::max);
+                let top32 = top as f32;
                 for (px, &v) in rgba.iter_mut().zip(&self.value) {
                     if v.is_finite() {
-                        let g = if top > 0.0 { v / top } else { 0.0 };
+                        // In f32 where every value fits (as before values
+                        // could pass f32's range), in f64 otherwise.
+                        let g = if top32.is_finite() {
+                            if top32 > 0.0 {
+                                v as f32 / top32
+                            } else {
+                                0.0
+                            }
+                        } else {
+                            (v / top) as f32
+                        };
                         *px = grey(g.clamp(0.0, 1.0));
                     }
                 }
@@ -178,7 +205,7 @@ pub struct Frame {
     /// Linear RGB composited over the background, and coverage alpha.
     pub rgba: Vec<[f32; 4]>,
     /// The mode's scalar per pixel (see [`RayResult::value`]).
-    pub value: Vec<f32>,
+    pub value: Vec<f64>,
     /// Ray parameter of the iso hit or MIP extreme (NaN when none).
     pub depth: Vec<f32>,
     /// Samples taken per pixel.
@@ -240,6 +267,38 @@ mod tests {
         assert_eq!(srgb8(f32::NAN), 0);
         // Linear 0.216 is sRGB 0.502.
         assert_eq!(srgb8(0.2159), 128);
+    }
+
+    #[test]
+    fn grey_display_of_infinite_and_overflowing_ranges_is_finite() {
+        let r = |v: f64| RayResult {
+            value: v,
+            samples: 1,
+            ..RayResult::empty()
+        };
+        let values = [f64::INFINITY, f64::NEG_INFINITY, 3.4e38, -3.4e38, 0.0];
+        for (lo, hi) in [
+            (f32::NEG_INFINITY, f32::INFINITY),
+            (-3.4e38, 3.4e38),
+            (0.0, f32::INFINITY),
+            (f32::NEG_INFINITY, 0.0),
+        ] {
+            let mut f = Film::new(values.len() as u32, 1);
+            for (x, &v) in values.iter().enumerate() {
+                f.add(x as u32, 0, &r(v));
+            }
+            let fr = f.resolve(Display::Grey { lo, hi }, Vec3::ZERO);
+            let g: Vec<f32> = fr.rgba.iter().map(|p| p[0]).collect();
+            assert!(g.iter().all(|v| v.is_finite()), "{lo}..{hi}: {g:?}");
+            assert_eq!((g[0], g[1]), (1.0, 0.0), "{lo}..{hi}");
+            assert!(g[2] >= g[4] && g[4] >= g[3], "{lo}..{hi}: {g:?}");
+        }
+        // Largest-value grey past f32's range (an X-ray sum).
+        let mut f = Film::new(2, 1);
+        f.add(0, 0, &r(1e39));
+        f.add(1, 0, &r(5e38));
+        let fr = f.resolve(Display::GreyToLargest, Vec3::ZERO);
+        assert_eq!((fr.rgba[0][0], fr.rgba[1][0]), (1.0, 0.5));
     }
 
     #[test]

@@ -21,7 +21,42 @@ use std::time::Instant;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
 use volindex::MajorantIndex;
 
-fn check(settings: &RenderSettings, vol: &Volume) -> Result<(), RenderError> {
+/// The most samples one ray may take. Settings that imply more (a step
+/// tiny against the volume's size, or a voxel spacing so small or so
+/// large on one axis that the default step is) are refused before any ray
+/// is traced, so no input can make a ray's loop run without end.
+pub const MAX_SAMPLES_PER_RAY: f64 = 1e7;
+
+/// The volume's box diagonal in world units, in f64 (`None` when the
+/// extent `(dims − 1) × spacing` is not a finite f32 on some axis).
+pub fn world_diagonal(vol: &Volume) -> Option<f64> {
+    let e = vol.meta.world_extent();
+    e.iter().all(|c| c.is_finite()).then(|| {
+        e.iter()
+            .map(|&c| (c as f64) * (c as f64))
+            .sum::<f64>()
+            .sqrt()
+    })
+}
+
+/// Memory a frame may use for its per-pixel buffers (film, ray results,
+/// the resolved frame and its output encodings).
+pub const FRAME_MEMORY_BUDGET: u64 = 8 << 30;
+
+/// Bytes a frame needs per pixel, all buffers together (an upper bound).
+pub const FRAME_BYTES_PER_PIXEL: u64 = 160;
+
+fn check(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result<(), RenderError> {
+    let (w, h) = (camera.width() as u64, camera.height() as u64);
+    let need = w * h * FRAME_BYTES_PER_PIXEL;
+    if need > FRAME_MEMORY_BUDGET {
+        return Err(RenderError::Setting(format!(
+            "a {w}x{h} frame needs about {:.1} GiB ({FRAME_BYTES_PER_PIXEL} bytes per pixel), \
+             more than the budget of {} GiB: ask for a smaller --size",
+            need as f64 / (1u64 << 30) as f64,
+            FRAME_MEMORY_BUDGET >> 30
+        )));
+    }
     let s = settings.step;
     if !(s.is_finite() && s > 0.0) {
         return Err(RenderError::Setting(format!(
@@ -31,6 +66,34 @@ fn check(settings: &RenderSettings, vol: &Volume) -> Result<(), RenderError> {
     if s < vol.meta.min_spacing() * 1e-4 {
         return Err(RenderError::Setting(format!(
             "step {s} is below 1e-4 of the voxel spacing: a frame would take billions of samples per ray"
+        )));
+    }
+    let sp = vol.meta.spacing;
+    let Some(diagonal) = world_diagonal(vol) else {
+        return Err(RenderError::Setting(format!(
+            "the volume's extent (dims {} x spacing {},{},{}) is too large for f32 world coordinates",
+            vol.dims(),
+            sp[0],
+            sp[1],
+            sp[2]
+        )));
+    };
+    let per_ray = diagonal / s as f64;
+    if per_ray > MAX_SAMPLES_PER_RAY {
+        return Err(RenderError::Setting(format!(
+            "step {s} across the volume's diagonal of {diagonal:.6e} world units (spacing {},{},{}) \
+             means {per_ray:.3e} samples per ray, more than the limit of {MAX_SAMPLES_PER_RAY:e}",
+            sp[0], sp[1], sp[2]
+        )));
+    }
+    // Sample positions are f32: far from the origin consecutive samples
+    // would round to the same point and a ray's sample index overflow.
+    let reach = camera.eye().as_dvec3().length() + diagonal;
+    if reach * f32::EPSILON as f64 > s as f64 {
+        let e = camera.eye();
+        return Err(RenderError::Camera(format!(
+            "eye {},{},{} is too far from the volume for step {s}: f32 positions there are coarser than the step",
+            e.x, e.y, e.z
         )));
     }
     if let Some(t) = settings.ert {
@@ -74,7 +137,7 @@ pub fn render_tf(
     camera: &Camera,
     settings: &RenderSettings,
 ) -> Result<Frame, RenderError> {
-    check(settings, vol)?;
+    check(settings, vol, camera)?;
     if let Some(ix) = index {
         if ix.dims() != vol.dims() {
             return Err(RenderError::Index(format!(
@@ -99,7 +162,9 @@ pub fn render_tf(
     let tiles = Tiles {
         vol,
         camera,
-        tile: settings.tile,
+        // A tile larger than the image is the image: never more buffer
+        // than pixels (tiling does not change the image).
+        tile: settings.tile.min(camera.width().max(camera.height())),
         hi: Vec3::from(vol.meta.world_extent()),
     };
     let (film, display) = match settings.mode {
@@ -281,9 +346,10 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
             .map(|i| {
                 let (x0, y0) = ((i % tx) * tile, (i / tx) * tile);
                 let mut cur = src.cursor();
-                let mut out = Vec::with_capacity((tile * tile) as usize);
-                for y in y0..(y0 + tile).min(h) {
-                    for x in x0..(x0 + tile).min(w) {
+                let (x1, y1) = ((x0 + tile).min(w), (y0 + tile).min(h));
+                let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                for y in y0..y1 {
+                    for x in x0..x1 {
                         let ray = camera.ray(x, y);
                         out.push(match intersect_box(&ray, Vec3::ZERO, hi) {
                             None => RayResult::empty(),

@@ -15,6 +15,7 @@ use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
+use volkit_cli::noteln;
 
 /// Sweep the renderer's accuracy knobs and chart PSNR against render time.
 ///
@@ -116,14 +117,8 @@ struct Row {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match run(&cli) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            let msg = format!("{e:#}").replace('\n', " ");
-            eprintln!("vol-accuracy: {msg}");
-            ExitCode::FAILURE
-        }
-    }
+    // One escaped error line; a closed pipe ends the study quietly.
+    volkit_cli::run("vol-accuracy", || run(&cli))
 }
 
 /// The whole study.
@@ -176,7 +171,7 @@ fn run(cli: &Cli) -> Result<()> {
     }
     let csv = ctx.out.join("accuracy.csv");
     write_csv(&csv, &rows)?;
-    eprintln!("vol-accuracy: wrote {}", csv.display());
+    noteln!("vol-accuracy: wrote {}", csv.display());
     Ok(())
 }
 
@@ -304,9 +299,10 @@ fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
         view.extend(["--tf".into(), path_arg(&tf_path)?]);
     }
     let reference = ctx.out.join(format!("{}-reference.pfm", scene.name));
-    eprintln!(
+    noteln!(
         "vol-accuracy: {}: reference at step {}",
-        scene.name, ctx.ref_step
+        scene.name,
+        ctx.ref_step
     );
     let (median_s, min_s, max_s, samples) = render(
         ctx,
@@ -371,7 +367,7 @@ fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
         let hdr = ctx.out.join(format!("{}-{knob}-{value}.pfm", scene.name));
         let (median_s, min_s, max_s, samples) = render(ctx, &vol, &view, &all, &hdr, ctx.repeat)?;
         let psnr_db = psnr(ctx, &reference, &hdr)?;
-        eprintln!(
+        noteln!(
             "vol-accuracy: {} {knob}={value}: {median_s:.4} s, PSNR {}",
             scene.name,
             psnr_db.map_or("inf".to_string(), |p| format!("{p:.2} dB"))
@@ -519,7 +515,7 @@ fn load_font(asked: Option<&Path>) -> Result<bool> {
     if let Some(p) = asked {
         bail!("{}: cannot read font", p.display());
     }
-    eprintln!("vol-accuracy: no font found (give --font FILE.ttf): skipping the plots");
+    noteln!("vol-accuracy: no font found (give --font FILE.ttf): skipping the plots");
     Ok(false)
 }
 

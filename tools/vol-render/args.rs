@@ -94,7 +94,9 @@ pub struct Cli {
     /// Iso value for --mode iso (default: the middle of the value range).
     #[arg(long, allow_hyphen_values = true)]
     pub iso: Option<f32>,
-    /// Image size WxH.
+    /// Image size WxH, 1..=32768 per side, within a frame memory budget
+    /// of 8 GiB at 160 bytes per pixel (about 53 megapixels, e.g.
+    /// 7000x7000); a larger frame is refused before rendering.
     #[arg(long, default_value = "512x512", value_parser = parse_size)]
     pub size: (u32, u32),
     /// Camera position x,y,z (world units); needs --look-at.
@@ -103,11 +105,15 @@ pub struct Cli {
     /// Point the camera looks at (default: the volume's centre).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub look_at: Option<Vec3>,
-    /// Up vector.
-    #[arg(long, value_parser = parse_vec3, default_value = "0,1,0", allow_hyphen_values = true)]
-    pub up: Vec3,
+    /// Up vector x,y,z (any length), or `patient`: the direction the
+    /// data's superior (head) axis points, from the volume's direction
+    /// matrix (.vvol v2, NIfTI, DICOM, NRRD geometry). --orbit turns around it.
+    #[arg(long, value_parser = parse_up, default_value = "0,1,0", allow_hyphen_values = true)]
+    pub up: UpArg,
     /// Orbit camera: azimuth, elevation (degrees) and distance from the
-    /// volume's centre (default when no --eye: 30,20 and 1.8 diagonals).
+    /// volume's centre, around --up (default when no --eye: 30,20 and 1.8
+    /// diagonals). Azimuth 0 puts the eye on the +z side (the −y side when
+    /// up is near ±z).
     #[arg(long, value_parser = parse_vec3, conflicts_with = "eye", allow_hyphen_values = true)]
     pub orbit: Option<Vec3>,
     /// Vertical field of view in degrees (perspective).
@@ -118,7 +124,8 @@ pub struct Cli {
     #[arg(long, num_args = 0..=1, default_missing_value = "0")]
     pub ortho: Option<f32>,
     /// Distance between samples along a ray, world units (default: half the
-    /// smallest voxel spacing).
+    /// smallest voxel spacing). A step that would take more than 10 million
+    /// samples per ray across the volume's diagonal is refused.
     #[arg(long, allow_hyphen_values = true)]
     pub step: Option<f32>,
     /// Early ray termination threshold (accumulated opacity).
@@ -158,7 +165,7 @@ pub struct Cli {
     /// Write an RGBA PNG with coverage alpha instead of compositing onto the background.
     #[arg(long)]
     pub alpha: bool,
-    /// Tile edge in pixels.
+    /// Tile edge in pixels (a tile larger than the image is the image).
     #[arg(long, default_value_t = 16)]
     pub tile: u32,
     /// Macrocell edge of an index built in memory.
@@ -241,6 +248,23 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
         (w, h) if (1..=32768).contains(&w) && (1..=32768).contains(&h) => Ok((w, h)),
         _ => Err(format!("'{s}': width and height must be 1..=32768")),
     }
+}
+
+/// `--up`: a vector, or the patient's superior direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum UpArg {
+    /// This vector (any nonzero length).
+    Vector(Vec3),
+    /// The data's superior direction, from its geometry.
+    Patient,
+}
+
+/// `x,y,z` or `patient`.
+pub fn parse_up(s: &str) -> Result<UpArg, String> {
+    if s.trim().eq_ignore_ascii_case("patient") {
+        return Ok(UpArg::Patient);
+    }
+    parse_vec3(s).map(UpArg::Vector)
 }
 
 /// Three finite numbers `x,y,z`.

@@ -17,6 +17,7 @@ use volcore::Volume;
 use volformats::image::{write_heatmap, write_pfm, write_png8};
 use volformats::{open_volume, vvol};
 use volindex::{BuildOptions, MajorantIndex};
+use volkit_cli::{noteln, outln};
 use volrender::{render_tf, Frame};
 
 fn main() -> ExitCode {
@@ -62,19 +63,19 @@ fn run(cli: &Cli, volume: &Path) -> Result<()> {
     let vol = open_volume(volume, opts, None).with_context(|| name.clone())?;
     let load_s = t.elapsed().as_secs_f64();
 
-    let plan = Plan::new(cli, &vol).with_context(|| name.clone())?;
+    let t = Instant::now();
+    let index = load_index(cli, volume, &vol)?;
+    let index_s = t.elapsed().as_secs_f64();
+
+    let plan = Plan::new(cli, &vol, index.as_ref()).with_context(|| name.clone())?;
     let effective = scene::effective(cli, &plan.resolved);
     if cli.print_scene {
-        volkit_cli::outln!("{}", scene::to_toml(&effective)?)?;
+        outln!("{}", scene::to_toml(&effective)?)?;
         return Ok(());
     }
     let Some(output) = cli.output.as_deref() else {
         bail!("no output")
     };
-
-    let t = Instant::now();
-    let index = load_index(cli, volume, &vol)?;
-    let index_s = t.elapsed().as_secs_f64();
 
     let mut times = Vec::new();
     let mut frame: Option<Frame> = None;
@@ -201,9 +202,9 @@ fn report(
             "peak_rss_mb": peak_rss_mb(),
             "scene": scene,
         });
-        volkit_cli::outln!("{v}")?;
+        outln!("{v}")?;
     } else if !cli.quiet {
-        volkit_cli::noteln!(
+        noteln!(
             "vol-render: {} {}x{} in {:.3} s ({:.1} Mpix/s), {} rays, {:.1} M samples, {} skips; load {:.2} s, index {:.2} s",
             output.display(),
             frame.width,

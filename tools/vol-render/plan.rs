@@ -2,12 +2,13 @@
 //! render settings and the transfer function a frame needs, with every
 //! default filled in from the volume's size, spacing and value range.
 
-use crate::args::{Cli, GradientArg, InterpArg, ModeArg, ShadingArg};
+use crate::args::{Cli, GradientArg, InterpArg, ModeArg, ShadingArg, UpArg};
 use crate::scene::Resolved;
 use anyhow::{bail, Context, Result};
-use glam::Vec3;
+use glam::{DMat3, DVec3, Vec3};
 use std::path::Path;
 use volcore::Volume;
+use volindex::MajorantIndex;
 use volrender::tf::{parse::parse_any, Tf, PRESETS};
 use volrender::{
     Camera, GradientMethod, Interp, Light, Lighting, Mode, Projection, RenderSettings,
@@ -28,14 +29,15 @@ pub struct Plan {
 }
 
 impl Plan {
-    /// Resolve `cli` for `vol`.
-    pub fn new(cli: &Cli, vol: &Volume) -> Result<Plan> {
+    /// Resolve `cli` for `vol`; `index`, when there is one, gives the
+    /// finite value range for defaults.
+    pub fn new(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Plan> {
         let tf = match cli.mode {
             ModeArg::Dvr => Some(transfer_function(cli, vol)?),
             _ => None,
         };
         let (camera, look_at, orbit) = camera(cli, vol)?;
-        let settings = settings(cli, vol)?;
+        let settings = settings(cli, vol, index)?;
         let resolved = Resolved {
             step: settings.step,
             look_at,
@@ -84,12 +86,47 @@ fn transfer_function(cli: &Cli, vol: &Volume) -> Result<Tf> {
     parse_any(&text).with_context(|| cli.tf.clone())
 }
 
+/// `--up patient`: the renderer's world direction (voxel index × spacing)
+/// that the volume's direction matrix maps to superior (+z in LPS).
+fn patient_up(vol: &Volume) -> Result<Vec3> {
+    let g = &vol.meta.geometry;
+    let d = DMat3::from_cols(
+        DVec3::from(g.axis(0)),
+        DVec3::from(g.axis(1)),
+        DVec3::from(g.axis(2)),
+    );
+    if !(d.determinant().abs() > 1e-9) {
+        bail!("--up patient: the volume's direction matrix is singular");
+    }
+    Ok((d.inverse() * DVec3::Z).as_vec3())
+}
+
 /// The camera, the point it looks at, and the orbit that placed it (when
 /// no `--eye` did).
 fn camera(cli: &Cli, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
     let hi = Vec3::from(vol.meta.world_extent());
+    let Some(diagonal64) = volrender::frame::world_diagonal(vol) else {
+        let (d, s) = (vol.dims(), vol.meta.spacing);
+        bail!(
+            "the volume's extent (dims {d} x spacing {},{},{}) is too large for f32 world coordinates",
+            s[0],
+            s[1],
+            s[2]
+        );
+    };
     let centre = hi * 0.5;
-    let diagonal = hi.length().max(1.0);
+    // The default framing sees 1.8 diagonals, at any scale; glam's length
+    // where it neither overflows nor underflows, f64 elsewhere, and 1 for a
+    // single voxel (no diagonal).
+    let diagonal = match hi.length() {
+        l if l.is_normal() => l,
+        _ if diagonal64 > 0.0 => diagonal64 as f32,
+        _ => 1.0,
+    };
+    let up = match cli.up {
+        UpArg::Vector(v) => v,
+        UpArg::Patient => patient_up(vol)?,
+    };
     let projection = match cli.ortho {
         Some(h) if h > 0.0 => Projection::Orthographic(h),
         Some(_) => Projection::Orthographic(diagonal * 1.05),
@@ -103,24 +140,47 @@ fn camera(cli: &Cli, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
         (None, None) => Some(Vec3::new(30.0, 20.0, 1.8 * diagonal)),
     };
     let cam = match (cli.eye, orbit) {
-        (Some(eye), _) => Camera::look_at(eye, target, cli.up, projection, w, h),
-        (None, Some(o)) => Camera::orbit(target, o.x, o.y, o.z, projection, w, h),
+        (Some(eye), _) => Camera::look_at(eye, target, up, projection, w, h),
+        (None, Some(o)) => Camera::orbit_up(target, o.x, o.y, o.z, up, projection, w, h),
         (None, None) => unreachable!("an orbit is chosen whenever no eye is given"),
     };
     Ok((cam?, target, orbit))
 }
 
-fn settings(cli: &Cli, vol: &Volume) -> Result<RenderSettings> {
+/// `--mode iso` without `--iso`: the middle of the value range, or of the
+/// finite samples' range (the index histogram's) when the range has an
+/// infinity.
+fn default_iso(vol: &Volume, index: Option<&MajorantIndex>) -> Result<f32> {
+    let r = vol.meta.range;
+    let mid = |lo: f64, hi: f64| ((lo + hi) * 0.5) as f32;
+    if r.min.is_finite() && r.max.is_finite() {
+        return Ok(mid(r.min, r.max));
+    }
+    match index.map(|ix| ix.histogram()) {
+        Some(h) if h.lo().is_finite() && h.hi().is_finite() && h.total() > 0 => {
+            Ok(mid(h.lo(), h.hi()))
+        }
+        Some(_) => bail!("--mode iso: the volume has no finite samples; give --iso"),
+        None => bail!(
+            "--mode iso: the value range {}..{} is not finite and without an index (--no-ess) \
+             its finite part is unknown; give --iso",
+            r.min,
+            r.max
+        ),
+    }
+}
+
+fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<RenderSettings> {
     let mode = match cli.mode {
         ModeArg::Dvr => Mode::Dvr,
         ModeArg::Mip => Mode::Mip,
         ModeArg::Minip => Mode::Minip,
         ModeArg::Xray => Mode::XraySum,
         ModeArg::XrayMean => Mode::XrayMean,
-        ModeArg::Iso => Mode::Iso(
-            cli.iso
-                .unwrap_or(((vol.meta.range.min + vol.meta.range.max) * 0.5) as f32),
-        ),
+        ModeArg::Iso => Mode::Iso(match cli.iso {
+            Some(v) => v,
+            None => default_iso(vol, index)?,
+        }),
     };
     if cli.iso.is_some() && cli.mode != ModeArg::Iso {
         bail!("--iso needs --mode iso");

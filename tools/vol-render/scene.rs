@@ -7,7 +7,7 @@
 //! Relative paths in a file are taken from the file's directory; printed
 //! scenes hold absolute paths, so they can be saved anywhere.
 
-use crate::args::{Cli, GradientArg, InterpArg, ModeArg, ShadingArg};
+use crate::args::{Cli, GradientArg, InterpArg, ModeArg, ShadingArg, UpArg};
 use anyhow::{bail, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -46,9 +46,9 @@ pub struct Scene {
     /// Point the camera looks at.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub look_at: Option<[f32; 3]>,
-    /// Up vector.
+    /// Up vector, or `"patient"`.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub up: Option<[f32; 3]>,
+    pub up: Option<Up>,
     /// Orbit camera: azimuth, elevation (degrees), distance.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub orbit: Option<[f32; 3]>,
@@ -100,6 +100,42 @@ pub struct Scene {
     /// Samples-per-pixel heat map (.png).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub heatmap: Option<PathBuf>,
+}
+
+/// `up`: a vector or a name (`"patient"`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Up {
+    /// This vector.
+    Vector([f32; 3]),
+    /// `"patient"`: the data's superior direction.
+    Named(String),
+}
+
+impl Up {
+    /// As the command line's `--up`.
+    fn arg(&self) -> Result<UpArg, String> {
+        match self {
+            Up::Vector(v) => {
+                let v = Vec3::from(*v);
+                if v.is_finite() && v != Vec3::ZERO {
+                    Ok(UpArg::Vector(v))
+                } else {
+                    Err("key `up`: must be a finite, non-zero vector or \"patient\"".into())
+                }
+            }
+            Up::Named(n) if n == "patient" => Ok(UpArg::Patient),
+            Up::Named(_) => Err("key `up`: must be x, y, z or \"patient\"".into()),
+        }
+    }
+
+    /// The scene-file form of `--up`.
+    fn of(up: UpArg) -> Up {
+        match up {
+            UpArg::Vector(v) => Up::Vector(v.to_array()),
+            UpArg::Patient => Up::Named("patient".into()),
+        }
+    }
 }
 
 /// A colour: one grey level, or linear r, g, b.
@@ -265,10 +301,12 @@ impl Scene {
                 return Err("key `ambient`: must be finite and not negative".into());
             }
         }
+        if let Some(up) = &self.up {
+            up.arg()?;
+        }
         let vectors = [
             ("eye", self.eye),
             ("look-at", self.look_at),
-            ("up", self.up),
             ("orbit", self.orbit),
             ("background", self.background),
         ];
@@ -309,7 +347,11 @@ impl Scene {
         set!(mode, "mode", |m| m);
         set!(iso, "iso", Some);
         set!(size, "size", |[w, h]: [u32; 2]| (w, h));
-        set!(up, "up", v3);
+        if let Some(up) = self.up.as_ref().and_then(|u| u.arg().ok()) {
+            if !on_command_line("up") {
+                cli.up = up;
+            }
+        }
         set!(look_at, "look_at", |v| Some(v3(v)));
         // The command line's camera position wins whichever form it takes.
         if !on_command_line("eye") && !on_command_line("orbit") {
@@ -413,7 +455,7 @@ pub fn effective(cli: &Cli, resolved: &Resolved) -> Scene {
         size: Some([cli.size.0, cli.size.1]),
         eye: cli.eye.map(|e| e.to_array()),
         look_at: Some(resolved.look_at.to_array()),
-        up: Some(cli.up.to_array()),
+        up: Some(Up::of(cli.up)),
         orbit: resolved.orbit.map(|o| o.to_array()),
         fov: Some(cli.fov),
         ortho: cli.ortho,

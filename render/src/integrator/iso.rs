@@ -151,7 +151,7 @@ impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, '_, R, G, A> {
             iso.colour * iso.lighting.ambient
         };
         self.out.rgba = [c.x, c.y, c.z, 1.0];
-        self.out.value = v;
+        self.out.value = v as f64;
         self.out.depth = t;
     }
 }

@@ -89,10 +89,12 @@ impl<R: Reconstruct, D: Extreme, A: Accel<f32>> Integrator for Mip<R, D, A> {
         };
         let skips = march(&mut st, &self.accel, cur, &steps);
         RayResult {
-            value: if st.best.is_finite() {
-                st.best
+            // An infinite sample is a value like any other (it shows white
+            // in MIP, black in MinIP); only no sample at all is no value.
+            value: if st.best != D::START {
+                st.best as f64
             } else {
-                f32::NAN
+                f64::NAN
             },
             depth: st.depth,
             samples: st.samples,

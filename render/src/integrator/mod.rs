@@ -56,8 +56,9 @@ pub struct RayResult {
     /// Linear colour, premultiplied by alpha, and alpha.
     pub rgba: [f32; 4],
     /// The mode's scalar: MIP/MinIP value, X-ray sum or mean, iso value
-    /// (NaN when none).
-    pub value: f32,
+    /// (NaN when none). f64, so an X-ray sum past f32's range (a long ray
+    /// through values near 3.4e38) stays finite.
+    pub value: f64,
     /// Ray parameter of the iso hit or MIP extreme (NaN when none).
     pub depth: f32,
     /// Samples taken.
@@ -70,7 +71,7 @@ impl RayResult {
     /// A ray that met nothing.
     pub fn empty() -> RayResult {
         RayResult {
-            value: f32::NAN,
+            value: f64::NAN,
             depth: f32::NAN,
             ..Default::default()
         }

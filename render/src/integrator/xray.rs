@@ -50,12 +50,21 @@ impl<R: Reconstruct, A: Accel<()>> Integrator for Xray<R, A> {
             samples: 0,
         };
         let skips = march(&mut st, &self.accel, cur, &steps);
+        // Kept in f64: a sum of values near f32's largest overflows f32.
+        // Rounded through f32 where it fits, so ordinary frames are
+        // exactly what an f32 result gave.
         let value = if st.count == 0 {
-            f32::NAN
+            f64::NAN
         } else {
-            match self.output {
-                XrayOutput::Mean => (st.sum / st.count as f64) as f32,
-                XrayOutput::Sum => (st.sum * steps.step) as f32,
+            let v = match self.output {
+                XrayOutput::Mean => st.sum / st.count as f64,
+                XrayOutput::Sum => st.sum * steps.step,
+            };
+            let v32 = v as f32;
+            if v32.is_finite() {
+                v32 as f64
+            } else {
+                v
             }
         };
         RayResult {

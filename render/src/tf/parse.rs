@@ -128,7 +128,7 @@ pub fn parse_any(text: &str) -> Result<Tf, RenderError> {
         let (_, stmt) = line(content).map_err(|_| {
             err(format!(
                 "cannot read '{}' (expected domain, step, point, range, gradient-domain, rect or blob followed by numbers)",
-                content.trim()
+                volcore::text::excerpt(content.trim())
             ))
         })?;
         let unit = |v: f32, what: &str| {
@@ -304,6 +304,18 @@ mod tests {
                 other => panic!("{text}: {other:?}"),
             }
         }
+    }
+
+    #[test]
+    fn control_bytes_and_long_lines_are_escaped_and_cut_in_messages() {
+        let long = "x".repeat(5000);
+        for text in ["point \x1b[2J\x07 0 0 0 1", "\0\u{202e}evil", long.as_str()] {
+            let msg = parse_any(text).unwrap_err().to_string();
+            assert!(!msg.chars().any(volcore::text::is_unsafe_char), "{msg:?}");
+            assert!(msg.len() < 400, "{} characters", msg.len());
+        }
+        let msg = parse_any("point \x1b[2J 0").unwrap_err().to_string();
+        assert!(msg.contains("\\x1b[2J"), "{msg}");
     }
 
     #[test]
