@@ -32,7 +32,9 @@ fn hash(f: &Frame) -> u64 {
         for c in f.rgba[i] {
             eat(c.to_bits());
         }
-        eat(f.value[i].to_bits());
+        // Values are f64 since X-ray sums of huge values stay finite; every
+        // frame here holds f32 values, hashed as before.
+        eat((f.value[i] as f32).to_bits());
         eat(f.depth[i].to_bits());
         eat(f.samples[i]);
     }

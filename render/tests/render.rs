@@ -37,7 +37,10 @@ fn bits(f: &Frame) -> Vec<u32> {
     f.rgba
         .iter()
         .flat_map(|p| p.map(f32::to_bits))
-        .chain(f.value.iter().map(|v| v.to_bits()))
+        .chain(f.value.iter().flat_map(|v| {
+            let b = v.to_bits();
+            [b as u32, (b >> 32) as u32]
+        }))
         .collect()
 }
 
@@ -125,7 +128,7 @@ fn constant_box_matches_beer_lambert_and_xray_matches_path_length() {
             );
             assert!((dvr.rgba[i][0] - dvr.rgba[i][3]).abs() < 1e-5);
             assert!(
-                (xray.value[i] - 100.0 * len).abs() <= 100.0 * step + 1e-2,
+                (xray.value[i] as f32 - 100.0 * len).abs() <= 100.0 * step + 1e-2,
                 "xray {} vs {}",
                 xray.value[i],
                 100.0 * len
@@ -157,7 +160,7 @@ fn mip_of_a_sphere_finds_its_peak_and_iso_lands_on_the_radius() {
         ..Default::default()
     };
     let mip = render(&v, Some(&ix), None, &cam, &s).unwrap();
-    let centre = mip.value[16 * 33 + 16];
+    let centre = mip.value[16 * 33 + 16] as f32;
     assert!((centre - 200.0).abs() < 0.2, "MIP at centre {centre}");
     assert!(mip
         .value

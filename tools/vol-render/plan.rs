@@ -95,7 +95,8 @@ fn patient_up(vol: &Volume) -> Result<Vec3> {
         DVec3::from(g.axis(1)),
         DVec3::from(g.axis(2)),
     );
-    if !(d.determinant().abs() > 1e-9) {
+    let det = d.determinant().abs();
+    if det.is_nan() || det <= 1e-9 {
         bail!("--up patient: the volume's direction matrix is singular");
     }
     Ok((d.inverse() * DVec3::Z).as_vec3())
