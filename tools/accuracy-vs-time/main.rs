@@ -115,7 +115,10 @@ struct Row {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match volkit_cli::parse::<Cli>("vol-accuracy") {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -7,7 +7,6 @@ mod plan;
 
 use anyhow::{bail, Context, Result};
 use args::Cli;
-use clap::Parser;
 use plan::Plan;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -18,7 +17,10 @@ use volindex::{BuildOptions, MajorantIndex};
 use volrender::{render_tf, Frame};
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match volkit_cli::parse::<Cli>("vol-render") {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
     volkit_cli::run("vol-render", || run(&cli))
 }
 
@@ -45,7 +47,12 @@ fn run(cli: &Cli) -> Result<()> {
     let index = load_index(cli, &vol)?;
     let index_s = t.elapsed().as_secs_f64();
 
-    let plan = Plan::new(cli, &vol)?;
+    let plan = Plan::new(cli, &vol, index.as_ref())?;
+    if !cli.quiet {
+        for note in &plan.notes {
+            volkit_cli::noteln!("vol-render: {name}: {note}");
+        }
+    }
     let mut times = Vec::new();
     let mut frame: Option<Frame> = None;
     for _ in 0..cli.repeat.max(1) {

@@ -7,7 +7,10 @@ use anyhow::{bail, Context, Result};
 use glam::Vec3;
 use std::path::Path;
 use volcore::Volume;
-use volrender::tf::{parse::parse_any, Tf, PRESETS};
+use volindex::{BuildOptions, MajorantIndex};
+use volrender::tf::{
+    looks_like_hounsfield, parse::parse_any, Tf, TransferFunction, AUTO_TAIL_PERCENT, PRESETS,
+};
 use volrender::{
     Camera, GradientMethod, Interp, Light, Lighting, Mode, Projection, RenderSettings,
 };
@@ -21,19 +24,24 @@ pub struct Plan {
     pub settings: RenderSettings,
     /// The transfer function (DVR only).
     pub tf: Option<Tf>,
+    /// Warnings for the user (one line each; `--quiet` drops them).
+    pub notes: Vec<String>,
 }
 
 impl Plan {
-    /// Resolve `cli` for `vol`.
-    pub fn new(cli: &Cli, vol: &Volume) -> Result<Plan> {
+    /// Resolve `cli` for `vol`, whose index (when there is one) gives
+    /// `--tf auto` its histogram.
+    pub fn new(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Plan> {
+        let mut notes = Vec::new();
         let tf = match cli.mode {
-            ModeArg::Dvr => Some(transfer_function(cli, vol)?),
+            ModeArg::Dvr => Some(transfer_function(cli, vol, index, &mut notes)?),
             _ => None,
         };
         Ok(Plan {
             camera: camera(cli, vol)?,
             settings: settings(cli, vol)?,
             tf,
+            notes,
         })
     }
 }
@@ -43,9 +51,28 @@ fn value_range(vol: &Volume) -> (f32, f32) {
     (vol.meta.range.min as f32, vol.meta.range.max as f32)
 }
 
-/// `--tf`: a preset by name, else a file (1D or 2D).
-fn transfer_function(cli: &Cli, vol: &Volume) -> Result<Tf> {
+/// `--tf`: a preset by name, else a file (1D or 2D). `ct` on data that
+/// does not look like Hounsfield units adds a note suggesting `auto`.
+fn transfer_function(
+    cli: &Cli,
+    vol: &Volume,
+    index: Option<&MajorantIndex>,
+    notes: &mut Vec<String>,
+) -> Result<Tf> {
     let range = value_range(vol);
+    if let Some(tail) = auto_tail(&cli.tf)? {
+        let window = auto_window(vol, index, tail)?;
+        return Ok(Tf::OneD(
+            TransferFunction::preset("auto", window).context("the auto preset")?,
+        ));
+    }
+    if cli.tf == "ct" && !looks_like_hounsfield(range) {
+        notes.push(format!(
+            "--tf ct expects Hounsfield units (air -1000, water 0, bone 300 and up), \
+             but the data span {}..{}; try --tf auto",
+            range.0, range.1
+        ));
+    }
     // The steepest a one-voxel jump across the whole range can be.
     let max_gradient = (range.1 - range.0) / vol.meta.min_spacing();
     if let Some(tf) = Tf::preset(&cli.tf, range, max_gradient) {
@@ -62,11 +89,49 @@ fn transfer_function(cli: &Cli, vol: &Volume) -> Result<Tf> {
     parse_any(&text).with_context(|| cli.tf.clone())
 }
 
+/// The tail percentile of `--tf auto` or `auto:P`; `None` for other names.
+fn auto_tail(name: &str) -> Result<Option<f64>> {
+    if name == "auto" {
+        return Ok(Some(AUTO_TAIL_PERCENT));
+    }
+    let Some(p) = name.strip_prefix("auto:") else {
+        return Ok(None);
+    };
+    match p.parse::<f64>() {
+        Ok(p) if (0.0..50.0).contains(&p) => Ok(Some(p)),
+        _ => Err(volkit_cli::usage(format!(
+            "--tf {}: the auto percentile must be a number in 0..50",
+            volcore::text::excerpt(p)
+        ))),
+    }
+}
+
+/// The `auto` window: the `tail`-th and (100 − `tail`)-th percentiles of
+/// the index's histogram (built here when rendering without an index); the
+/// whole value range when they coincide (one value) or nothing is binned.
+fn auto_window(vol: &Volume, index: Option<&MajorantIndex>, tail: f64) -> Result<(f32, f32)> {
+    let built;
+    let ix = match index {
+        Some(ix) => ix,
+        None => {
+            built = MajorantIndex::build_volume(vol, &BuildOptions::default(), 0)
+                .context("the histogram for --tf auto")?;
+            &built
+        }
+    };
+    let h = ix.histogram();
+    let q = tail / 100.0;
+    Ok(match (h.quantile(q), h.quantile(1.0 - q)) {
+        (Some(lo), Some(hi)) if hi > lo => (lo as f32, hi as f32),
+        _ => value_range(vol),
+    })
+}
+
 fn camera(cli: &Cli, vol: &Volume) -> Result<Camera> {
     let hi = Vec3::from(vol.meta.world_extent());
     let centre = hi * 0.5;
     let diagonal = hi.length().max(1.0);
-    let projection = match cli.ortho {
+    let projection = match cli.ortho_height.or(cli.ortho) {
         Some(h) if h > 0.0 => Projection::Orthographic(h),
         Some(_) => Projection::Orthographic(diagonal * 1.05),
         None => Projection::Perspective(cli.fov),
