@@ -546,7 +546,7 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
         assert!(z.join(meta).is_file(), "{version}: no {meta}");
         // volkit reads both back with the geometry.
         let j = info(&z, &[]);
-        assert_eq!(j["format"], format!("ome-zarr {version} (ZYX)"));
+        assert_eq!(j["format"], "ome-zarr");
         assert_eq!(j["dims"], serde_json::json!([16, 12, 10]));
         assert!(close(&j["spacing"], &[0.7, 0.8, 2.5]), "{j}");
         assert!(close(&j["origin"], &[-40.0, -30.0, 12.5]), "{j}");

@@ -236,6 +236,20 @@ impl CompressArg {
 fn target(cli: &Cli) -> Result<Target> {
     let out = &cli.output;
     let text = out.to_string_lossy();
+    if !(volformats::omezarr::is_zarr(out) && !out.is_file()) {
+        if cli.pyramid > 1 {
+            return Err(usage_at(
+                out,
+                "--pyramid applies to OME-Zarr output (NAME.ome.zarr)",
+            ));
+        }
+        if cli.ngff.is_some() {
+            return Err(usage_at(
+                out,
+                "--ngff applies to OME-Zarr output (NAME.ome.zarr)",
+            ));
+        }
+    }
     if let Some(t) = Target::headed(out, cli.compress == CompressArg::Gzip) {
         if cli.layout != LayoutArg::Sliced {
             return Err(usage_at(
@@ -295,18 +309,6 @@ fn target(cli: &Cli) -> Result<Target> {
                 _ => volformats::omezarr::Ngff::V04,
             },
         });
-    }
-    if cli.pyramid > 1 {
-        return Err(usage_at(
-            out,
-            "--pyramid applies to OME-Zarr output (NAME.ome.zarr)",
-        ));
-    }
-    if cli.ngff.is_some() {
-        return Err(usage_at(
-            out,
-            "--ngff applies to OME-Zarr output (NAME.ome.zarr)",
-        ));
     }
     if text == "-" {
         sliced_only("stdout (a .vvol stream)")?;
