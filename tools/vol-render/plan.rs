@@ -100,7 +100,7 @@ fn auto_tail(name: &str) -> Result<Option<f64>> {
     match p.parse::<f64>() {
         Ok(p) if (0.0..50.0).contains(&p) => Ok(Some(p)),
         _ => Err(volkit_cli::usage(format!(
-            "--tf {}: the auto percentile must be a number in 0..50",
+            "--tf auto:{}: the auto percentile must be a number in 0..50",
             volcore::text::excerpt(p)
         ))),
     }
