@@ -236,7 +236,8 @@ impl CompressArg {
 fn target(cli: &Cli) -> Result<Target> {
     let out = &cli.output;
     let text = out.to_string_lossy();
-    if !(volformats::omezarr::is_zarr(out) && !out.is_file()) {
+    let zarr_out = volformats::omezarr::is_zarr(out) && !out.is_file();
+    if !zarr_out {
         if cli.pyramid > 1 {
             return Err(usage_at(
                 out,
