@@ -840,7 +840,12 @@ mod tests {
     use super::*;
 
     /// Write a 70x5x67 u16 volume with three levels in `ngff`'s layout.
-    fn write_pyramid(p: &Path, ngff: Ngff) -> (Dims, Geometry, fn(u64, u64, u64) -> u16) {
+    /// The test volume's value at voxel (x, y, z).
+    fn val(x: u64, y: u64, z: u64) -> u16 {
+        (x + 100 * y + 1000 * z) as u16
+    }
+
+    fn write_pyramid(p: &Path, ngff: Ngff) -> (Dims, Geometry) {
         let dims = Dims::new(70, 5, 67).unwrap();
         let g = Geometry::from_axes(
             [1.0, 2.0, 3.0],
@@ -850,9 +855,6 @@ mod tests {
         let mut w =
             ZarrWriter::<u16>::create(p, dims, [0.5, 0.5, 2.0], &g, 3, Downsample::Mean, ngff)
                 .unwrap();
-        fn val(x: u64, y: u64, z: u64) -> u16 {
-            (x + 100 * y + 1000 * z) as u16
-        }
         for z in 0..dims.z {
             let s: Vec<u16> = (0..dims.y)
                 .flat_map(|y| (0..dims.x).map(move |x| val(x, y, z)))
@@ -860,11 +862,11 @@ mod tests {
             w.push(s).unwrap();
         }
         w.finish().unwrap();
-        (dims, g, val)
+        (dims, g)
     }
 
     /// Read back values, geometry and the level-1 mean of a written pyramid.
-    fn check_pyramid(p: &Path, dims: Dims, g: &Geometry, val: fn(u64, u64, u64) -> u16) {
+    fn check_pyramid(p: &Path, dims: Dims, g: &Geometry) {
         let r = open(p, None, None).unwrap();
         assert_eq!(r.info().dims, dims);
         assert_eq!(r.info().spacing, Some([0.5, 0.5, 2.0]));
@@ -886,8 +888,8 @@ mod tests {
     fn ngff_05_pyramid_round_trips_with_scale_and_translation() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("v.ome.zarr");
-        let (dims, g, val) = write_pyramid(&p, Ngff::V05);
-        check_pyramid(&p, dims, &g, val);
+        let (dims, g) = write_pyramid(&p, Ngff::V05);
+        check_pyramid(&p, dims, &g);
         assert_eq!(
             open(&p, None, None).unwrap().info().format,
             "ome-zarr 0.5 (ZYX)"
@@ -909,8 +911,8 @@ mod tests {
     fn ngff_04_pyramid_on_zarr_v2_round_trips_with_scale_and_translation() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("v.ome.zarr");
-        let (dims, g, val) = write_pyramid(&p, Ngff::V04);
-        check_pyramid(&p, dims, &g, val);
+        let (dims, g) = write_pyramid(&p, Ngff::V04);
+        check_pyramid(&p, dims, &g);
         assert_eq!(
             open(&p, None, None).unwrap().info().format,
             "ome-zarr 0.4 (ZYX)"
