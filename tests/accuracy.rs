@@ -113,3 +113,24 @@ fn unknown_scene_fails_cleanly() {
         "unknown scene",
     );
 }
+
+#[test]
+fn completions_and_man_page_come_from_the_command_line_definition() {
+    for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
+        let text = ok(tool("vol-accuracy").args(["--completions", shell]));
+        assert!(
+            text.contains("vol-accuracy") && text.contains("bin-dir"),
+            "{shell}: {text}"
+        );
+    }
+    let man = ok(tool("vol-accuracy").arg("--man"));
+    assert!(
+        man.contains(".TH vol-accuracy") && man.contains("\\-\\-quick"),
+        "{man}"
+    );
+    // Usage errors are one line with exit status 2, as in the other tools.
+    let mut c = tool("vol-accuracy");
+    c.args(["--repeat", "0"]);
+    fails(&mut c, "--repeat");
+    assert_eq!(c.status().unwrap().code(), Some(2));
+}

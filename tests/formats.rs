@@ -457,48 +457,41 @@ fn tifffile_ome_hyperstacks_and_zstd_int32() {
     assert_eq!(samples(&p, &[]), tiff_values(5, 6, 3, 0, 0, |v| v - 70000));
 }
 
-#[test]
-fn ome_zarr_pyramids_round_trip_and_read_in_zarr_python() {
-    let d = tempfile::tempdir().unwrap();
-    let d = d.path();
-    let src = fixture("dicom_ct");
-    let z = d.join("ct.ome.zarr");
-    ok(tool("vol-convert")
-        .arg(&src)
-        .args(["--pyramid", "3", "-q", "-o"])
-        .arg(&z));
-    let j = info(&z, &[]);
-    assert_eq!(j["dims"], serde_json::json!([16, 12, 10]));
-    assert!(close(&j["spacing"], &[0.7, 0.8, 2.5]), "{j}");
-    assert!(close(&j["origin"], &[-40.0, -30.0, 12.5]), "{j}");
-    ok(tool("vol-psnr")
-        .arg(&src)
-        .arg(&z)
-        .args(["--min-psnr", "inf", "-q"]));
-    // An existing output is refused before any work.
-    let o = tool("vol-convert")
-        .arg(&src)
-        .arg("-o")
-        .arg(&z)
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    // zarr-python reads what we wrote, with the right scale per level.
+/// What zarr-python and ome-zarr-py read from the OME-Zarr at `path`:
+/// the NGFF version, the Zarr format, each level's shape, scale and
+/// translation, a voxel, and the first voxel of level 1 with the mean of
+/// the 2x2x2 block of level 0 it stands for. `None` (with a note) when
+/// python3 or a module is missing outside CI; CI installs them (.ci/run).
+fn read_in_ome_zarr_py(path: &Path) -> Option<serde_json::Value> {
     let script = format!(
         r#"
 import json, sys
 try:
+    import numpy as np
     import zarr
-except ImportError:
-    print("SKIP zarr-python is not installed"); sys.exit(0)
-g = zarr.open_group({path:?}, mode="r")
-ms = g.attrs["ome"]["multiscales"][0]
-scales = [d["coordinateTransformations"][0]["scale"] for d in ms["datasets"]]
-shapes = [list(g[d["path"]].shape) for d in ms["datasets"]]
-a = g["0"][:]
-print(json.dumps({{"scales": scales, "shapes": shapes, "v": int(a[9, 11, 15])}}))
+    from ome_zarr.io import parse_url
+    from ome_zarr.reader import Reader
+except ImportError as e:
+    print("SKIP", e); sys.exit(0)
+path = {path:?}
+loc = parse_url(path, mode="r")
+image = list(Reader(loc)())[0]
+ts = image.metadata["coordinateTransformations"]
+pick = lambda level, kind: [t[kind] for t in level if t["type"] == kind][0]
+a0 = np.asarray(image.data[0])
+a1 = np.asarray(image.data[1])
+print(json.dumps({{
+    "version": loc.version,
+    "zarr_format": zarr.open_group(path, mode="r").metadata.zarr_format,
+    "shapes": [list(d.shape) for d in image.data],
+    "scales": [pick(t, "scale") for t in ts],
+    "translations": [pick(t, "translation") for t in ts],
+    "v": int(a0[9, 11, 15]),
+    "l1": int(a1[0, 0, 0]),
+    "l1_mean": float(a0[0:2, 0:2, 0:2].astype(np.float64).mean()),
+}}))
 "#,
-        path = z.to_string_lossy()
+        path = path.to_string_lossy()
     );
     let out = match std::process::Command::new("python3")
         .arg("-c")
@@ -507,8 +500,9 @@ print(json.dumps({{"scales": scales, "shapes": shapes, "v": int(a[9, 11, 15])}})
     {
         Ok(o) => o,
         Err(_) => {
-            eprintln!("SKIP: python3 is not installed; zarr-python read-back not run");
-            return;
+            assert!(std::env::var("CI").is_err(), "CI must have python3");
+            eprintln!("SKIP: python3 is not installed; OME-Zarr read-back not run");
+            return None;
         }
     };
     let text = String::from_utf8_lossy(&out.stdout);
@@ -518,20 +512,84 @@ print(json.dumps({{"scales": scales, "shapes": shapes, "v": int(a[9, 11, 15])}})
         String::from_utf8_lossy(&out.stderr)
     );
     if text.starts_with("SKIP") {
-        // CI installs zarr (.ci/run); a developer machine may not have it.
+        // CI installs zarr and ome-zarr (.ci/run); a developer machine may not.
         assert!(
             std::env::var("CI").is_err(),
-            "CI must run the zarr-python read-back"
+            "CI must run the OME-Zarr read-back: {text}"
         );
-        eprintln!("{text}");
-        return;
+        eprintln!("{} (pip install zarr ome-zarr)", text.trim());
+        return None;
     }
-    let j = json(&text);
-    assert_eq!(
-        j["shapes"],
-        serde_json::json!([[10, 12, 16], [5, 6, 8], [3, 3, 4]])
-    );
-    assert!(close(&j["scales"][0], &[2.5, 0.8, 0.7]), "{j}");
-    assert!(close(&j["scales"][2], &[10.0, 3.2, 2.8]), "{j}");
-    assert_eq!(j["v"], 10 * (15 + 2 * 11 + 3 * 9) - 1024);
+    Some(json(&text))
+}
+
+#[test]
+fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let src = fixture("dicom_ct");
+    // Default (no --ngff): NGFF 0.4 on Zarr v2.
+    for (ngff, zarr_format) in [(None, 2), (Some("0.4"), 2), (Some("0.5"), 3)] {
+        let z = d.join(format!("ct-{}.ome.zarr", ngff.unwrap_or("default")));
+        let mut c = tool("vol-convert");
+        c.arg(&src).args(["--pyramid", "3", "-q", "-o"]).arg(&z);
+        if let Some(v) = ngff {
+            c.args(["--ngff", v]);
+        }
+        ok(&mut c);
+        let version = ngff.unwrap_or("0.4");
+        let meta = if zarr_format == 2 {
+            ".zgroup"
+        } else {
+            "zarr.json"
+        };
+        assert!(z.join(meta).is_file(), "{version}: no {meta}");
+        // volkit reads both back with the geometry.
+        let j = info(&z, &[]);
+        assert_eq!(j["format"], "ome-zarr");
+        assert_eq!(j["dims"], serde_json::json!([16, 12, 10]));
+        assert!(close(&j["spacing"], &[0.7, 0.8, 2.5]), "{j}");
+        assert!(close(&j["origin"], &[-40.0, -30.0, 12.5]), "{j}");
+        ok(tool("vol-psnr")
+            .arg(&src)
+            .arg(&z)
+            .args(["--min-psnr", "inf", "-q"]));
+        // An existing output is refused before any work.
+        let o = tool("vol-convert")
+            .arg(&src)
+            .arg("-o")
+            .arg(&z)
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        // zarr-python and ome-zarr-py read what we wrote: the version, the
+        // pyramid's levels, scale and translation per level, the values.
+        let Some(j) = read_in_ome_zarr_py(&z) else {
+            continue;
+        };
+        assert_eq!(j["version"], version, "{j}");
+        assert_eq!(j["zarr_format"], zarr_format, "{j}");
+        assert_eq!(
+            j["shapes"],
+            serde_json::json!([[10, 12, 16], [5, 6, 8], [3, 3, 4]]),
+            "{j}"
+        );
+        assert!(close(&j["scales"][0], &[2.5, 0.8, 0.7]), "{j}");
+        assert!(close(&j["scales"][1], &[5.0, 1.6, 1.4]), "{j}");
+        assert!(close(&j["scales"][2], &[10.0, 3.2, 2.8]), "{j}");
+        // A level-l voxel sits at the centre of the 2^l voxels it covers.
+        assert!(close(&j["translations"][0], &[12.5, -30.0, -40.0]), "{j}");
+        assert!(close(&j["translations"][1], &[13.75, -29.6, -39.65]), "{j}");
+        assert!(close(&j["translations"][2], &[16.25, -28.8, -38.95]), "{j}");
+        assert_eq!(j["v"], 10 * (15 + 2 * 11 + 3 * 9) - 1024);
+        let mean = j["l1_mean"].as_f64().unwrap();
+        assert_eq!(j["l1"].as_f64().unwrap(), mean.round(), "{j}");
+    }
+    // --ngff is for OME-Zarr output only.
+    let mut c = tool("vol-convert");
+    c.arg(&src)
+        .args(["--ngff", "0.5", "-o"])
+        .arg(d.join("x.nrrd"));
+    fails(&mut c, "--ngff applies to OME-Zarr output");
+    assert_eq!(c.status().unwrap().code(), Some(2));
 }

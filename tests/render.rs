@@ -381,3 +381,191 @@ fn two_d_transfer_functions_and_malformed_files() {
         assert!(!d.join("x.png").exists());
     }
 }
+
+/// Run a tool and return its exit code, stdout and stderr.
+fn outcome(cmd: &mut std::process::Command) -> (Option<i32>, String, String) {
+    let o = run(cmd);
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn ortho_without_a_value_does_not_swallow_the_next_argument() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = gen(d, "r.vvol", &["ramp", "--dims", "24,20,16"]);
+    let png = |name: &str| d.join(name);
+    // The volume right after --ortho is the volume, not the height.
+    ok(tool("vol-render")
+        .arg("--ortho")
+        .arg(&vol)
+        .arg("-o")
+        .arg(png("a.png"))
+        .args(["--size", "32x24", "-q"]));
+    ok(tool("vol-render")
+        .arg(&vol)
+        .arg("--ortho")
+        .arg("-o")
+        .arg(png("b.png"))
+        .args(["--size", "32x24", "-q"]));
+    assert_eq!(png_hash(&png("a.png")), png_hash(&png("b.png")));
+    // A height takes '=' or --ortho-height; both give the same image, and
+    // not the fitted one.
+    ok(tool("vol-render")
+        .arg(&vol)
+        .args(["--ortho=80", "--size", "32x24", "-q", "-o"])
+        .arg(png("c.png")));
+    ok(tool("vol-render")
+        .arg(&vol)
+        .args(["--ortho-height", "80", "--size", "32x24", "-q", "-o"])
+        .arg(png("d.png")));
+    assert_eq!(png_hash(&png("c.png")), png_hash(&png("d.png")));
+    assert_ne!(png_hash(&png("a.png")), png_hash(&png("c.png")));
+    // A bare value after --ortho is not taken as the height: a usage error.
+    let mut c = tool("vol-render");
+    c.arg(&vol).args(["--ortho", "80", "-o"]).arg(png("e.png"));
+    fails(&mut c, "80");
+    assert_eq!(c.status().unwrap().code(), Some(2));
+    let mut c = tool("vol-render");
+    c.arg(&vol)
+        .args(["--ortho=80", "--ortho-height", "80", "-o"])
+        .arg(png("e.png"));
+    fails(&mut c, "--ortho");
+    assert_eq!(c.status().unwrap().code(), Some(2));
+    assert!(!png("e.png").exists());
+}
+
+#[test]
+fn ct_preset_on_data_not_in_hounsfield_units_warns_once_with_the_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("ct.png");
+    // u8 data, 0..255: one warning line naming the range and `auto`.
+    let vol = gen(d, "r.vvol", &["ramp", "--dims", "24,20,16"]);
+    let render = |vol: &Path, extra: &[&str]| {
+        let mut c = tool("vol-render");
+        c.arg(vol)
+            .args(["--tf", "ct", "--size", "32x24", "-o"])
+            .arg(&out)
+            .args(extra);
+        outcome(&mut c)
+    };
+    let (code, stdout, stderr) = render(&vol, &["--json"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    json(&stdout);
+    let lines: Vec<&str> = stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(
+        lines[0].starts_with("vol-render: ")
+            && lines[0].contains("r.vvol")
+            && lines[0].contains("Hounsfield")
+            && lines[0].contains("span 0..")
+            && lines[0].ends_with("try --tf auto"),
+        "{stderr}"
+    );
+    // --quiet silences it; the render is the same.
+    let (code, _, stderr) = render(&vol, &["--quiet"]);
+    assert_eq!((code, stderr.as_str()), (Some(0), ""));
+    // CT in Hounsfield units (a DICOM series rescaled to HU): no warning.
+    let (code, _, stderr) = render(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/dicom_ct"),
+        &["--json"],
+    );
+    assert_eq!((code, stderr.as_str()), (Some(0), ""));
+}
+
+/// `vol-index --json` percentile `key` of `vol`.
+fn percentile(vol: &Path, key: &str) -> f64 {
+    let j = json(&ok(tool("vol-index")
+        .arg(vol)
+        .args(["--stats", "--json", "--quiet"])));
+    j["percentiles"][key].as_f64().unwrap()
+}
+
+#[test]
+fn auto_preset_is_a_grey_ramp_windowed_from_the_histogram_percentiles() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = gen(d, "n.vvol", &["noise", "--dims", "40,40,40", "--seed", "3"]);
+    let render = |name: &str, extra: &[&str]| -> u64 {
+        let p = d.join(name);
+        ok(tool("vol-render")
+            .arg(&vol)
+            .args(["--size", "48x40", "-q", "-o"])
+            .arg(&p)
+            .args(extra));
+        png_hash(&p)
+    };
+    // auto:1 is exactly the grey ramp from the 1st to the 99th percentile
+    // of the histogram (vol-index reports the same percentiles).
+    let (p1, p99) = (percentile(&vol, "p1"), percentile(&vol, "p99"));
+    let range = json(&ok(tool("vol-info").arg(&vol).arg("--json")));
+    let (min, max) = (
+        range["min"].as_f64().unwrap(),
+        range["max"].as_f64().unwrap(),
+    );
+    assert!(min < p1 && p1 < p99 && p99 < max, "{min} {p1} {p99} {max}");
+    let tf = d.join("window.tf");
+    std::fs::write(
+        &tf,
+        format!("domain {p1} {p99}\nstep 1\npoint {p1} 0 0 0 0\npoint {p99} 255 255 255 0.1\n"),
+    )
+    .unwrap();
+    let by_file = render("file.png", &["--tf", tf.to_str().unwrap()]);
+    assert_eq!(render("auto1.png", &["--tf", "auto:1"]), by_file);
+    // The histogram is the same from a saved index or, without skipping,
+    // from one built just for it.
+    ok(tool("vol-index").arg(&vol).arg("--quiet"));
+    let vidx = d.join("n.vvol.vidx");
+    assert_eq!(
+        render(
+            "auto1i.png",
+            &["--tf", "auto:1", "--index", vidx.to_str().unwrap()]
+        ),
+        by_file
+    );
+    assert_eq!(
+        render("auto1n.png", &["--tf", "auto:1", "--no-ess"]),
+        render("file_n.png", &["--tf", tf.to_str().unwrap(), "--no-ess"])
+    );
+    // Plain auto (0.5 %) windows narrower than grey's whole range.
+    assert_ne!(
+        render("auto.png", &["--tf", "auto"]),
+        render("grey.png", &["--tf", "grey"])
+    );
+    assert_ne!(render("auto.png", &["--tf", "auto"]), by_file);
+    // A percentile outside 0..50 is a usage error; --help lists the preset.
+    let mut c = tool("vol-render");
+    c.arg(&vol)
+        .args(["--tf", "auto:50", "-o"])
+        .arg(d.join("x.png"));
+    fails(&mut c, "0..50");
+    assert_eq!(c.status().unwrap().code(), Some(2));
+    assert!(!d.join("x.png").exists());
+    let help = ok(tool("vol-render").arg("--help"));
+    assert!(help.contains("auto or auto:P"), "{help}");
+}
+
+#[test]
+fn completions_and_man_page_come_from_the_command_line_definition() {
+    for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
+        let text = ok(tool("vol-render").args(["--completions", shell]));
+        assert!(
+            text.contains("vol-render") && text.contains("ortho-height"),
+            "{shell}: {text}"
+        );
+    }
+    let man = ok(tool("vol-render").arg("--man"));
+    assert!(
+        man.contains(".TH vol-render") && man.contains("ortho\\-height") && man.contains("auto"),
+        "{man}"
+    );
+    // Both are exclusive: no volume needed, and nothing else allowed.
+    let mut c = tool("vol-render");
+    c.args(["--man", "--ortho"]);
+    fails(&mut c, "--man");
+    assert_eq!(c.status().unwrap().code(), Some(2));
+}

@@ -1,5 +1,5 @@
-//! OME-Zarr (NGFF) through `zarrs`: read NGFF 0.4 (Zarr v2) and 0.5
-//! (Zarr v3) images, write NGFF 0.5 with a multiscale pyramid.
+//! OME-Zarr (NGFF) through `zarrs`: read and write NGFF 0.4 (Zarr v2)
+//! and 0.5 (Zarr v3) images, written with a multiscale pyramid.
 //!
 //! Reading takes the first multiscale's full-resolution dataset; `t` and
 //! `c` axes are fixed with `--time` and `--channel` (required when longer
@@ -27,6 +27,29 @@ use zarrs::filesystem::FilesystemStore;
 
 /// Chunk edge of written arrays (voxels; smaller along short axes).
 pub const CHUNK: u64 = 64;
+
+/// Which NGFF version (and so which Zarr format) a writer produces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Ngff {
+    /// NGFF 0.4 on Zarr v2 (`.zgroup`, `.zattrs`, `.zarray`, chunks
+    /// under `/`-separated keys): what napari-ome-zarr, Fiji's readers
+    /// and every ome-zarr-py release read, so the default.
+    #[default]
+    V04,
+    /// NGFF 0.5 on Zarr v3 (`zarr.json`, attributes under `ome`): read by
+    /// ome-zarr-py 0.10 and later (zarr-python 3).
+    V05,
+}
+
+impl Ngff {
+    /// The version as NGFF writes it (`"0.4"`, `"0.5"`).
+    pub fn version(self) -> &'static str {
+        match self {
+            Ngff::V04 => "0.4",
+            Ngff::V05 => "0.5",
+        }
+    }
+}
 
 /// How a pyramid level is computed from the one above.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -459,7 +482,8 @@ struct Level<T> {
     seen: u64,
 }
 
-/// Writes an OME-Zarr (NGFF 0.5, Zarr v3) slice by slice.
+/// Writes an OME-Zarr (NGFF 0.4 on Zarr v2, or 0.5 on Zarr v3) slice by
+/// slice.
 pub struct ZarrWriter<T: SliceSample> {
     levels: Vec<Level<T>>,
     down: Downsample,
@@ -476,13 +500,27 @@ fn data_type(t: SampleType) -> zarrs::array::DataType {
     }
 }
 
-/// The NGFF 0.5 group attributes for `levels` levels.
+/// Zarr v2 `dtype` of a sample type (little-endian).
+fn dtype_v2(t: SampleType) -> &'static str {
+    match t {
+        SampleType::U8 => "|u1",
+        SampleType::U16 => "<u2",
+        SampleType::I16 => "<i2",
+        SampleType::F32 => "<f4",
+    }
+}
+
+/// The group attributes for `levels` levels: NGFF 0.5 nests the
+/// multiscales under `ome` with the version beside them, 0.4 keeps them
+/// at the top with the version inside each multiscale. volkit's own
+/// `volkit` attribute (directions, origin, frame) sits at the top in both.
 pub fn multiscales(
     name: &str,
     levels: usize,
     spacing: [f32; 3],
     geometry: &Geometry,
     down: Downsample,
+    ngff: Ngff,
 ) -> Value {
     let datasets: Vec<Value> = (0..levels)
         .map(|l| {
@@ -508,26 +546,106 @@ pub fn multiscales(
             })
         })
         .collect();
-    json!({
-        "ome": {
-            "version": "0.5",
-            "multiscales": [{
-                "name": name,
-                "axes": [
-                    {"name": "z", "type": "space"},
-                    {"name": "y", "type": "space"},
-                    {"name": "x", "type": "space"},
-                ],
-                "datasets": datasets,
-                "type": match down { Downsample::Mean => "mean", Downsample::Max => "max" },
-            }],
-        },
-        "volkit": {
-            "direction": geometry.direction,
-            "origin": geometry.origin,
-            "frame": "LPS",
-        },
-    })
+    let mut ms = json!({
+        "name": name,
+        "axes": [
+            {"name": "z", "type": "space"},
+            {"name": "y", "type": "space"},
+            {"name": "x", "type": "space"},
+        ],
+        "datasets": datasets,
+        "type": match down { Downsample::Mean => "mean", Downsample::Max => "max" },
+    });
+    let volkit = json!({
+        "direction": geometry.direction,
+        "origin": geometry.origin,
+        "frame": "LPS",
+    });
+    match ngff {
+        Ngff::V05 => json!({
+            "ome": {"version": "0.5", "multiscales": [ms]},
+            "volkit": volkit,
+        }),
+        Ngff::V04 => {
+            if let Some(o) = ms.as_object_mut() {
+                o.insert("version".into(), json!("0.4"));
+            }
+            json!({"multiscales": [ms], "volkit": volkit})
+        }
+    }
+}
+
+/// Write the root group with `attrs` in the layout of `ngff`.
+fn create_group(store: &Arc<FilesystemStore>, attrs: Value, ngff: Ngff) -> crate::Result<()> {
+    let attrs = attrs.as_object().cloned().unwrap_or_default();
+    let group = match ngff {
+        Ngff::V05 => zarrs::group::GroupBuilder::new()
+            .attributes(attrs)
+            .build(store.clone(), "/")
+            .map_err(zerr)?,
+        Ngff::V04 => zarrs::group::Group::new_with_metadata(
+            store.clone(),
+            "/",
+            zarrs::group::GroupMetadata::V2(
+                zarrs::metadata::v2::GroupMetadataV2::new().with_attributes(attrs),
+            ),
+        )
+        .map_err(zerr)?,
+    };
+    group.store_metadata().map_err(zerr)
+}
+
+/// An array of shape `shape` and chunks `chunk` (both z, y, x) at `path`,
+/// zstd-compressed, its metadata written: Zarr v3 with dimension names for
+/// NGFF 0.5, Zarr v2 with `/` chunk keys (as NGFF 0.4 asks) for 0.4.
+fn create_array(
+    store: &Arc<FilesystemStore>,
+    path: &str,
+    shape: [u64; 3],
+    chunk: [u64; 3],
+    t: SampleType,
+    ngff: Ngff,
+) -> crate::Result<Array<FilesystemStore>> {
+    let array = match ngff {
+        Ngff::V05 => zarrs::array::ArrayBuilder::new(
+            shape.to_vec(),
+            chunk.to_vec(),
+            data_type(t),
+            zarrs::array::FillValue::from(vec![0u8; t.size()]),
+        )
+        .bytes_to_bytes_codecs(vec![Arc::new(zarrs::array::codec::ZstdCodec::new(
+            3, false,
+        ))])
+        .dimension_names(["z", "y", "x"].into())
+        .build(store.clone(), path)
+        .map_err(zerr)?,
+        Ngff::V04 => {
+            let chunks = chunk
+                .iter()
+                .map(|&c| std::num::NonZeroU64::new(c).ok_or_else(|| zerr("empty chunk")))
+                .collect::<crate::Result<Vec<_>>>()?;
+            let compressor =
+                serde_json::from_value(json!({"id": "zstd", "level": 3})).map_err(zerr)?;
+            let fill = serde_json::from_value(json!(0)).map_err(zerr)?;
+            let meta = zarrs::array::ArrayMetadataV2::new(
+                shape.to_vec(),
+                chunks,
+                zarrs::metadata::v2::DataTypeMetadataV2::Simple(dtype_v2(t).into()),
+                fill,
+                Some(compressor),
+                None,
+            )
+            .with_dimension_separator(zarrs::metadata::ChunkKeySeparator::Slash);
+            Array::new_with_metadata(
+                store.clone(),
+                path,
+                zarrs::metadata::ArrayMetadata::V2(meta),
+            )
+            .map_err(zerr)?
+        }
+    };
+    array.store_metadata().map_err(zerr)?;
+    Ok(array)
 }
 
 impl<T: SliceSample> ZarrWriter<T> {
@@ -540,6 +658,7 @@ impl<T: SliceSample> ZarrWriter<T> {
         geometry: &Geometry,
         levels: u32,
         down: Downsample,
+        ngff: Ngff,
     ) -> crate::Result<ZarrWriter<T>> {
         std::fs::create_dir_all(path)?;
         let store = Arc::new(FilesystemStore::new(path).map_err(zerr)?);
@@ -556,29 +675,19 @@ impl<T: SliceSample> ZarrWriter<T> {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let attrs = multiscales(&name, dl.len(), spacing, geometry, down);
-        zarrs::group::GroupBuilder::new()
-            .attributes(attrs.as_object().cloned().unwrap_or_default())
-            .build(store.clone(), "/")
-            .map_err(zerr)?
-            .store_metadata()
-            .map_err(zerr)?;
+        let attrs = multiscales(&name, dl.len(), spacing, geometry, down, ngff);
+        create_group(&store, attrs, ngff)?;
         let mut out = Vec::new();
         for (l, d) in dl.iter().enumerate() {
             let chunk = [d.x.min(CHUNK), d.y.min(CHUNK), d.z.min(CHUNK)];
-            let array = zarrs::array::ArrayBuilder::new(
-                vec![d.z, d.y, d.x],
-                vec![chunk[2], chunk[1], chunk[0]],
-                data_type(T::TYPE),
-                zarrs::array::FillValue::from(vec![0u8; T::TYPE.size()]),
-            )
-            .bytes_to_bytes_codecs(vec![Arc::new(zarrs::array::codec::ZstdCodec::new(
-                3, false,
-            ))])
-            .dimension_names(["z", "y", "x"].into())
-            .build(store.clone(), &format!("/{l}"))
-            .map_err(zerr)?;
-            array.store_metadata().map_err(zerr)?;
+            let array = create_array(
+                &store,
+                &format!("/{l}"),
+                [d.z, d.y, d.x],
+                [chunk[2], chunk[1], chunk[0]],
+                T::TYPE,
+                ngff,
+            )?;
             out.push(Level {
                 array,
                 dims: *d,
@@ -730,10 +839,13 @@ fn downsample<T: Sample>(a: &[T], b: Option<&[T]>, d: Dims, how: Downsample) -> 
 mod tests {
     use super::*;
 
-    #[test]
-    fn pyramid_round_trips_with_scale_and_translation() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("v.ome.zarr");
+    /// Write a 70x5x67 u16 volume with three levels in `ngff`'s layout.
+    /// The test volume's value at voxel (x, y, z).
+    fn val(x: u64, y: u64, z: u64) -> u16 {
+        (x + 100 * y + 1000 * z) as u16
+    }
+
+    fn write_pyramid(p: &Path, ngff: Ngff) -> (Dims, Geometry) {
         let dims = Dims::new(70, 5, 67).unwrap();
         let g = Geometry::from_axes(
             [1.0, 2.0, 3.0],
@@ -741,8 +853,8 @@ mod tests {
         )
         .unwrap();
         let mut w =
-            ZarrWriter::<u16>::create(&p, dims, [0.5, 0.5, 2.0], &g, 3, Downsample::Mean).unwrap();
-        let val = |x: u64, y: u64, z: u64| (x + 100 * y + 1000 * z) as u16;
+            ZarrWriter::<u16>::create(p, dims, [0.5, 0.5, 2.0], &g, 3, Downsample::Mean, ngff)
+                .unwrap();
         for z in 0..dims.z {
             let s: Vec<u16> = (0..dims.y)
                 .flat_map(|y| (0..dims.x).map(move |x| val(x, y, z)))
@@ -750,28 +862,86 @@ mod tests {
             w.push(s).unwrap();
         }
         w.finish().unwrap();
-        let r = open(&p, None, None).unwrap();
+        (dims, g)
+    }
+
+    /// Read back values, geometry and the level-1 mean of a written pyramid.
+    fn check_pyramid(p: &Path, dims: Dims, g: &Geometry) {
+        let r = open(p, None, None).unwrap();
         assert_eq!(r.info().dims, dims);
         assert_eq!(r.info().spacing, Some([0.5, 0.5, 2.0]));
-        assert_eq!(r.info().geometry, g);
+        assert_eq!(&r.info().geometry, g);
         for z in [0, 63, 64, 66] {
             let s = r.read_slice(z).unwrap();
             assert_eq!(s.value((3 * 70 + 69) as usize), val(69, 3, z) as f64);
         }
+        // Level 1 is the 2x2x2 mean: (0,0,0) averages x 0..2, y 0..2, z 0..2.
+        let a = Array::open(Arc::new(FilesystemStore::new(p).unwrap()), "/1").unwrap();
+        assert_eq!(a.shape(), &[34, 3, 35]);
+        let v: Vec<u16> = a
+            .retrieve_array_subset::<Vec<u16>>(&[0..1, 0..1, 0..1])
+            .unwrap();
+        assert_eq!(v[0], (0.5f64 + 50.0 + 500.0).round() as u16);
+    }
+
+    #[test]
+    fn ngff_05_pyramid_round_trips_with_scale_and_translation() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("v.ome.zarr");
+        let (dims, g) = write_pyramid(&p, Ngff::V05);
+        check_pyramid(&p, dims, &g);
+        assert_eq!(
+            open(&p, None, None).unwrap().info().format,
+            "ome-zarr 0.5 (ZYX)"
+        );
         let meta: Value =
             serde_json::from_slice(&std::fs::read(p.join("zarr.json")).unwrap()).unwrap();
+        assert_eq!(meta["zarr_format"], 3);
+        assert_eq!(meta["attributes"]["ome"]["version"], "0.5");
         let ds = &meta["attributes"]["ome"]["multiscales"][0]["datasets"];
         assert_eq!(ds.as_array().unwrap().len(), 3);
         assert_eq!(
             ds[1]["coordinateTransformations"][0]["scale"],
             json!([4.0, 1.0, 1.0])
         );
-        // Level 1 is the 2x2x2 mean: (0,0,0) averages x 0..2, y 0..2, z 0..2.
-        let a = Array::open(Arc::new(FilesystemStore::new(&p).unwrap()), "/1").unwrap();
-        assert_eq!(a.shape(), &[34, 3, 35]);
-        let v: Vec<u16> = a
-            .retrieve_array_subset::<Vec<u16>>(&[0..1, 0..1, 0..1])
-            .unwrap();
-        assert_eq!(v[0], (0.5f64 + 50.0 + 500.0).round() as u16);
+        assert!(!p.join(".zattrs").exists() && p.join("0/zarr.json").is_file());
+    }
+
+    #[test]
+    fn ngff_04_pyramid_on_zarr_v2_round_trips_with_scale_and_translation() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("v.ome.zarr");
+        let (dims, g) = write_pyramid(&p, Ngff::V04);
+        check_pyramid(&p, dims, &g);
+        assert_eq!(
+            open(&p, None, None).unwrap().info().format,
+            "ome-zarr 0.4 (ZYX)"
+        );
+        assert!(!p.join("zarr.json").exists());
+        let group: Value =
+            serde_json::from_slice(&std::fs::read(p.join(".zgroup")).unwrap()).unwrap();
+        assert_eq!(group["zarr_format"], 2);
+        let attrs: Value =
+            serde_json::from_slice(&std::fs::read(p.join(".zattrs")).unwrap()).unwrap();
+        let ms = &attrs["multiscales"][0];
+        assert_eq!(ms["version"], "0.4");
+        assert_eq!(ms["datasets"].as_array().unwrap().len(), 3);
+        // Level 2 covers 4 voxels per axis: scale x4, centred on their mean.
+        assert_eq!(
+            ms["datasets"][2]["coordinateTransformations"][0]["scale"],
+            json!([8.0, 2.0, 2.0])
+        );
+        assert_eq!(
+            ms["datasets"][2]["coordinateTransformations"][1]["translation"],
+            json!([3.0 + 3.0, 2.0 + 0.75, 1.0 + 0.75])
+        );
+        let zarray: Value =
+            serde_json::from_slice(&std::fs::read(p.join("0/.zarray")).unwrap()).unwrap();
+        assert_eq!(zarray["zarr_format"], 2);
+        assert_eq!(zarray["dtype"], "<u2");
+        assert_eq!(zarray["dimension_separator"], "/");
+        assert_eq!(zarray["compressor"]["id"], "zstd");
+        // Chunk keys are nested directories, z/y/x.
+        assert!(p.join("0/1/0/0").is_file(), "chunk 1,0,0 of level 0");
     }
 }

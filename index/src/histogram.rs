@@ -115,6 +115,25 @@ impl Histogram {
         (self.lo + i as f64 * w, self.lo + (i + 1) as f64 * w)
     }
 
+    /// The lower edge of the bin holding quantile `q` (0..=1) of the binned
+    /// samples: exact for integer bins of width 1, such as every u8
+    /// histogram; `None` when no sample is binned or `q` is not a number.
+    pub fn quantile(&self, q: f64) -> Option<f64> {
+        let total = self.total();
+        if total == 0 || q.is_nan() {
+            return None;
+        }
+        let want = ((q.clamp(0.0, 1.0) * total as f64).ceil() as u64).clamp(1, total);
+        let mut seen = 0u64;
+        for (i, &c) in self.counts.iter().enumerate() {
+            seen += c;
+            if seen >= want {
+                return Some(self.bin_edges(i).0);
+            }
+        }
+        None
+    }
+
     pub(crate) fn set_nan_count(&mut self, n: u64) {
         self.nan_count = n;
     }
@@ -134,6 +153,23 @@ pub(crate) fn bin_of(v: f64, lo: f64, hi: f64, n: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn quantiles_are_lower_bin_edges() {
+        // 100 samples: value v (0..=99) once each, in u8's unit bins.
+        let mut per = vec![0u64; 256];
+        per[..100].fill(1);
+        let h = Histogram::from_exact(0.0, &per, 256);
+        assert_eq!(h.quantile(0.0), Some(0.0));
+        assert_eq!(h.quantile(0.01), Some(0.0));
+        assert_eq!(h.quantile(0.015), Some(1.0));
+        assert_eq!(h.quantile(0.5), Some(49.0));
+        assert_eq!(h.quantile(0.99), Some(98.0));
+        assert_eq!(h.quantile(1.0), Some(99.0));
+        assert_eq!(h.quantile(f64::NAN), None);
+        let empty = Histogram::from_exact(0.0, &[0u64; 256], 256);
+        assert_eq!(empty.quantile(0.5), None);
+    }
 
     #[test]
     fn u8_layout_is_one_bin_per_value() {

@@ -116,7 +116,10 @@ struct Row {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match volkit_cli::parse::<Cli>("vol-accuracy") {
+        Ok(c) => c,
+        Err(code) => return code,
+    };
     // One escaped error line; a closed pipe ends the study quietly.
     volkit_cli::run("vol-accuracy", || run(&cli))
 }

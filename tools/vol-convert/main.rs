@@ -34,7 +34,8 @@ use volkit_cli::{json, noteln, usage, RawSpec};
 /// zstd per brick), .vol (thesis format, u8), .raw (little-endian, x
 /// fastest), .tif/.tiff (one multipage file), .nii/.nii.gz/.hdr (NIfTI),
 /// .nrrd/.nhdr (NRRD, attached or detached), .mha/.mhd (MetaImage),
-/// NAME.ome.zarr (OME-Zarr, NGFF 0.5 with --pyramid N levels), a path
+/// NAME.ome.zarr (OME-Zarr with --pyramid N levels: NGFF 0.4 on Zarr v2,
+/// or 0.5 on Zarr v3 with --ngff 0.5), a path
 /// ending in / (a directory of TIFF slices), or - (a sliced .vvol stream on
 /// stdout). Origin and axis directions are carried into every format that
 /// stores them (.vvol, NIfTI, NRRD, MetaImage).
@@ -93,6 +94,11 @@ struct Cli {
     /// (2x2x2 blocks): mean or max.
     #[arg(long, default_value = "mean", value_parser = ["mean", "max"])]
     downsample: String,
+    /// OME-Zarr output: NGFF 0.4 on Zarr v2 (the default: napari-ome-zarr,
+    /// Fiji and every ome-zarr-py release read it) or 0.5 on Zarr v3 (read
+    /// by ome-zarr-py 0.10 and later).
+    #[arg(long, value_name = "VERSION", value_parser = ["0.4", "0.5"])]
+    ngff: Option<String>,
     /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
     #[arg(long, value_name = "T")]
     time: Option<u64>,
@@ -116,6 +122,8 @@ const EXAMPLES: &str = "Examples:
   vol-convert bonsai_256x256x256_uint8.raw --flip z -o bonsai.vvol
   vol-convert head.nrrd --type u8 --window auto -o head.vol
   vol-convert scan.vvol -o slices/
+  vol-convert ct.nii.gz --pyramid 4 -o ct.ome.zarr            # NGFF 0.4, Zarr v2
+  vol-convert ct.nii.gz --pyramid 4 --ngff 0.5 -o ct.ome.zarr # NGFF 0.5, Zarr v3
   vol-gen shapes --dims 256,256,256 -o - | vol-convert - --layout bricked:32 -o out.vvol";
 
 /// Keep freed buffers in the process. Slices and write chunks of a few
@@ -228,6 +236,21 @@ impl CompressArg {
 fn target(cli: &Cli) -> Result<Target> {
     let out = &cli.output;
     let text = out.to_string_lossy();
+    let zarr_out = volformats::omezarr::is_zarr(out) && !out.is_file();
+    if !zarr_out {
+        if cli.pyramid > 1 {
+            return Err(usage_at(
+                out,
+                "--pyramid applies to OME-Zarr output (NAME.ome.zarr)",
+            ));
+        }
+        if cli.ngff.is_some() {
+            return Err(usage_at(
+                out,
+                "--ngff applies to OME-Zarr output (NAME.ome.zarr)",
+            ));
+        }
+    }
     if let Some(t) = Target::headed(out, cli.compress == CompressArg::Gzip) {
         if cli.layout != LayoutArg::Sliced {
             return Err(usage_at(
@@ -282,13 +305,11 @@ fn target(cli: &Cli) -> Result<Target> {
             } else {
                 volformats::omezarr::Downsample::Mean
             },
+            ngff: match cli.ngff.as_deref() {
+                Some("0.5") => volformats::omezarr::Ngff::V05,
+                _ => volformats::omezarr::Ngff::V04,
+            },
         });
-    }
-    if cli.pyramid > 1 {
-        return Err(usage_at(
-            out,
-            "--pyramid applies to OME-Zarr output (NAME.ome.zarr)",
-        ));
     }
     if text == "-" {
         sliced_only("stdout (a .vvol stream)")?;

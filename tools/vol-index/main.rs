@@ -305,25 +305,6 @@ fn range_json(ix: &MajorantIndex) -> (Value, Value) {
     }
 }
 
-/// The lower edge of the bin holding quantile `q` of the binned samples
-/// (exact for integer bins of width 1, such as every u8 histogram); `None`
-/// when no sample is binned.
-fn percentile(h: &Histogram, q: f64) -> Option<f64> {
-    let total = h.total();
-    if total == 0 {
-        return None;
-    }
-    let want = ((q * total as f64).ceil() as u64).clamp(1, total);
-    let mut seen = 0u64;
-    for (i, &c) in h.counts().iter().enumerate() {
-        seen += c;
-        if seen >= want {
-            return Some(h.bin_edges(i).0);
-        }
-    }
-    None
-}
-
 /// The `n` fullest non-empty bins, fullest first (ties: lower bin first).
 fn busiest(h: &Histogram, n: usize) -> Vec<usize> {
     let mut bins: Vec<usize> = (0..h.bins()).filter(|&i| h.counts()[i] > 0).collect();
@@ -363,7 +344,7 @@ fn summary(ix: &MajorantIndex, volume: &Path, index: &Path) -> Value {
         .collect();
     let mut pct = serde_json::Map::new();
     for (k, q) in PERCENTILES {
-        pct.insert(k.to_string(), json!(percentile(h, q)));
+        pct.insert(k.to_string(), json!(h.quantile(q)));
     }
     json!({
         "tool": "vol-index",
@@ -413,7 +394,7 @@ fn print_stats(ix: &MajorantIndex, volume: &Path) -> std::io::Result<()> {
         let exact = if unit_bins(h) { "" } else { " (bin starts)" };
         let p: Vec<String> = PERCENTILES
             .iter()
-            .filter_map(|&(k, q)| percentile(h, q).map(|v| format!("{k} {}", v as f32)))
+            .filter_map(|&(k, q)| h.quantile(q).map(|v| format!("{k} {}", v as f32)))
             .collect();
         outln!("  percentiles{exact}: {}", p.join(", "))?;
         let b: Vec<String> = busiest(h, BUSIEST)

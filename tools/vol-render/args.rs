@@ -83,9 +83,13 @@ pub struct Cli {
     /// built in memory when skipping is on).
     #[arg(long)]
     pub index: Option<PathBuf>,
-    /// Transfer function: a file (1D or 2D), or a preset: grey, ct, shapes,
-    /// or boundary (2D: opacity rising with the gradient magnitude, so
-    /// boundaries between materials show and flat regions vanish).
+    /// Transfer function: a file (1D or 2D), or a preset: grey (a greyscale
+    /// ramp over the value range), auto or auto:P (the same ramp windowed
+    /// from the P-th to the (100-P)-th percentile of the index's histogram,
+    /// P = 0.5: for data of any units), ct (Hounsfield units: warns with the
+    /// data range on other data), shapes, or boundary (2D: opacity rising
+    /// with the gradient magnitude, so boundaries between materials show and
+    /// flat regions vanish).
     #[arg(long, default_value = "grey")]
     pub tf: String,
     /// What each ray computes.
@@ -119,10 +123,15 @@ pub struct Cli {
     /// Vertical field of view in degrees (perspective).
     #[arg(long, default_value_t = 45.0)]
     pub fov: f32,
-    /// Orthographic projection with this image height in world units (0 =
-    /// fit the volume's diagonal).
-    #[arg(long, num_args = 0..=1, default_missing_value = "0")]
+    /// Orthographic projection; --ortho=H sets the image height in world
+    /// units (the value needs the '='; 0 or none: fit the volume's
+    /// diagonal).
+    #[arg(long, value_name = "H", num_args = 0..=1, require_equals = true, default_missing_value = "0")]
     pub ortho: Option<f32>,
+    /// Orthographic projection with this image height in world units (0 =
+    /// fit the volume's diagonal); the same as --ortho=H.
+    #[arg(long, value_name = "H", conflicts_with = "ortho")]
+    pub ortho_height: Option<f32>,
     /// Distance between samples along a ray, world units (default: half the
     /// smallest voxel spacing). A step that would take more than 10 million
     /// samples per ray across the volume's diagonal is refused.
@@ -204,6 +213,8 @@ const EXAMPLES: &str = "Examples:
   vol-render ct.vvol --tf ct --orbit 45,30,600 --hdr ct.pfm -o ct.png
   vol-render sphere.vvol --mode iso --iso 128 -o iso.png
   vol-render noise.vvol --mode mip --ortho -o mip.png --heatmap samples.png
+  vol-render noise.vvol --mode mip --ortho-height 300 -o mip300.png
+  vol-render brain.nii.gz --tf auto -o brain.png
   vol-render shapes.vvol --index shapes.vvol.vidx --no-ert --threads 1 -o a.png
 
   vol-render sphere.vvol --tf boundary --shading phong -o shell.png

@@ -76,6 +76,11 @@ fn run(cli: &Cli, volume: &Path) -> Result<()> {
     let Some(output) = cli.output.as_deref() else {
         bail!("no output")
     };
+    if !cli.quiet {
+        for note in &plan.notes {
+            noteln!("vol-render: {name}: {note}");
+        }
+    }
 
     let mut times = Vec::new();
     let mut frame: Option<Frame> = None;

@@ -8,8 +8,10 @@ use anyhow::{bail, Context, Result};
 use glam::{DMat3, DVec3, Vec3};
 use std::path::Path;
 use volcore::Volume;
-use volindex::MajorantIndex;
-use volrender::tf::{parse::parse_any, Tf, PRESETS};
+use volindex::{BuildOptions, MajorantIndex};
+use volrender::tf::{
+    looks_like_hounsfield, parse::parse_any, Tf, TransferFunction, AUTO_TAIL_PERCENT, PRESETS,
+};
 use volrender::{
     Camera, GradientMethod, Interp, Light, Lighting, Mode, Projection, RenderSettings,
 };
@@ -26,14 +28,17 @@ pub struct Plan {
     /// The defaults as resolved against the volume (for the effective
     /// scene).
     pub resolved: Resolved,
+    /// Warnings for the user (one line each; `--quiet` drops them).
+    pub notes: Vec<String>,
 }
 
 impl Plan {
     /// Resolve `cli` for `vol`; `index`, when there is one, gives the
-    /// finite value range for defaults.
+    /// finite value range for defaults and `--tf auto` its histogram.
     pub fn new(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Plan> {
+        let mut notes = Vec::new();
         let tf = match cli.mode {
-            ModeArg::Dvr => Some(transfer_function(cli, vol)?),
+            ModeArg::Dvr => Some(transfer_function(cli, vol, index, &mut notes)?),
             _ => None,
         };
         let (camera, look_at, orbit) = camera(cli, vol)?;
@@ -54,6 +59,7 @@ impl Plan {
             settings,
             tf,
             resolved,
+            notes,
         })
     }
 }
@@ -64,12 +70,31 @@ fn value_range(vol: &Volume) -> (f32, f32) {
 }
 
 /// `--tf`: a preset by name, else a file (1D or 2D); or the scene file's
-/// `tf-text`.
-fn transfer_function(cli: &Cli, vol: &Volume) -> Result<Tf> {
+/// `tf-text`. `ct` on data that does not look like Hounsfield units adds a
+/// note suggesting `auto`.
+fn transfer_function(
+    cli: &Cli,
+    vol: &Volume,
+    index: Option<&MajorantIndex>,
+    notes: &mut Vec<String>,
+) -> Result<Tf> {
     if let Some(text) = &cli.tf_text {
         return parse_any(text).context("the scene's tf-text");
     }
     let range = value_range(vol);
+    if let Some(tail) = auto_tail(&cli.tf)? {
+        let window = auto_window(vol, index, tail)?;
+        return Ok(Tf::OneD(
+            TransferFunction::preset("auto", window).context("the auto preset")?,
+        ));
+    }
+    if cli.tf == "ct" && !looks_like_hounsfield(range) {
+        notes.push(format!(
+            "--tf ct expects Hounsfield units (air -1000, water 0, bone 300 and up), \
+             but the data span {}..{}; try --tf auto",
+            range.0, range.1
+        ));
+    }
     // The steepest a one-voxel jump across the whole range can be.
     let max_gradient = (range.1 - range.0) / vol.meta.min_spacing();
     if let Some(tf) = Tf::preset(&cli.tf, range, max_gradient) {
@@ -84,6 +109,44 @@ fn transfer_function(cli: &Cli, vol: &Volume) -> Result<Tf> {
         )
     })?;
     parse_any(&text).with_context(|| cli.tf.clone())
+}
+
+/// The tail percentile of `--tf auto` or `auto:P`; `None` for other names.
+fn auto_tail(name: &str) -> Result<Option<f64>> {
+    if name == "auto" {
+        return Ok(Some(AUTO_TAIL_PERCENT));
+    }
+    let Some(p) = name.strip_prefix("auto:") else {
+        return Ok(None);
+    };
+    match p.parse::<f64>() {
+        Ok(p) if (0.0..50.0).contains(&p) => Ok(Some(p)),
+        _ => Err(volkit_cli::usage(format!(
+            "--tf auto:{}: the auto percentile must be a number in 0..50",
+            volcore::text::excerpt(p)
+        ))),
+    }
+}
+
+/// The `auto` window: the `tail`-th and (100 − `tail`)-th percentiles of
+/// the index's histogram (built here when rendering without an index); the
+/// whole value range when they coincide (one value) or nothing is binned.
+fn auto_window(vol: &Volume, index: Option<&MajorantIndex>, tail: f64) -> Result<(f32, f32)> {
+    let built;
+    let ix = match index {
+        Some(ix) => ix,
+        None => {
+            built = MajorantIndex::build_volume(vol, &BuildOptions::default(), 0)
+                .context("the histogram for --tf auto")?;
+            &built
+        }
+    };
+    let h = ix.histogram();
+    let q = tail / 100.0;
+    Ok(match (h.quantile(q), h.quantile(1.0 - q)) {
+        (Some(lo), Some(hi)) if hi > lo => (lo as f32, hi as f32),
+        _ => value_range(vol),
+    })
 }
 
 /// `--up patient`: the renderer's world direction (voxel index × spacing)
@@ -128,7 +191,7 @@ fn camera(cli: &Cli, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
         UpArg::Vector(v) => v,
         UpArg::Patient => patient_up(vol)?,
     };
-    let projection = match cli.ortho {
+    let projection = match cli.ortho_height.or(cli.ortho) {
         Some(h) if h > 0.0 => Projection::Orthographic(h),
         Some(_) => Projection::Orthographic(diagonal * 1.05),
         None => Projection::Perspective(cli.fov),

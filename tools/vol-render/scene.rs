@@ -458,7 +458,7 @@ pub fn effective(cli: &Cli, resolved: &Resolved) -> Scene {
         up: Some(Up::of(cli.up)),
         orbit: resolved.orbit.map(|o| o.to_array()),
         fov: Some(cli.fov),
-        ortho: cli.ortho,
+        ortho: cli.ortho_height.or(cli.ortho),
         step: Some(resolved.step),
         ert: Some(cli.ert),
         no_ert: Some(cli.no_ert),

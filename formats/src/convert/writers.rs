@@ -57,7 +57,8 @@ pub enum Target {
     /// An in-memory [`Volume`], left in the slot (what
     /// [`crate::open::load`] uses).
     Memory(MemorySlot),
-    /// An OME-Zarr (NGFF 0.5, Zarr v3) directory with a multiscale pyramid.
+    /// An OME-Zarr directory (NGFF 0.4 on Zarr v2, or 0.5 on Zarr v3)
+    /// with a multiscale pyramid.
     OmeZarr {
         /// Output directory (must not exist, or be empty).
         path: PathBuf,
@@ -65,6 +66,8 @@ pub enum Target {
         levels: u32,
         /// How each level is made from the one above.
         downsample: crate::omezarr::Downsample,
+        /// NGFF version, and with it the Zarr format.
+        ngff: crate::omezarr::Ngff,
     },
     /// A header format with its samples (NIfTI, NRRD, MetaImage): in the
     /// header's file or a detached one, raw or compressed.
@@ -373,7 +376,10 @@ pub(crate) fn run_target<T: SliceSample>(
             ..
         } => write_headed::<T>(&path, format, data.as_deref(), codec, spec, drive),
         Target::OmeZarr {
-            levels, downsample, ..
+            levels,
+            downsample,
+            ngff,
+            ..
         } => {
             let dir = PartialDir::create(&path)?;
             let w = crate::omezarr::ZarrWriter::<T>::create(
@@ -383,6 +389,7 @@ pub(crate) fn run_target<T: SliceSample>(
                 &spec.geometry,
                 levels,
                 downsample,
+                ngff,
             )
             .at(&path)?;
             let mut sink = ZarrSink {

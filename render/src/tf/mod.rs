@@ -53,8 +53,26 @@ pub struct TransferFunction {
 }
 
 /// Names of the built-in presets (`boundary` is two-dimensional; see
-/// [`Tf::preset`]).
-pub const PRESETS: [&str; 4] = ["grey", "ct", "shapes", "boundary"];
+/// [`Tf::preset`]; `auto` takes its window from the caller, see
+/// [`TransferFunction::preset`]).
+pub const PRESETS: [&str; 5] = ["grey", "auto", "ct", "shapes", "boundary"];
+
+/// Default tail percentile of the `auto` preset's window (as
+/// `vol-convert --window auto`): the window runs from the 0.5th to the
+/// 99.5th percentile of the histogram.
+pub const AUTO_TAIL_PERCENT: f64 = 0.5;
+
+/// Values below which Hounsfield data must reach: CT has air (about
+/// −1000 HU) or at least fat (about −100 HU) in it, and the `ct` preset
+/// shows nothing below −300.
+pub const HOUNSFIELD_MIN_BELOW: f32 = -200.0;
+
+/// Whether a volume whose values span `range` looks like CT in
+/// Hounsfield units (see [`HOUNSFIELD_MIN_BELOW`]); an unknown range
+/// (NaN) does not count against it.
+pub fn looks_like_hounsfield(range: (f32, f32)) -> bool {
+    range.0.is_nan() || range.0 <= HOUNSFIELD_MIN_BELOW
+}
 
 impl TransferFunction {
     /// Colour and opacity at `v` (transparent black where nothing applies,
@@ -92,8 +110,11 @@ impl TransferFunction {
     }
 
     /// A built-in transfer function by name, for a volume whose values span
-    /// `range`: `grey` (a greyscale ramp over the range), `ct` (soft tissue
-    /// and bone, in Hounsfield units), `shapes` (the thesis test scene's).
+    /// `range`: `grey` (a greyscale ramp over the range), `auto` (the same
+    /// ramp; the caller passes the window it took from the histogram's
+    /// percentiles as `range`, and values past it clamp to its ends), `ct`
+    /// (soft tissue and bone, in Hounsfield units), `shapes` (the thesis
+    /// test scene's).
     pub fn preset(name: &str, range: (f32, f32)) -> Option<TransferFunction> {
         let pt = |value: f32, rgb: [f32; 3], alpha: f32| TfPoint { value, rgb, alpha };
         let rg = |lo: f32, hi: f32, rgb: [u8; 3], alpha: f32| TfRange {
@@ -108,7 +129,7 @@ impl TransferFunction {
             (0.0, 1.0)
         };
         let tf = match name {
-            "grey" | "gray" | "greyscale" => TransferFunction {
+            "grey" | "gray" | "greyscale" | "auto" => TransferFunction {
                 points: vec![pt(lo, [0.0; 3], 0.0), pt(hi, [1.0; 3], 0.1)],
                 ranges: vec![],
                 domain: Some((lo, hi)),
@@ -156,6 +177,26 @@ mod tests {
         assert_eq!(tf.eval(100.0), ([0.0, 1.0, 0.0], 0.6));
         assert_eq!(tf.eval(115.0).1, 0.0);
         assert_eq!(tf.eval(f32::NAN).1, 0.0);
+    }
+
+    #[test]
+    fn auto_is_a_grey_ramp_over_the_given_window() {
+        let tf = TransferFunction::preset("auto", (20.0, 120.0)).unwrap();
+        assert_eq!(tf.domain, Some((20.0, 120.0)));
+        assert_eq!(tf.eval(19.0), ([0.0; 3], 0.0));
+        assert_eq!(tf.eval(70.0), ([0.5; 3], 0.05));
+        assert_eq!(tf.eval(400.0), ([1.0; 3], 0.1));
+        assert!(PRESETS.contains(&"auto"));
+    }
+
+    #[test]
+    fn hounsfield_data_reaches_below_fat() {
+        assert!(looks_like_hounsfield((-1024.0, 3071.0)));
+        assert!(looks_like_hounsfield((-200.0, 80.0)));
+        assert!(!looks_like_hounsfield((0.0, 255.0)));
+        assert!(!looks_like_hounsfield((0.0, 4095.0)));
+        assert!(!looks_like_hounsfield((-1.0, 1.0)));
+        assert!(looks_like_hounsfield((f32::NAN, f32::NAN)));
     }
 
     #[test]
