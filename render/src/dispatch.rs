@@ -9,6 +9,7 @@
 
 use crate::accel::{FixedCells, IsoSides, NoSkipping, RunningMax, RunningMin};
 use crate::classify::{Classifier, TfTable, TfTable2d};
+use crate::effects::{Classified, IsoInside, LightGrid, ShadowCaster, ShadowedPhong};
 use crate::integrator::dvr::{
     Dvr, NoTermination, OpacityThreshold, PhongShading, Shading, Termination, Unshaded,
 };
@@ -57,6 +58,28 @@ pub struct DvrPlan<'a> {
     pub termination: Option<f32>,
     /// Transparent cells to skip, if skipping is on.
     pub skip: Option<&'a FixedCells<'a>>,
+    /// Shadows, if the frame casts them (needs shading).
+    pub shadows: Option<DvrShadows<'a>>,
+}
+
+/// What a DVR frame's shadows need.
+#[derive(Clone, Copy)]
+pub struct DvrShadows<'a> {
+    /// The classifier as optical depth per shadow step (the same kind as
+    /// the frame's classifier).
+    pub depth: ClassifierRef<'a>,
+    /// Cells clear for shadow rays, if skipping is on.
+    pub skip: Option<&'a FixedCells<'a>>,
+    /// Shadow-ray sample placement (the shadow step).
+    pub geom: FrameGeometry,
+    /// The far corner of the volume's box.
+    pub hi: Vec3,
+    /// Per light: its transmittance grid, or `None` for shadow rays.
+    pub grids: &'a [Option<LightGrid>],
+    /// The lights.
+    pub lighting: &'a Lighting,
+    /// Squared gradient length above which samples get a normal.
+    pub threshold2: f32,
 }
 
 /// Run `v` with the DVR integrator for `p`.
@@ -98,6 +121,26 @@ where
     match (p.classifier, p.shading) {
         // Unshaded, 1D: no gradient, whatever the method.
         (OneD(k), None) => go::<R, NoGradient, _, _, _, _, V>(p, k, Unshaded, t, a, v),
+        (OneD(k), Some(_)) if p.shadows.is_some() => {
+            let sh = p.shadows.as_ref().and_then(|sh| match sh.depth {
+                OneD(d) => Some((sh, d)),
+                TwoD(_) => None,
+            });
+            match sh {
+                Some((sh, d)) => dvr_shadowed::<R, _, T, A, V>(p, k, d, sh, t, a, v),
+                None => unreachable!("shadow tables are built with the classifier"),
+            }
+        }
+        (TwoD(k), Some(_)) if p.shadows.is_some() => {
+            let sh = p.shadows.as_ref().and_then(|sh| match sh.depth {
+                TwoD(d) => Some((sh, d)),
+                OneD(_) => None,
+            });
+            match sh {
+                Some((sh, d)) => dvr_shadowed::<R, _, T, A, V>(p, k, d, sh, t, a, v),
+                None => unreachable!("shadow tables are built with the classifier"),
+            }
+        }
         (OneD(k), Some(s)) => dvr_shaded::<R, _, T, A, V>(p, k, s, t, a, v),
         (TwoD(k), None) => match p.gradient {
             C_ => go::<R, Central, _, _, _, _, V>(p, k, Unshaded, t, a, v),
@@ -128,6 +171,52 @@ where
         (PhongShading::OneLight(s), A_) => go::<R, Analytic, _, _, _, _, V>(p, k, s, t, a, v),
         (PhongShading::Lights(s), C_) => go::<R, Central, _, _, _, _, V>(p, k, s, t, a, v),
         (PhongShading::Lights(s), A_) => go::<R, Analytic, _, _, _, _, V>(p, k, s, t, a, v),
+    }
+}
+
+/// Shaded DVR with shadows: the gradient method chosen, the shadow
+/// caster built over the depth table `d` (of the classifier's kind).
+fn dvr_shadowed<R, K, T, A, V>(
+    p: &DvrPlan<'_>,
+    k: &K,
+    d: &K,
+    sh: &DvrShadows<'_>,
+    t: T,
+    a: A,
+    v: V,
+) -> V::Output
+where
+    R: Reconstruct,
+    K: Classifier,
+    T: Termination,
+    A: crate::accel::Accel<()>,
+    V: IntegratorVisitor,
+{
+    fn with<R, G, K, T, A, V>(
+        p: &DvrPlan<'_>,
+        k: &K,
+        d: &K,
+        sh: &DvrShadows<'_>,
+        t: T,
+        a: A,
+        v: V,
+    ) -> V::Output
+    where
+        R: Reconstruct,
+        G: Gradient,
+        K: Classifier,
+        T: Termination,
+        A: crate::accel::Accel<()>,
+        V: IntegratorVisitor,
+    {
+        let occ = Classified::<R, G, K>::new(d, sh.geom.locator, sh.geom.inv_spacing);
+        let caster = ShadowCaster::new(occ, sh.skip, sh.geom, sh.hi, sh.grids, 0.0);
+        let s = ShadowedPhong::new(sh.lighting, sh.threshold2, &caster);
+        go::<R, G, _, _, _, _, V>(p, k, s, t, a, v)
+    }
+    match p.gradient {
+        GradientMethod::Central => with::<R, Central, K, T, A, V>(p, k, d, sh, t, a, v),
+        GradientMethod::Analytic => with::<R, Analytic, K, T, A, V>(p, k, d, sh, t, a, v),
     }
 }
 
@@ -221,17 +310,38 @@ pub struct IsoPlan<'a> {
     pub lighting: &'a Lighting,
     /// Uniform cells to skip, if skipping is on.
     pub skip: Option<&'a IsoSides<'a>>,
+    /// Shadows, if the frame casts them.
+    pub shadows: Option<IsoShadows<'a>>,
+}
+
+/// What an iso frame's shadows need (shadow rays skip with the frame's
+/// [`IsoSides`]).
+#[derive(Clone, Copy)]
+pub struct IsoShadows<'a> {
+    /// Shadow-ray sample placement (the shadow step).
+    pub geom: FrameGeometry,
+    /// The far corner of the volume's box.
+    pub hi: Vec3,
+    /// Per light: its transmittance grid, or `None` for shadow rays.
+    pub grids: &'a [Option<LightGrid>],
+    /// Voxels along the light a grid read moves off the surface.
+    pub grid_offset: f32,
 }
 
 /// Run `v` with the iso-surface integrator for `p`.
 pub fn iso<V: IntegratorVisitor>(p: IsoPlan<'_>, v: V) -> V::Output {
     fn go<R: Reconstruct, G: Gradient, V: IntegratorVisitor>(p: IsoPlan<'_>, v: V) -> V::Output {
+        let caster = p.shadows.map(|sh| {
+            let occ = IsoInside::<R>::new(p.level, sh.geom.locator);
+            ShadowCaster::new(occ, p.skip, sh.geom, sh.hi, sh.grids, sh.grid_offset)
+        });
+        let caster = caster.as_ref();
         match p.skip {
             Some(a) => v.visit(Iso::<R, G, _>::new(
-                p.geom, a, p.level, p.colour, p.lighting,
+                p.geom, a, p.level, p.colour, p.lighting, caster,
             )),
             None => v.visit(Iso::<R, G, _>::new(
-                p.geom, NoSkipping, p.level, p.colour, p.lighting,
+                p.geom, NoSkipping, p.level, p.colour, p.lighting, caster,
             )),
         }
     }

@@ -22,6 +22,8 @@ pub struct FrameStats {
     pub skips: u64,
     /// Seconds spent rendering.
     pub render_s: f64,
+    /// What the effects did (zero when they are off).
+    pub effects: crate::effects::EffectStats,
 }
 
 /// How a pixel's accumulated result becomes a colour.
@@ -96,11 +98,24 @@ impl Film {
         self.stats.rays += (r.samples > 0 || r.skips > 0) as u64;
         self.stats.samples += r.samples as u64;
         self.stats.skips += r.skips as u64;
+        self.stats.effects.shadow_rays += r.effects.shadow_rays as u64;
+        self.stats.effects.shadow_samples += r.effects.shadow_samples;
     }
 
     /// The totals so far.
     pub fn stats(&self) -> FrameStats {
         self.stats
+    }
+
+    /// Add what building the frame's light grids cost (their build time
+    /// counts as render time: it is spent once per frame).
+    pub fn add_grid_stats(&mut self, s: &crate::effects::EffectStats) {
+        self.stats.render_s += s.shadow_grid_s;
+        let e = &mut self.stats.effects;
+        e.shadow_grids += s.shadow_grids;
+        e.shadow_grid_s += s.shadow_grid_s;
+        e.shadow_grid_bytes += s.shadow_grid_bytes;
+        e.shadow_grid_samples += s.shadow_grid_samples;
     }
 
     /// Record the time spent rendering into the film.

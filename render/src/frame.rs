@@ -5,8 +5,10 @@ use crate::accel::{FixedCells, IsoSides};
 use crate::camera::Camera;
 use crate::classify::{srgb_to_linear, Classifier, GradientBound, TfTable, TfTable2d};
 use crate::dispatch::{
-    self, ClassifierRef, DvrPlan, IntegratorVisitor, IsoPlan, MipPlan, XrayPlan,
+    self, ClassifierRef, DvrPlan, DvrShadows, IntegratorVisitor, IsoPlan, IsoShadows, MipPlan,
+    XrayPlan,
 };
+use crate::effects::{self, ShadowMethod, Shadows};
 use crate::error::RenderError;
 use crate::film::{Display, Film, Frame};
 use crate::integrator::dvr::PhongShading;
@@ -58,33 +60,9 @@ fn check(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result<(),
         )));
     }
     let s = settings.step;
-    if !(s.is_finite() && s > 0.0) {
-        return Err(RenderError::Setting(format!(
-            "step {s} must be a positive number"
-        )));
-    }
-    if s < vol.meta.min_spacing() * 1e-4 {
-        return Err(RenderError::Setting(format!(
-            "step {s} is below 1e-4 of the voxel spacing: a frame would take billions of samples per ray"
-        )));
-    }
-    let sp = vol.meta.spacing;
-    let Some(diagonal) = world_diagonal(vol) else {
-        return Err(RenderError::Setting(format!(
-            "the volume's extent (dims {} x spacing {},{},{}) is too large for f32 world coordinates",
-            vol.dims(),
-            sp[0],
-            sp[1],
-            sp[2]
-        )));
-    };
-    let per_ray = diagonal / s as f64;
-    if per_ray > MAX_SAMPLES_PER_RAY {
-        return Err(RenderError::Setting(format!(
-            "step {s} across the volume's diagonal of {diagonal:.6e} world units (spacing {},{},{}) \
-             means {per_ray:.3e} samples per ray, more than the limit of {MAX_SAMPLES_PER_RAY:e}",
-            sp[0], sp[1], sp[2]
-        )));
+    let diagonal = check_step("step", s, vol)?;
+    if let Some(sh) = &settings.shadows {
+        check_shadows(settings, sh, vol)?;
     }
     // Sample positions are f32: far from the origin consecutive samples
     // would round to the same point and a ray's sample index overflow.
@@ -110,6 +88,70 @@ fn check(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result<(),
         if !v.is_finite() {
             return Err(RenderError::Setting("iso value must be finite".into()));
         }
+    }
+    Ok(())
+}
+
+/// Check a sample spacing along rays (`what` names it in errors) against
+/// the volume: positive, not absurdly small, and at most
+/// [`MAX_SAMPLES_PER_RAY`] samples across the diagonal, which it returns.
+fn check_step(what: &str, s: f32, vol: &Volume) -> Result<f64, RenderError> {
+    if !(s.is_finite() && s > 0.0) {
+        return Err(RenderError::Setting(format!(
+            "{what} {s} must be a positive number"
+        )));
+    }
+    if s < vol.meta.min_spacing() * 1e-4 {
+        return Err(RenderError::Setting(format!(
+            "{what} {s} is below 1e-4 of the voxel spacing: a frame would take billions of samples per ray"
+        )));
+    }
+    let sp = vol.meta.spacing;
+    let Some(diagonal) = world_diagonal(vol) else {
+        return Err(RenderError::Setting(format!(
+            "the volume's extent (dims {} x spacing {},{},{}) is too large for f32 world coordinates",
+            vol.dims(),
+            sp[0],
+            sp[1],
+            sp[2]
+        )));
+    };
+    let per_ray = diagonal / s as f64;
+    if per_ray > MAX_SAMPLES_PER_RAY {
+        return Err(RenderError::Setting(format!(
+            "{what} {s} across the volume's diagonal of {diagonal:.6e} world units (spacing {},{},{}) \
+             means {per_ray:.3e} samples per ray, more than the limit of {MAX_SAMPLES_PER_RAY:e}",
+            sp[0], sp[1], sp[2]
+        )));
+    }
+    Ok(diagonal)
+}
+
+/// Check the shadow settings: a mode and shading that have light to
+/// shadow, a valid grid divisor and shadow step.
+fn check_shadows(settings: &RenderSettings, sh: &Shadows, vol: &Volume) -> Result<(), RenderError> {
+    match settings.mode {
+        Mode::Dvr if !settings.shading => {
+            return Err(RenderError::Setting(
+                "shadows need shading: an unshaded DVR frame has no light to shadow".into(),
+            ))
+        }
+        Mode::Dvr | Mode::Iso(_) => {}
+        _ => {
+            return Err(RenderError::Setting(
+                "shadows apply to the DVR and iso modes only".into(),
+            ))
+        }
+    }
+    if let ShadowMethod::Grid { divisor } = sh.method {
+        if ![1, 2, 4].contains(&divisor) {
+            return Err(RenderError::Setting(format!(
+                "shadow grid divisor {divisor} must be 1, 2 or 4"
+            )));
+        }
+    }
+    if let Some(h) = sh.step {
+        check_step("shadow step", h, vol)?;
     }
     Ok(())
 }
@@ -210,6 +252,26 @@ pub fn render_tf(
         }
         Mode::Iso(level) => {
             let sides = skip_index.map(|ix| IsoSides::new(ix, level));
+            let shadow_parts = match &settings.shadows {
+                Some(sh) => {
+                    let sgeom = effects::setup::shadow_geometry(&geom, sh);
+                    let boxes = sides.as_ref().map(|c| c.clear_boxes_below());
+                    let (grids, stats) = effects::setup::iso_grids(
+                        vol,
+                        settings,
+                        sh,
+                        &sgeom,
+                        level,
+                        boxes.as_ref(),
+                    )?;
+                    let offset = match sh.method {
+                        ShadowMethod::Grid { divisor } => 1.5 * divisor as f32,
+                        ShadowMethod::Ray => 0.0,
+                    };
+                    Some((sgeom, grids, stats, offset))
+                }
+                None => None,
+            };
             let plan = IsoPlan {
                 geom,
                 interp: settings.interp,
@@ -218,8 +280,20 @@ pub fn render_tf(
                 colour: Vec3::from(settings.iso_colour.map(srgb_to_linear)),
                 lighting: &settings.lighting,
                 skip: sides.as_ref(),
+                shadows: shadow_parts
+                    .as_ref()
+                    .map(|(sgeom, grids, _, offset)| IsoShadows {
+                        geom: *sgeom,
+                        hi: tiles.hi,
+                        grids,
+                        grid_offset: *offset,
+                    }),
             };
-            (dispatch::iso(plan, tiles), Display::Colour)
+            let mut film = dispatch::iso(plan, tiles);
+            if let Some((_, _, stats, _)) = &shadow_parts {
+                film.add_grid_stats(stats);
+            }
+            (film, Display::Colour)
         }
     };
     let bg = Vec3::from(settings.background.map(srgb_to_linear));
@@ -240,53 +314,125 @@ fn dvr_frame(
     let (lo, hi) = tf.domain().unwrap_or(range);
     let hi = if hi > lo { hi } else { lo + 1.0 };
     let bins = TfTable::default_bins(lo, hi);
-    let value_span = (range.1 - range.0).max(f32::MIN_POSITIVE);
-    // Compared with squared lengths; never below 0, so a zero gradient is
-    // never normalised.
-    let threshold2 = (settings.gradient_threshold * value_span).max(0.0).powi(2);
-    let shading = settings
-        .shading
-        .then(|| PhongShading::new(&settings.lighting, threshold2));
-    let gradients = GradientBound {
-        method: settings.gradient,
-        inv_spacing: geom.inv_spacing,
-    };
-    let plan = |classifier, skip| DvrPlan {
+    // Shadows shade only shaded samples (checked before).
+    let shadows = settings.shadows.filter(|_| settings.shading);
+    let shadow_geom = shadows.map(|sh| effects::setup::shadow_geometry(&geom, &sh));
+    let frame = DvrFrame {
+        vol,
+        skip_index,
         geom,
-        interp: settings.interp,
-        gradient: settings.gradient,
-        classifier,
-        shading,
-        termination: settings.ert,
-        skip,
+        range,
+        settings,
+        tiles,
     };
     match tf {
         Tf::OneD(t) => {
-            let table = TfTable::new(t, lo, hi, bins, settings.step);
-            let skip = transparent_cells(skip_index, &table, &gradients)?;
-            Ok(dispatch::dvr(
-                plan(ClassifierRef::OneD(&table), skip.as_ref()),
-                tiles,
-            ))
+            let table = |step| TfTable::new(t, lo, hi, bins, step);
+            let shadow = shadow_geom.map(|g| table(g.step));
+            frame.run(&table(settings.step), shadow.as_ref(), |t| {
+                ClassifierRef::OneD(t)
+            })
         }
         Tf::TwoD(t) => {
             let glimit = (hi - lo) / vol.meta.min_spacing();
             let (glo, ghi) = t.gradient_domain.unwrap_or((0.0, glimit));
             let ghi = if ghi > glo { ghi } else { glo + 1.0 };
-            let table = TfTable2d::new(
-                t,
-                (lo, hi),
-                bins,
-                (glo, ghi),
-                crate::classify::table2d::GRADIENT_BINS,
-                settings.step,
-            );
-            let skip = transparent_cells(skip_index, &table, &gradients)?;
-            Ok(dispatch::dvr(
-                plan(ClassifierRef::TwoD(&table), skip.as_ref()),
-                tiles,
-            ))
+            let table = |step| {
+                TfTable2d::new(
+                    t,
+                    (lo, hi),
+                    bins,
+                    (glo, ghi),
+                    crate::classify::table2d::GRADIENT_BINS,
+                    step,
+                )
+            };
+            let shadow = shadow_geom.map(|g| table(g.step));
+            frame.run(&table(settings.step), shadow.as_ref(), |t| {
+                ClassifierRef::TwoD(t)
+            })
         }
+    }
+}
+
+/// What a DVR frame has before its classifier is built.
+struct DvrFrame<'a> {
+    vol: &'a Volume,
+    skip_index: Option<&'a MajorantIndex>,
+    geom: FrameGeometry,
+    range: (f32, f32),
+    settings: &'a RenderSettings,
+    tiles: Tiles<'a>,
+}
+
+impl DvrFrame<'_> {
+    /// Render with classifier `table` (as `as_ref` names its kind); with
+    /// shadows, `shadow` is the same classifier at the shadow step.
+    fn run<K: Classifier>(
+        self,
+        table: &K,
+        shadow: Option<&K>,
+        as_ref: for<'x> fn(&'x K) -> ClassifierRef<'x>,
+    ) -> Result<Film, RenderError> {
+        let DvrFrame {
+            vol,
+            skip_index,
+            geom,
+            range,
+            settings,
+            tiles,
+        } = self;
+        let value_span = (range.1 - range.0).max(f32::MIN_POSITIVE);
+        // Compared with squared lengths; never below 0, so a zero gradient
+        // is never normalised.
+        let threshold2 = (settings.gradient_threshold * value_span).max(0.0).powi(2);
+        let shading = settings
+            .shading
+            .then(|| PhongShading::new(&settings.lighting, threshold2));
+        let gradients = GradientBound {
+            method: settings.gradient,
+            inv_spacing: geom.inv_spacing,
+        };
+        let skip = transparent_cells(skip_index, table, &gradients)?;
+        // Shadows: the depth table, its clear cells, the light grids.
+        let shadow_parts = match (settings.shadows, shadow) {
+            (Some(sh), Some(alpha)) => {
+                let sgeom = effects::setup::shadow_geometry(&geom, &sh);
+                let depth = alpha.to_optical_depth();
+                let clear = transparent_cells(skip_index, alpha, &gradients)?;
+                let boxes = clear.as_ref().map(|c| c.clear_boxes());
+                let (grids, stats) =
+                    effects::setup::dvr_grids(vol, settings, &sh, &sgeom, &depth, boxes.as_ref())?;
+                Some((sgeom, depth, clear, grids, stats))
+            }
+            _ => None,
+        };
+        let shadows = shadow_parts
+            .as_ref()
+            .map(|(sgeom, depth, clear, grids, _)| DvrShadows {
+                depth: as_ref(depth),
+                skip: clear.as_ref(),
+                geom: *sgeom,
+                hi: tiles.hi,
+                grids,
+                lighting: &settings.lighting,
+                threshold2,
+            });
+        let plan = DvrPlan {
+            geom,
+            interp: settings.interp,
+            gradient: settings.gradient,
+            classifier: as_ref(table),
+            shading,
+            termination: settings.ert,
+            skip: skip.as_ref(),
+            shadows,
+        };
+        let mut film = dispatch::dvr(plan, tiles);
+        if let Some((.., stats)) = &shadow_parts {
+            film.add_grid_stats(stats);
+        }
+        Ok(film)
     }
 }
 

@@ -14,7 +14,8 @@
 //! [`shade`] (Blinn-Phong); [`tf`] (transfer functions as written) and
 //! [`classify`] (their per-frame tables); [`accel`] (macrocell skipping
 //! rules, DDA segments and majorants over the index); [`integrator`]
-//! (DVR, MIP/MinIP, X-ray, iso over one march loop).
+//! (DVR, MIP/MinIP, X-ray, iso over one march loop); [`effects`]
+//! (shadows by shadow rays or light grids, only when a frame asks).
 //!
 //! Conventions (VTK's image data): voxel `(i, j, k)` sits at world position
 //! `(i·sx, j·sy, k·sz)` and the volume's box is `[0, (dims − 1)·spacing]`.
@@ -26,6 +27,7 @@ pub mod accel;
 pub mod camera;
 pub mod classify;
 pub mod dispatch;
+pub mod effects;
 pub mod error;
 pub mod film;
 pub mod frame;
@@ -38,6 +40,7 @@ pub mod shade;
 pub mod tf;
 
 pub use camera::{Camera, Projection};
+pub use effects::{EffectStats, ShadowMethod, Shadows};
 pub use error::RenderError;
 pub use film::{Frame, FrameStats};
 pub use frame::{render, render_tf};

@@ -1,6 +1,7 @@
 //! What a frame is asked to be: the user's choices, before they are
 //! resolved into concrete integrator types (see [`crate::dispatch`]).
 
+use crate::effects::Shadows;
 use crate::shade::Lighting;
 
 /// What a ray computes.
@@ -67,6 +68,9 @@ pub struct RenderSettings {
     pub background: [f32; 3],
     /// Iso-surface colour, sRGB components in [0, 1].
     pub iso_colour: [f32; 3],
+    /// Shadows toward every light (DVR with shading, and iso); `None`:
+    /// off, and no shadow code runs.
+    pub shadows: Option<Shadows>,
 }
 
 impl Default for RenderSettings {
@@ -84,6 +88,7 @@ impl Default for RenderSettings {
             tile: 16,
             background: [0.0; 3],
             iso_colour: [0.85, 0.85, 0.8],
+            shadows: None,
         }
     }
 }

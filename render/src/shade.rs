@@ -2,7 +2,7 @@
 //! Blinn-Phong is the one the ray caster uses; a phase function will sit
 //! beside it for scattering media.
 
-use crate::light::Light;
+use crate::light::{Incident, Light};
 use glam::Vec3;
 
 /// The Blinn-Phong reflection model's weights.
@@ -82,6 +82,22 @@ impl Lighting {
     /// `grad`, seen along unit `view_dir` (from the eye into the scene);
     /// a zero gradient gets the ambient term only.
     pub fn shade_at(&self, colour: Vec3, grad: Vec3, view_dir: Vec3, p: Vec3) -> Vec3 {
+        self.shade_shadowed(colour, grad, view_dir, p, |_, _| 1.0)
+    }
+
+    /// [`Lighting::shade_at`] with each light's share multiplied by
+    /// `transmittance(light index, incident light)`, which is asked only
+    /// for lights that add anything at this normal (the same bits as
+    /// `shade_at` when it returns 1).
+    #[inline]
+    pub fn shade_shadowed(
+        &self,
+        colour: Vec3,
+        grad: Vec3,
+        view_dir: Vec3,
+        p: Vec3,
+        mut transmittance: impl FnMut(usize, &Incident) -> f32,
+    ) -> Vec3 {
         let unit = grad.normalize_or_zero();
         if unit == Vec3::ZERO {
             return colour * self.ambient;
@@ -90,14 +106,46 @@ impl Lighting {
         let n = facing(unit, to_eye);
         let whole = self.model.whole_exponent();
         let (mut d, mut s) = (Vec3::ZERO, Vec3::ZERO);
-        for light in &self.lights {
+        for (i, light) in self.lights.iter().enumerate() {
             let inc = light.at(p, view_dir);
             let h = (inc.towards + to_eye).normalize_or_zero();
             let (kd, ks) = self.model.terms(n, inc.towards, h, whole);
-            d += inc.radiance * kd;
-            s += inc.radiance * ks;
+            if kd == 0.0 && ks == 0.0 {
+                continue;
+            }
+            let t = transmittance(i, &inc);
+            d += inc.radiance * kd * t;
+            s += inc.radiance * ks * t;
         }
         colour * (self.ambient + d) + s
+    }
+
+    /// A point without a normal under shadows: `colour · (a + (1 − a)·T̄)`
+    /// with `a` the ambient term (clamped to [0, 1]) and `T̄` the lights'
+    /// transmittance averaged with their radiance as weights; `colour`
+    /// when there is no light.
+    #[inline]
+    pub fn unlit_shadowed(
+        &self,
+        colour: Vec3,
+        view_dir: Vec3,
+        p: Vec3,
+        mut transmittance: impl FnMut(usize, &Incident) -> f32,
+    ) -> Vec3 {
+        let (mut sum, mut weight) = (0.0f32, 0.0f32);
+        for (i, light) in self.lights.iter().enumerate() {
+            let inc = light.at(p, view_dir);
+            let w = inc.radiance.element_sum();
+            if w > 0.0 && w.is_finite() {
+                sum += w * transmittance(i, &inc);
+                weight += w;
+            }
+        }
+        if weight <= 0.0 {
+            return colour;
+        }
+        let a = self.ambient.clamp(Vec3::ZERO, Vec3::ONE);
+        colour * (a + (Vec3::ONE - a) * (sum / weight))
     }
 
     /// The one light, when there is exactly one and it arrives from the

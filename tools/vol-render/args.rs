@@ -162,6 +162,17 @@ pub struct Cli {
     /// Ambient light: a grey level, or linear r,g,b (default 0.25).
     #[arg(long, value_parser = parse_colour)]
     pub ambient: Option<Vec3>,
+    /// Shadows toward every light: `ray` (a shadow ray per shaded sample
+    /// and light, with empty-space skipping) or `grid[:DIV]` (per
+    /// directional light a transmittance grid every DIV = 1, 2 or 4
+    /// voxels, default 2, built once per frame and read trilinearly; other
+    /// lights cast rays). DVR shadows need --shading phong, which this
+    /// turns on.
+    #[arg(long, value_name = "ray|grid[:DIV]", value_parser = parse_shadows)]
+    pub shadows: Option<String>,
+    /// Distance between shadow samples, world units (default: --step).
+    #[arg(long, value_name = "S")]
+    pub shadow_step: Option<f32>,
     /// The scene file's lights (set by --scene; `None`: a headlight).
     #[arg(skip)]
     pub lights: Option<Vec<LightSpec>>,
@@ -218,6 +229,8 @@ const EXAMPLES: &str = "Examples:
   vol-render shapes.vvol --index shapes.vvol.vidx --no-ert --threads 1 -o a.png
 
   vol-render sphere.vvol --tf boundary --shading phong -o shell.png
+  vol-render shapes.vvol --tf shapes --light 1,2,3 --shadows ray -o shadows.png
+  vol-render shapes.vvol --tf shapes --light 1,2,3 --shadows grid:4 -o fast.png
   vol-render --scene thesis.toml --size 256x256 -o small.png
   vol-render shapes.vvol --tf shapes --orbit 30,20,700 --print-scene > shapes.toml
 
@@ -303,5 +316,27 @@ pub fn parse_colour(s: &str) -> Result<Vec3, String> {
         Err(format!(
             "'{s}': colour components must be finite and not negative"
         ))
+    }
+}
+
+/// `--shadows`: checked here, resolved by [`shadow_method`].
+fn parse_shadows(s: &str) -> Result<String, String> {
+    shadow_method(s).map(|_| s.to_string())
+}
+
+/// The shadow method named `ray`, `grid` or `grid:DIV` (DIV 1, 2 or 4;
+/// `grid` alone is divisor 2).
+pub fn shadow_method(s: &str) -> Result<volrender::ShadowMethod, String> {
+    use volrender::ShadowMethod;
+    match s {
+        "ray" => Ok(ShadowMethod::Ray),
+        "grid" => Ok(ShadowMethod::Grid { divisor: 2 }),
+        _ => match s.strip_prefix("grid:").map(str::parse::<u32>) {
+            Some(Ok(d @ (1 | 2 | 4))) => Ok(ShadowMethod::Grid { divisor: d }),
+            _ => Err(format!(
+                "`{}`: expected ray, grid, or grid:DIV with DIV 1, 2 or 4",
+                volcore::text::clip(&volcore::text::escape(s), 40)
+            )),
+        },
     }
 }

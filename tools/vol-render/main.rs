@@ -186,7 +186,7 @@ fn report(
     let (load_s, index_s, render_s) = (t.load_s, t.index_s, t.render_s);
     let mpix = (frame.width as f64 * frame.height as f64) / 1e6;
     if cli.json {
-        let v = serde_json::json!({
+        let mut v = serde_json::json!({
             "tool": "vol-render",
             "path": volume.display().to_string(),
             "output": output.display().to_string(),
@@ -207,6 +207,16 @@ fn report(
             "peak_rss_mb": peak_rss_mb(),
             "scene": scene,
         });
+        // Each effect's counters, only when it is on.
+        if cli.shadows.is_some() {
+            let e = &s.effects;
+            v["shadow_rays"] = e.shadow_rays.into();
+            v["shadow_samples"] = e.shadow_samples.into();
+            v["shadow_grids"] = e.shadow_grids.into();
+            v["shadow_grid_s"] = e.shadow_grid_s.into();
+            v["shadow_grid_bytes"] = e.shadow_grid_bytes.into();
+            v["shadow_grid_samples"] = e.shadow_grid_samples.into();
+        }
         outln!("{v}")?;
     } else if !cli.quiet {
         noteln!(
@@ -222,6 +232,17 @@ fn report(
             load_s,
             index_s
         );
+        if cli.shadows.is_some() {
+            let e = &s.effects;
+            noteln!(
+                "vol-render: shadows: {} shadow rays, {:.1} M shadow samples; {} grids ({:.1} MB, built in {:.3} s)",
+                e.shadow_rays,
+                e.shadow_samples as f64 / 1e6,
+                e.shadow_grids,
+                e.shadow_grid_bytes as f64 / 1e6,
+                e.shadow_grid_s
+            );
+        }
     }
     Ok(())
 }

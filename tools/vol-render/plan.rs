@@ -43,6 +43,24 @@ impl Plan {
         };
         let (camera, look_at, orbit) = camera(cli, vol)?;
         let settings = settings(cli, vol, index)?;
+        if let Some(sh) = &settings.shadows {
+            if cli.mode == ModeArg::Dvr && cli.shading != ShadingArg::Phong {
+                notes.push("--shadows turns on --shading phong".into());
+            }
+            if matches!(sh.method, volrender::ShadowMethod::Grid { .. })
+                && settings
+                    .lighting
+                    .lights
+                    .iter()
+                    .any(|l| !matches!(l, Light::Directional { .. }))
+            {
+                notes.push(
+                    "shadow grids serve directional lights; the headlight and point lights \
+                     cast shadow rays"
+                        .into(),
+                );
+            }
+        }
         let resolved = Resolved {
             step: settings.step,
             look_at,
@@ -261,6 +279,17 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
             .collect::<Result<_>>()?,
         (None, None) => vec![Light::HEADLIGHT],
     };
+    let shadows = match &cli.shadows {
+        None => None,
+        Some(name) => Some(volrender::Shadows {
+            method: crate::args::shadow_method(name)
+                .map_err(|e| volkit_cli::usage(format!("--shadows {e}")))?,
+            step: cli.shadow_step,
+        }),
+    };
+    if cli.shadow_step.is_some() && shadows.is_none() {
+        bail!("--shadow-step needs --shadows");
+    }
     let defaults = Lighting::default();
     Ok(RenderSettings {
         mode,
@@ -273,7 +302,8 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
             GradientArg::Central => GradientMethod::Central,
             GradientArg::Analytic => GradientMethod::Analytic,
         },
-        shading: cli.shading == ShadingArg::Phong,
+        // Shadows shade: they turn shading on (the plan notes it).
+        shading: cli.shading == ShadingArg::Phong || shadows.is_some(),
         lighting: Lighting {
             lights,
             ambient: cli.ambient.unwrap_or(defaults.ambient),
@@ -283,6 +313,7 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
         ess: !cli.no_ess,
         tile: cli.tile,
         background: (cli.background / 255.0).to_array(),
+        shadows,
         ..Default::default()
     })
 }

@@ -85,6 +85,12 @@ pub struct Scene {
     /// The lights (none given: a headlight).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lights: Option<Vec<LightSpec>>,
+    /// Shadows: `ray`, `grid` or `grid:DIV`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadows: Option<String>,
+    /// Distance between shadow samples, world units.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shadow_step: Option<f32>,
     /// Background colour r, g, b (0-255).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub background: Option<[f32; 3]>,
@@ -372,6 +378,8 @@ impl Scene {
         set!(hdr, "hdr", |p| Some(path(p)));
         set!(heatmap, "heatmap", |p| Some(path(p)));
         set!(ambient, "ambient", |a: Colour| Some(a.rgb()));
+        set!(shadows, "shadows", Some);
+        set!(shadow_step, "shadow_step", Some);
         // The command line's transfer function wins whichever form it takes.
         if !on_command_line("tf") {
             match (self.tf, self.tf_text) {
@@ -468,6 +476,8 @@ pub fn effective(cli: &Cli, resolved: &Resolved) -> Scene {
         gradient: Some(cli.gradient),
         ambient: Some(Colour::Rgb(resolved.ambient.to_array())),
         lights: Some(resolved.lights.iter().map(LightSpec::of).collect()),
+        shadows: cli.shadows.clone(),
+        shadow_step: cli.shadow_step,
         background: Some(cli.background.to_array()),
         alpha: Some(cli.alpha),
         output: cli.output.as_deref().map(absolute),

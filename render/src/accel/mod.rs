@@ -18,7 +18,7 @@ pub mod majorant;
 pub mod skip;
 
 pub use hierarchy::{Hierarchy, Step};
-pub use skip::{FixedCells, IsoSides, RunningMax, RunningMin};
+pub use skip::{ClearBoxes, FixedCells, IsoSides, RunningMax, RunningMin};
 
 use glam::Vec3;
 

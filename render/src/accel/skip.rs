@@ -46,6 +46,11 @@ impl<'a> FixedCells<'a> {
         }
     }
 
+    /// Boxes made only of cells this rule skips.
+    pub fn clear_boxes(&self) -> ClearBoxes<'_> {
+        ClearBoxes::new(self.h.index(), &self.flags, |f| f != 0)
+    }
+
     /// The fraction of level-0 cells that may be skipped.
     pub fn skippable_fraction(&self) -> f64 {
         let n = self.h.index().levels().first().map_or(0, |l| l.len());
@@ -141,6 +146,58 @@ impl<'a> IsoSides<'a> {
                 }
             }),
         }
+    }
+}
+
+impl IsoSides<'_> {
+    /// Boxes made only of cells entirely below the iso value.
+    pub fn clear_boxes_below(&self) -> ClearBoxes<'_> {
+        ClearBoxes::new(self.h.index(), &self.flags, |f| f == ISO_BELOW)
+    }
+}
+
+/// Whether an axis-aligned box of voxel space lies in level-0 cells that
+/// hold nothing a sample could see (for light grids, which then skip the
+/// segment inside the box).
+pub struct ClearBoxes<'a> {
+    level: &'a volindex::Level,
+    dims: volcore::Dims,
+    /// Per level-0 cell: clear or not.
+    clear: Vec<bool>,
+}
+
+/// Boxes spanning more cells than this per axis are not checked (taken as
+/// not clear).
+const MAX_BOX_CELLS: u64 = 4;
+
+impl<'a> ClearBoxes<'a> {
+    fn new(index: &'a MajorantIndex, flags: &[u8], clear: impl Fn(u8) -> bool) -> Self {
+        let level = index.level(0);
+        ClearBoxes {
+            level,
+            dims: index.dims(),
+            clear: flags[..level.len()].iter().map(|&f| clear(f)).collect(),
+        }
+    }
+
+    /// Whether every sample point in the box `[lo, hi]` (voxel
+    /// coordinates) lies in a clear cell.
+    pub fn clear(&self, lo: Vec3, hi: Vec3) -> bool {
+        let a = self.level.cell_of(lo.to_array(), self.dims);
+        let b = self.level.cell_of(hi.to_array(), self.dims);
+        if (0..3).any(|i| b[i] < a[i] || b[i] - a[i] >= MAX_BOX_CELLS) {
+            return false;
+        }
+        for z in a[2]..=b[2] {
+            for y in a[1]..=b[1] {
+                for x in a[0]..=b[0] {
+                    if !self.clear[self.level.index(x, y, z)] {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
     }
 }
 

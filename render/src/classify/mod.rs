@@ -41,6 +41,12 @@ pub trait Classifier: Sync {
     /// NaN values are transparent.
     fn classify(&self, v: f32, gradient: f32) -> [f32; 4];
 
+    /// The same table with each opacity `α` replaced by its optical depth
+    /// `−ln(1 − α)` (infinite at α = 1), for shadow rays that add depths.
+    fn to_optical_depth(&self) -> Self
+    where
+        Self: Sized;
+
     /// For every level of `index` and every cell: `true` when no sample
     /// the cell can produce (any value in its range, any gradient the
     /// frame's gradient method can give there) has nonzero opacity.
@@ -63,6 +69,18 @@ pub fn correct_opacity(alpha: f32, ratio: f64) -> f32 {
     }
     let a = -((ratio * (-(alpha as f64)).ln_1p()).exp_m1());
     a.clamp(0.0, 1.0) as f32
+}
+
+/// Optical depth `−ln(1 − α)` of an opacity: 0 at α ≤ 0 (and NaN),
+/// infinite at α ≥ 1, accurate for small α.
+pub fn optical_depth(alpha: f32) -> f32 {
+    if alpha.is_nan() || alpha <= 0.0 {
+        return 0.0;
+    }
+    if alpha >= 1.0 {
+        return f32::INFINITY;
+    }
+    (-(-(alpha as f64)).ln_1p()) as f32
 }
 
 /// sRGB transfer curve to linear light.

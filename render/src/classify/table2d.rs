@@ -114,6 +114,14 @@ impl Classifier for TfTable2d {
         self.lookup(v, gradient)
     }
 
+    fn to_optical_depth(&self) -> Self {
+        let mut t = self.clone();
+        for e in &mut t.entries {
+            e[3] = super::optical_depth(e[3]);
+        }
+        t
+    }
+
     fn transparent_cells(
         &self,
         index: &MajorantIndex,

@@ -5,6 +5,7 @@ use super::reconstruct::{Gradient, Reconstruct};
 use super::{FrameGeometry, Integrator, RayResult};
 use crate::accel::Accel;
 use crate::classify::Classifier;
+use crate::effects::RayEffects;
 use crate::light::Light;
 use crate::ray::Ray;
 use crate::shade::{Lighting, ViewShading};
@@ -44,16 +45,31 @@ impl Termination for OpacityThreshold {
 
 /// How a classified sample's colour is lit.
 pub trait Shading: Sync {
-    /// What the shading works out once per ray.
-    type PerRay: Copy;
+    /// What the shading works out once per ray (and what it counts along
+    /// it).
+    type PerRay;
     /// Whether it shades at all (then the integrator computes gradients
     /// of visible samples).
     const ON: bool;
     /// The per-ray part for `ray`.
     fn for_ray(&self, ray: &Ray) -> Self::PerRay;
     /// `colour` lit at ray parameter `t`, where the world-space gradient
-    /// is `grad`, of squared length `len2`.
-    fn shade(&self, per_ray: &Self::PerRay, colour: Vec3, grad: Vec3, len2: f32, t: f32) -> Vec3;
+    /// is `grad`, of squared length `len2`; effects that sample the volume
+    /// (shadows) read it through `cur`.
+    fn shade<C: Cursor>(
+        &self,
+        per_ray: &mut Self::PerRay,
+        cur: &mut C,
+        colour: Vec3,
+        grad: Vec3,
+        len2: f32,
+        t: f32,
+    ) -> Vec3;
+    /// What the effects did along the ray (nothing, for plain shading).
+    #[inline(always)]
+    fn effects(_per_ray: &Self::PerRay) -> RayEffects {
+        RayEffects::default()
+    }
 }
 
 /// Classified colour as is.
@@ -66,7 +82,15 @@ impl Shading for Unshaded {
     #[inline(always)]
     fn for_ray(&self, _: &Ray) {}
     #[inline(always)]
-    fn shade(&self, _: &(), colour: Vec3, _: Vec3, _: f32, _: f32) -> Vec3 {
+    fn shade<C: Cursor>(
+        &self,
+        _: &mut (),
+        _: &mut C,
+        colour: Vec3,
+        _: Vec3,
+        _: f32,
+        _: f32,
+    ) -> Vec3 {
         colour
     }
 }
@@ -125,7 +149,15 @@ impl Shading for Phong<'_> {
         self.lighting.for_view(self.light, ray.dir)
     }
     #[inline(always)]
-    fn shade(&self, view: &ViewShading, colour: Vec3, grad: Vec3, len2: f32, _: f32) -> Vec3 {
+    fn shade<C: Cursor>(
+        &self,
+        view: &mut ViewShading,
+        _: &mut C,
+        colour: Vec3,
+        grad: Vec3,
+        len2: f32,
+        _: f32,
+    ) -> Vec3 {
         if len2 > self.threshold2 {
             view.shade_normal(colour, grad * len2.sqrt().recip())
         } else {
@@ -142,7 +174,15 @@ impl Shading for PhongLights<'_> {
         *ray
     }
     #[inline(always)]
-    fn shade(&self, ray: &Ray, colour: Vec3, grad: Vec3, len2: f32, t: f32) -> Vec3 {
+    fn shade<C: Cursor>(
+        &self,
+        ray: &mut Ray,
+        _: &mut C,
+        colour: Vec3,
+        grad: Vec3,
+        len2: f32,
+        t: f32,
+    ) -> Vec3 {
         if len2 > self.threshold2 {
             let p = ray.origin + ray.dir * t;
             self.lighting.shade_at(colour, grad, ray.dir, p)
@@ -210,6 +250,7 @@ where
             rgba: [st.colour.x, st.colour.y, st.colour.z, st.alpha],
             samples: st.samples,
             skips,
+            effects: S::effects(&st.view),
             ..RayResult::empty()
         }
     }
@@ -270,7 +311,7 @@ where
                     grad = G::gradient(early, loc, cur, p) * self.inv_spacing;
                     len2 = grad.length_squared();
                 }
-                c = d.shading.shade(&self.view, c, grad, len2, t);
+                c = d.shading.shade(&mut self.view, cur, c, grad, len2, t);
             }
             let weight = (1.0 - self.alpha) * e[3];
             self.colour += c * weight;

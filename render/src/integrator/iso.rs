@@ -4,7 +4,8 @@ use super::march::{march, Flow, RayMarch, RaySteps};
 use super::reconstruct::{Gradient, Reconstruct};
 use super::{FrameGeometry, Integrator, RayResult};
 use crate::accel::skip::{ISO_ABOVE, ISO_BELOW};
-use crate::accel::Accel;
+use crate::accel::{Accel, IsoSides};
+use crate::effects::{IsoInside, ShadowCaster};
 use crate::ray::Ray;
 use crate::shade::Lighting;
 use glam::Vec3;
@@ -27,18 +28,24 @@ pub struct Iso<'a, R, G, A> {
     /// Linear surface colour.
     colour: Vec3,
     lighting: &'a Lighting,
+    /// Shadows, if the frame casts them.
+    shadows: Option<&'a IsoCaster<'a, R>>,
     _choices: PhantomData<(R, G)>,
 }
 
+/// Shadows on an iso-surface: its inside blocks light.
+pub type IsoCaster<'a, R> = ShadowCaster<'a, IsoInside<R>, IsoSides<'a>>;
+
 impl<'a, R, G, A> Iso<'a, R, G, A> {
     /// The integrator for iso value `level`, surface colour `colour`
-    /// (linear) lit by `lighting`.
+    /// (linear) lit by `lighting`, shadowed by `shadows` when given.
     pub fn new(
         geom: FrameGeometry,
         accel: A,
         level: f32,
         colour: Vec3,
         lighting: &'a Lighting,
+        shadows: Option<&'a IsoCaster<'a, R>>,
     ) -> Self {
         Iso {
             geom,
@@ -46,6 +53,7 @@ impl<'a, R, G, A> Iso<'a, R, G, A> {
             level,
             colour,
             lighting,
+            shadows,
             _choices: PhantomData,
         }
     }
@@ -146,7 +154,18 @@ impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, '_, R, G, A> {
         let g = G::gradient(early, loc, cur, p) * iso.geom.inv_spacing;
         let c = if g.length() > 0.0 {
             let at = self.ray.origin + self.ray.dir * t;
-            iso.lighting.shade_at(iso.colour, g, self.ray.dir, at)
+            match iso.shadows {
+                None => iso.lighting.shade_at(iso.colour, g, self.ray.dir, at),
+                Some(caster) => {
+                    // The side the view ray arrived from is the outside.
+                    let (outside, fx) = (self.prev, &mut self.out.effects);
+                    let mut light = |i: usize, inc: &crate::light::Incident| {
+                        caster.transmittance(cur, i, at, inc, outside, fx)
+                    };
+                    iso.lighting
+                        .shade_shadowed(iso.colour, g, self.ray.dir, at, &mut light)
+                }
+            }
         } else {
             iso.colour * iso.lighting.ambient
         };

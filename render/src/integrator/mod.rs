@@ -65,6 +65,8 @@ pub struct RayResult {
     pub samples: u32,
     /// Skips made.
     pub skips: u32,
+    /// What the frame's effects (shadows) did for this ray.
+    pub effects: crate::effects::RayEffects,
 }
 
 impl RayResult {

@@ -1,0 +1,156 @@
+//! Shadows at a shaded point: per light, a grid read or a shadow ray; and
+//! the DVR shading that multiplies each light by its transmittance.
+
+use super::light_grid::LightGrid;
+use super::occluder::Occluder;
+use super::shadow_ray::transmittance;
+use super::RayEffects;
+use crate::accel::{Accel, NoSkipping};
+use crate::integrator::dvr::Shading;
+use crate::integrator::march::RaySteps;
+use crate::integrator::FrameGeometry;
+use crate::light::Incident;
+use crate::ray::{intersect_box, Ray};
+use crate::shade::Lighting;
+use glam::Vec3;
+use volcore::Cursor;
+
+/// Transmittance from a point toward each light of a frame.
+pub struct ShadowCaster<'a, O, A> {
+    occ: O,
+    skip: Option<&'a A>,
+    /// Shadow-ray sample placement (the shadow step).
+    geom: FrameGeometry,
+    /// The far corner of the volume's box.
+    hi: Vec3,
+    /// Per light: its grid, or `None` for shadow rays.
+    grids: &'a [Option<LightGrid>],
+    /// Voxels along the light by which a grid read moves off the point
+    /// (iso-surfaces: so the surface does not shadow itself).
+    grid_offset: f32,
+}
+
+impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
+    /// Shadows through `occ`, marched at `geom.step` with skipping `skip`
+    /// in the box `[0, hi]`; lights with a grid in `grids` read it (moved
+    /// `grid_offset` voxels toward the light).
+    pub fn new(
+        occ: O,
+        skip: Option<&'a A>,
+        geom: FrameGeometry,
+        hi: Vec3,
+        grids: &'a [Option<LightGrid>],
+        grid_offset: f32,
+    ) -> Self {
+        ShadowCaster {
+            occ,
+            skip,
+            geom,
+            hi,
+            grids,
+            grid_offset,
+        }
+    }
+
+    /// The fraction of light `light` (arriving as `inc`) that reaches
+    /// world point `p`, with query `q`; counts shadow rays into `fx`.
+    #[inline]
+    pub fn transmittance<C: Cursor>(
+        &self,
+        cur: &mut C,
+        light: usize,
+        p: Vec3,
+        inc: &Incident,
+        q: O::Query,
+        fx: &mut RayEffects,
+    ) -> f32 {
+        let inv = self.geom.inv_spacing;
+        if let Some(Some(grid)) = self.grids.get(light) {
+            let mut pv = p * inv;
+            if self.grid_offset > 0.0 {
+                let lv = inc.towards * inv;
+                let m = lv.abs().max_element();
+                if m > 0.0 {
+                    pv += lv * (self.grid_offset / m);
+                }
+            }
+            return grid.transmittance(pv);
+        }
+        fx.shadow_rays += 1;
+        let ray = Ray {
+            origin: p,
+            dir: inc.towards,
+        };
+        let Some((_, t1)) = intersect_box(&ray, Vec3::ZERO, self.hi) else {
+            return 1.0;
+        };
+        let t1 = t1.min(inc.distance);
+        let steps = RaySteps::new(&self.geom, &ray, self.geom.step, t1);
+        let (t, samples) = match self.skip {
+            Some(a) => transmittance(&self.occ, a, cur, &steps, q),
+            None => transmittance(&self.occ, &NoSkipping, cur, &steps, q),
+        };
+        fx.shadow_samples += samples as u64;
+        t
+    }
+}
+
+/// Blinn-Phong with shadows for DVR: each light's share of a sample's
+/// light is multiplied by its transmittance from the sample. Samples whose
+/// gradient is too short for a normal keep their colour scaled by the
+/// lights' mean transmittance (above the ambient part).
+pub struct ShadowedPhong<'a, O, A> {
+    lighting: &'a Lighting,
+    threshold2: f32,
+    caster: &'a ShadowCaster<'a, O, A>,
+}
+
+impl<'a, O, A> ShadowedPhong<'a, O, A> {
+    /// Shading with `lighting` where the squared gradient length exceeds
+    /// `threshold2`, shadowed by `caster`.
+    pub fn new(
+        lighting: &'a Lighting,
+        threshold2: f32,
+        caster: &'a ShadowCaster<'a, O, A>,
+    ) -> Self {
+        ShadowedPhong {
+            lighting,
+            threshold2,
+            caster,
+        }
+    }
+}
+
+impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for ShadowedPhong<'_, O, A> {
+    type PerRay = (Ray, RayEffects);
+    const ON: bool = true;
+    #[inline(always)]
+    fn for_ray(&self, ray: &Ray) -> (Ray, RayEffects) {
+        (*ray, RayEffects::default())
+    }
+    #[inline(always)]
+    fn shade<C: Cursor>(
+        &self,
+        st: &mut (Ray, RayEffects),
+        cur: &mut C,
+        colour: Vec3,
+        grad: Vec3,
+        len2: f32,
+        t: f32,
+    ) -> Vec3 {
+        let (ray, fx) = st;
+        let p = ray.origin + ray.dir * t;
+        let mut light =
+            |i: usize, inc: &Incident| self.caster.transmittance(cur, i, p, inc, (), fx);
+        if len2 > self.threshold2 {
+            self.lighting
+                .shade_shadowed(colour, grad, ray.dir, p, &mut light)
+        } else {
+            self.lighting.unlit_shadowed(colour, ray.dir, p, &mut light)
+        }
+    }
+    #[inline(always)]
+    fn effects(st: &(Ray, RayEffects)) -> RayEffects {
+        st.1
+    }
+}

@@ -1,0 +1,80 @@
+//! Lighting effects beyond local shading: shadows, each switched on by
+//! the frame's settings and costing nothing when off (the frame is then
+//! built from exactly the integrator types it had before effects existed).
+//!
+//! - [`occluder`]: what blocks light, as optical depth per sample: the
+//!   classified volume (DVR) or the iso-surface's inside (iso).
+//! - [`shadow_ray`]: transmittance toward a light by marching a shadow ray
+//!   with the frame's macrocell skipping.
+//! - [`light_grid`]: a transmittance grid per directional light, swept
+//!   slab by slab away from the light once per frame, read trilinearly.
+//! - [`caster`]: the per-light choice between the two, the counters, and
+//!   the DVR shading type that uses them.
+
+pub mod caster;
+pub mod light_grid;
+pub mod occluder;
+pub mod setup;
+pub mod shadow_ray;
+
+pub use caster::{ShadowCaster, ShadowedPhong};
+pub use light_grid::LightGrid;
+pub use occluder::{Classified, IsoInside, Occluder};
+
+/// A shadow ray stops once its transmittance falls below this and counts
+/// as fully shadowed: the light it drops is at most this fraction of the
+/// light's radiance (well under half of one 8-bit level).
+pub const SHADOW_CUTOFF: f32 = 1e-3;
+
+/// The optical depth past which a shadow ray stops (`−ln SHADOW_CUTOFF`).
+pub const SHADOW_DEPTH_CUTOFF: f32 = 6.907_755;
+
+/// How shadows are computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowMethod {
+    /// A shadow ray per shaded sample and light, marched with skipping.
+    Ray,
+    /// A transmittance grid per directional light, one point every
+    /// `divisor` voxels along each axis (1, 2 or 4); other lights fall
+    /// back to shadow rays.
+    Grid {
+        /// Voxels per grid cell along each axis.
+        divisor: u32,
+    },
+}
+
+/// Shadow settings of a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shadows {
+    /// The method.
+    pub method: ShadowMethod,
+    /// Distance between shadow samples, world units (`None`: the frame's
+    /// step).
+    pub step: Option<f32>,
+}
+
+/// What the effects did in a frame (all zero when they are off).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EffectStats {
+    /// Shadow rays marched.
+    pub shadow_rays: u64,
+    /// Samples those shadow rays took.
+    pub shadow_samples: u64,
+    /// Light grids built.
+    pub shadow_grids: u32,
+    /// Seconds spent building them.
+    pub shadow_grid_s: f64,
+    /// Their memory, bytes.
+    pub shadow_grid_bytes: u64,
+    /// Samples their build took.
+    pub shadow_grid_samples: u64,
+}
+
+/// Per-ray effect counters, carried in a ray's result.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayEffects {
+    /// Shadow rays this ray's samples cast.
+    pub shadow_rays: u32,
+    /// Samples those shadow rays took.
+    pub shadow_samples: u64,
+}

@@ -1,0 +1,90 @@
+//! What blocks light: the optical depth one shadow sample adds.
+
+use crate::classify::Classifier;
+use crate::integrator::reconstruct::{Gradient, Reconstruct};
+use glam::Vec3;
+use std::marker::PhantomData;
+use volcore::grid::Locator;
+use volcore::Cursor;
+
+/// Optical depth along shadow rays, one sample at a time.
+pub trait Occluder: Sync {
+    /// What a shadow ray adds to the rule (`()` for the classified volume,
+    /// the outside's side for an iso-surface).
+    type Query: Copy + Send + Sync;
+    /// The optical depth of the sample at voxel-space point `p`, for the
+    /// step the occluder was built for: 0 clear, infinite opaque, never
+    /// negative or NaN.
+    fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, q: Self::Query) -> f32;
+}
+
+/// The classified volume (DVR): a sample's depth is `−ln(1 − α)` of its
+/// opacity for the shadow step, read from a depth table
+/// ([`Classifier::to_optical_depth`]); gradients from `G` when the
+/// classifier reads them.
+pub struct Classified<'a, R, G, K> {
+    table: &'a K,
+    loc: Locator,
+    inv_spacing: Vec3,
+    _choices: PhantomData<(R, G)>,
+}
+
+impl<'a, R, G, K> Classified<'a, R, G, K> {
+    /// The occluder reading `depth_table` (built by
+    /// [`Classifier::to_optical_depth`]).
+    pub fn new(depth_table: &'a K, loc: Locator, inv_spacing: Vec3) -> Self {
+        Classified {
+            table: depth_table,
+            loc,
+            inv_spacing,
+            _choices: PhantomData,
+        }
+    }
+}
+
+impl<R: Reconstruct, G: Gradient, K: Classifier> Occluder for Classified<'_, R, G, K> {
+    type Query = ();
+    #[inline(always)]
+    fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, _: ()) -> f32 {
+        let (v, early) = G::value::<C, R>(&self.loc, cur, p);
+        let g = if K::NEEDS_GRADIENT {
+            (G::gradient(early, &self.loc, cur, p) * self.inv_spacing).length()
+        } else {
+            0.0
+        };
+        self.table.classify(v, g)[3]
+    }
+}
+
+/// The inside of an iso-surface, opaque: a sample on the other side of the
+/// level from the outside blocks all light. The query is the outside's
+/// side (`true`: values at or above the level; a surface seen from inside
+/// lights its inside).
+pub struct IsoInside<R> {
+    level: f32,
+    loc: Locator,
+    _r: PhantomData<R>,
+}
+
+impl<R> IsoInside<R> {
+    /// The inside for iso value `level`.
+    pub fn new(level: f32, loc: Locator) -> Self {
+        IsoInside {
+            level,
+            loc,
+            _r: PhantomData,
+        }
+    }
+}
+
+impl<R: Reconstruct> Occluder for IsoInside<R> {
+    type Query = bool;
+    #[inline(always)]
+    fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, outside_above: bool) -> f32 {
+        if (R::value(&self.loc, cur, p) >= self.level) != outside_above {
+            f32::INFINITY
+        } else {
+            0.0
+        }
+    }
+}
