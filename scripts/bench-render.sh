@@ -8,7 +8,11 @@
 # Targets (issue 5): 2 threads with all optimisations <= 0.3 s; 1 thread
 # with them <= 1 s; 1 thread with none <= 12 s; parallel efficiency >= 1.8x.
 # Thesis on this machine class: 1.57 s, 9.06 s and 125.6 s.
+# Shadows (issue 12): the same scene lit by one directional light, without
+# shadows, with shadow rays (target <= 4x) and with light grids at
+# divisors 4 and 2 (target <= 1.5x; the grid's build counts in the frame).
 # Usage: scripts/bench-render.sh [DIM] [REPEAT]   (default 800 5)
+#        ONLY=shadows scripts/bench-render.sh      (the shadow rows alone)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DIM=${1:-800}
@@ -36,11 +40,21 @@ run() { # name, extra args...
     echo "$j" | field render_s > "$DIR/last.txt"
 }
 
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a/b}'; }
 echo "thesis benchmark, ${DIM}^3, load average: $(cut -d' ' -f1-3 /proc/loadavg)"
+if [ "${ONLY:-}" != shadows ]; then
 run "2 threads, ERT+ESS, memory-mapped" --threads 2 --repeat "$REPEAT"; t2=$(cat "$DIR/last.txt")
 run "2 threads, ERT+ESS, in memory" --threads 2 --repeat "$REPEAT" --in-memory
 run "2 threads, ERT+ESS, analytic gradient" --threads 2 --repeat "$REPEAT" --gradient analytic
 run "1 thread, ERT+ESS" --threads 1 --repeat "$REPEAT"; t1=$(cat "$DIR/last.txt")
 run "1 thread, no ERT, no ESS" --threads 1 --repeat 1 --no-ert --no-ess
-echo "parallel efficiency (1 thread / 2 threads): $(awk -v a="$t1" -v b="$t2" 'BEGIN {printf "%.2fx", a/b}')"
+echo "parallel efficiency (1 thread / 2 threads): $(ratio "$t1" "$t2")"
+fi
+LIGHT=(--light 1,2,0.5 --threads 2 --repeat "$REPEAT")
+run "2 threads, directional light" "${LIGHT[@]}"; t0=$(cat "$DIR/last.txt")
+for sh in "ray" "ray --shadow-step 1" "grid:4" "grid:2"; do
+    # shellcheck disable=SC2086 # the method and its options, split
+    run "  + shadows $sh" "${LIGHT[@]}" --shadows $sh
+    echo "    shadows $sh / no shadows: $(ratio "$(cat "$DIR/last.txt")" "$t0")"
+done
 echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg)"

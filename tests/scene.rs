@@ -251,3 +251,68 @@ fn bad_scenes_fail_in_one_line_naming_file_line_and_key() {
         "no volume",
     );
 }
+
+#[test]
+fn shadows_from_the_command_line_or_a_scene_report_their_counters() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = shapes(d);
+    let v = vol.to_str().unwrap();
+    let json = |extra: &[&str]| -> serde_json::Value {
+        let out = ok(tool("vol-render")
+            .arg(v)
+            .args(CAMERA)
+            .args(["--light", "1,2,0.5", "--json", "-o"])
+            .arg(d.join("j.png"))
+            .args(extra));
+        serde_json::from_str(&out).unwrap()
+    };
+    // Off: no shadow keys at all.
+    let off = json(&[]);
+    assert!(off.get("shadow_rays").is_none(), "{off}");
+    // Rays: shadow rays and samples, no grid.
+    let ray = json(&["--shadows", "ray", "--shadow-step", "0.8"]);
+    assert!(ray["shadow_rays"].as_u64().unwrap() > 0, "{ray}");
+    assert!(ray["shadow_samples"].as_u64().unwrap() > 0);
+    assert_eq!(ray["shadow_grids"], 0);
+    assert_eq!(ray["scene"]["shadows"], "ray");
+    assert_eq!(ray["scene"]["shadow-step"], 0.8);
+    // A grid for the one directional light: no shadow rays.
+    let grid = json(&["--shadows", "grid:4"]);
+    assert_eq!(grid["shadow_rays"], 0, "{grid}");
+    assert_eq!(grid["shadow_grids"], 1);
+    assert!(grid["shadow_grid_bytes"].as_u64().unwrap() > 0);
+    // The same from a scene file.
+    std::fs::write(
+        d.join("sh.toml"),
+        "shadows = \"grid:4\"\n[[lights]]\ntype = \"directional\"\ndirection = [-1, -2, -0.5]\n",
+    )
+    .unwrap();
+    let from_scene = json(&["--scene", d.join("sh.toml").to_str().unwrap()]);
+    assert_eq!(from_scene["shadow_grids"], 1, "{from_scene}");
+    // Bad values: one line naming the option.
+    fails(
+        tool("vol-render")
+            .arg(v)
+            .args(["--shadows", "grid:3", "-o"])
+            .arg(d.join("x.png")),
+        "grid:DIV with DIV 1, 2 or 4",
+    );
+    assert!(!d.join("x.png").exists());
+    std::fs::write(d.join("bad.toml"), "shadows = \"soft\"\n").unwrap();
+    let msg = fails(
+        tool("vol-render")
+            .arg(v)
+            .args(["--scene", d.join("bad.toml").to_str().unwrap(), "-o"])
+            .arg(d.join("y.png")),
+        "--shadows",
+    );
+    assert!(msg.contains("soft"), "{msg}");
+    fails(
+        tool("vol-render")
+            .arg(v)
+            .args(["--mode", "mip", "--shadows", "ray", "-o"])
+            .arg(d.join("z.png")),
+        "DVR and iso",
+    );
+}

@@ -216,6 +216,27 @@ impl ViewShading {
     }
 }
 
+impl ViewShading {
+    /// [`ViewShading::shade_normal`] with the light's share multiplied by
+    /// `transmittance()`, which is asked only when the light adds anything
+    /// at this normal.
+    #[inline(always)]
+    pub fn shade_normal_shadowed(
+        &self,
+        colour: Vec3,
+        unit_grad: Vec3,
+        transmittance: impl FnOnce() -> f32,
+    ) -> Vec3 {
+        let n = facing(unit_grad, self.to_eye);
+        let (kd, ks) = self.model.terms(n, self.l, self.h, self.whole_exponent);
+        if kd == 0.0 && ks == 0.0 {
+            return colour * self.ambient;
+        }
+        let light = self.radiance * transmittance();
+        colour * (self.ambient + light * kd) + light * ks
+    }
+}
+
 /// `x^n` by repeated squaring, inline (`powi` with an exponent known only
 /// at run time becomes a library call).
 #[inline(always)]

@@ -156,48 +156,65 @@ impl IsoSides<'_> {
     }
 }
 
-/// Whether an axis-aligned box of voxel space lies in level-0 cells that
-/// hold nothing a sample could see (for light grids, which then skip the
-/// segment inside the box).
+/// Which level-0 cells hold nothing a sample could see, by cell
+/// coordinates (for light grids, which skip segments inside such cells).
 pub struct ClearBoxes<'a> {
     level: &'a volindex::Level,
     dims: volcore::Dims,
+    /// `log2` of the cell edge when it is a power of two (then finding a
+    /// cell is a shift).
+    shift: Option<u32>,
     /// Per level-0 cell: clear or not.
     clear: Vec<bool>,
 }
 
-/// Boxes spanning more cells than this per axis are not checked (taken as
-/// not clear).
-const MAX_BOX_CELLS: u64 = 4;
-
 impl<'a> ClearBoxes<'a> {
     fn new(index: &'a MajorantIndex, flags: &[u8], clear: impl Fn(u8) -> bool) -> Self {
         let level = index.level(0);
+        let edge = level.edge();
         ClearBoxes {
             level,
             dims: index.dims(),
+            shift: edge.is_power_of_two().then(|| edge.trailing_zeros()),
             clear: flags[..level.len()].iter().map(|&f| clear(f)).collect(),
         }
     }
 
-    /// Whether every sample point in the box `[lo, hi]` (voxel
-    /// coordinates) lies in a clear cell.
-    pub fn clear(&self, lo: Vec3, hi: Vec3) -> bool {
-        let a = self.level.cell_of(lo.to_array(), self.dims);
-        let b = self.level.cell_of(hi.to_array(), self.dims);
-        if (0..3).any(|i| b[i] < a[i] || b[i] - a[i] >= MAX_BOX_CELLS) {
-            return false;
-        }
-        for z in a[2]..=b[2] {
-            for y in a[1]..=b[1] {
-                for x in a[0]..=b[0] {
-                    if !self.clear[self.level.index(x, y, z)] {
-                        return false;
-                    }
-                }
+    /// The level-0 cell of voxel point `p`, as the index finds it (clamp
+    /// to the volume, floor, divide by the edge).
+    #[inline(always)]
+    fn cell_of(&self, p: Vec3) -> [u64; 3] {
+        match self.shift {
+            Some(sh) => {
+                let d = self.dims.as_array();
+                let cells = self.level.cells();
+                std::array::from_fn(|a| {
+                    let base = volcore::grid::clamp_axis(p[a], d[a]) as u64;
+                    (base >> sh).min(cells[a] - 1)
+                })
             }
+            None => self.level.cell_of(p.to_array(), self.dims),
         }
-        true
+    }
+
+    /// Level-0 cells along each axis.
+    pub fn cells(&self) -> [u64; 3] {
+        self.level.cells()
+    }
+
+    /// The level-0 cell coordinate along `axis` of voxel coordinate `p`
+    /// (as the index finds it).
+    #[inline]
+    pub fn cell_along(&self, axis: usize, p: f32) -> u64 {
+        let mut v = Vec3::ZERO;
+        v[axis] = p;
+        self.cell_of(v)[axis]
+    }
+
+    /// Whether cell `c` (cell coordinates) is clear.
+    #[inline]
+    pub fn is_clear(&self, c: [u64; 3]) -> bool {
+        self.clear[self.level.index(c[0], c[1], c[2])]
     }
 }
 

@@ -11,7 +11,7 @@ use crate::integrator::march::RaySteps;
 use crate::integrator::FrameGeometry;
 use crate::light::Incident;
 use crate::ray::{intersect_box, Ray};
-use crate::shade::Lighting;
+use crate::shade::{Lighting, ViewShading};
 use glam::Vec3;
 use volcore::Cursor;
 
@@ -121,28 +121,53 @@ impl<'a, O, A> ShadowedPhong<'a, O, A> {
     }
 }
 
+/// A shadowed ray's state: the ray, its counters, and the per-ray
+/// shading when the frame has one light from a fixed direction.
+pub struct ShadowedRay {
+    ray: Ray,
+    fx: RayEffects,
+    one_light: Option<ViewShading>,
+}
+
 impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for ShadowedPhong<'_, O, A> {
-    type PerRay = (Ray, RayEffects);
+    type PerRay = ShadowedRay;
     const ON: bool = true;
     #[inline(always)]
-    fn for_ray(&self, ray: &Ray) -> (Ray, RayEffects) {
-        (*ray, RayEffects::default())
+    fn for_ray(&self, ray: &Ray) -> ShadowedRay {
+        ShadowedRay {
+            ray: *ray,
+            fx: RayEffects::default(),
+            one_light: self
+                .lighting
+                .single_per_ray_light()
+                .map(|l| self.lighting.for_view(l, ray.dir)),
+        }
     }
     #[inline(always)]
     fn shade<C: Cursor>(
         &self,
-        st: &mut (Ray, RayEffects),
+        st: &mut ShadowedRay,
         cur: &mut C,
         colour: Vec3,
         grad: Vec3,
         len2: f32,
         t: f32,
     ) -> Vec3 {
-        let (ray, fx) = st;
+        let ShadowedRay { ray, fx, one_light } = st;
         let p = ray.origin + ray.dir * t;
+        let lit = len2 > self.threshold2;
+        if let (Some(view), true) = (one_light.as_ref(), lit) {
+            // One light from one direction along the ray: its incident
+            // light is the same everywhere (index 0).
+            let inc = self.lighting.lights[0].for_ray(ray.dir);
+            let unit = grad * len2.sqrt().recip();
+            return view.shade_normal_shadowed(colour, unit, || {
+                self.caster.transmittance(cur, 0, p, &inc, (), fx)
+            });
+        }
         let mut light =
             |i: usize, inc: &Incident| self.caster.transmittance(cur, i, p, inc, (), fx);
-        if len2 > self.threshold2 {
+        if lit {
             self.lighting
                 .shade_shadowed(colour, grad, ray.dir, p, &mut light)
         } else {
@@ -150,7 +175,7 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for ShadowedPhong<'_, O, A> 
         }
     }
     #[inline(always)]
-    fn effects(st: &(Ray, RayEffects)) -> RayEffects {
-        st.1
+    fn effects(st: &ShadowedRay) -> RayEffects {
+        st.fx
     }
 }

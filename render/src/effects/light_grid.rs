@@ -30,9 +30,8 @@ pub struct LightGrid {
     perm: [usize; 3],
     /// Grid points per volume axis.
     g: [usize; 3],
-    /// Volume dims per axis.
-    n: [usize; 3],
-    div: usize,
+    /// The storage axes' point lookup, in storage order.
+    axes: [GridAxis; 3],
     data: Vec<f32>,
     /// Seconds the build took.
     pub build_s: f64,
@@ -178,20 +177,20 @@ impl LightGrid {
                 (&mut tail[..slice_len], &head[prev * slice_len..])
             };
             let prev_slab: &[f32] = prev_slab;
+            let slab = sweep.slab(i, prev);
             samples += cur_slab
                 .par_chunks_mut(g[c])
                 .enumerate()
                 .map_init(
                     || src.cursor(),
-                    |cur, (j, row)| sweep.row(cur, i, prev, j, row, prev_slab),
+                    |cur, (j, row)| sweep.row(cur, &slab, j, row, prev_slab),
                 )
                 .sum::<u64>();
         }
         Ok(LightGrid {
             perm,
             g,
-            n,
-            div,
+            axes: perm.map(|ax| GridAxis::new(n[ax], g[ax], div)),
             data,
             build_s: start.elapsed().as_secs_f64(),
             samples,
@@ -203,11 +202,9 @@ impl LightGrid {
     #[inline]
     pub fn transmittance(&self, p: Vec3) -> f32 {
         let [a, b, c] = self.perm;
-        let coord = |ax: usize| {
-            let cc = grid_coord(p[ax], self.n[ax], self.g[ax], self.div);
-            split(cc, self.g[ax])
-        };
-        let ((ia, fa), (ib, fb), (ic, fc)) = (coord(a), coord(b), coord(c));
+        let (ia, fa) = self.axes[0].locate(p[a]);
+        let (ib, fb) = self.axes[1].locate(p[b]);
+        let (ic, fc) = self.axes[2].locate(p[c]);
         let (gb, gc) = (self.g[b], self.g[c]);
         let step_a = if self.g[a] > 1 { gb * gc } else { 0 };
         let step_b = if gb > 1 { gc } else { 0 };
@@ -220,6 +217,55 @@ impl LightGrid {
         let c10 = lerp(at(step_a), at(step_a + step_c), fc);
         let c11 = lerp(at(step_a + step_b), at(step_a + step_b + step_c), fc);
         lerp(lerp(c00, c01, fb), lerp(c10, c11, fb), fa).clamp(0.0, 1.0)
+    }
+}
+
+/// One storage axis of a grid, for finding where a voxel coordinate falls
+/// between grid points (the same mapping as `grid_coord`, with the
+/// divisions turned into multiplications).
+#[derive(Clone, Copy, Debug)]
+struct GridAxis {
+    /// Grid points.
+    g: usize,
+    /// Largest voxel coordinate.
+    hi: f32,
+    /// Voxel coordinate of the last uniformly spaced point.
+    last_uniform: f32,
+    inv_div: f32,
+    /// `1 / (hi − last_uniform)`.
+    inv_last: f32,
+}
+
+impl GridAxis {
+    fn new(n: usize, g: usize, div: usize) -> GridAxis {
+        let hi = n.saturating_sub(1) as f32;
+        let last_uniform = (g.saturating_sub(2) * div) as f32;
+        GridAxis {
+            g,
+            hi,
+            last_uniform,
+            inv_div: 1.0 / div as f32,
+            inv_last: if hi > last_uniform {
+                1.0 / (hi - last_uniform)
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// Lower point and weight of voxel coordinate `p`.
+    #[inline(always)]
+    fn locate(&self, p: f32) -> (usize, f32) {
+        if self.g < 2 {
+            return (0, 0.0);
+        }
+        let p = if p > 0.0 { p.min(self.hi) } else { 0.0 };
+        let c = if p <= self.last_uniform {
+            p * self.inv_div
+        } else {
+            (self.g - 2) as f32 + (p - self.last_uniform) * self.inv_last
+        };
+        split(c, self.g)
     }
 }
 
@@ -241,53 +287,123 @@ struct Sweep<'o, O: Occluder> {
 }
 
 impl<O: Occluder> Sweep<'_, O> {
-    /// Row `j` of slab `i`, looking toward slab `prev`; returns the samples
-    /// taken.
+    /// What every row of slab `i` (looking toward slab `prev`) shares:
+    /// per grid line along each of the two other axes, the point's
+    /// coordinate, where a segment from it leaves the volume, the upstream
+    /// point's bilinear position, and the index cells the segment's box
+    /// spans; and which columns of index cells are clear over the slab's
+    /// depth.
+    fn slab(&self, i: usize, prev: usize) -> Slab {
+        let [a, b, c] = self.perm;
+        let (n, g, div, lv) = (self.n, self.g, self.div, self.lv);
+        let xa = position(i, n[a], div);
+        let delta = position(prev, n[a], div) - xa;
+        // World distance to the previous slab along the light.
+        let u_full = delta / lv[a];
+        let along = |ax: usize| {
+            let off = lv[ax] * u_full;
+            let hi = (n[ax] - 1) as f32;
+            (0..g[ax])
+                .map(|j| {
+                    let x = position(j, n[ax], div);
+                    let u_exit = if lv[ax] > 0.0 {
+                        (hi - x) / lv[ax]
+                    } else if lv[ax] < 0.0 {
+                        -x / lv[ax]
+                    } else {
+                        f32::INFINITY
+                    };
+                    let (lo_p, hi_p) = (x.min(x + off), x.max(x + off));
+                    let cells = self.clear.map_or((0, 0), |cb| {
+                        (cb.cell_along(ax, lo_p), cb.cell_along(ax, hi_p))
+                    });
+                    Line {
+                        x,
+                        u_exit,
+                        upstream: split(grid_coord(x + off, n[ax], g[ax], div), g[ax]),
+                        cells,
+                    }
+                })
+                .collect::<Vec<_>>()
+        };
+        let (lines_b, lines_c) = (along(b), along(c));
+        // Per (cell along b, cell along c): clear over every cell along a
+        // that the slab's segments reach.
+        let (clear_columns, cells_c) = match self.clear {
+            None => (Vec::new(), 0),
+            Some(cb) => {
+                let cells = cb.cells();
+                let (a0, a1) = (
+                    cb.cell_along(a, xa.min(xa + delta)),
+                    cb.cell_along(a, xa.max(xa + delta)),
+                );
+                let mut cols = Vec::with_capacity((cells[b] * cells[c]) as usize);
+                for cb_i in 0..cells[b] {
+                    for cc_i in 0..cells[c] {
+                        let clear = (a0..=a1).all(|ca| {
+                            let mut cell = [0u64; 3];
+                            cell[a] = ca;
+                            cell[b] = cb_i;
+                            cell[c] = cc_i;
+                            cb.is_clear(cell)
+                        });
+                        cols.push(clear);
+                    }
+                }
+                (cols, cells[c] as usize)
+            }
+        };
+        Slab {
+            xa,
+            u_full,
+            lines_b,
+            lines_c,
+            clear_columns,
+            cells_c,
+        }
+    }
+
+    /// Row `j` of a slab; returns the samples taken.
     fn row<C: Cursor>(
         &self,
         cur: &mut C,
-        i: usize,
-        prev: usize,
+        slab: &Slab,
         j: usize,
         row: &mut [f32],
         prev_slab: &[f32],
     ) -> u64 {
         let [a, b, c] = self.perm;
-        let (n, g, div) = (self.n, self.g, self.div);
-        let lv = self.lv;
-        let delta = position(prev, n[a], div) - position(i, n[a], div);
-        // World distance to the previous slab along the light.
-        let u_full = delta / lv[a];
+        let (gb, gc) = (self.g[b], self.g[c]);
+        let lb = &slab.lines_b[j];
         let mut samples = 0;
-        for (k, out) in row.iter_mut().enumerate() {
-            let mut x = Vec3::ZERO;
-            x[a] = position(i, n[a], div);
-            x[b] = position(j, n[b], div);
-            x[c] = position(k, n[c], div);
-            // Where the segment leaves the volume through a side face.
-            let mut u_exit = f32::INFINITY;
-            for ax in [b, c] {
-                let hi = (n[ax] - 1) as f32;
-                let u = if lv[ax] > 0.0 {
-                    (hi - x[ax]) / lv[ax]
-                } else if lv[ax] < 0.0 {
-                    -x[ax] / lv[ax]
-                } else {
-                    f32::INFINITY
-                };
-                u_exit = u_exit.min(u);
-            }
-            let (u, upstream) = if u_exit >= u_full {
-                let y = x + lv * u_full;
-                let yb = grid_coord(y[b], n[b], g[b], div);
-                let yc = grid_coord(y[c], n[c], g[c], div);
-                (u_full, bilinear(prev_slab, g[b], g[c], yb, yc))
+        for (out, lc) in row.iter_mut().zip(&slab.lines_c) {
+            let u_exit = lb.u_exit.min(lc.u_exit);
+            let (u, upstream) = if u_exit >= slab.u_full {
+                let (ib, fb) = lb.upstream;
+                let (ic, fc) = lc.upstream;
+                (slab.u_full, bilinear_at(prev_slab, gb, gc, ib, fb, ic, fc))
             } else {
                 (u_exit, 1.0)
             };
-            let (t, s) = self.segment(cur, x, u);
-            samples += s;
-            *out = upstream * t;
+            // A segment whose box lies in clear cells passes all light
+            // (only whole segments: a clipped one is shorter, so inside).
+            let clear = !slab.clear_columns.is_empty()
+                && (lb.cells.0..=lb.cells.1).all(|cb_i| {
+                    (lc.cells.0..=lc.cells.1).all(|cc_i| {
+                        slab.clear_columns[cb_i as usize * slab.cells_c + cc_i as usize]
+                    })
+                });
+            *out = if clear {
+                upstream
+            } else {
+                let mut x = Vec3::ZERO;
+                x[a] = slab.xa;
+                x[b] = lb.x;
+                x[c] = lc.x;
+                let (t, s) = self.segment(cur, x, u);
+                samples += s;
+                upstream * t
+            };
         }
         samples
     }
@@ -297,12 +413,6 @@ impl<O: Occluder> Sweep<'_, O> {
     fn segment<C: Cursor>(&self, cur: &mut C, x: Vec3, u: f32) -> (f32, u64) {
         if u.is_nan() || u <= 0.0 {
             return (1.0, 0);
-        }
-        if let Some(c) = self.clear {
-            let y = x + self.lv * u;
-            if c.clear(x.min(y), x.max(y)) {
-                return (1.0, 0);
-            }
         }
         let count = ((u / self.spacing) as f64).ceil().clamp(1.0, 1e6) as u32;
         let h = u / count as f32;
@@ -316,10 +426,35 @@ impl<O: Occluder> Sweep<'_, O> {
     }
 }
 
-/// Bilinear read of a `gb × gc` slab at grid coordinates `(yb, yc)`.
-fn bilinear(slab: &[f32], gb: usize, gc: usize, yb: f32, yc: f32) -> f32 {
-    let (ib, fb) = split(yb, gb);
-    let (ic, fc) = split(yc, gc);
+/// One grid line of a slab along one of the other two axes.
+struct Line {
+    /// Voxel coordinate.
+    x: f32,
+    /// World distance along the light at which a segment leaves the volume
+    /// through a face across this axis.
+    u_exit: f32,
+    /// The upstream point's lower grid index and weight on this axis.
+    upstream: (usize, f32),
+    /// First and last index cell the segment's box spans on this axis.
+    cells: (u64, u64),
+}
+
+/// What the rows of one slab share (see `Sweep::slab`).
+struct Slab {
+    xa: f32,
+    u_full: f32,
+    lines_b: Vec<Line>,
+    lines_c: Vec<Line>,
+    /// Per (cell along b, cell along c), row-major: clear through the
+    /// slab's depth (empty without skipping).
+    clear_columns: Vec<bool>,
+    cells_c: usize,
+}
+
+/// Bilinear read of a `gb × gc` slab between points `(ib, ic)` and
+/// `(ib + 1, ic + 1)` with weights `fb`, `fc`.
+#[inline(always)]
+fn bilinear_at(slab: &[f32], gb: usize, gc: usize, ib: usize, fb: f32, ic: usize, fc: f32) -> f32 {
     let sb = if gb > 1 { gc } else { 0 };
     let sc = usize::from(gc > 1);
     let base = ib * gc + ic;
