@@ -59,7 +59,28 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     ];
     let per_scene: usize = expected.iter().map(|(_, v)| v.len()).sum();
     let scenes = ["thesis", "noise", "boundary"];
-    assert_eq!(rows.len(), scenes.len() * per_scene, "{text}");
+    // The thesis scene's shadow study: reference, off, 2 ray steps, 2 grids.
+    let shadow_rows = 6;
+    assert_eq!(rows.len(), scenes.len() * per_scene + shadow_rows, "{text}");
+    let shadow = |knob: &str, v: &str| {
+        let key = (
+            "thesis-shadows".to_string(),
+            knob.to_string(),
+            v.to_string(),
+        );
+        *rows
+            .get(&key)
+            .unwrap_or_else(|| panic!("missing row {key:?}"))
+    };
+    assert!(shadow("reference", "ray:0.1").2.is_infinite());
+    let off = shadow("shadows off", "off").2;
+    let ray = shadow("shadow rays", "0.5").2;
+    let grid = shadow("shadow grid", "2").2;
+    shadow("shadow rays", "2");
+    shadow("shadow grid", "4");
+    // Shadows matter in this scene, and both methods come closer to the
+    // reference than leaving them off.
+    assert!(off.is_finite() && ray > off && grid > off, "{text}");
     for scene in scenes {
         for (knob, values) in expected {
             for v in *values {
@@ -96,6 +117,7 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
             "accuracy-thesis.svg",
             "accuracy-noise.svg",
             "accuracy-boundary.svg",
+            "accuracy-thesis-shadows.svg",
         ] {
             let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
             assert!(len > 1000, "{f} missing or empty");

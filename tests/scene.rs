@@ -276,7 +276,8 @@ fn shadows_from_the_command_line_or_a_scene_report_their_counters() {
     assert!(ray["shadow_samples"].as_u64().unwrap() > 0);
     assert_eq!(ray["shadow_grids"], 0);
     assert_eq!(ray["scene"]["shadows"], "ray");
-    assert_eq!(ray["scene"]["shadow-step"], 0.8);
+    let shadow_step = ray["scene"]["shadow-step"].as_f64().unwrap();
+    assert!((shadow_step - 0.8).abs() < 1e-6, "{shadow_step}");
     // A grid for the one directional light: no shadow rays.
     let grid = json(&["--shadows", "grid:4"]);
     assert_eq!(grid["shadow_rays"], 0, "{grid}");

@@ -71,6 +71,8 @@ struct Scene {
     view: Vec<String>,
     /// Transfer function file contents to write, or None for a preset.
     tf_file: Option<&'static str>,
+    /// Also study shadows (as the scene `NAME-shadows`).
+    shadows: bool,
 }
 
 /// The values swept for each knob.
@@ -80,6 +82,9 @@ struct Sweep {
     cell: Vec<&'static str>,
     tile: Vec<&'static str>,
     threads: Vec<&'static str>,
+    /// Shadow-ray steps and light-grid divisors (scenes with `shadows`).
+    shadow_steps: Vec<&'static str>,
+    shadow_grids: Vec<&'static str>,
 }
 
 /// The noise scene's transfer function: empty below 110, a thin blue haze
@@ -171,6 +176,14 @@ fn run(cli: &Cli) -> Result<()> {
             plot(&ctx.out, scene.name, &scene_rows)?;
         }
         rows.extend(scene_rows);
+        if scene.shadows {
+            let name = format!("{}-shadows", scene.name);
+            let shadow_rows = run_shadows(&ctx, scene, &name, &sweep)?;
+            if font {
+                plot(&ctx.out, &name, &shadow_rows)?;
+            }
+            rows.extend(shadow_rows);
+        }
     }
     let csv = ctx.out.join("accuracy.csv");
     write_csv(&csv, &rows)?;
@@ -232,6 +245,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             img.into(),
         ],
         tf_file: None,
+        shadows: true,
     };
     let noise = Scene {
         name: "noise",
@@ -247,6 +261,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             img.into(),
         ],
         tf_file: Some(NOISE_TF),
+        shadows: false,
     };
     // The same kind of volume through a 2D transfer function: the
     // boundary preset (opacity rising with the gradient magnitude), whose
@@ -267,6 +282,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             img.into(),
         ],
         tf_file: None,
+        shadows: false,
     };
     let sweep = if quick {
         Sweep {
@@ -275,6 +291,8 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             cell: vec!["4", "16"],
             tile: vec!["8", "32"],
             threads: vec!["1", "2"],
+            shadow_steps: vec!["0.5", "2"],
+            shadow_grids: vec!["2", "4"],
         }
     } else {
         Sweep {
@@ -283,6 +301,8 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             cell: vec!["4", "8", "16", "32"],
             tile: vec!["8", "16", "32", "64"],
             threads: vec!["1", "2"],
+            shadow_steps: vec!["0.2", "0.5", "1", "2"],
+            shadow_grids: vec!["1", "2", "4"],
         }
     };
     (vec![thesis, noise, boundary], sweep)
@@ -377,6 +397,96 @@ fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
         );
         rows.push(Row {
             scene: scene.name.into(),
+            knob,
+            value,
+            median_s,
+            min_s,
+            max_s,
+            samples,
+            psnr_db,
+        });
+    }
+    Ok(rows)
+}
+
+/// Light for the shadow study: one directional light.
+const SHADOW_LIGHT: &str = "1,2,0.5";
+/// The shadow study's reference shadow step, full and quick.
+const SHADOW_REF_STEP: &str = "0.05";
+const SHADOW_REF_STEP_QUICK: &str = "0.1";
+
+/// What shadows cost and buy: every render at the base step and
+/// termination, lit by one directional light; the reference casts shadow
+/// rays at a fine shadow step, the points are shadows off, shadow rays at
+/// coarser steps, and light grids at each divisor. Rows go under `name`.
+fn run_shadows(ctx: &Ctx, scene: &Scene, name: &str, sweep: &Sweep) -> Result<Vec<Row>> {
+    let vol = ctx.out.join(format!("{}.vvol", scene.name));
+    let mut view = scene.view.clone();
+    if scene.tf_file.is_some() {
+        let tf_path = ctx.out.join(format!("{}.tf", scene.name));
+        view.extend(["--tf".into(), path_arg(&tf_path)?]);
+    }
+    view.extend(strs(&[
+        "--light",
+        SHADOW_LIGHT,
+        "--step",
+        BASE_STEP,
+        "--ert",
+        BASE_ERT,
+    ]));
+    let ref_step = if ctx.ref_step == REF_STEP_QUICK {
+        SHADOW_REF_STEP_QUICK
+    } else {
+        SHADOW_REF_STEP
+    };
+    let reference = ctx.out.join(format!("{name}-reference.pfm"));
+    noteln!("vol-accuracy: {name}: reference with shadow rays at shadow step {ref_step}");
+    let (median_s, min_s, max_s, samples) = render(
+        ctx,
+        &vol,
+        &view,
+        &strs(&["--shadows", "ray", "--shadow-step", ref_step]),
+        &reference,
+        ctx.repeat,
+    )?;
+    let mut rows = vec![Row {
+        scene: name.into(),
+        knob: "reference",
+        value: format!("ray:{ref_step}"),
+        median_s,
+        min_s,
+        max_s,
+        samples,
+        psnr_db: None,
+    }];
+    let mut settings: Vec<(&'static str, String, Vec<String>)> =
+        vec![("shadows off", "off".into(), Vec::new())];
+    for st in &sweep.shadow_steps {
+        settings.push((
+            "shadow rays",
+            st.to_string(),
+            strs(&["--shadows", "ray", "--shadow-step", st]),
+        ));
+    }
+    for d in &sweep.shadow_grids {
+        settings.push((
+            "shadow grid",
+            d.to_string(),
+            vec!["--shadows".into(), format!("grid:{d}")],
+        ));
+    }
+    for (knob, value, args) in settings {
+        let hdr = ctx
+            .out
+            .join(format!("{name}-{}-{value}.pfm", knob.replace(' ', "-")));
+        let (median_s, min_s, max_s, samples) = render(ctx, &vol, &view, &args, &hdr, ctx.repeat)?;
+        let psnr_db = psnr(ctx, &reference, &hdr)?;
+        noteln!(
+            "vol-accuracy: {name} {knob}={value}: {median_s:.4} s, PSNR {}",
+            psnr_db.map_or("inf".to_string(), |p| format!("{p:.2} dB"))
+        );
+        rows.push(Row {
+            scene: name.into(),
             knob,
             value,
             median_s,
