@@ -78,3 +78,15 @@ pub struct RayEffects {
     /// Samples those shadow rays took.
     pub shadow_samples: u64,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_depth_cutoff_is_the_transmittance_cutoff() {
+        let from_t = -(SHADOW_CUTOFF as f64).ln();
+        assert!((SHADOW_DEPTH_CUTOFF as f64 - from_t).abs() < 1e-5);
+        assert!(((-SHADOW_DEPTH_CUTOFF).exp() - SHADOW_CUTOFF).abs() < 1e-8);
+    }
+}
