@@ -9,7 +9,7 @@
 
 use crate::accel::{FixedCells, IsoSides, NoSkipping, RunningMax, RunningMin};
 use crate::classify::{Classifier, TfTable, TfTable2d};
-use crate::effects::{Classified, IsoInside, LightGrid, ShadowCaster, ShadowedPhong};
+use crate::effects::{AoSource, Classified, EffectsPhong, IsoInside, LightGrid, ShadowCaster};
 use crate::integrator::dvr::{
     Dvr, NoTermination, OpacityThreshold, PhongShading, Shading, Termination, Unshaded,
 };
@@ -58,13 +58,18 @@ pub struct DvrPlan<'a> {
     pub termination: Option<f32>,
     /// Transparent cells to skip, if skipping is on.
     pub skip: Option<&'a FixedCells<'a>>,
-    /// Shadows, if the frame casts them (needs shading).
-    pub shadows: Option<DvrShadows<'a>>,
+    /// Shadows and ambient occlusion, if the frame has either (needs
+    /// shading).
+    pub effects: Option<DvrEffects<'a>>,
 }
 
-/// What a DVR frame's shadows need.
+/// What a DVR frame's effects need.
 #[derive(Clone, Copy)]
-pub struct DvrShadows<'a> {
+pub struct DvrEffects<'a> {
+    /// Whether the frame casts shadows.
+    pub shadows: bool,
+    /// Ambient occlusion, if the frame asks for it.
+    pub ao: Option<&'a AoSource<'a>>,
     /// The classifier as optical depth per shadow step (the same kind as
     /// the frame's classifier).
     pub depth: ClassifierRef<'a>,
@@ -121,8 +126,8 @@ where
     match (p.classifier, p.shading) {
         // Unshaded, 1D: no gradient, whatever the method.
         (OneD(k), None) => go::<R, NoGradient, _, _, _, _, V>(p, k, Unshaded, t, a, v),
-        (OneD(k), Some(_)) if p.shadows.is_some() => {
-            let sh = p.shadows.as_ref().and_then(|sh| match sh.depth {
+        (OneD(k), Some(_)) if p.effects.is_some() => {
+            let sh = p.effects.as_ref().and_then(|sh| match sh.depth {
                 OneD(d) => Some((sh, d)),
                 TwoD(_) => None,
             });
@@ -131,8 +136,8 @@ where
                 None => unreachable!("shadow tables are built with the classifier"),
             }
         }
-        (TwoD(k), Some(_)) if p.shadows.is_some() => {
-            let sh = p.shadows.as_ref().and_then(|sh| match sh.depth {
+        (TwoD(k), Some(_)) if p.effects.is_some() => {
+            let sh = p.effects.as_ref().and_then(|sh| match sh.depth {
                 TwoD(d) => Some((sh, d)),
                 OneD(_) => None,
             });
@@ -174,13 +179,14 @@ where
     }
 }
 
-/// Shaded DVR with shadows: the gradient method chosen, the shadow
-/// caster built over the depth table `d` (of the classifier's kind).
+/// Shaded DVR with effects: the gradient method chosen, the shadow caster
+/// built over the depth table `d` (of the classifier's kind) when the
+/// frame casts shadows.
 fn dvr_shadowed<R, K, T, A, V>(
     p: &DvrPlan<'_>,
     k: &K,
     d: &K,
-    sh: &DvrShadows<'_>,
+    sh: &DvrEffects<'_>,
     t: T,
     a: A,
     v: V,
@@ -196,7 +202,7 @@ where
         p: &DvrPlan<'_>,
         k: &K,
         d: &K,
-        sh: &DvrShadows<'_>,
+        sh: &DvrEffects<'_>,
         t: T,
         a: A,
         v: V,
@@ -211,7 +217,8 @@ where
     {
         let occ = Classified::<R, G, K>::new(d, sh.geom.locator, sh.geom.inv_spacing);
         let caster = ShadowCaster::new(occ, sh.skip, sh.geom, sh.hi, sh.grids, 0.0);
-        let s = ShadowedPhong::new(sh.lighting, sh.threshold2, &caster);
+        let caster = sh.shadows.then_some(&caster);
+        let s = EffectsPhong::new(sh.lighting, sh.threshold2, caster, sh.ao);
         go::<R, G, _, _, _, _, V>(p, k, s, t, a, v)
     }
     match p.gradient {
@@ -312,6 +319,8 @@ pub struct IsoPlan<'a> {
     pub skip: Option<&'a IsoSides<'a>>,
     /// Shadows, if the frame casts them.
     pub shadows: Option<IsoShadows<'a>>,
+    /// Ambient occlusion, if the frame asks for it.
+    pub ao: Option<&'a AoSource<'a>>,
 }
 
 /// What an iso frame's shadows need (shadow rays skip with the frame's
@@ -338,10 +347,10 @@ pub fn iso<V: IntegratorVisitor>(p: IsoPlan<'_>, v: V) -> V::Output {
         let caster = caster.as_ref();
         match p.skip {
             Some(a) => v.visit(Iso::<R, G, _>::new(
-                p.geom, a, p.level, p.colour, p.lighting, caster,
+                p.geom, a, p.level, p.colour, p.lighting, caster, p.ao,
             )),
             None => v.visit(Iso::<R, G, _>::new(
-                p.geom, NoSkipping, p.level, p.colour, p.lighting, caster,
+                p.geom, NoSkipping, p.level, p.colour, p.lighting, caster, p.ao,
             )),
         }
     }

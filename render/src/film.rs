@@ -100,6 +100,8 @@ impl Film {
         self.stats.skips += r.skips as u64;
         self.stats.effects.shadow_rays += r.effects.shadow_rays as u64;
         self.stats.effects.shadow_samples += r.effects.shadow_samples;
+        self.stats.effects.ao_rays += r.effects.ao_rays as u64;
+        self.stats.effects.ao_samples += r.effects.ao_samples;
     }
 
     /// The totals so far.
@@ -107,15 +109,23 @@ impl Film {
         self.stats
     }
 
-    /// Add what building the frame's light grids cost (their build time
-    /// counts as render time: it is spent once per frame).
+    /// Add what building the frame's light grids and occlusion grid cost
+    /// (their build time counts as render time: it is spent once per
+    /// frame); and the AO field's, which is reported beside the frame's
+    /// time (it is built once per transfer function).
     pub fn add_grid_stats(&mut self, s: &crate::effects::EffectStats) {
-        self.stats.render_s += s.shadow_grid_s;
+        self.stats.render_s += s.shadow_grid_s + s.ao_grid_s;
         let e = &mut self.stats.effects;
         e.shadow_grids += s.shadow_grids;
         e.shadow_grid_s += s.shadow_grid_s;
         e.shadow_grid_bytes += s.shadow_grid_bytes;
         e.shadow_grid_samples += s.shadow_grid_samples;
+        e.ao_grid_s += s.ao_grid_s;
+        e.ao_grid_bytes += s.ao_grid_bytes;
+        e.ao_grid_samples += s.ao_grid_samples;
+        e.ao_field_s += s.ao_field_s;
+        e.ao_field_bytes += s.ao_field_bytes;
+        e.ao_field_samples += s.ao_field_samples;
     }
 
     /// Record the time spent rendering into the film.

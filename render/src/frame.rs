@@ -5,10 +5,10 @@ use crate::accel::{FixedCells, IsoSides};
 use crate::camera::Camera;
 use crate::classify::{srgb_to_linear, Classifier, GradientBound, TfTable, TfTable2d};
 use crate::dispatch::{
-    self, ClassifierRef, DvrPlan, DvrShadows, IntegratorVisitor, IsoPlan, IsoShadows, MipPlan,
+    self, ClassifierRef, DvrEffects, DvrPlan, IntegratorVisitor, IsoPlan, IsoShadows, MipPlan,
     XrayPlan,
 };
-use crate::effects::{self, ShadowMethod, Shadows};
+use crate::effects::{self, Ao, AoMethod, EffectStats, ShadowMethod, Shadows};
 use crate::error::RenderError;
 use crate::film::{Display, Film, Frame};
 use crate::integrator::dvr::PhongShading;
@@ -63,6 +63,9 @@ fn check(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result<(),
     let diagonal = check_step("step", s, vol)?;
     if let Some(sh) = &settings.shadows {
         check_shadows(settings, sh, vol)?;
+    }
+    if let Some(ao) = &settings.ao {
+        check_ao(settings, ao)?;
     }
     // Sample positions are f32: far from the origin consecutive samples
     // would round to the same point and a ray's sample index overflow.
@@ -152,6 +155,49 @@ fn check_shadows(settings: &RenderSettings, sh: &Shadows, vol: &Volume) -> Resul
     }
     if let Some(h) = sh.step {
         check_step("shadow step", h, vol)?;
+    }
+    Ok(())
+}
+
+/// Check the ambient occlusion settings: a mode and shading with an
+/// ambient term to occlude, direction counts within their limits, a
+/// radius that is a number.
+fn check_ao(settings: &RenderSettings, ao: &Ao) -> Result<(), RenderError> {
+    match settings.mode {
+        Mode::Dvr if !settings.shading => {
+            return Err(RenderError::Setting(
+                "ambient occlusion needs shading: an unshaded DVR frame has no ambient light"
+                    .into(),
+            ))
+        }
+        Mode::Dvr | Mode::Iso(_) => {}
+        _ => {
+            return Err(RenderError::Setting(
+                "ambient occlusion applies to the DVR and iso modes only".into(),
+            ))
+        }
+    }
+    match ao.method {
+        AoMethod::Rays { n } if !(1..=effects::ao::MAX_AO_RAYS).contains(&n) => {
+            return Err(RenderError::Setting(format!(
+                "AO directions {n} must be 1 to {}",
+                effects::ao::MAX_AO_RAYS
+            )))
+        }
+        AoMethod::Field { k } if !(1..=effects::ao::MAX_AO_FIELD_DIRECTIONS).contains(&k) => {
+            return Err(RenderError::Setting(format!(
+                "AO field directions {k} must be 1 to {}",
+                effects::ao::MAX_AO_FIELD_DIRECTIONS
+            )))
+        }
+        _ => {}
+    }
+    if let Some(r) = ao.radius {
+        if !(r.is_finite() && r >= 0.0) {
+            return Err(RenderError::Setting(format!(
+                "AO radius {r} must be a finite number, 0 or more"
+            )));
+        }
     }
     Ok(())
 }
@@ -252,10 +298,27 @@ pub fn render_tf(
         }
         Mode::Iso(level) => {
             let sides = skip_index.map(|ix| IsoSides::new(ix, level));
+            let boxes = sides.as_ref().map(|c| c.clear_boxes_below());
+            let sgeom = effects::setup::shadow_geometry(&geom, settings.shadows.as_ref());
+            let mut ao_stats = EffectStats::default();
+            let ao_parts = match &settings.ao {
+                Some(ao) => Some(effects::setup::iso_ao(
+                    vol,
+                    settings,
+                    ao,
+                    &sgeom,
+                    level,
+                    boxes.as_ref(),
+                    &mut ao_stats,
+                )?),
+                None => None,
+            };
+            let min_spacing = vol.meta.min_spacing();
+            let ao_source = ao_parts
+                .as_ref()
+                .map(|p| p.source(tiles.hi, 1.5, min_spacing));
             let shadow_parts = match &settings.shadows {
                 Some(sh) => {
-                    let sgeom = effects::setup::shadow_geometry(&geom, sh);
-                    let boxes = sides.as_ref().map(|c| c.clear_boxes_below());
                     let (grids, stats) = effects::setup::iso_grids(
                         vol,
                         settings,
@@ -288,11 +351,13 @@ pub fn render_tf(
                         grids,
                         grid_offset: *offset,
                     }),
+                ao: ao_source.as_ref(),
             };
             let mut film = dispatch::iso(plan, tiles);
             if let Some((_, _, stats, _)) = &shadow_parts {
                 film.add_grid_stats(stats);
             }
+            film.add_grid_stats(&ao_stats);
             (film, Display::Colour)
         }
     };
@@ -314,9 +379,11 @@ fn dvr_frame(
     let (lo, hi) = tf.domain().unwrap_or(range);
     let hi = if hi > lo { hi } else { lo + 1.0 };
     let bins = TfTable::default_bins(lo, hi);
-    // Shadows shade only shaded samples (checked before).
-    let shadows = settings.shadows.filter(|_| settings.shading);
-    let shadow_geom = shadows.map(|sh| effects::setup::shadow_geometry(&geom, &sh));
+    // Effects apply to shaded samples only (checked before); their depth
+    // table is made for the shadow step.
+    let effects_on = settings.shading && (settings.shadows.is_some() || settings.ao.is_some());
+    let shadow_geom =
+        effects_on.then(|| effects::setup::shadow_geometry(&geom, settings.shadows.as_ref()));
     let frame = DvrFrame {
         vol,
         skip_index,
@@ -367,7 +434,7 @@ struct DvrFrame<'a> {
 
 impl DvrFrame<'_> {
     /// Render with classifier `table` (as `as_ref` names its kind); with
-    /// shadows, `shadow` is the same classifier at the shadow step.
+    /// effects, `shadow` is the same classifier at the shadow step.
     fn run<K: Classifier>(
         self,
         table: &K,
@@ -394,22 +461,51 @@ impl DvrFrame<'_> {
             inv_spacing: geom.inv_spacing,
         };
         let skip = transparent_cells(skip_index, table, &gradients)?;
-        // Shadows: the depth table, its clear cells, the light grids.
-        let shadow_parts = match (settings.shadows, shadow) {
-            (Some(sh), Some(alpha)) => {
-                let sgeom = effects::setup::shadow_geometry(&geom, &sh);
+        // Effects: the depth table, its clear cells, the light grids, the
+        // occlusion grid and field.
+        let effect_parts = match shadow {
+            Some(alpha) => {
+                let sgeom = effects::setup::shadow_geometry(&geom, settings.shadows.as_ref());
                 let depth = alpha.to_optical_depth();
                 let clear = transparent_cells(skip_index, alpha, &gradients)?;
                 let boxes = clear.as_ref().map(|c| c.clear_boxes());
-                let (grids, stats) =
-                    effects::setup::dvr_grids(vol, settings, &sh, &sgeom, &depth, boxes.as_ref())?;
-                Some((sgeom, depth, clear, grids, stats))
+                let (grids, mut stats) = match &settings.shadows {
+                    Some(sh) => effects::setup::dvr_grids(
+                        vol,
+                        settings,
+                        sh,
+                        &sgeom,
+                        &depth,
+                        boxes.as_ref(),
+                    )?,
+                    None => (Vec::new(), EffectStats::default()),
+                };
+                let ao = match &settings.ao {
+                    Some(ao) => Some(effects::setup::dvr_ao(
+                        vol,
+                        settings,
+                        ao,
+                        &sgeom,
+                        &depth,
+                        boxes.as_ref(),
+                        &mut stats,
+                    )?),
+                    None => None,
+                };
+                Some((sgeom, depth, clear, grids, stats, ao))
             }
-            _ => None,
+            None => None,
         };
-        let shadows = shadow_parts
+        let min_spacing = vol.meta.min_spacing();
+        let ao_source = effect_parts
             .as_ref()
-            .map(|(sgeom, depth, clear, grids, _)| DvrShadows {
+            .and_then(|p| p.5.as_ref())
+            .map(|ao| ao.source(tiles.hi, 1.0, min_spacing));
+        let effects = effect_parts
+            .as_ref()
+            .map(|(sgeom, depth, clear, grids, ..)| DvrEffects {
+                shadows: settings.shadows.is_some(),
+                ao: ao_source.as_ref(),
                 depth: as_ref(depth),
                 skip: clear.as_ref(),
                 geom: *sgeom,
@@ -426,10 +522,10 @@ impl DvrFrame<'_> {
             shading,
             termination: settings.ert,
             skip: skip.as_ref(),
-            shadows,
+            effects,
         };
         let mut film = dispatch::dvr(plan, tiles);
-        if let Some((.., stats)) = &shadow_parts {
+        if let Some((.., stats, _)) = &effect_parts {
             film.add_grid_stats(stats);
         }
         Ok(film)
@@ -499,7 +595,7 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
                         let ray = camera.ray(x, y);
                         out.push(match intersect_box(&ray, Vec3::ZERO, hi) {
                             None => RayResult::empty(),
-                            Some((t0, t1)) => self.integrator.trace(&mut cur, &ray, t0, t1),
+                            Some((t0, t1)) => self.integrator.trace(&mut cur, &ray, [x, y], t0, t1),
                         });
                     }
                 }

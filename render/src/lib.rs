@@ -40,7 +40,7 @@ pub mod shade;
 pub mod tf;
 
 pub use camera::{Camera, Projection};
-pub use effects::{EffectStats, ShadowMethod, Shadows};
+pub use effects::{Ao, AoMethod, EffectStats, ShadowMethod, Shadows};
 pub use error::RenderError;
 pub use film::{Frame, FrameStats};
 pub use frame::{render, render_tf};

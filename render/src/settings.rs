@@ -1,7 +1,7 @@
 //! What a frame is asked to be: the user's choices, before they are
 //! resolved into concrete integrator types (see [`crate::dispatch`]).
 
-use crate::effects::Shadows;
+use crate::effects::{Ao, Shadows};
 use crate::shade::Lighting;
 
 /// What a ray computes.
@@ -71,6 +71,9 @@ pub struct RenderSettings {
     /// Shadows toward every light (DVR with shading, and iso); `None`:
     /// off, and no shadow code runs.
     pub shadows: Option<Shadows>,
+    /// Ambient occlusion (DVR with shading, and iso); `None`: off, and no
+    /// occlusion code runs.
+    pub ao: Option<Ao>,
 }
 
 impl Default for RenderSettings {
@@ -89,6 +92,7 @@ impl Default for RenderSettings {
             background: [0.0; 3],
             iso_colour: [0.85, 0.85, 0.8],
             shadows: None,
+            ao: None,
         }
     }
 }

@@ -82,13 +82,14 @@ impl Lighting {
     /// `grad`, seen along unit `view_dir` (from the eye into the scene);
     /// a zero gradient gets the ambient term only.
     pub fn shade_at(&self, colour: Vec3, grad: Vec3, view_dir: Vec3, p: Vec3) -> Vec3 {
-        self.shade_shadowed(colour, grad, view_dir, p, |_, _| 1.0)
+        self.shade_shadowed(colour, grad, view_dir, p, 1.0, |_, _| 1.0)
     }
 
-    /// [`Lighting::shade_at`] with each light's share multiplied by
+    /// [`Lighting::shade_at`] with the ambient term multiplied by the
+    /// ambient occlusion `ao` and each light's share by
     /// `transmittance(light index, incident light)`, which is asked only
     /// for lights that add anything at this normal (the same bits as
-    /// `shade_at` when it returns 1).
+    /// `shade_at` when both are 1).
     #[inline]
     pub fn shade_shadowed(
         &self,
@@ -96,11 +97,13 @@ impl Lighting {
         grad: Vec3,
         view_dir: Vec3,
         p: Vec3,
+        ao: f32,
         mut transmittance: impl FnMut(usize, &Incident) -> f32,
     ) -> Vec3 {
+        let ambient = self.ambient * ao;
         let unit = grad.normalize_or_zero();
         if unit == Vec3::ZERO {
-            return colour * self.ambient;
+            return colour * ambient;
         }
         let to_eye = -view_dir;
         let n = facing(unit, to_eye);
@@ -117,19 +120,21 @@ impl Lighting {
             d += inc.radiance * kd * t;
             s += inc.radiance * ks * t;
         }
-        colour * (self.ambient + d) + s
+        colour * (ambient + d) + s
     }
 
-    /// A point without a normal under shadows: `colour · (a + (1 − a)·T̄)`
-    /// with `a` the ambient term (clamped to [0, 1]) and `T̄` the lights'
-    /// transmittance averaged with their radiance as weights; `colour`
-    /// when there is no light.
+    /// A point without a normal under shadows and ambient occlusion:
+    /// `colour · (a·ao + (1 − a)·T̄)` with `a` the ambient term (clamped to
+    /// [0, 1]), `ao` the ambient occlusion and `T̄` the lights'
+    /// transmittance averaged with their radiance as weights (1 when there
+    /// is no light).
     #[inline]
     pub fn unlit_shadowed(
         &self,
         colour: Vec3,
         view_dir: Vec3,
         p: Vec3,
+        ao: f32,
         mut transmittance: impl FnMut(usize, &Incident) -> f32,
     ) -> Vec3 {
         let (mut sum, mut weight) = (0.0f32, 0.0f32);
@@ -141,11 +146,9 @@ impl Lighting {
                 weight += w;
             }
         }
-        if weight <= 0.0 {
-            return colour;
-        }
+        let lit = if weight > 0.0 { sum / weight } else { 1.0 };
         let a = self.ambient.clamp(Vec3::ZERO, Vec3::ONE);
-        colour * (a + (Vec3::ONE - a) * (sum / weight))
+        colour * (a * ao + (Vec3::ONE - a) * lit)
     }
 
     /// The one light, when there is exactly one and it arrives from the
@@ -217,7 +220,8 @@ impl ViewShading {
 }
 
 impl ViewShading {
-    /// [`ViewShading::shade_normal`] with the light's share multiplied by
+    /// [`ViewShading::shade_normal`] with the ambient term multiplied by
+    /// the ambient occlusion `ao` and the light's share by
     /// `transmittance()`, which is asked only when the light adds anything
     /// at this normal.
     #[inline(always)]
@@ -225,15 +229,17 @@ impl ViewShading {
         &self,
         colour: Vec3,
         unit_grad: Vec3,
+        ao: f32,
         transmittance: impl FnOnce() -> f32,
     ) -> Vec3 {
         let n = facing(unit_grad, self.to_eye);
         let (kd, ks) = self.model.terms(n, self.l, self.h, self.whole_exponent);
+        let ambient = self.ambient * ao;
         if kd == 0.0 && ks == 0.0 {
-            return colour * self.ambient;
+            return colour * ambient;
         }
         let light = self.radiance * transmittance();
-        colour * (self.ambient + light * kd) + light * ks
+        colour * (ambient + light * kd) + light * ks
     }
 }
 

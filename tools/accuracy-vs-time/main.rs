@@ -71,8 +71,9 @@ struct Scene {
     view: Vec<String>,
     /// Transfer function file contents to write, or None for a preset.
     tf_file: Option<&'static str>,
-    /// Also study shadows (as the scene `NAME-shadows`).
-    shadows: bool,
+    /// Also study shadows and ambient occlusion (as the scenes
+    /// `NAME-shadows` and `NAME-ao`).
+    effects: bool,
 }
 
 /// The values swept for each knob.
@@ -85,6 +86,9 @@ struct Sweep {
     /// Shadow-ray steps and light-grid divisors (scenes with `shadows`).
     shadow_steps: Vec<&'static str>,
     shadow_grids: Vec<&'static str>,
+    /// AO directions sampled and field directions (scenes with effects).
+    ao_rays: Vec<&'static str>,
+    ao_fields: Vec<&'static str>,
 }
 
 /// The noise scene's transfer function: empty below 110, a thin blue haze
@@ -118,6 +122,8 @@ struct Row {
     samples: u64,
     /// None when the image equals the reference.
     psnr_db: Option<f64>,
+    /// Seconds of precomputation outside the frame time (an AO field).
+    build_s: f64,
 }
 
 fn main() -> ExitCode {
@@ -176,13 +182,17 @@ fn run(cli: &Cli) -> Result<()> {
             plot(&ctx.out, scene.name, &scene_rows)?;
         }
         rows.extend(scene_rows);
-        if scene.shadows {
-            let name = format!("{}-shadows", scene.name);
-            let shadow_rows = run_shadows(&ctx, scene, &name, &sweep)?;
-            if font {
-                plot(&ctx.out, &name, &shadow_rows)?;
+        if scene.effects {
+            for study in [
+                shadow_study(&ctx, scene, &sweep),
+                ao_study(&ctx, scene, &sweep),
+            ] {
+                let effect_rows = run_effect(&ctx, scene, &study)?;
+                if font {
+                    plot(&ctx.out, &study.name, &effect_rows)?;
+                }
+                rows.extend(effect_rows);
             }
-            rows.extend(shadow_rows);
         }
     }
     let csv = ctx.out.join("accuracy.csv");
@@ -245,7 +255,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             img.into(),
         ],
         tf_file: None,
-        shadows: true,
+        effects: true,
     };
     let noise = Scene {
         name: "noise",
@@ -261,7 +271,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             img.into(),
         ],
         tf_file: Some(NOISE_TF),
-        shadows: false,
+        effects: false,
     };
     // The same kind of volume through a 2D transfer function: the
     // boundary preset (opacity rising with the gradient magnitude), whose
@@ -282,7 +292,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             img.into(),
         ],
         tf_file: None,
-        shadows: false,
+        effects: false,
     };
     let sweep = if quick {
         Sweep {
@@ -293,6 +303,8 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             threads: vec!["1", "2"],
             shadow_steps: vec!["0.5", "2"],
             shadow_grids: vec!["2", "4"],
+            ao_rays: vec!["4", "16"],
+            ao_fields: vec!["16", "32"],
         }
     } else {
         Sweep {
@@ -303,6 +315,8 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             threads: vec!["1", "2"],
             shadow_steps: vec!["0.2", "0.5", "1", "2"],
             shadow_grids: vec!["1", "2", "4"],
+            ao_rays: vec!["4", "8", "16", "32"],
+            ao_fields: vec!["16", "32", "64"],
         }
     };
     (vec![thesis, noise, boundary], sweep)
@@ -327,7 +341,7 @@ fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
         scene.name,
         ctx.ref_step
     );
-    let (median_s, min_s, max_s, samples) = render(
+    let r = render(
         ctx,
         &vol,
         &view,
@@ -337,16 +351,7 @@ fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
     )?;
     // The reference is the first row (PSNR inf), so times can be compared
     // with it.
-    let mut rows = vec![Row {
-        scene: scene.name.into(),
-        knob: "reference",
-        value: ctx.ref_step.into(),
-        median_s,
-        min_s,
-        max_s,
-        samples,
-        psnr_db: None,
-    }];
+    let mut rows = vec![r.reference_row(scene.name, ctx.ref_step.into())];
 
     // (knob, value as written in the CSV, vol-render arguments)
     let mut settings: Vec<(&'static str, String, Vec<String>)> = Vec::new();
@@ -387,78 +392,88 @@ fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
             all.extend(strs(&["--ert", BASE_ERT]));
         }
         all.extend(args);
-        let hdr = ctx.out.join(format!("{}-{knob}-{value}.pfm", scene.name));
-        let (median_s, min_s, max_s, samples) = render(ctx, &vol, &view, &all, &hdr, ctx.repeat)?;
-        let psnr_db = psnr(ctx, &reference, &hdr)?;
-        noteln!(
-            "vol-accuracy: {} {knob}={value}: {median_s:.4} s, PSNR {}",
-            scene.name,
-            psnr_db.map_or("inf".to_string(), |p| format!("{p:.2} dB"))
-        );
-        rows.push(Row {
-            scene: scene.name.into(),
-            knob,
-            value,
-            median_s,
-            min_s,
-            max_s,
-            samples,
-            psnr_db,
-        });
+        let m = Measured {
+            scene: scene.name,
+            vol: &vol,
+            view: &view,
+            reference: &reference,
+        };
+        rows.push(m.row(ctx, knob, value, &all)?);
     }
     Ok(rows)
 }
 
-/// Light for the shadow study: one directional light.
+/// What every setting of one study is measured against.
+struct Measured<'a> {
+    scene: &'a str,
+    vol: &'a Path,
+    view: &'a [String],
+    reference: &'a Path,
+}
+
+impl Measured<'_> {
+    /// Render with `args` on top of the view, time it, compare it with the
+    /// reference: one row.
+    fn row(&self, ctx: &Ctx, knob: &'static str, value: String, args: &[String]) -> Result<Row> {
+        let name = self.scene;
+        let hdr = ctx
+            .out
+            .join(format!("{name}-{}-{value}.pfm", knob.replace(' ', "-")));
+        let r = render(ctx, self.vol, self.view, args, &hdr, ctx.repeat)?;
+        let psnr_db = psnr(ctx, self.reference, &hdr)?;
+        noteln!(
+            "vol-accuracy: {name} {knob}={value}: {:.4} s, PSNR {}",
+            r.median_s,
+            psnr_db.map_or("inf".to_string(), |p| format!("{p:.2} dB"))
+        );
+        Ok(Row {
+            scene: name.into(),
+            knob,
+            value,
+            median_s: r.median_s,
+            min_s: r.min_s,
+            max_s: r.max_s,
+            samples: r.samples,
+            psnr_db,
+            build_s: r.build_s,
+        })
+    }
+}
+
+/// Light for the effect studies: one directional light.
 const SHADOW_LIGHT: &str = "1,2,0.5";
 /// The shadow study's reference shadow step, full and quick.
 const SHADOW_REF_STEP: &str = "0.05";
 const SHADOW_REF_STEP_QUICK: &str = "0.1";
+/// Ambient light of the AO study (strong, so occlusion shows).
+const AO_AMBIENT: &str = "0.6";
+/// The AO study's reference: directions per shaded sample, full and quick.
+const AO_REF_RAYS: &str = "256";
+const AO_REF_RAYS_QUICK: &str = "64";
 
-/// What shadows cost and buy: every render at the base step and
-/// termination, lit by one directional light; the reference casts shadow
-/// rays at a fine shadow step, the points are shadows off, shadow rays at
-/// coarser steps, and light grids at each divisor. Rows go under `name`.
-fn run_shadows(ctx: &Ctx, scene: &Scene, name: &str, sweep: &Sweep) -> Result<Vec<Row>> {
-    let vol = ctx.out.join(format!("{}.vvol", scene.name));
-    let mut view = scene.view.clone();
-    if scene.tf_file.is_some() {
-        let tf_path = ctx.out.join(format!("{}.tf", scene.name));
-        view.extend(["--tf".into(), path_arg(&tf_path)?]);
-    }
-    view.extend(strs(&[
-        "--light",
-        SHADOW_LIGHT,
-        "--step",
-        BASE_STEP,
-        "--ert",
-        BASE_ERT,
-    ]));
+/// One effect's study: the scene seen at the base step and termination
+/// with `extra` on top, a reference render, and the settings compared
+/// with it.
+struct EffectStudy {
+    /// Scene name in the CSV and file names.
+    name: String,
+    /// Arguments on top of the scene's view.
+    extra: Vec<String>,
+    /// The reference's value (as written in the CSV) and arguments.
+    reference: (String, Vec<String>),
+    /// (knob, value, arguments) per point.
+    settings: Vec<(&'static str, String, Vec<String>)>,
+}
+
+/// What shadows cost and buy: lit by one directional light; the reference
+/// casts shadow rays at a fine shadow step, the points are shadows off,
+/// shadow rays at coarser steps, and light grids at each divisor.
+fn shadow_study(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> EffectStudy {
     let ref_step = if ctx.ref_step == REF_STEP_QUICK {
         SHADOW_REF_STEP_QUICK
     } else {
         SHADOW_REF_STEP
     };
-    let reference = ctx.out.join(format!("{name}-reference.pfm"));
-    noteln!("vol-accuracy: {name}: reference with shadow rays at shadow step {ref_step}");
-    let (median_s, min_s, max_s, samples) = render(
-        ctx,
-        &vol,
-        &view,
-        &strs(&["--shadows", "ray", "--shadow-step", ref_step]),
-        &reference,
-        ctx.repeat,
-    )?;
-    let mut rows = vec![Row {
-        scene: name.into(),
-        knob: "reference",
-        value: format!("ray:{ref_step}"),
-        median_s,
-        min_s,
-        max_s,
-        samples,
-        psnr_db: None,
-    }];
     let mut settings: Vec<(&'static str, String, Vec<String>)> =
         vec![("shadows off", "off".into(), Vec::new())];
     for st in &sweep.shadow_steps {
@@ -475,26 +490,67 @@ fn run_shadows(ctx: &Ctx, scene: &Scene, name: &str, sweep: &Sweep) -> Result<Ve
             vec!["--shadows".into(), format!("grid:{d}")],
         ));
     }
-    for (knob, value, args) in settings {
-        let hdr = ctx
-            .out
-            .join(format!("{name}-{}-{value}.pfm", knob.replace(' ', "-")));
-        let (median_s, min_s, max_s, samples) = render(ctx, &vol, &view, &args, &hdr, ctx.repeat)?;
-        let psnr_db = psnr(ctx, &reference, &hdr)?;
-        noteln!(
-            "vol-accuracy: {name} {knob}={value}: {median_s:.4} s, PSNR {}",
-            psnr_db.map_or("inf".to_string(), |p| format!("{p:.2} dB"))
-        );
-        rows.push(Row {
-            scene: name.into(),
-            knob,
-            value,
-            median_s,
-            min_s,
-            max_s,
-            samples,
-            psnr_db,
-        });
+    EffectStudy {
+        name: format!("{}-shadows", scene.name),
+        extra: strs(&["--light", SHADOW_LIGHT]),
+        reference: (
+            format!("ray:{ref_step}"),
+            strs(&["--shadows", "ray", "--shadow-step", ref_step]),
+        ),
+        settings,
+    }
+}
+
+/// What ambient occlusion costs and buys: one directional light and a
+/// strong ambient term; the reference occludes with many directions per
+/// shaded sample, the points are AO off, N sampled directions, and fields
+/// of K directions (whose precomputation is timed apart).
+fn ao_study(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> EffectStudy {
+    let ref_rays = if ctx.ref_step == REF_STEP_QUICK {
+        AO_REF_RAYS_QUICK
+    } else {
+        AO_REF_RAYS
+    };
+    let mut settings: Vec<(&'static str, String, Vec<String>)> =
+        vec![("AO off", "off".into(), Vec::new())];
+    for n in &sweep.ao_rays {
+        settings.push(("AO rays", n.to_string(), strs(&["--ao", n])));
+    }
+    for k in &sweep.ao_fields {
+        settings.push(("AO field", k.to_string(), strs(&["--ao-field", k])));
+    }
+    EffectStudy {
+        name: format!("{}-ao", scene.name),
+        extra: strs(&["--light", SHADOW_LIGHT, "--ambient", AO_AMBIENT]),
+        reference: (format!("rays:{ref_rays}"), strs(&["--ao", ref_rays])),
+        settings,
+    }
+}
+
+/// Run an effect study of `scene` (whose volume the main study made).
+fn run_effect(ctx: &Ctx, scene: &Scene, study: &EffectStudy) -> Result<Vec<Row>> {
+    let name = study.name.as_str();
+    let vol = ctx.out.join(format!("{}.vvol", scene.name));
+    let mut view = scene.view.clone();
+    if scene.tf_file.is_some() {
+        let tf_path = ctx.out.join(format!("{}.tf", scene.name));
+        view.extend(["--tf".into(), path_arg(&tf_path)?]);
+    }
+    view.extend(strs(&["--step", BASE_STEP, "--ert", BASE_ERT]));
+    view.extend(study.extra.iter().cloned());
+    let reference = ctx.out.join(format!("{name}-reference.pfm"));
+    let (ref_value, ref_args) = &study.reference;
+    noteln!("vol-accuracy: {name}: reference {}", ref_args.join(" "));
+    let r = render(ctx, &vol, &view, ref_args, &reference, ctx.repeat)?;
+    let mut rows = vec![r.reference_row(name, ref_value.clone())];
+    let m = Measured {
+        scene: name,
+        vol: &vol,
+        view: &view,
+        reference: &reference,
+    };
+    for (knob, value, args) in &study.settings {
+        rows.push(m.row(ctx, knob, value.clone(), args)?);
     }
     Ok(rows)
 }
@@ -521,8 +577,36 @@ fn tool(ctx: &Ctx, name: &str, args: &[String]) -> Result<String> {
     Ok(String::from_utf8_lossy(&out.stdout).into_owned())
 }
 
-/// Render once (or `repeat` times) with --hdr; returns median, min and max
-/// seconds and the samples taken.
+/// What one setting's renders took.
+struct Timing {
+    median_s: f64,
+    min_s: f64,
+    max_s: f64,
+    samples: u64,
+    /// Precomputation outside the frame time (`ao_field_s`), seconds.
+    build_s: f64,
+}
+
+impl Timing {
+    /// The row of a study's reference (PSNR inf), written first so the
+    /// other times can be compared with it.
+    fn reference_row(&self, scene: &str, value: String) -> Row {
+        Row {
+            scene: scene.into(),
+            knob: "reference",
+            value,
+            median_s: self.median_s,
+            min_s: self.min_s,
+            max_s: self.max_s,
+            samples: self.samples,
+            psnr_db: None,
+            build_s: self.build_s,
+        }
+    }
+}
+
+/// Render once (or `repeat` times) with --hdr: the median, fastest and
+/// slowest frame, the samples taken, and any precomputation.
 fn render(
     ctx: &Ctx,
     vol: &Path,
@@ -530,7 +614,7 @@ fn render(
     knobs: &[String],
     hdr: &Path,
     repeat: u32,
-) -> Result<(f64, f64, f64, u64)> {
+) -> Result<Timing> {
     let png = hdr.with_extension("png");
     let mut args = vec![path_arg(vol)?];
     args.extend(view.iter().cloned());
@@ -560,7 +644,13 @@ fn render(
     let samples = v["samples"]
         .as_u64()
         .ok_or_else(|| anyhow!("vol-render JSON has no samples"))?;
-    Ok((median, min, max, samples))
+    Ok(Timing {
+        median_s: median,
+        min_s: min,
+        max_s: max,
+        samples,
+        build_s: v["ao_field_s"].as_f64().unwrap_or(0.0),
+    })
 }
 
 /// PSNR (dB) of `b` against `a`; None when identical.
@@ -583,13 +673,13 @@ fn psnr(ctx: &Ctx, a: &Path, b: &Path) -> Result<Option<f64>> {
 
 /// Write the CSV under a temporary name, then rename.
 fn write_csv(path: &Path, rows: &[Row]) -> Result<()> {
-    let mut s = String::from("scene,knob,value,median_s,min_s,max_s,samples,psnr_db\n");
+    let mut s = String::from("scene,knob,value,median_s,min_s,max_s,samples,psnr_db,build_s\n");
     for r in rows {
         let p = r.psnr_db.map_or("inf".to_string(), |p| format!("{p:.3}"));
         let _ = writeln!(
             s,
-            "{},{},{},{:.6},{:.6},{:.6},{},{}",
-            r.scene, r.knob, r.value, r.median_s, r.min_s, r.max_s, r.samples, p
+            "{},{},{},{:.6},{:.6},{:.6},{},{},{:.6}",
+            r.scene, r.knob, r.value, r.median_s, r.min_s, r.max_s, r.samples, p, r.build_s
         );
     }
     let tmp = path.with_extension("csv.partial");

@@ -217,6 +217,20 @@ fn report(
             v["shadow_grid_bytes"] = e.shadow_grid_bytes.into();
             v["shadow_grid_samples"] = e.shadow_grid_samples.into();
         }
+        if cli.ao.is_some() || cli.ao_field.is_some() {
+            let e = &s.effects;
+            v["ao_rays"] = e.ao_rays.into();
+            v["ao_samples"] = e.ao_samples.into();
+            v["ao_grid_s"] = e.ao_grid_s.into();
+            v["ao_grid_bytes"] = e.ao_grid_bytes.into();
+            v["ao_grid_samples"] = e.ao_grid_samples.into();
+        }
+        if cli.ao_field.is_some() {
+            let e = &s.effects;
+            v["ao_field_s"] = e.ao_field_s.into();
+            v["ao_field_bytes"] = e.ao_field_bytes.into();
+            v["ao_field_samples"] = e.ao_field_samples.into();
+        }
         outln!("{v}")?;
     } else if !cli.quiet {
         noteln!(
@@ -241,6 +255,25 @@ fn report(
                 e.shadow_grids,
                 e.shadow_grid_bytes as f64 / 1e6,
                 e.shadow_grid_s
+            );
+        }
+        if cli.ao.is_some() || cli.ao_field.is_some() {
+            let e = &s.effects;
+            noteln!(
+                "vol-render: ambient occlusion: {} rays, {:.1} M grid reads; occlusion grid {:.1} MB built in {:.3} s{}",
+                e.ao_rays,
+                e.ao_samples as f64 / 1e6,
+                e.ao_grid_bytes as f64 / 1e6,
+                e.ao_grid_s,
+                if cli.ao_field.is_some() {
+                    format!(
+                        "; field {:.1} MB precomputed in {:.3} s (not in the frame time)",
+                        e.ao_field_bytes as f64 / 1e6,
+                        e.ao_field_s
+                    )
+                } else {
+                    String::new()
+                }
             );
         }
     }

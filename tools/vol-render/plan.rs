@@ -43,6 +43,9 @@ impl Plan {
         };
         let (camera, look_at, orbit) = camera(cli, vol)?;
         let settings = settings(cli, vol, index)?;
+        if settings.ao.is_some() && cli.mode == ModeArg::Dvr && cli.shading != ShadingArg::Phong {
+            notes.push("ambient occlusion turns on --shading phong".into());
+        }
         if let Some(sh) = &settings.shadows {
             if cli.mode == ModeArg::Dvr && cli.shading != ShadingArg::Phong {
                 notes.push("--shadows turns on --shading phong".into());
@@ -290,6 +293,25 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
     if cli.shadow_step.is_some() && shadows.is_none() {
         bail!("--shadow-step needs --shadows");
     }
+    let ao_of = |flag: &str, spec: &str, method: fn(u32) -> volrender::AoMethod| {
+        crate::args::ao_spec(spec)
+            .map(|(n, radius)| volrender::Ao {
+                method: method(n),
+                radius,
+                seed: 0,
+            })
+            .map_err(|e| volkit_cli::usage(format!("{flag} {e}")))
+    };
+    let ao = match (&cli.ao, &cli.ao_field) {
+        (Some(_), Some(_)) => {
+            bail!("--ao and --ao-field are two ways to the same effect: give one")
+        }
+        (Some(s), None) => Some(ao_of("--ao", s, |n| volrender::AoMethod::Rays { n })?),
+        (None, Some(s)) => Some(ao_of("--ao-field", s, |k| volrender::AoMethod::Field {
+            k,
+        })?),
+        (None, None) => None,
+    };
     let defaults = Lighting::default();
     Ok(RenderSettings {
         mode,
@@ -302,8 +324,8 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
             GradientArg::Central => GradientMethod::Central,
             GradientArg::Analytic => GradientMethod::Analytic,
         },
-        // Shadows shade: they turn shading on (the plan notes it).
-        shading: cli.shading == ShadingArg::Phong || shadows.is_some(),
+        // Shadows and AO shade: they turn shading on (the plan notes it).
+        shading: cli.shading == ShadingArg::Phong || shadows.is_some() || ao.is_some(),
         lighting: Lighting {
             lights,
             ambient: cli.ambient.unwrap_or(defaults.ambient),
@@ -314,6 +336,7 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
         tile: cli.tile,
         background: (cli.background / 255.0).to_array(),
         shadows,
+        ao,
         ..Default::default()
     })
 }

@@ -91,6 +91,12 @@ pub struct Scene {
     /// Distance between shadow samples, world units.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shadow_step: Option<f32>,
+    /// Ambient occlusion by sampled directions: `N` or `N:R`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ao: Option<String>,
+    /// Ambient occlusion from a precomputed field: `K` or `K:R`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ao_field: Option<String>,
     /// Background colour r, g, b (0-255).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub background: Option<[f32; 3]>,
@@ -380,6 +386,8 @@ impl Scene {
         set!(ambient, "ambient", |a: Colour| Some(a.rgb()));
         set!(shadows, "shadows", Some);
         set!(shadow_step, "shadow_step", Some);
+        set!(ao, "ao", Some);
+        set!(ao_field, "ao_field", Some);
         // The command line's transfer function wins whichever form it takes.
         if !on_command_line("tf") {
             match (self.tf, self.tf_text) {
@@ -478,6 +486,8 @@ pub fn effective(cli: &Cli, resolved: &Resolved) -> Scene {
         lights: Some(resolved.lights.iter().map(LightSpec::of).collect()),
         shadows: cli.shadows.clone(),
         shadow_step: cli.shadow_step,
+        ao: cli.ao.clone(),
+        ao_field: cli.ao_field.clone(),
         background: Some(cli.background.to_array()),
         alpha: Some(cli.alpha),
         output: cli.output.as_deref().map(absolute),

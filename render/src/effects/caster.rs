@@ -1,6 +1,8 @@
 //! Shadows at a shaded point: per light, a grid read or a shadow ray; and
-//! the DVR shading that multiplies each light by its transmittance.
+//! the DVR shading that multiplies each light by its transmittance and the
+//! ambient term by the ambient occlusion.
 
+use super::ao::AoSource;
 use super::light_grid::LightGrid;
 use super::occluder::Occluder;
 use super::shadow_ray::transmittance;
@@ -95,48 +97,72 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
     }
 }
 
-/// Blinn-Phong with shadows for DVR: each light's share of a sample's
-/// light is multiplied by its transmittance from the sample. Samples whose
-/// gradient is too short for a normal keep their colour scaled by the
-/// lights' mean transmittance (above the ambient part).
-pub struct ShadowedPhong<'a, O, A> {
+/// Blinn-Phong with effects for DVR: each light's share of a sample's
+/// light is multiplied by its transmittance from the sample (with
+/// shadows), and the ambient term by the sample's ambient occlusion (with
+/// AO). Samples whose gradient is too short for a normal keep their colour
+/// scaled by the lights' mean transmittance above the ambient part, which
+/// is occluded over the whole sphere.
+pub struct EffectsPhong<'a, O, A> {
     lighting: &'a Lighting,
     threshold2: f32,
-    caster: &'a ShadowCaster<'a, O, A>,
+    caster: Option<&'a ShadowCaster<'a, O, A>>,
+    ao: Option<&'a AoSource<'a>>,
 }
 
-impl<'a, O, A> ShadowedPhong<'a, O, A> {
+impl<'a, O, A> EffectsPhong<'a, O, A> {
     /// Shading with `lighting` where the squared gradient length exceeds
-    /// `threshold2`, shadowed by `caster`.
+    /// `threshold2`, shadowed by `caster` and occluded by `ao` when given.
     pub fn new(
         lighting: &'a Lighting,
         threshold2: f32,
-        caster: &'a ShadowCaster<'a, O, A>,
+        caster: Option<&'a ShadowCaster<'a, O, A>>,
+        ao: Option<&'a AoSource<'a>>,
     ) -> Self {
-        ShadowedPhong {
+        EffectsPhong {
             lighting,
             threshold2,
             caster,
+            ao,
         }
     }
 }
 
-/// A shadowed ray's state: the ray, its counters, and the per-ray
-/// shading when the frame has one light from a fixed direction.
-pub struct ShadowedRay {
+/// A DVR ray's effect state: the ray and its pixel, its counters, the
+/// index of its next occluded sample, and the per-ray shading when the
+/// frame has one light from a fixed direction.
+pub struct EffectsRay {
     ray: Ray,
+    pixel: [u32; 2],
     fx: RayEffects,
+    ao_index: u64,
     one_light: Option<ViewShading>,
 }
 
-impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for ShadowedPhong<'_, O, A> {
-    type PerRay = ShadowedRay;
+/// The outward unit normal for ambient occlusion from world gradient
+/// `grad` (toward falling values), scaled by its largest component first
+/// so tiny and huge gradients normalise alike; `None` when it has no
+/// direction.
+#[inline]
+pub fn outward_normal(grad: Vec3) -> Option<Vec3> {
+    let m = grad.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return None;
+    }
+    let n = -(grad / m).normalize_or_zero();
+    (n != Vec3::ZERO).then_some(n)
+}
+
+impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
+    type PerRay = EffectsRay;
     const ON: bool = true;
     #[inline(always)]
-    fn for_ray(&self, ray: &Ray) -> ShadowedRay {
-        ShadowedRay {
+    fn for_ray(&self, ray: &Ray, pixel: [u32; 2]) -> EffectsRay {
+        EffectsRay {
             ray: *ray,
+            pixel,
             fx: RayEffects::default(),
+            ao_index: 0,
             one_light: self
                 .lighting
                 .single_per_ray_light()
@@ -146,36 +172,54 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for ShadowedPhong<'_, O, A> 
     #[inline(always)]
     fn shade<C: Cursor>(
         &self,
-        st: &mut ShadowedRay,
+        st: &mut EffectsRay,
         cur: &mut C,
         colour: Vec3,
         grad: Vec3,
         len2: f32,
         t: f32,
     ) -> Vec3 {
-        let ShadowedRay { ray, fx, one_light } = st;
+        let EffectsRay {
+            ray,
+            pixel,
+            fx,
+            ao_index,
+            one_light,
+        } = st;
         let p = ray.origin + ray.dir * t;
         let lit = len2 > self.threshold2;
+        let ao = match self.ao {
+            Some(src) => {
+                let n = if lit { outward_normal(grad) } else { None };
+                let a = src.occlusion(p, n, *pixel, *ao_index, fx);
+                *ao_index += 1;
+                a
+            }
+            None => 1.0,
+        };
+        let caster = self.caster;
         if let (Some(view), true) = (one_light.as_ref(), lit) {
             // One light from one direction along the ray: its incident
             // light is the same everywhere (index 0).
             let inc = self.lighting.lights[0].for_ray(ray.dir);
             let unit = grad * len2.sqrt().recip();
-            return view.shade_normal_shadowed(colour, unit, || {
-                self.caster.transmittance(cur, 0, p, &inc, (), fx)
+            return view.shade_normal_shadowed(colour, unit, ao, || {
+                caster.map_or(1.0, |c| c.transmittance(cur, 0, p, &inc, (), fx))
             });
         }
-        let mut light =
-            |i: usize, inc: &Incident| self.caster.transmittance(cur, i, p, inc, (), fx);
+        let mut light = |i: usize, inc: &Incident| {
+            caster.map_or(1.0, |c| c.transmittance(cur, i, p, inc, (), fx))
+        };
         if lit {
             self.lighting
-                .shade_shadowed(colour, grad, ray.dir, p, &mut light)
+                .shade_shadowed(colour, grad, ray.dir, p, ao, &mut light)
         } else {
-            self.lighting.unlit_shadowed(colour, ray.dir, p, &mut light)
+            self.lighting
+                .unlit_shadowed(colour, ray.dir, p, ao, &mut light)
         }
     }
     #[inline(always)]
-    fn effects(st: &ShadowedRay) -> RayEffects {
+    fn effects(st: &EffectsRay) -> RayEffects {
         st.fx
     }
 }

@@ -1,4 +1,5 @@
-//! Lighting effects beyond local shading: shadows, each switched on by
+//! Lighting effects beyond local shading: shadows and ambient
+//! occlusion, each switched on by
 //! the frame's settings and costing nothing when off (the frame is then
 //! built from exactly the integrator types it had before effects existed).
 //!
@@ -9,17 +10,25 @@
 //! - [`light_grid`]: a transmittance grid per directional light, swept
 //!   slab by slab away from the light once per frame, read trilinearly.
 //! - [`caster`]: the per-light choice between the two, the counters, and
-//!   the DVR shading type that uses them.
+//!   the shading type that applies the effects to DVR samples.
+//! - [`occlusion_grid`]: the classified volume's extinction on a coarse
+//!   grid, and the march of an occlusion ray through it.
+//! - [`ao`]: ambient occlusion by sampled directions or a precomputed
+//!   field of fixed directions.
 
+pub mod ao;
 pub mod caster;
 pub mod light_grid;
 pub mod occluder;
+pub mod occlusion_grid;
 pub mod setup;
 pub mod shadow_ray;
 
-pub use caster::{ShadowCaster, ShadowedPhong};
+pub use ao::{Ao, AoField, AoLookup, AoMethod, AoSource};
+pub use caster::{EffectsPhong, ShadowCaster};
 pub use light_grid::LightGrid;
 pub use occluder::{Classified, IsoInside, Occluder};
+pub use occlusion_grid::OcclusionGrid;
 
 /// A shadow ray stops once its transmittance falls below this and counts
 /// as fully shadowed: the light it drops is at most this fraction of the
@@ -68,6 +77,23 @@ pub struct EffectStats {
     pub shadow_grid_bytes: u64,
     /// Samples their build took.
     pub shadow_grid_samples: u64,
+    /// Occlusion rays marched (`--ao N`: N per shaded sample).
+    pub ao_rays: u64,
+    /// Grid reads those rays took.
+    pub ao_samples: u64,
+    /// Seconds spent building the occlusion grid.
+    pub ao_grid_s: f64,
+    /// Its memory, bytes.
+    pub ao_grid_bytes: u64,
+    /// Samples its build took.
+    pub ao_grid_samples: u64,
+    /// Seconds spent precomputing the AO field (`--ao-field K`; not
+    /// counted in the frame's render time).
+    pub ao_field_s: f64,
+    /// The field's memory, bytes.
+    pub ao_field_bytes: u64,
+    /// Grid reads its build took.
+    pub ao_field_samples: u64,
 }
 
 /// Per-ray effect counters, carried in a ray's result.
@@ -77,6 +103,10 @@ pub struct RayEffects {
     pub shadow_rays: u32,
     /// Samples those shadow rays took.
     pub shadow_samples: u64,
+    /// Occlusion rays this ray's samples cast.
+    pub ao_rays: u32,
+    /// Grid reads those occlusion rays took.
+    pub ao_samples: u64,
 }
 
 #[cfg(test)]

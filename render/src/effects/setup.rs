@@ -1,8 +1,11 @@
-//! Per-frame setup of shadows: the shadow step, and the light grids the
-//! frame's lights need, built once before any ray is traced.
+//! Per-frame setup of the effects: the shadow step, the light grids the
+//! frame's lights need, and the occlusion grid and AO field, all built
+//! once before any ray is traced.
 
+use super::ao::{Ao, AoField, AoLookup, AoMethod, AoSource};
 use super::light_grid::LightGrid;
 use super::occluder::{Classified, IsoInside, Occluder};
+use super::occlusion_grid::{Intervals, OcclusionGrid, OCCLUSION_CELL};
 use super::{EffectStats, ShadowMethod, Shadows};
 use crate::accel::ClearBoxes;
 use crate::classify::Classifier;
@@ -10,6 +13,7 @@ use crate::error::RenderError;
 use crate::integrator::reconstruct::{Analytic, Central, Nearest, NoGradient, Trilinear};
 use crate::integrator::FrameGeometry;
 use crate::light::Light;
+use crate::sampler::HashSampler;
 use crate::settings::{GradientMethod, Interp, RenderSettings};
 use glam::Vec3;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
@@ -18,10 +22,11 @@ use volcore::{Volume, VolumeVisitor, VoxelSource};
 pub const GRID_MEMORY_BUDGET: u64 = 8 << 30;
 
 /// The shadow-ray sample placement: the frame's geometry at the shadow
-/// step (the view step unless the settings give one).
-pub fn shadow_geometry(geom: &FrameGeometry, shadows: &Shadows) -> FrameGeometry {
+/// step (the view step unless the settings give one; also the step the
+/// effects' optical depth tables are made for).
+pub fn shadow_geometry(geom: &FrameGeometry, shadows: Option<&Shadows>) -> FrameGeometry {
     FrameGeometry {
-        step: shadows.step.unwrap_or(geom.step),
+        step: shadows.and_then(|s| s.step).unwrap_or(geom.step),
         ..*geom
     }
 }
@@ -106,30 +111,26 @@ impl<O: Occluder> VolumeVisitor for Build<'_, O> {
     }
 }
 
-/// The grids of a DVR frame, through the depth table `depth` (optical
-/// depth per `geom.step`), reconstructed as the frame reconstructs.
-pub fn dvr_grids<K: Classifier>(
-    vol: &Volume,
+/// Code to run with a DVR frame's occluder, of whichever concrete type
+/// the frame's reconstruction and gradient method make it.
+trait WithOccluder {
+    type Output;
+    fn with<O: Occluder<Query = ()>>(self, occ: &O) -> Self::Output;
+}
+
+/// Run `f` with the occluder of a DVR frame: the depth table `depth`
+/// (optical depth per `geom.step`), reconstructed as the frame
+/// reconstructs.
+fn dvr_occluder<K: Classifier, F: WithOccluder>(
     settings: &RenderSettings,
-    shadows: &Shadows,
     geom: &FrameGeometry,
     depth: &K,
-    clear: Option<&ClearBoxes<'_>>,
-) -> Result<(Vec<Option<LightGrid>>, EffectStats), RenderError> {
+    f: F,
+) -> F::Output {
     let (loc, inv) = (geom.locator, geom.inv_spacing);
-    let lights = &settings.lighting.lights;
-    let step = geom.step;
     macro_rules! with {
         ($r:ty, $g:ty) => {
-            grids(
-                vol,
-                lights,
-                shadows,
-                step,
-                &Classified::<$r, $g, K>::new(depth, loc, inv),
-                (),
-                clear,
-            )
+            f.with(&Classified::<$r, $g, K>::new(depth, loc, inv))
         };
     }
     use GradientMethod::{Analytic as A, Central as C};
@@ -140,6 +141,229 @@ pub fn dvr_grids<K: Classifier>(
         (Interp::Nearest, false, _) => with!(Nearest, NoGradient),
         (Interp::Nearest, true, C) => with!(Nearest, Central),
         (Interp::Nearest, true, A) => with!(Nearest, Analytic),
+    }
+}
+
+/// The grids of a DVR frame, through the depth table `depth` (optical
+/// depth per `geom.step`), reconstructed as the frame reconstructs.
+pub fn dvr_grids<K: Classifier>(
+    vol: &Volume,
+    settings: &RenderSettings,
+    shadows: &Shadows,
+    geom: &FrameGeometry,
+    depth: &K,
+    clear: Option<&ClearBoxes<'_>>,
+) -> Result<(Vec<Option<LightGrid>>, EffectStats), RenderError> {
+    struct Grids<'a> {
+        vol: &'a Volume,
+        lights: &'a [Light],
+        shadows: &'a Shadows,
+        step: f32,
+        clear: Option<&'a ClearBoxes<'a>>,
+    }
+    impl WithOccluder for Grids<'_> {
+        type Output = Result<(Vec<Option<LightGrid>>, EffectStats), RenderError>;
+        fn with<O: Occluder<Query = ()>>(self, occ: &O) -> Self::Output {
+            grids(
+                self.vol,
+                self.lights,
+                self.shadows,
+                self.step,
+                occ,
+                (),
+                self.clear,
+            )
+        }
+    }
+    let g = Grids {
+        vol,
+        lights: &settings.lighting.lights,
+        shadows,
+        step: geom.step,
+        clear,
+    };
+    dvr_occluder(settings, geom, depth, g)
+}
+
+/// What a frame's ambient occlusion reads: the occlusion grid, the march
+/// of its rays, and the precomputed field when the method is one.
+pub struct AoParts {
+    /// The settings.
+    pub ao: Ao,
+    /// The classified volume's extinction, coarse.
+    pub grid: OcclusionGrid,
+    /// Where occlusion rays sample.
+    pub intervals: Intervals,
+    /// The precomputed field (`--ao-field`).
+    pub field: Option<AoField>,
+}
+
+impl AoParts {
+    /// The frame's occlusion, looked up `offset_cells` occlusion-grid
+    /// cells off shaded samples along their normal, in the box `[0, hi]`.
+    pub fn source(&self, hi: Vec3, offset_cells: f32, min_spacing: f32) -> AoSource<'_> {
+        let lookup = match (&self.field, self.ao.method) {
+            (Some(f), _) => AoLookup::Field(f),
+            (None, AoMethod::Rays { n }) | (None, AoMethod::Field { k: n }) => AoLookup::Rays {
+                n,
+                intervals: &self.intervals,
+                sampler: HashSampler::new(self.ao.seed),
+            },
+        };
+        AoSource::new(
+            &self.grid,
+            lookup,
+            hi,
+            AoSource::offset_for(offset_cells, min_spacing),
+        )
+    }
+}
+
+/// The AO radius for a volume: the setting, or a tenth of the diagonal.
+pub fn ao_radius(vol: &Volume, ao: &Ao) -> f32 {
+    ao.radius
+        .unwrap_or_else(|| crate::frame::world_diagonal(vol).map_or(0.0, |d| (d / 10.0) as f32))
+}
+
+/// Build what `ao` needs through `occ` (query `q`, depth per `step`),
+/// skipping samples in `clear`; adds the costs to `stats` (the grid's
+/// build counts in the frame, the field's is reported beside it).
+fn ao_parts<O: Occluder>(
+    vol: &Volume,
+    ao: &Ao,
+    step: f32,
+    occ: &O,
+    q: O::Query,
+    clear: Option<&ClearBoxes<'_>>,
+    stats: &mut EffectStats,
+) -> Result<AoParts, RenderError> {
+    let spacing = vol.meta.spacing;
+    let budget = GRID_MEMORY_BUDGET.saturating_sub(stats.shadow_grid_bytes);
+    let grid = vol.visit(BuildOcclusion {
+        occ,
+        q,
+        spacing,
+        step,
+        budget,
+        clear,
+    })?;
+    // The grid is part of the frame for sampled AO; for a field it is
+    // part of the precomputation (the frame reads only the field).
+    match ao.method {
+        AoMethod::Rays { .. } => stats.ao_grid_s += grid.build_s,
+        AoMethod::Field { .. } => stats.ao_field_s += grid.build_s,
+    }
+    stats.ao_grid_bytes += grid.bytes();
+    stats.ao_grid_samples += grid.samples;
+    let cell = OCCLUSION_CELL as f32 * vol.meta.min_spacing();
+    let intervals = Intervals::new(ao_radius(vol, ao), 0.5 * cell, cell);
+    let field = match ao.method {
+        AoMethod::Field { k } => {
+            let d = vol.dims().as_array();
+            let dims = [d[0] as usize, d[1] as usize, d[2] as usize];
+            let budget = budget.saturating_sub(grid.bytes());
+            let f = AoField::build(&grid, &intervals, dims, spacing, k, budget)?;
+            stats.ao_field_s += f.build_s;
+            stats.ao_field_bytes += f.bytes();
+            stats.ao_field_samples += f.samples;
+            Some(f)
+        }
+        AoMethod::Rays { .. } => None,
+    };
+    Ok(AoParts {
+        ao: *ao,
+        grid,
+        intervals,
+        field,
+    })
+}
+
+struct BuildOcclusion<'o, O: Occluder> {
+    occ: &'o O,
+    q: O::Query,
+    spacing: [f32; 3],
+    step: f32,
+    budget: u64,
+    clear: Option<&'o ClearBoxes<'o>>,
+}
+
+impl<O: Occluder> VolumeVisitor for BuildOcclusion<'_, O> {
+    type Output = Result<OcclusionGrid, RenderError>;
+    fn visit<S: VoxelSource>(self, src: &S) -> Self::Output {
+        OcclusionGrid::build(
+            src,
+            self.occ,
+            self.q,
+            self.spacing,
+            self.step,
+            self.budget,
+            self.clear,
+        )
+    }
+}
+
+/// The AO of a DVR frame through the depth table `depth` (optical depth
+/// per `geom.step`); adds its costs to `stats`.
+pub fn dvr_ao<K: Classifier>(
+    vol: &Volume,
+    settings: &RenderSettings,
+    ao: &Ao,
+    geom: &FrameGeometry,
+    depth: &K,
+    clear: Option<&ClearBoxes<'_>>,
+    stats: &mut EffectStats,
+) -> Result<AoParts, RenderError> {
+    struct Parts<'a> {
+        vol: &'a Volume,
+        ao: &'a Ao,
+        step: f32,
+        clear: Option<&'a ClearBoxes<'a>>,
+        stats: &'a mut EffectStats,
+    }
+    impl WithOccluder for Parts<'_> {
+        type Output = Result<AoParts, RenderError>;
+        fn with<O: Occluder<Query = ()>>(self, occ: &O) -> Self::Output {
+            ao_parts(
+                self.vol,
+                self.ao,
+                self.step,
+                occ,
+                (),
+                self.clear,
+                self.stats,
+            )
+        }
+    }
+    let p = Parts {
+        vol,
+        ao,
+        step: geom.step,
+        clear,
+        stats,
+    };
+    dvr_occluder(settings, geom, depth, p)
+}
+
+/// The AO of an iso frame: values at or above `level` occlude (the outside
+/// is below it); adds its costs to `stats`.
+pub fn iso_ao(
+    vol: &Volume,
+    settings: &RenderSettings,
+    ao: &Ao,
+    geom: &FrameGeometry,
+    level: f32,
+    clear: Option<&ClearBoxes<'_>>,
+    stats: &mut EffectStats,
+) -> Result<AoParts, RenderError> {
+    match settings.interp {
+        Interp::Trilinear => {
+            let occ = IsoInside::<Trilinear>::new(level, geom.locator);
+            ao_parts(vol, ao, geom.step, &occ, false, clear, stats)
+        }
+        Interp::Nearest => {
+            let occ = IsoInside::<Nearest>::new(level, geom.locator);
+            ao_parts(vol, ao, geom.step, &occ, false, clear, stats)
+        }
     }
 }
 

@@ -51,8 +51,8 @@ pub trait Shading: Sync {
     /// Whether it shades at all (then the integrator computes gradients
     /// of visible samples).
     const ON: bool;
-    /// The per-ray part for `ray`.
-    fn for_ray(&self, ray: &Ray) -> Self::PerRay;
+    /// The per-ray part for `ray` through `pixel`.
+    fn for_ray(&self, ray: &Ray, pixel: [u32; 2]) -> Self::PerRay;
     /// `colour` lit at ray parameter `t`, where the world-space gradient
     /// is `grad`, of squared length `len2`; effects that sample the volume
     /// (shadows) read it through `cur`.
@@ -80,7 +80,7 @@ impl Shading for Unshaded {
     type PerRay = ();
     const ON: bool = false;
     #[inline(always)]
-    fn for_ray(&self, _: &Ray) {}
+    fn for_ray(&self, _: &Ray, _: [u32; 2]) {}
     #[inline(always)]
     fn shade<C: Cursor>(
         &self,
@@ -145,7 +145,7 @@ impl Shading for Phong<'_> {
     type PerRay = ViewShading;
     const ON: bool = true;
     #[inline(always)]
-    fn for_ray(&self, ray: &Ray) -> ViewShading {
+    fn for_ray(&self, ray: &Ray, _: [u32; 2]) -> ViewShading {
         self.lighting.for_view(self.light, ray.dir)
     }
     #[inline(always)]
@@ -170,7 +170,7 @@ impl Shading for PhongLights<'_> {
     type PerRay = Ray;
     const ON: bool = true;
     #[inline(always)]
-    fn for_ray(&self, ray: &Ray) -> Ray {
+    fn for_ray(&self, ray: &Ray, _: [u32; 2]) -> Ray {
         *ray
     }
     #[inline(always)]
@@ -234,13 +234,20 @@ where
     T: Termination,
     A: Accel<()>,
 {
-    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult {
+    fn trace<C: Cursor>(
+        &self,
+        cur: &mut C,
+        ray: &Ray,
+        pixel: [u32; 2],
+        t0: f32,
+        t1: f32,
+    ) -> RayResult {
         let steps = RaySteps::new(&self.geom, ray, t0, t1);
         let mut st = DvrRay {
             dvr: self,
             loc: self.geom.locator,
             inv_spacing: self.geom.inv_spacing,
-            view: self.shading.for_ray(ray),
+            view: self.shading.for_ray(ray, pixel),
             colour: Vec3::ZERO,
             alpha: 0.0,
             samples: 0,

@@ -5,7 +5,7 @@ use super::reconstruct::{Gradient, Reconstruct};
 use super::{FrameGeometry, Integrator, RayResult};
 use crate::accel::skip::{ISO_ABOVE, ISO_BELOW};
 use crate::accel::{Accel, IsoSides};
-use crate::effects::{IsoInside, ShadowCaster};
+use crate::effects::{AoSource, IsoInside, ShadowCaster};
 use crate::ray::Ray;
 use crate::shade::Lighting;
 use glam::Vec3;
@@ -30,6 +30,8 @@ pub struct Iso<'a, R, G, A> {
     lighting: &'a Lighting,
     /// Shadows, if the frame casts them.
     shadows: Option<&'a IsoCaster<'a, R>>,
+    /// Ambient occlusion, if the frame asks for it.
+    ao: Option<&'a AoSource<'a>>,
     _choices: PhantomData<(R, G)>,
 }
 
@@ -38,7 +40,9 @@ pub type IsoCaster<'a, R> = ShadowCaster<'a, IsoInside<R>, IsoSides<'a>>;
 
 impl<'a, R, G, A> Iso<'a, R, G, A> {
     /// The integrator for iso value `level`, surface colour `colour`
-    /// (linear) lit by `lighting`, shadowed by `shadows` when given.
+    /// (linear) lit by `lighting`, shadowed by `shadows` and occluded by
+    /// `ao` when given.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         geom: FrameGeometry,
         accel: A,
@@ -46,6 +50,7 @@ impl<'a, R, G, A> Iso<'a, R, G, A> {
         colour: Vec3,
         lighting: &'a Lighting,
         shadows: Option<&'a IsoCaster<'a, R>>,
+        ao: Option<&'a AoSource<'a>>,
     ) -> Self {
         Iso {
             geom,
@@ -54,18 +59,27 @@ impl<'a, R, G, A> Iso<'a, R, G, A> {
             colour,
             lighting,
             shadows,
+            ao,
             _choices: PhantomData,
         }
     }
 }
 
 impl<R: Reconstruct, G: Gradient, A: Accel<bool>> Integrator for Iso<'_, R, G, A> {
-    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult {
+    fn trace<C: Cursor>(
+        &self,
+        cur: &mut C,
+        ray: &Ray,
+        pixel: [u32; 2],
+        t0: f32,
+        t1: f32,
+    ) -> RayResult {
         let steps = RaySteps::new(&self.geom, ray, t0, t1);
         let mut st = IsoRay {
             iso: self,
             steps: &steps,
             ray,
+            pixel,
             t0,
             prev: false,
             out: RayResult::empty(),
@@ -79,6 +93,7 @@ struct IsoRay<'i, 'a, R, G, A> {
     iso: &'i Iso<'a, R, G, A>,
     steps: &'i RaySteps,
     ray: &'i Ray,
+    pixel: [u32; 2],
     t0: f32,
     /// The class of the previous sample (above the level or not).
     prev: bool,
@@ -152,22 +167,30 @@ impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, '_, R, G, A> {
         let p = self.steps.at(t);
         let (v, early) = G::value::<C, R>(loc, cur, p);
         let g = G::gradient(early, loc, cur, p) * iso.geom.inv_spacing;
+        let at = self.ray.origin + self.ray.dir * t;
+        // The side the view ray arrived from is the outside: the gradient
+        // points into it when the outside is above the level.
+        let outside = self.prev;
+        let fx = &mut self.out.effects;
+        let ao = iso.ao.map_or(1.0, |src| {
+            let n = crate::effects::caster::outward_normal(if outside { -g } else { g });
+            src.occlusion(at, n, self.pixel, 0, fx)
+        });
         let c = if g.length() > 0.0 {
-            let at = self.ray.origin + self.ray.dir * t;
             match iso.shadows {
-                None => iso.lighting.shade_at(iso.colour, g, self.ray.dir, at),
+                None => iso
+                    .lighting
+                    .shade_shadowed(iso.colour, g, self.ray.dir, at, ao, |_, _| 1.0),
                 Some(caster) => {
-                    // The side the view ray arrived from is the outside.
-                    let (outside, fx) = (self.prev, &mut self.out.effects);
                     let mut light = |i: usize, inc: &crate::light::Incident| {
                         caster.transmittance(cur, i, at, inc, outside, fx)
                     };
                     iso.lighting
-                        .shade_shadowed(iso.colour, g, self.ray.dir, at, &mut light)
+                        .shade_shadowed(iso.colour, g, self.ray.dir, at, ao, &mut light)
                 }
             }
         } else {
-            iso.colour * iso.lighting.ambient
+            iso.colour * (iso.lighting.ambient * ao)
         };
         self.out.rgba = [c.x, c.y, c.z, 1.0];
         self.out.value = v as f64;

@@ -79,7 +79,14 @@ impl<R, D, A> Mip<R, D, A> {
 }
 
 impl<R: Reconstruct, D: Extreme, A: Accel<f32>> Integrator for Mip<R, D, A> {
-    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult {
+    fn trace<C: Cursor>(
+        &self,
+        cur: &mut C,
+        ray: &Ray,
+        _pixel: [u32; 2],
+        t0: f32,
+        t1: f32,
+    ) -> RayResult {
         let steps = RaySteps::new(&self.geom, ray, t0, t1);
         let mut st = MipRay::<R, D, A> {
             mip: self,

@@ -33,9 +33,17 @@ use volcore::Cursor;
 
 /// One ray's integral through the volume, specialised for a frame.
 pub trait Integrator: Sync {
-    /// Integrate `ray` over the parameter range `[t0, t1]` (the part inside
-    /// the volume's box), reading samples through `cur`.
-    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult;
+    /// Integrate `ray` (through pixel `pixel`, which keys any random
+    /// numbers the ray takes) over the parameter range `[t0, t1]` (the
+    /// part inside the volume's box), reading samples through `cur`.
+    fn trace<C: Cursor>(
+        &self,
+        cur: &mut C,
+        ray: &Ray,
+        pixel: [u32; 2],
+        t0: f32,
+        t1: f32,
+    ) -> RayResult;
 }
 
 /// What is the same for every ray of a frame: where samples go and how

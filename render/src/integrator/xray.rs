@@ -41,7 +41,14 @@ impl<R, A> Xray<R, A> {
 }
 
 impl<R: Reconstruct, A: Accel<()>> Integrator for Xray<R, A> {
-    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, t0: f32, t1: f32) -> RayResult {
+    fn trace<C: Cursor>(
+        &self,
+        cur: &mut C,
+        ray: &Ray,
+        _pixel: [u32; 2],
+        t0: f32,
+        t1: f32,
+    ) -> RayResult {
         let steps = RaySteps::new(&self.geom, ray, t0, t1);
         let mut st = XrayRay::<R, A> {
             xray: self,

@@ -1,0 +1,449 @@
+//! Ambient occlusion: the share of ambient light that reaches a shaded
+//! sample, the mean transmittance over directions around its normal up to
+//! a radius `R`, through the classified volume's extinction (volumes
+//! occlude by how much light they let through, not as opaque walls).
+//!
+//! Two ways, both reading the frame's [`OcclusionGrid`]:
+//! - **rays** (`--ao N[:R]`): `N` directions per shaded sample,
+//!   cosine-weighted over the hemisphere around the normal (the whole
+//!   sphere where the gradient is too short for one), drawn from the
+//!   hashed per-pixel sampler, so an image is the same for any thread
+//!   count or tile size;
+//! - **field** (`--ao-field K[:R]`): transmittance toward `K` fixed
+//!   directions (a spherical Fibonacci set) precomputed at the points of a
+//!   coarser grid ([`AO_FIELD_CELL`] voxels apart), after the visibility
+//!   fields of Mortensen et al. Each point keeps the cosine-weighted
+//!   occlusion as a function of the normal, projected on spherical
+//!   harmonics up to order 2 (the `K` directions are the quadrature; the
+//!   mean over them is kept exactly, so a uniform neighbourhood is exact):
+//!   nine numbers per point whatever `K`, read trilinearly, so a lookup
+//!   costs about as much as one occlusion-grid read.
+//!
+//! The ambient term of the lighting is multiplied by the occlusion; lights
+//! are not (their shadows are the shadow methods' job).
+
+use super::occlusion_grid::{Intervals, OcclusionGrid, OCCLUSION_CELL};
+use super::RayEffects;
+use crate::error::RenderError;
+use crate::sampler::HashSampler;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+use std::time::Instant;
+
+/// Voxels between the points of a precomputed AO field.
+pub const AO_FIELD_CELL: usize = 8;
+
+/// The most directions per shaded sample (`--ao N`).
+pub const MAX_AO_RAYS: u32 = 1024;
+
+/// The most directions of a precomputed field (`--ao-field K`).
+pub const MAX_AO_FIELD_DIRECTIONS: u32 = 256;
+
+/// How ambient occlusion is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AoMethod {
+    /// `n` random directions per shaded sample.
+    Rays {
+        /// Directions per shaded sample.
+        n: u32,
+    },
+    /// A field of `k` fixed directions, precomputed per frame.
+    Field {
+        /// Directions.
+        k: u32,
+    },
+}
+
+/// Ambient occlusion settings of a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ao {
+    /// The method.
+    pub method: AoMethod,
+    /// How far occluders count, world units (`None`: a tenth of the
+    /// volume's diagonal).
+    pub radius: Option<f32>,
+    /// Seed of the directions' sampler.
+    pub seed: u64,
+}
+
+/// A unit direction from `(u1, u2)` in `[0, 1)²`, cosine-weighted over the
+/// hemisphere around unit `n`.
+#[inline]
+pub fn cosine_hemisphere(n: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let r = u1.sqrt();
+    let phi = 2.0 * PI * u2;
+    let (s, c) = phi.sin_cos();
+    let z = (1.0 - u1).max(0.0).sqrt();
+    let (t, b) = n.any_orthonormal_pair();
+    t * (r * c) + b * (r * s) + n * z
+}
+
+/// A unit direction from `(u1, u2)` in `[0, 1)²`, uniform over the sphere.
+#[inline]
+pub fn uniform_sphere(u1: f32, u2: f32) -> Vec3 {
+    let z = 1.0 - 2.0 * u1;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * u2).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+/// `k` directions spread evenly over the sphere (spherical Fibonacci).
+pub fn fibonacci_directions(k: u32) -> Vec<Vec3> {
+    let golden = PI * (3.0 - 5f32.sqrt());
+    (0..k)
+        .map(|i| {
+            let z = 1.0 - (2 * i + 1) as f32 / k as f32;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let (s, c) = (golden * i as f32).sin_cos();
+            Vec3::new(r * c, r * s, z)
+        })
+        .collect()
+}
+
+/// Spherical-harmonic coefficients a field point keeps.
+const SH: usize = 9;
+
+/// The real spherical harmonics of orders 1 and 2 at unit `d`, without
+/// their normalisation constants (folded into the stored coefficients).
+#[inline(always)]
+fn sh_shape(d: Vec3) -> [f32; SH - 1] {
+    [
+        d.y,
+        d.z,
+        d.x,
+        d.x * d.y,
+        d.y * d.z,
+        3.0 * d.z * d.z - 1.0,
+        d.x * d.z,
+        d.x * d.x - d.y * d.y,
+    ]
+}
+
+/// Normalisation constants of the harmonics in [`sh_shape`] order.
+const SH_NORM: [f32; SH - 1] = [
+    0.488_602_5,
+    0.488_602_5,
+    0.488_602_5,
+    1.092_548_4,
+    1.092_548_4,
+    0.315_391_57,
+    1.092_548_4,
+    0.546_274_2,
+];
+
+/// The cosine-weighted occlusion around every normal, precomputed at the
+/// points of a coarse grid from the transmittance toward `K` directions.
+#[derive(Clone, Debug)]
+pub struct AoField {
+    k: u32,
+    g: [usize; 3],
+    top: Vec3,
+    world_to_grid: Vec3,
+    /// Per point (x fastest): the mean transmittance, then the order-1
+    /// and order-2 terms, scaled so that the occlusion for unit normal
+    /// `n` is `c[0] + Σ c[i]·shape_i(n)`.
+    data: Vec<[f32; SH]>,
+    /// Seconds the build took.
+    pub build_s: f64,
+    /// Grid reads the build took.
+    pub samples: u64,
+}
+
+impl AoField {
+    /// Bytes a field over `dims` takes.
+    pub fn bytes_for(dims: [usize; 3]) -> Option<u64> {
+        dims.iter().try_fold((SH * 4) as u64, |acc, &n| {
+            acc.checked_mul((n.saturating_sub(1).div_ceil(AO_FIELD_CELL) + 1) as u64)
+        })
+    }
+
+    /// The field's memory, bytes.
+    pub fn bytes(&self) -> u64 {
+        (self.data.len() * SH * 4) as u64
+    }
+
+    /// The number of directions it was built from.
+    pub fn directions(&self) -> u32 {
+        self.k
+    }
+
+    /// Build the field from `k` directions over a volume of `dims` voxels
+    /// at `spacing`, marching `grid` with `intervals` from each point, on
+    /// all threads. Refuses a field past `budget` bytes.
+    pub fn build(
+        grid: &OcclusionGrid,
+        intervals: &Intervals,
+        dims: [usize; 3],
+        spacing: [f32; 3],
+        k: u32,
+        budget: u64,
+    ) -> Result<AoField, RenderError> {
+        let start = Instant::now();
+        let bytes = AoField::bytes_for(dims).unwrap_or(u64::MAX);
+        if bytes > budget {
+            return Err(RenderError::Setting(format!(
+                "an AO field would take {bytes} bytes, more than the budget of {budget}: use --ao N"
+            )));
+        }
+        let g = dims.map(|n| n.saturating_sub(1).div_ceil(AO_FIELD_CELL) + 1);
+        let dirs = fibonacci_directions(k.max(1));
+        let shapes: Vec<[f32; SH - 1]> = dirs.iter().map(|&d| sh_shape(d)).collect();
+        let hi = Vec3::from(std::array::from_fn::<f32, 3, _>(|a| {
+            dims[a].saturating_sub(1) as f32 * spacing[a]
+        }));
+        let points = g[0] * g[1] * g[2];
+        let mut data: Vec<[f32; SH]> = Vec::new();
+        data.try_reserve_exact(points).map_err(|_| {
+            RenderError::Setting(format!("cannot allocate an AO field of {bytes} bytes"))
+        })?;
+        data.resize(points, [0.0; SH]);
+        // The projection's quadrature weight (4π/K) times the clamped
+        // cosine's convolution factors over π (2/3 for order 1, 1/4 for
+        // order 2) times each harmonic's constant twice (projection and
+        // evaluation).
+        let w = 4.0 * PI / dirs.len() as f32;
+        let scale: [f32; SH - 1] = std::array::from_fn(|i| {
+            let band = if i < 3 { 2.0 / 3.0 } else { 0.25 };
+            w * band * SH_NORM[i] * SH_NORM[i]
+        });
+        let samples: u64 = data
+            .par_chunks_mut(g[0] * g[1])
+            .enumerate()
+            .map(|(z, slice)| {
+                let mut taken = 0u64;
+                let mut t = vec![0.0f32; dirs.len()];
+                for (i, out) in slice.iter_mut().enumerate() {
+                    let voxel = Vec3::new(
+                        ((i % g[0]) * AO_FIELD_CELL).min(dims[0].saturating_sub(1)) as f32,
+                        ((i / g[0]) * AO_FIELD_CELL).min(dims[1].saturating_sub(1)) as f32,
+                        (z * AO_FIELD_CELL).min(dims[2].saturating_sub(1)) as f32,
+                    );
+                    let p = voxel * Vec3::from(spacing);
+                    for (tk, &d) in t.iter_mut().zip(&dirs) {
+                        let (v, s) = intervals.transmittance(grid, p, d, hi);
+                        taken += s as u64;
+                        *tk = v;
+                    }
+                    let mean = t.iter().sum::<f32>() / t.len() as f32;
+                    let mut c = [0.0f32; SH];
+                    c[0] = mean;
+                    for (tk, shape) in t.iter().zip(&shapes) {
+                        let dev = tk - mean;
+                        if dev != 0.0 {
+                            for j in 0..SH - 1 {
+                                c[j + 1] += dev * shape[j];
+                            }
+                        }
+                    }
+                    for j in 0..SH - 1 {
+                        c[j + 1] *= scale[j];
+                    }
+                    *out = c;
+                }
+                taken
+            })
+            .sum();
+        let cell = AO_FIELD_CELL as f32;
+        Ok(AoField {
+            k,
+            g,
+            top: Vec3::new((g[0] - 1) as f32, (g[1] - 1) as f32, (g[2] - 1) as f32),
+            world_to_grid: Vec3::new(
+                1.0 / (spacing[0] * cell),
+                1.0 / (spacing[1] * cell),
+                1.0 / (spacing[2] * cell),
+            ),
+            data,
+            build_s: start.elapsed().as_secs_f64(),
+            samples,
+        })
+    }
+
+    /// The occlusion at world point `p` for unit normal `n` (`None`: the
+    /// mean over all directions), from the coefficients read trilinearly;
+    /// clamped to `[0, 1]` (a truncated expansion can ring past them).
+    #[inline]
+    pub fn occlusion(&self, p: Vec3, n: Option<Vec3>) -> f32 {
+        let c = (p * self.world_to_grid).clamp(Vec3::ZERO, self.top);
+        let [gx, gy, gz] = self.g;
+        let i = c.floor().as_uvec3();
+        let f = c - i.as_vec3();
+        let (ix, iy, iz) = (i.x as usize, i.y as usize, i.z as usize);
+        let sx = usize::from(ix + 1 < gx);
+        let sy = if iy + 1 < gy { gx } else { 0 };
+        let sz = if iz + 1 < gz { gx * gy } else { 0 };
+        let base = (iz * gy + iy) * gx + ix;
+        let v = [
+            base,
+            base + sx,
+            base + sy,
+            base + sy + sx,
+            base + sz,
+            base + sz + sx,
+            base + sz + sy,
+            base + sz + sy + sx,
+        ]
+        .map(|at| &self.data[at]);
+        // Lerps, so equal corners give their coefficients exactly.
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        let coef = |j: usize| {
+            lerp(
+                lerp(
+                    lerp(v[0][j], v[1][j], f.x),
+                    lerp(v[2][j], v[3][j], f.x),
+                    f.y,
+                ),
+                lerp(
+                    lerp(v[4][j], v[5][j], f.x),
+                    lerp(v[6][j], v[7][j], f.x),
+                    f.y,
+                ),
+                f.z,
+            )
+        };
+        let mut ao = coef(0);
+        if let Some(n) = n {
+            let shape = sh_shape(n);
+            for (j, s) in shape.iter().enumerate() {
+                ao += coef(j + 1) * s;
+            }
+        }
+        ao.clamp(0.0, 1.0)
+    }
+}
+
+/// Where a frame's occlusion comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum AoLookup<'a> {
+    /// `n` sampled directions per shaded sample, marched with `intervals`.
+    Rays {
+        /// Directions per shaded sample.
+        n: u32,
+        /// The march.
+        intervals: &'a Intervals,
+        /// The directions' sampler.
+        sampler: HashSampler,
+    },
+    /// The precomputed field.
+    Field(&'a AoField),
+}
+
+/// Ambient occlusion of a frame: the grid, the lookup, and where rays
+/// start (moved off the shaded sample along the normal, so a surface does
+/// not occlude itself through the grid's blur).
+#[derive(Clone, Copy, Debug)]
+pub struct AoSource<'a> {
+    grid: &'a OcclusionGrid,
+    lookup: AoLookup<'a>,
+    /// The far corner of the volume's box, world units.
+    hi: Vec3,
+    /// World distance along the normal at which occlusion is looked up.
+    offset: f32,
+}
+
+impl<'a> AoSource<'a> {
+    /// Occlusion through `grid` by `lookup` in the box `[0, hi]`, looked
+    /// up `offset` world units off the shaded sample along its normal.
+    pub fn new(grid: &'a OcclusionGrid, lookup: AoLookup<'a>, hi: Vec3, offset: f32) -> Self {
+        AoSource {
+            grid,
+            lookup,
+            hi,
+            offset,
+        }
+    }
+
+    /// The offset for a frame: `cells` occlusion-grid cells at the
+    /// smallest voxel spacing.
+    pub fn offset_for(cells: f32, min_spacing: f32) -> f32 {
+        cells * OCCLUSION_CELL as f32 * min_spacing
+    }
+
+    /// The occlusion at world point `p` with unit normal `n` (`None`: no
+    /// normal, the whole sphere counts), for shaded sample `index` of pixel
+    /// `pixel`; counts rays and samples into `fx`. In `[0, 1]`.
+    #[inline]
+    pub fn occlusion(
+        &self,
+        p: Vec3,
+        n: Option<Vec3>,
+        pixel: [u32; 2],
+        index: u64,
+        fx: &mut RayEffects,
+    ) -> f32 {
+        let origin = match n {
+            Some(n) => p + n * self.offset,
+            None => p,
+        };
+        match self.lookup {
+            AoLookup::Field(field) => field.occlusion(origin, n),
+            AoLookup::Rays {
+                n: count,
+                intervals,
+                sampler,
+            } => {
+                let mut s = sampler.pixel(pixel[0], pixel[1], index);
+                let mut sum = 0.0f32;
+                for _ in 0..count {
+                    let (u1, u2) = s.next_2d();
+                    let d = match n {
+                        Some(n) => cosine_hemisphere(n, u1, u2),
+                        None => uniform_sphere(u1, u2),
+                    };
+                    let (t, taken) = intervals.transmittance(self.grid, origin, d, self.hi);
+                    sum += t;
+                    fx.ao_samples += taken as u64;
+                }
+                fx.ao_rays += count;
+                sum / count.max(1) as f32
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sampled_directions_are_unit_and_in_their_hemisphere() {
+        let s = HashSampler::new(7);
+        for (i, n) in [Vec3::Z, Vec3::NEG_Z, Vec3::new(0.6, 0.0, -0.8), Vec3::X]
+            .into_iter()
+            .enumerate()
+        {
+            let mut px = s.pixel(i as u32, 0, 0);
+            let mut mean_cos = 0.0;
+            for _ in 0..4000 {
+                let (u1, u2) = px.next_2d();
+                let d = cosine_hemisphere(n, u1, u2);
+                assert!((d.length() - 1.0).abs() < 1e-5);
+                assert!(d.dot(n) >= -1e-6);
+                mean_cos += d.dot(n) / 4000.0;
+                let u = uniform_sphere(u1, u2);
+                assert!((u.length() - 1.0).abs() < 1e-5);
+            }
+            // Cosine-weighted: the mean cosine is 2/3.
+            assert!((mean_cos - 2.0 / 3.0).abs() < 0.02, "{mean_cos}");
+        }
+        // The corners of the unit square stay finite.
+        for (u1, u2) in [(0.0, 0.0), (0.99999994, 0.99999994)] {
+            assert!(cosine_hemisphere(Vec3::Y, u1, u2).is_finite());
+            assert!(uniform_sphere(u1, u2).is_finite());
+        }
+    }
+
+    #[test]
+    fn fibonacci_directions_cover_the_sphere_evenly() {
+        for k in [1, 2, 16, 64] {
+            let d = fibonacci_directions(k);
+            assert_eq!(d.len(), k as usize);
+            assert!(d.iter().all(|v| (v.length() - 1.0).abs() < 1e-5));
+            if k >= 16 {
+                let mean = d.iter().copied().sum::<Vec3>() / k as f32;
+                assert!(mean.length() < 0.05, "{k}: {mean}");
+            }
+        }
+    }
+}

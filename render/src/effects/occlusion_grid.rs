@@ -1,0 +1,376 @@
+//! The medium ambient occlusion looks through: the classified volume's
+//! extinction, box-filtered onto a coarse grid, and the march of one
+//! occlusion ray through it.
+//!
+//! Ambient occlusion integrates extinction over long distances (a tenth of
+//! the volume's diagonal by default) in many directions per shaded sample,
+//! so it cannot afford the full-resolution volume: its rays read this grid,
+//! one point every [`OCCLUSION_CELL`] voxels holding the mean extinction
+//! (optical depth per world unit) of the 2×2×2 samples around it, with
+//! intervals that grow with distance from the shaded point (near detail
+//! matters more than far). Longer intervals read coarser levels of the
+//! grid (each a tent-filtered half of the one below), as a cone's
+//! footprint widens: a read then stands for its whole interval, and the
+//! coarse levels are small enough to stay in cache. A homogeneous medium
+//! stays homogeneous on every level, so its occlusion is exact:
+//! `exp(−σ·R)`.
+
+use super::occluder::Occluder;
+use super::SHADOW_DEPTH_CUTOFF;
+use crate::accel::ClearBoxes;
+use crate::error::RenderError;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+use volcore::{Cursor, VoxelSource};
+
+/// Voxels between occlusion-grid points along each axis.
+pub const OCCLUSION_CELL: usize = 4;
+
+/// Growth of an occlusion ray's intervals from one to the next.
+const INTERVAL_GROWTH: f32 = 1.5;
+
+/// The most intervals one occlusion ray takes (a bound no setting can
+/// push: intervals grow geometrically, so this covers any radius).
+const MAX_INTERVALS: usize = 64;
+
+/// Levels of the grid: cells of 4, 8 and 16 voxels.
+pub const OCCLUSION_LEVELS: usize = 3;
+
+/// One level of the grid: extinction per world unit at its points.
+#[derive(Clone, Debug)]
+struct Level {
+    /// Points per axis.
+    g: [usize; 3],
+    /// Largest continuous grid coordinate per axis (`g − 1`).
+    top: Vec3,
+    /// World to grid coordinates, per axis.
+    world_to_grid: Vec3,
+    /// Extinction per world unit, x fastest.
+    sigma: Vec<f32>,
+}
+
+impl Level {
+    fn new(g: [usize; 3], spacing: [f32; 3], cell: f32, sigma: Vec<f32>) -> Level {
+        Level {
+            g,
+            top: Vec3::new((g[0] - 1) as f32, (g[1] - 1) as f32, (g[2] - 1) as f32),
+            world_to_grid: Vec3::new(
+                1.0 / (spacing[0] * cell),
+                1.0 / (spacing[1] * cell),
+                1.0 / (spacing[2] * cell),
+            ),
+            sigma,
+        }
+    }
+
+    /// The next coarser level: every other point, each the tent-filtered
+    /// mean (weights 1/4, 1/2, 1/4 per axis) of its neighbourhood.
+    fn coarser(&self, spacing: [f32; 3], cell: f32) -> Level {
+        let g = self.g.map(|n| n.div_ceil(2));
+        let [fx, fy, fz] = self.g;
+        let mut sigma = vec![0.0f32; g[0] * g[1] * g[2]];
+        sigma
+            .par_chunks_mut(g[0] * g[1])
+            .enumerate()
+            .for_each(|(z, slice)| {
+                for (i, out) in slice.iter_mut().enumerate() {
+                    let c = [2 * (i % g[0]), 2 * (i / g[0]), 2 * z];
+                    let (mut sum, mut weight) = (0.0f32, 0.0f32);
+                    for dz in -1i64..=1 {
+                        let zz = c[2] as i64 + dz;
+                        if zz < 0 || zz >= fz as i64 {
+                            continue;
+                        }
+                        for dy in -1i64..=1 {
+                            let yy = c[1] as i64 + dy;
+                            if yy < 0 || yy >= fy as i64 {
+                                continue;
+                            }
+                            for dx in -1i64..=1 {
+                                let xx = c[0] as i64 + dx;
+                                if xx < 0 || xx >= fx as i64 {
+                                    continue;
+                                }
+                                let w = [dx, dy, dz]
+                                    .iter()
+                                    .map(|&d| if d == 0 { 0.5 } else { 0.25 })
+                                    .product::<f32>();
+                                let at = (zz as usize * fy + yy as usize) * fx + xx as usize;
+                                sum += w * self.sigma[at];
+                                weight += w;
+                            }
+                        }
+                    }
+                    *out = sum / weight;
+                }
+            });
+        Level::new(g, spacing, cell, sigma)
+    }
+
+    /// Extinction at world point `p` (trilinear; points past the grid
+    /// read its nearest face).
+    #[inline(always)]
+    fn sigma(&self, p: Vec3) -> f32 {
+        let c = (p * self.world_to_grid).clamp(Vec3::ZERO, self.top);
+        let [gx, gy, gz] = self.g;
+        let i = c.floor().as_uvec3();
+        let f = c - i.as_vec3();
+        let (ix, iy, iz) = (i.x as usize, i.y as usize, i.z as usize);
+        let sx = usize::from(ix + 1 < gx);
+        let sy = if iy + 1 < gy { gx } else { 0 };
+        let sz = if iz + 1 < gz { gx * gy } else { 0 };
+        let base = (iz * gy + iy) * gx + ix;
+        let at = |o: usize| self.sigma[base + o];
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        let c00 = lerp(at(0), at(sx), f.x);
+        let c10 = lerp(at(sy), at(sy + sx), f.x);
+        let c01 = lerp(at(sz), at(sz + sx), f.x);
+        let c11 = lerp(at(sz + sy), at(sz + sy + sx), f.x);
+        lerp(lerp(c00, c10, f.y), lerp(c01, c11, f.y), f.z)
+    }
+}
+
+/// Mean extinction of the classified volume at every grid point, at
+/// [`OCCLUSION_LEVELS`] resolutions.
+#[derive(Clone, Debug)]
+pub struct OcclusionGrid {
+    /// Finest first.
+    levels: Vec<Level>,
+    /// Seconds the build took.
+    pub build_s: f64,
+    /// Samples the build took.
+    pub samples: u64,
+}
+
+impl OcclusionGrid {
+    /// Bytes a grid over `dims` takes, or `None` past `u64`.
+    pub fn bytes_for(dims: [usize; 3]) -> Option<u64> {
+        dims.iter().try_fold(4u64, |acc, &n| {
+            acc.checked_mul((n.saturating_sub(1).div_ceil(OCCLUSION_CELL) + 1) as u64)
+        })
+    }
+
+    /// The grid's memory, bytes (all levels).
+    pub fn bytes(&self) -> u64 {
+        self.levels.iter().map(|l| l.sigma.len() as u64 * 4).sum()
+    }
+
+    /// Build the grid of `src` through `occ` (query `q`, optical depth per
+    /// `step` world units) for voxel `spacing`, on all threads; samples in
+    /// cells `clear` reports clear count as clear without being taken.
+    /// Refuses a grid past `budget` bytes.
+    pub fn build<S: VoxelSource, O: Occluder>(
+        src: &S,
+        occ: &O,
+        q: O::Query,
+        spacing: [f32; 3],
+        step: f32,
+        budget: u64,
+        clear: Option<&ClearBoxes<'_>>,
+    ) -> Result<OcclusionGrid, RenderError> {
+        let start = Instant::now();
+        let d = src.cursor().dims();
+        let n = [d.x as usize, d.y as usize, d.z as usize];
+        let bytes = OcclusionGrid::bytes_for(n).unwrap_or(u64::MAX);
+        if bytes > budget {
+            return Err(RenderError::Setting(format!(
+                "an occlusion grid for {} would take {bytes} bytes, more than the budget of {budget}",
+                d
+            )));
+        }
+        let g = n.map(|n| n.saturating_sub(1).div_ceil(OCCLUSION_CELL) + 1);
+        let mut sigma: Vec<f32> = Vec::new();
+        sigma.try_reserve_exact(g[0] * g[1] * g[2]).map_err(|_| {
+            RenderError::Setting(format!(
+                "cannot allocate an occlusion grid of {bytes} bytes"
+            ))
+        })?;
+        sigma.resize(g[0] * g[1] * g[2], 0.0);
+        let min_spacing = spacing.iter().copied().fold(f32::INFINITY, f32::min);
+        // One voxel of the densest material blocks light down to the
+        // shadow cutoff; denser samples (and the opaque inside of an
+        // iso-surface, whose depth is infinite) are clamped to that, so
+        // the grid stays finite and interpolates without NaN.
+        let sigma_max = SHADOW_DEPTH_CUTOFF / min_spacing;
+        let cell = OCCLUSION_CELL as f32;
+        let hi = n.map(|n| n.saturating_sub(1) as f32);
+        let per_slice = g[0] * g[1];
+        let samples: u64 = sigma
+            .par_chunks_mut(per_slice)
+            .enumerate()
+            .map_init(
+                || src.cursor(),
+                |cur, (z, slice)| {
+                    let mut taken = 0u64;
+                    for (i, out) in slice.iter_mut().enumerate() {
+                        let centre = Vec3::new(
+                            ((i % g[0]) * OCCLUSION_CELL) as f32,
+                            ((i / g[0]) * OCCLUSION_CELL) as f32,
+                            (z * OCCLUSION_CELL) as f32,
+                        );
+                        // The samples lie within a quarter cell of the
+                        // point: when every index cell that box touches
+                        // is clear, so are they.
+                        if clear.is_some_and(|c| box_is_clear(c, centre, 0.25 * cell, hi)) {
+                            *out = 0.0;
+                            continue;
+                        }
+                        let mut sum = 0.0f32;
+                        for corner in 0..8 {
+                            let off = Vec3::new(
+                                if corner & 1 == 0 { -0.25 } else { 0.25 },
+                                if corner & 2 == 0 { -0.25 } else { 0.25 },
+                                if corner & 4 == 0 { -0.25 } else { 0.25 },
+                            ) * cell;
+                            let p =
+                                (centre + off).clamp(Vec3::ZERO, Vec3::new(hi[0], hi[1], hi[2]));
+                            taken += 1;
+                            let s = occ.depth(cur, p, q) / step;
+                            sum += if s.is_nan() { 0.0 } else { s.min(sigma_max) };
+                        }
+                        *out = sum * 0.125;
+                    }
+                    taken
+                },
+            )
+            .sum();
+        let mut levels = vec![Level::new(g, spacing, cell, sigma)];
+        for l in 1..OCCLUSION_LEVELS {
+            let next = levels[l - 1].coarser(spacing, cell * (1 << l) as f32);
+            levels.push(next);
+        }
+        Ok(OcclusionGrid {
+            levels,
+            build_s: start.elapsed().as_secs_f64(),
+            samples,
+        })
+    }
+
+    /// Extinction per world unit at world point `p` on level `level`
+    /// (0 finest; trilinear; points past the grid read its nearest face).
+    #[inline]
+    pub fn sigma(&self, level: usize, p: Vec3) -> f32 {
+        self.levels[level.min(self.levels.len() - 1)].sigma(p)
+    }
+}
+
+/// Whether every index cell the box of half-width `r` around voxel point
+/// `c` (clamped to `[0, hi]`) touches is clear.
+fn box_is_clear(clear: &ClearBoxes<'_>, c: Vec3, r: f32, hi: [f32; 3]) -> bool {
+    let range = |a: usize| {
+        (
+            clear.cell_along(a, (c[a] - r).clamp(0.0, hi[a])),
+            clear.cell_along(a, (c[a] + r).clamp(0.0, hi[a])),
+        )
+    };
+    let (x, y, z) = (range(0), range(1), range(2));
+    (z.0..=z.1).all(|cz| (y.0..=y.1).all(|cy| (x.0..=x.1).all(|cx| clear.is_clear([cx, cy, cz]))))
+}
+
+/// Where an occlusion ray samples: intervals that partition `[0, R]`,
+/// the first half a grid cell long, each the last times
+/// [`INTERVAL_GROWTH`] (the last clipped to end at `R`), each read at its
+/// midpoint on the level whose cell is no longer than the interval. The
+/// same for every ray of a frame.
+#[derive(Clone, Debug)]
+pub struct Intervals {
+    /// (midpoint, length, level) per interval, world units.
+    parts: Vec<(f32, f32, usize)>,
+}
+
+impl Intervals {
+    /// The intervals up to `radius`, starting at `first` world units (both
+    /// finite, `first > 0`; a radius of 0 has none), for a finest grid
+    /// cell of `cell` world units.
+    pub fn new(radius: f32, first: f32, cell: f32) -> Intervals {
+        let mut parts = Vec::new();
+        let (mut t, mut len) = (0.0f32, first.max(f32::MIN_POSITIVE));
+        while t < radius && parts.len() < MAX_INTERVALS {
+            let last = parts.len() + 1 == MAX_INTERVALS;
+            let l = if last || t + len * INTERVAL_GROWTH > radius {
+                radius - t
+            } else {
+                len
+            };
+            let cells = l / cell.max(f32::MIN_POSITIVE);
+            let level = if cells >= 4.0 {
+                2
+            } else if cells >= 2.0 {
+                1
+            } else {
+                0
+            };
+            parts.push((t + 0.5 * l, l, level.min(OCCLUSION_LEVELS - 1)));
+            if l != len {
+                break;
+            }
+            t += l;
+            len *= INTERVAL_GROWTH;
+        }
+        Intervals { parts }
+    }
+
+    /// Samples per ray.
+    pub fn len(&self) -> usize {
+        self.parts.len()
+    }
+
+    /// Whether there are none (radius 0).
+    pub fn is_empty(&self) -> bool {
+        self.parts.is_empty()
+    }
+
+    /// Transmittance from world point `origin` along unit world direction
+    /// `dir` through `grid`, inside the box `[0, hi]` (the medium is empty
+    /// outside it); and the samples taken. In `[0, 1]`, never NaN: 0 once
+    /// the optical depth passes the shadow cutoff.
+    #[inline]
+    pub fn transmittance(
+        &self,
+        grid: &OcclusionGrid,
+        origin: Vec3,
+        dir: Vec3,
+        hi: Vec3,
+    ) -> (f32, u32) {
+        let mut depth = 0.0f32;
+        let mut taken = 0;
+        for &(mid, len, level) in &self.parts {
+            let p = origin + dir * mid;
+            if p.cmplt(Vec3::ZERO).any() || p.cmpgt(hi).any() {
+                // A ray that leaves a convex box never comes back.
+                break;
+            }
+            taken += 1;
+            depth += grid.sigma(level, p) * len;
+            if depth > SHADOW_DEPTH_CUTOFF {
+                return (0.0, taken);
+            }
+        }
+        ((-depth).exp(), taken)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn intervals_partition_the_radius() {
+        for (r, first) in [(139.0, 2.0), (1.0, 2.0), (10.0, 0.5), (1e6, 1e-3)] {
+            let iv = Intervals::new(r, first, 4.0);
+            let sum: f32 = iv.parts.iter().map(|p| p.1).sum();
+            assert!((sum - r).abs() <= r * 1e-5, "{r} {first}: {sum}");
+            assert!(iv.len() <= MAX_INTERVALS);
+            assert!(iv.parts.iter().all(|p| p.1 > 0.0));
+        }
+        assert!(Intervals::new(0.0, 2.0, 4.0).is_empty());
+        // The default radius on the thesis scene: a handful of reads, the
+        // far ones on coarse levels.
+        let iv = Intervals::new(139.0, 2.0, 4.0);
+        assert!(iv.len() <= 10);
+        assert_eq!(iv.parts[0].2, 0);
+        assert_eq!(iv.parts[iv.len() - 1].2, 2);
+        assert!(iv.parts.windows(2).all(|w| w[0].2 <= w[1].2));
+    }
+}

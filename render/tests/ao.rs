@@ -1,0 +1,398 @@
+//! Ambient occlusion: closed forms, determinism, costs that are zero when
+//! off, and hard cases.
+
+use glam::Vec3;
+use volcore::region::pack_sliced;
+use volcore::scene::{Scene, SceneSource, ShapesScene};
+use volcore::{Cursor, Dims, Volume, VolumeVisitor, VoxelSource};
+use volindex::{BuildOptions, MajorantIndex};
+use volrender::effects::ao::{AoField, AoLookup, AoSource};
+use volrender::effects::occlusion_grid::{Intervals, OcclusionGrid};
+use volrender::effects::{Occluder, RayEffects};
+use volrender::sampler::HashSampler;
+use volrender::tf::TransferFunction;
+use volrender::{
+    render, Ao, AoMethod, Camera, Frame, Light, Lighting, Mode, Projection, RenderSettings,
+    ShadowMethod, Shadows,
+};
+
+/// A medium of one optical depth per `STEP` everywhere, or only at and
+/// above `z_from`.
+struct Medium {
+    depth: f32,
+    z_from: f32,
+}
+
+const STEP: f32 = 0.5;
+
+impl Occluder for Medium {
+    type Query = ();
+    fn depth<C: Cursor>(&self, _: &mut C, p: Vec3, _: ()) -> f32 {
+        if p.z >= self.z_from {
+            self.depth
+        } else {
+            0.0
+        }
+    }
+}
+
+struct BuildGrid<'a>(&'a Medium);
+
+impl VolumeVisitor for BuildGrid<'_> {
+    type Output = OcclusionGrid;
+    fn visit<S: VoxelSource>(self, src: &S) -> OcclusionGrid {
+        OcclusionGrid::build(src, self.0, (), [1.0; 3], STEP, u64::MAX, None).unwrap()
+    }
+}
+
+const N: usize = 64;
+
+fn grid(sigma: f32, z_from: f32) -> OcclusionGrid {
+    let d = Dims::new(N as u64, N as u64, N as u64).unwrap();
+    let v = Volume::from_samples(d, vec![0u8; N * N * N]).unwrap();
+    v.visit(BuildGrid(&Medium {
+        depth: sigma * STEP,
+        z_from,
+    }))
+}
+
+fn hi() -> Vec3 {
+    Vec3::splat((N - 1) as f32)
+}
+
+/// Occlusion at `p` with normal `n` by `count` rays up to `radius`.
+fn by_rays(g: &OcclusionGrid, radius: f32, count: u32, p: Vec3, n: Option<Vec3>) -> f32 {
+    let iv = Intervals::new(radius, 2.0, 4.0);
+    let lookup = AoLookup::Rays {
+        n: count,
+        intervals: &iv,
+        sampler: HashSampler::new(3),
+    };
+    let src = AoSource::new(g, lookup, hi(), 4.0);
+    let mut fx = RayEffects::default();
+    let a = src.occlusion(p, n, [5, 9], 2, &mut fx);
+    assert_eq!(fx.ao_rays, count);
+    a
+}
+
+/// Occlusion at `p` with normal `n` from a field of `k` directions.
+fn by_field(g: &OcclusionGrid, radius: f32, k: u32, p: Vec3, n: Option<Vec3>) -> f32 {
+    let iv = Intervals::new(radius, 2.0, 4.0);
+    let f = AoField::build(g, &iv, [N; 3], [1.0; 3], k, u64::MAX).unwrap();
+    let src = AoSource::new(g, AoLookup::Field(&f), hi(), 4.0);
+    let mut fx = RayEffects::default();
+    let a = src.occlusion(p, n, [0, 0], 0, &mut fx);
+    assert_eq!(fx.ao_rays, 0, "a field casts no rays");
+    a
+}
+
+fn normals() -> [Option<Vec3>; 4] {
+    [
+        Some(Vec3::X),
+        Some(Vec3::new(0.48, -0.6, 0.64)),
+        Some(Vec3::NEG_Z),
+        None,
+    ]
+}
+
+#[test]
+fn a_homogeneous_medium_occludes_by_exp_minus_sigma_r_for_any_n() {
+    let sigma = 0.05;
+    let g = grid(sigma, f32::NEG_INFINITY);
+    let centre = Vec3::splat(31.5);
+    for radius in [20.0f32, 7.5, 1.0] {
+        let want = (-sigma * radius).exp();
+        for n in normals() {
+            for count in [1, 8, 64] {
+                let a = by_rays(&g, radius, count, centre, n);
+                assert!(
+                    (a - want).abs() <= want * 1e-5,
+                    "R {radius}, N {count}, {n:?}: {a} vs {want}"
+                );
+            }
+            for k in [1, 16, 64] {
+                let a = by_field(&g, radius, k, centre, n);
+                // The field keeps the mean over its directions exactly.
+                assert!(
+                    (a - want).abs() <= want * 1e-5,
+                    "R {radius}, K {k}, {n:?}: {a} vs {want}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn an_empty_neighbourhood_and_a_zero_radius_give_one() {
+    let empty = grid(0.0, f32::NEG_INFINITY);
+    let dense = grid(1e3, f32::NEG_INFINITY);
+    let centre = Vec3::splat(31.5);
+    for n in normals() {
+        assert_eq!(by_rays(&empty, 20.0, 8, centre, n), 1.0);
+        assert_eq!(by_field(&empty, 20.0, 32, centre, n), 1.0);
+        assert_eq!(by_rays(&dense, 0.0, 8, centre, n), 1.0, "R = 0");
+        assert_eq!(by_field(&dense, 0.0, 32, centre, n), 1.0, "R = 0");
+    }
+}
+
+#[test]
+fn dense_media_occlude_fully_and_never_give_nan() {
+    let centre = Vec3::splat(31.5);
+    for depth in [1e3, f32::INFINITY, f32::MAX, f32::NAN] {
+        let g = grid(depth, f32::NEG_INFINITY);
+        for n in normals() {
+            let a = by_rays(&g, 20.0, 4, centre, n);
+            let f = by_field(&g, 20.0, 16, centre, n);
+            if depth.is_nan() {
+                // A NaN depth counts as clear, never as NaN.
+                assert_eq!((a, f), (1.0, 1.0));
+            } else {
+                assert_eq!((a, f), (0.0, 0.0), "depth {depth}, {n:?}");
+            }
+        }
+    }
+}
+
+#[test]
+fn only_the_hemisphere_around_the_normal_counts() {
+    // Occluders at z >= 40 only; the point sits at z 30.
+    let g = grid(0.2, 40.0);
+    let p = Vec3::new(31.5, 31.5, 30.0);
+    let down = by_rays(&g, 30.0, 32, p, Some(Vec3::NEG_Z));
+    let up = by_rays(&g, 30.0, 32, p, Some(Vec3::Z));
+    let sphere = by_rays(&g, 30.0, 32, p, None);
+    assert_eq!(down, 1.0, "facing away from the occluder");
+    assert!(up < 0.6, "facing it: {up}");
+    assert!(up < sphere && sphere < down, "{up} {sphere} {down}");
+    let fdown = by_field(&g, 30.0, 64, p, Some(Vec3::NEG_Z));
+    let fup = by_field(&g, 30.0, 64, p, Some(Vec3::Z));
+    assert!(fdown > 0.95, "{fdown}");
+    assert!((fup - up).abs() < 0.25, "field {fup} vs rays {up}");
+}
+
+fn shapes() -> (Volume, MajorantIndex) {
+    let scene = ShapesScene::new(Dims::new(48, 40, 44).unwrap(), 2, 12, 14, 100.0);
+    let v =
+        Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<u8>::new(&scene))).unwrap();
+    let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+    (v, ix)
+}
+
+fn camera() -> Camera {
+    Camera::orbit(
+        Vec3::new(24.0, 20.0, 22.0),
+        30.0,
+        25.0,
+        110.0,
+        Projection::Perspective(40.0),
+        40,
+        36,
+    )
+    .unwrap()
+}
+
+fn lighting() -> Lighting {
+    Lighting {
+        lights: vec![
+            Light::directional(Vec3::new(1.0, 2.0, 3.0)).unwrap(),
+            Light::Point {
+                position: Vec3::new(20.0, 21.0, 19.0),
+                intensity: Vec3::splat(300.0),
+            },
+        ],
+        ambient: Vec3::splat(0.5),
+        ..Default::default()
+    }
+}
+
+fn settings(mode: Mode, ao: Option<Ao>, shadows: bool) -> RenderSettings {
+    RenderSettings {
+        mode,
+        step: 0.4,
+        shading: true,
+        lighting: lighting(),
+        shadows: shadows.then_some(Shadows {
+            method: ShadowMethod::Grid { divisor: 2 },
+            step: None,
+        }),
+        ao,
+        ..Default::default()
+    }
+}
+
+fn ao(method: AoMethod) -> Option<Ao> {
+    Some(Ao {
+        method,
+        radius: Some(12.0),
+        seed: 1,
+    })
+}
+
+fn sum(f: &Frame) -> f64 {
+    f.rgba.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum()
+}
+
+#[test]
+fn occluded_frames_are_identical_across_threads_tiles_and_skipping() {
+    let (v, ix) = shapes();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let cam = camera();
+    for mode in [Mode::Dvr, Mode::Iso(90.0)] {
+        for (method, shadows) in [
+            (AoMethod::Rays { n: 4 }, false),
+            (AoMethod::Rays { n: 3 }, true),
+            (AoMethod::Field { k: 16 }, true),
+        ] {
+            let s = settings(mode, ao(method), shadows);
+            let name = format!("{mode:?} {method:?} shadows {shadows}");
+            let reference = render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap();
+            let e = reference.stats.effects;
+            match method {
+                AoMethod::Rays { n } => {
+                    assert!(e.ao_rays > 0 && e.ao_rays % n as u64 == 0, "{name}");
+                    assert!(e.ao_samples > 0, "{name}");
+                }
+                AoMethod::Field { .. } => {
+                    assert_eq!(e.ao_rays, 0, "{name}");
+                    assert!(e.ao_field_bytes > 0 && e.ao_field_samples > 0, "{name}");
+                }
+            }
+            assert!(e.ao_grid_bytes > 0, "{name}");
+            for threads in [1, 2, 7] {
+                for tile in [5, 16] {
+                    for ess in [true, false] {
+                        let pool = rayon::ThreadPoolBuilder::new()
+                            .num_threads(threads)
+                            .build()
+                            .unwrap();
+                        let s2 = RenderSettings {
+                            tile,
+                            ess,
+                            ..s.clone()
+                        };
+                        let f =
+                            pool.install(|| render(&v, Some(&ix), Some(&tf), &cam, &s2).unwrap());
+                        assert!(
+                            f.rgba == reference.rgba,
+                            "{name}: {threads} threads, tile {tile}, skipping {ess} differ"
+                        );
+                    }
+                }
+            }
+            assert!(reference.rgba.iter().flatten().all(|c| c.is_finite()));
+        }
+    }
+}
+
+#[test]
+fn with_ao_off_no_occlusion_work_is_done_and_on_it_darkens() {
+    let (v, ix) = shapes();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    for mode in [Mode::Dvr, Mode::Iso(90.0)] {
+        let off = render(
+            &v,
+            Some(&ix),
+            Some(&tf),
+            &camera(),
+            &settings(mode, None, false),
+        )
+        .unwrap();
+        assert_eq!(off.stats.effects, Default::default(), "{mode:?}");
+        for method in [AoMethod::Rays { n: 8 }, AoMethod::Field { k: 32 }] {
+            let on = render(
+                &v,
+                Some(&ix),
+                Some(&tf),
+                &camera(),
+                &settings(mode, ao(method), false),
+            )
+            .unwrap();
+            assert!(
+                sum(&on) < sum(&off) * 0.995,
+                "{mode:?} {method:?}: {} vs {}",
+                sum(&on),
+                sum(&off)
+            );
+            // Only the ambient term is occluded: never darker than the
+            // frame without ambient light.
+            let mut dark = settings(mode, None, false);
+            dark.lighting.ambient = Vec3::ZERO;
+            let no_ambient = render(&v, Some(&ix), Some(&tf), &camera(), &dark).unwrap();
+            assert!(sum(&on) > sum(&no_ambient), "{mode:?} {method:?}");
+        }
+    }
+}
+
+#[test]
+fn different_seeds_give_different_noise_and_more_rays_less_of_it() {
+    let (v, ix) = shapes();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let with = |n: u32, seed: u64| {
+        let mut s = settings(Mode::Dvr, ao(AoMethod::Rays { n }), false);
+        if let Some(a) = s.ao.as_mut() {
+            a.seed = seed;
+        }
+        render(&v, Some(&ix), Some(&tf), &camera(), &s).unwrap()
+    };
+    let diff = |a: &Frame, b: &Frame| {
+        a.rgba
+            .iter()
+            .zip(&b.rgba)
+            .map(|(p, q)| (0..3).map(|c| (p[c] - q[c]).abs() as f64).sum::<f64>())
+            .sum::<f64>()
+    };
+    let (a1, b1) = (with(1, 1), with(1, 2));
+    let (a16, b16) = (with(16, 1), with(16, 2));
+    assert!(diff(&a1, &b1) > 0.0);
+    assert!(
+        diff(&a16, &b16) < 0.5 * diff(&a1, &b1),
+        "{} vs {}",
+        diff(&a16, &b16),
+        diff(&a1, &b1)
+    );
+}
+
+#[test]
+fn bad_ao_settings_are_refused() {
+    let (v, ix) = shapes();
+    let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let cases = [
+        (
+            RenderSettings {
+                shading: false,
+                ..settings(Mode::Dvr, ao(AoMethod::Rays { n: 4 }), false)
+            },
+            "needs shading",
+        ),
+        (
+            settings(Mode::Mip, ao(AoMethod::Rays { n: 4 }), false),
+            "DVR and iso",
+        ),
+        (
+            settings(Mode::Dvr, ao(AoMethod::Rays { n: 0 }), false),
+            "must be 1 to",
+        ),
+        (
+            settings(Mode::Dvr, ao(AoMethod::Field { k: 100_000 }), false),
+            "must be 1 to",
+        ),
+        (
+            settings(
+                Mode::Dvr,
+                Some(Ao {
+                    method: AoMethod::Rays { n: 4 },
+                    radius: Some(f32::NAN),
+                    seed: 0,
+                }),
+                false,
+            ),
+            "radius",
+        ),
+    ];
+    for (s, want) in cases {
+        let e = render(&v, Some(&ix), Some(&tf), &camera(), &s).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains(want), "{msg}");
+        assert!(!msg.contains('\n'));
+    }
+}
