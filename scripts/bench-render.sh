@@ -11,8 +11,12 @@
 # Shadows (issue 12): the same scene lit by one directional light, without
 # shadows, with shadow rays (target <= 4x) and with light grids at
 # divisors 4 and 2 (target <= 1.5x; the grid's build counts in the frame).
+# Ambient occlusion (issue 12): the same lit scene with --ao 8 (target <=
+# 6x; the occlusion grid's build counts in the frame) and --ao-field 32
+# (target <= 1.5x per frame; the field's precomputation is reported apart).
 # Usage: scripts/bench-render.sh [DIM] [REPEAT]   (default 800 5)
 #        ONLY=shadows scripts/bench-render.sh      (the shadow rows alone)
+#        ONLY=ao scripts/bench-render.sh           (the AO rows alone)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DIM=${1:-800}
@@ -38,11 +42,12 @@ run() { # name, extra args...
         "$(echo "$j" | field render_s)" "$(echo "$j" | field samples)" \
         "$(echo "$j" | field samples_per_s | awk '{print $1/1e6}')" "$(echo "$j" | field peak_rss_mb)"
     echo "$j" | field render_s > "$DIR/last.txt"
+    echo "$j" > "$DIR/last.json"
 }
 
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a/b}'; }
 echo "thesis benchmark, ${DIM}^3, load average: $(cut -d' ' -f1-3 /proc/loadavg)"
-if [ "${ONLY:-}" != shadows ]; then
+if [ -z "${ONLY:-}" ]; then
 run "2 threads, ERT+ESS, memory-mapped" --threads 2 --repeat "$REPEAT"; t2=$(cat "$DIR/last.txt")
 run "2 threads, ERT+ESS, in memory" --threads 2 --repeat "$REPEAT" --in-memory
 run "2 threads, ERT+ESS, analytic gradient" --threads 2 --repeat "$REPEAT" --gradient analytic
@@ -52,9 +57,22 @@ echo "parallel efficiency (1 thread / 2 threads): $(ratio "$t1" "$t2")"
 fi
 LIGHT=(--light 1,2,0.5 --threads 2 --repeat "$REPEAT")
 run "2 threads, directional light" "${LIGHT[@]}"; t0=$(cat "$DIR/last.txt")
+if [ "${ONLY:-}" != ao ]; then
 for sh in "ray" "ray --shadow-step 1" "grid:4" "grid:2"; do
     # shellcheck disable=SC2086 # the method and its options, split
     run "  + shadows $sh" "${LIGHT[@]}" --shadows $sh
     echo "    shadows $sh / no shadows: $(ratio "$(cat "$DIR/last.txt")" "$t0")"
 done
+fi
+if [ "${ONLY:-}" != shadows ]; then
+for ao in "--ao 8" "--ao-field 32"; do
+    # shellcheck disable=SC2086 # the option and its value, split
+    run "  + $ao" "${LIGHT[@]}" $ao
+    extra=""
+    if [ "$ao" = "--ao-field 32" ]; then
+        extra=" (field precomputed once in $(field ao_field_s < "$DIR/last.json" | awk '{printf "%.2f", $1}') s, $(field ao_field_bytes < "$DIR/last.json" | awk '{printf "%.0f", $1/1e6}') MB)"
+    fi
+    echo "    $ao / no AO: $(ratio "$(cat "$DIR/last.txt")" "$t0")$extra"
+done
+fi
 echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -14,12 +14,15 @@ fn parse_csv(text: &str) -> Rows {
     let mut lines = text.lines();
     assert_eq!(
         lines.next(),
-        Some("scene,knob,value,median_s,min_s,max_s,samples,psnr_db")
+        Some("scene,knob,value,median_s,min_s,max_s,samples,psnr_db,build_s")
     );
     let mut rows = Rows::new();
     for line in lines {
         let f: Vec<&str> = line.split(',').collect();
-        assert_eq!(f.len(), 8, "bad row: {line}");
+        assert_eq!(f.len(), 9, "bad row: {line}");
+        let build: f64 = f[8].parse().expect("build_s");
+        // Only an AO field is precomputed outside the frame.
+        assert_eq!(build > 0.0, f[1] == "AO field", "build_s: {line}");
         let median: f64 = f[3].parse().expect("median_s");
         let min: f64 = f[4].parse().expect("min_s");
         let max: f64 = f[5].parse().expect("max_s");
@@ -59,9 +62,14 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     ];
     let per_scene: usize = expected.iter().map(|(_, v)| v.len()).sum();
     let scenes = ["thesis", "noise", "boundary"];
-    // The thesis scene's shadow study: reference, off, 2 ray steps, 2 grids.
-    let shadow_rows = 6;
-    assert_eq!(rows.len(), scenes.len() * per_scene + shadow_rows, "{text}");
+    // The thesis scene's shadow study: reference, off, 2 ray steps, 2
+    // grids; and its AO study: reference, off, 2 ray counts, 2 fields.
+    let (shadow_rows, ao_rows) = (6, 6);
+    assert_eq!(
+        rows.len(),
+        scenes.len() * per_scene + shadow_rows + ao_rows,
+        "{text}"
+    );
     let shadow = |knob: &str, v: &str| {
         let key = (
             "thesis-shadows".to_string(),
@@ -81,6 +89,23 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     // Shadows matter in this scene, and both methods come closer to the
     // reference than leaving them off.
     assert!(off.is_finite() && ray > off && grid > off, "{text}");
+    let ao = |knob: &str, v: &str| {
+        let key = ("thesis-ao".to_string(), knob.to_string(), v.to_string());
+        *rows
+            .get(&key)
+            .unwrap_or_else(|| panic!("missing row {key:?}"))
+    };
+    assert!(ao("reference", "rays:64").2.is_infinite());
+    let (off, few, many) = (
+        ao("AO off", "off").2,
+        ao("AO rays", "4").2,
+        ao("AO rays", "16").2,
+    );
+    let (k16, k32) = (ao("AO field", "16").2, ao("AO field", "32").2);
+    // Occlusion matters here; more directions come closer to the
+    // reference, and a field beats leaving AO off.
+    assert!(off.is_finite() && few > off && many > few, "{text}");
+    assert!(k16 > off && k32 > off, "{text}");
     for scene in scenes {
         for (knob, values) in expected {
             for v in *values {
@@ -118,6 +143,7 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
             "accuracy-noise.svg",
             "accuracy-boundary.svg",
             "accuracy-thesis-shadows.svg",
+            "accuracy-thesis-ao.svg",
         ] {
             let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
             assert!(len > 1000, "{f} missing or empty");

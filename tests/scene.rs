@@ -317,3 +317,59 @@ fn shadows_from_the_command_line_or_a_scene_report_their_counters() {
         "DVR and iso",
     );
 }
+
+#[test]
+fn ambient_occlusion_from_the_command_line_or_a_scene_reports_its_counters() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = shapes(d);
+    let v = vol.to_str().unwrap();
+    let json = |extra: &[&str]| -> serde_json::Value {
+        let out = ok(tool("vol-render")
+            .arg(v)
+            .args(CAMERA)
+            .args(["--json", "-o"])
+            .arg(d.join("j.png"))
+            .args(extra));
+        serde_json::from_str(&out).unwrap()
+    };
+    // Off: no AO keys at all.
+    let off = json(&[]);
+    assert!(off.get("ao_rays").is_none(), "{off}");
+    // Rays: N per shaded sample, the grid's size, no field keys; the scene
+    // records the option.
+    let rays = json(&["--ao", "4:10"]);
+    let n = rays["ao_rays"].as_u64().unwrap();
+    assert!(n > 0 && n.is_multiple_of(4), "{rays}");
+    assert!(rays["ao_samples"].as_u64().unwrap() > 0);
+    assert!(rays["ao_grid_bytes"].as_u64().unwrap() > 0);
+    assert!(rays.get("ao_field_s").is_none());
+    assert_eq!(rays["scene"]["ao"], "4:10");
+    // A field: no rays, its precomputation reported.
+    let field = json(&["--ao-field", "16"]);
+    assert_eq!(field["ao_rays"], 0, "{field}");
+    assert!(field["ao_field_bytes"].as_u64().unwrap() > 0);
+    assert!(field["ao_field_s"].as_f64().unwrap() > 0.0);
+    // The same from a scene file, and bit for bit the same image.
+    std::fs::write(d.join("ao.toml"), "ao-field = \"16\"\n").unwrap();
+    let from_scene = json(&["--scene", d.join("ao.toml").to_str().unwrap()]);
+    assert_eq!(from_scene["ao_field_bytes"], field["ao_field_bytes"]);
+    // Bad values: one line naming the option; nothing written.
+    for (args, want) in [
+        (&["--ao", "0"][..], "--ao"),
+        (&["--ao", "8:-1"][..], "--ao"),
+        (&["--ao-field", "x"][..], "--ao-field"),
+        (&["--ao", "4", "--ao-field", "8"][..], "cannot be used with"),
+        (&["--mode", "mip", "--ao", "4"][..], "DVR and iso"),
+    ] {
+        fails(
+            tool("vol-render")
+                .arg(v)
+                .args(args)
+                .arg("-o")
+                .arg(d.join("x.png")),
+            want,
+        );
+        assert!(!d.join("x.png").exists(), "{args:?}");
+    }
+}

@@ -6,7 +6,7 @@ use volcore::region::pack_sliced;
 use volcore::scene::{Scene, SceneSource, ShapesScene};
 use volcore::{Cursor, Dims, Volume, VolumeVisitor, VoxelSource};
 use volindex::{BuildOptions, MajorantIndex};
-use volrender::effects::ao::{AoField, AoLookup, AoSource};
+use volrender::effects::ao::{AoField, AoLookup, AoSource, Spiral};
 use volrender::effects::occlusion_grid::{Intervals, OcclusionGrid};
 use volrender::effects::{Occluder, RayEffects};
 use volrender::sampler::HashSampler;
@@ -63,8 +63,9 @@ fn hi() -> Vec3 {
 /// Occlusion at `p` with normal `n` by `count` rays up to `radius`.
 fn by_rays(g: &OcclusionGrid, radius: f32, count: u32, p: Vec3, n: Option<Vec3>) -> f32 {
     let iv = Intervals::new(radius, 2.0, 4.0);
+    let spiral = Spiral::new(count);
     let lookup = AoLookup::Rays {
-        n: count,
+        spiral: &spiral,
         intervals: &iv,
         sampler: HashSampler::new(3),
     };
@@ -161,7 +162,12 @@ fn only_the_hemisphere_around_the_normal_counts() {
     let down = by_rays(&g, 30.0, 32, p, Some(Vec3::NEG_Z));
     let up = by_rays(&g, 30.0, 32, p, Some(Vec3::Z));
     let sphere = by_rays(&g, 30.0, 32, p, None);
-    assert_eq!(down, 1.0, "facing away from the occluder");
+    // Facing away, only the coarse levels' blur (a 16-voxel tent) reaches
+    // the occluder.
+    assert!(
+        down > 0.97 && down <= 1.0,
+        "facing away from the occluder: {down}"
+    );
     assert!(up < 0.6, "facing it: {up}");
     assert!(up < sphere && sphere < down, "{up} {sphere} {down}");
     let fdown = by_field(&g, 30.0, 64, p, Some(Vec3::NEG_Z));
@@ -249,7 +255,10 @@ fn occluded_frames_are_identical_across_threads_tiles_and_skipping() {
             let e = reference.stats.effects;
             match method {
                 AoMethod::Rays { n } => {
-                    assert!(e.ao_rays > 0 && e.ao_rays % n as u64 == 0, "{name}");
+                    assert!(
+                        e.ao_rays > 0 && e.ao_rays.is_multiple_of(n as u64),
+                        "{name}"
+                    );
                     assert!(e.ao_samples > 0, "{name}");
                 }
                 AoMethod::Field { .. } => {

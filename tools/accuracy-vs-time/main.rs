@@ -1,10 +1,13 @@
 //! vol-accuracy: what accuracy costs. Renders a reference image of a scene
 //! at the finest settings, then sweeps each knob that trades accuracy for
 //! time (step size, early ray termination, interpolation, gradient method,
-//! macrocell size, tile size, thread count), timing every setting and
+//! macrocell size, tile size, thread count; on the thesis scene also the
+//! shadow and ambient-occlusion methods), timing every setting and
 //! comparing its linear float image with the reference's. Writes a CSV and
-//! a plot (PSNR against time, one curve per knob) as PNG and SVG. The
-//! reference itself is the first row of each scene (PSNR inf).
+//! a plot (PSNR against time, one panel per knob: amounts as curves, kinds
+//! as labelled markers, the default ringed, the reference's time dashed,
+//! the spread of the runs as bars) as PNG and SVG. The reference itself is
+//! the first row of each scene (PSNR inf).
 //!
 //! It drives the other tools (`vol-gen`, `vol-render`, `vol-psnr`), which it
 //! looks for next to its own executable unless `--bin-dir` says otherwise.
@@ -179,7 +182,7 @@ fn run(cli: &Cli) -> Result<()> {
     for scene in &scenes {
         let scene_rows = run_scene(&ctx, scene, &sweep)?;
         if font {
-            plot(&ctx.out, scene.name, &scene_rows)?;
+            plot(&ctx.out, scene.name, &scene_rows, cli.quick)?;
         }
         rows.extend(scene_rows);
         if scene.effects {
@@ -189,7 +192,7 @@ fn run(cli: &Cli) -> Result<()> {
             ] {
                 let effect_rows = run_effect(&ctx, scene, &study)?;
                 if font {
-                    plot(&ctx.out, &study.name, &effect_rows)?;
+                    plot(&ctx.out, &study.name, &effect_rows, cli.quick)?;
                 }
                 rows.extend(effect_rows);
             }
@@ -733,26 +736,82 @@ const COLOURS: [RGBColor; 7] = [
     RGBColor(127, 127, 127),
 ];
 
-/// Draw PSNR against median time for one scene, as PNG and SVG.
-fn plot(out: &Path, scene: &str, rows: &[Row]) -> Result<()> {
+/// Knobs whose values are kinds, not amounts: drawn as labelled markers,
+/// never joined by lines.
+fn categorical(knob: &str) -> bool {
+    matches!(knob, "interp" | "gradient" | "shadows off" | "AO off")
+}
+
+/// Whether `value` is the base setting of `knob` (what every other panel
+/// uses): marked with a ring.
+fn is_default(knob: &str, value: &str) -> bool {
+    matches!(
+        (knob, value),
+        ("step", BASE_STEP)
+            | ("ert", BASE_ERT)
+            | ("interp", "trilinear")
+            | ("gradient", "central")
+            | ("cell", "8")
+            | ("tile", "16")
+    )
+}
+
+/// Draw PSNR against median time for one scene, one panel per knob, as
+/// PNG and SVG; `smoke` marks a quick run's plot as a smoke test.
+fn plot(out: &Path, scene: &str, rows: &[Row], smoke: bool) -> Result<()> {
     let png = out.join(format!("accuracy-{scene}.png"));
     let svg = out.join(format!("accuracy-{scene}.svg"));
+    let knobs = knobs_of(rows);
+    let cols = knobs.len().clamp(1, 3) as u32;
+    let panel_rows = (knobs.len() as u32).div_ceil(cols).max(1);
+    let size = (cols * 400, 60 + panel_rows * 330);
     {
-        let root = BitMapBackend::new(&png, (800, 520)).into_drawing_area();
-        draw(root, scene, rows).with_context(|| format!("{}: cannot draw", png.display()))?;
+        let root = BitMapBackend::new(&png, size).into_drawing_area();
+        draw(root, scene, rows, smoke)
+            .with_context(|| format!("{}: cannot draw", png.display()))?;
     }
     {
-        let root = SVGBackend::new(&svg, (800, 520)).into_drawing_area();
-        draw(root, scene, rows).with_context(|| format!("{}: cannot draw", svg.display()))?;
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        draw(root, scene, rows, smoke)
+            .with_context(|| format!("{}: cannot draw", svg.display()))?;
     }
     Ok(())
 }
 
-/// The chart itself, on any backend.
+/// The knobs with a finite PSNR, in sweep order.
+fn knobs_of(rows: &[Row]) -> Vec<&'static str> {
+    let mut knobs: Vec<&'static str> = Vec::new();
+    for r in rows.iter().filter(|r| r.psnr_db.is_some()) {
+        if !knobs.contains(&r.knob) {
+            knobs.push(r.knob);
+        }
+    }
+    knobs
+}
+
+/// A time label with as many digits as its size needs.
+fn seconds(x: f64) -> String {
+    if x >= 10.0 {
+        format!("{x:.0}")
+    } else if x >= 1.0 {
+        format!("{x:.1}")
+    } else if x >= 0.1 {
+        format!("{x:.2}")
+    } else if x >= 0.01 {
+        format!("{x:.3}")
+    } else {
+        format!("{x:.0e}")
+    }
+}
+
+/// The chart itself, on any backend: a title, then one panel per knob on
+/// shared axes (time on a log scale, spread from the fastest to the
+/// slowest run as a bar; the reference's time as a dashed line).
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     scene: &str,
     rows: &[Row],
+    smoke: bool,
 ) -> Result<()>
 where
     DB::ErrorType: 'static,
@@ -763,76 +822,130 @@ where
     if finite.is_empty() {
         bail!("no setting differs from the reference: nothing to plot");
     }
+    let reference = rows.iter().find(|r| r.knob == "reference");
     let (mut t0, mut t1, mut p0, mut p1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for r in &finite {
         let p = r.psnr_db.unwrap_or(0.0);
-        t0 = t0.min(r.median_s);
-        t1 = t1.max(r.median_s);
+        t0 = t0.min(r.min_s);
+        t1 = t1.max(r.max_s);
         p0 = p0.min(p);
         p1 = p1.max(p);
     }
-    let t0 = (t0 * 0.8).max(1e-6);
-    let t1 = (t1 * 1.25).max(t0 * 2.0);
-    let (p0, p1) = ((p0 - 2.0).floor(), (p1 + 2.0).ceil());
-    let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!("What accuracy costs: {scene} scene (PSNR vs reference)"),
-            ("sans-serif", 20),
-        )
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(55)
-        .build_cartesian_2d((t0..t1).log_scale(), p0..p1)
-        .map_err(err)?;
-    chart
-        .configure_mesh()
-        .x_desc("median render time (s, log scale)")
-        .y_desc("PSNR against the reference (dB)")
-        .x_label_formatter(&|x| format!("{x:.3}"))
-        .draw()
-        .map_err(err)?;
-    let mut knobs: Vec<&'static str> = Vec::new();
-    for r in &finite {
-        if !knobs.contains(&r.knob) {
-            knobs.push(r.knob);
-        }
+    if let Some(r) = reference {
+        t1 = t1.max(r.median_s);
     }
-    for (i, knob) in knobs.iter().enumerate() {
+    let t0 = (t0 * 0.7).max(1e-6);
+    let t1 = (t1 * 1.4).max(t0 * 2.0);
+    let (p0, p1) = ((p0 - 3.0).floor(), (p1 + 4.0).ceil());
+    let title = if smoke {
+        format!("{scene}: SMOKE TEST (quick run: tiny sizes, one run each; not a result)")
+    } else {
+        format!(
+            "What accuracy costs: {scene} (PSNR against the reference{})",
+            reference.map_or(String::new(), |r| format!(" {}", r.value))
+        )
+    };
+    let body = root.titled(&title, ("sans-serif", 22)).map_err(err)?;
+    let knobs = knobs_of(rows);
+    let cols = knobs.len().clamp(1, 3);
+    let panel_rows = knobs.len().div_ceil(cols).max(1);
+    let panels = body.split_evenly((panel_rows, cols));
+    for ((i, knob), area) in knobs.iter().enumerate().zip(panels.iter()) {
         let colour = COLOURS[i % COLOURS.len()];
-        let pts: Vec<(f64, f64)> = finite
-            .iter()
-            .filter(|r| r.knob == *knob)
-            .map(|r| (r.median_s, r.psnr_db.unwrap_or(0.0)))
-            .collect();
-        chart
-            .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
-            .map_err(err)?
-            .label(*knob)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
-            });
-        chart
-            .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+        let mut chart = ChartBuilder::on(area)
+            .caption(*knob, ("sans-serif", 17))
+            .margin(10)
+            .x_label_area_size(38)
+            .y_label_area_size(48)
+            .build_cartesian_2d((t0..t1).log_scale(), p0..p1)
             .map_err(err)?;
-        if *knob == "step" {
+        chart
+            .configure_mesh()
+            .x_desc("median frame time (s, log)")
+            .y_desc("PSNR (dB)")
+            .x_labels(5)
+            .y_labels(6)
+            .x_label_formatter(&|x| seconds(*x))
+            .light_line_style(WHITE.mix(0.0))
+            .draw()
+            .map_err(err)?;
+        if let Some(r) = reference {
+            let dashes: Vec<(f64, f64)> = (0..12)
+                .flat_map(|k| {
+                    let a = p0 + (p1 - p0) * (2 * k) as f64 / 24.0;
+                    let b = p0 + (p1 - p0) * (2 * k + 1) as f64 / 24.0;
+                    [(r.median_s, a), (r.median_s, b)]
+                })
+                .collect();
             chart
-                .draw_series(finite.iter().filter(|r| r.knob == "step").map(|r| {
-                    Text::new(
-                        r.value.clone(),
-                        (r.median_s, r.psnr_db.unwrap_or(0.0) + 0.6),
-                        ("sans-serif", 12).into_font().color(&colour),
-                    )
-                }))
+                .draw_series(
+                    dashes.chunks(2).map(|d| {
+                        PathElement::new(vec![d[0], d[1]], BLACK.mix(0.5).stroke_width(1))
+                    }),
+                )
+                .map_err(err)?;
+            // Left of the line, so it stays inside the panel.
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("reference {} s", seconds(r.median_s)),
+                    (r.median_s / 2.4, p1 - 0.4),
+                    ("sans-serif", 12).into_font().color(&BLACK.mix(0.6)),
+                )))
                 .map_err(err)?;
         }
+        let pts: Vec<&&Row> = finite.iter().filter(|r| r.knob == *knob).collect();
+        // Spread of the runs: a bar from the fastest to the slowest.
+        chart
+            .draw_series(pts.iter().map(|r| {
+                let y = r.psnr_db.unwrap_or(0.0);
+                PathElement::new(vec![(r.min_s, y), (r.max_s, y)], colour.stroke_width(1))
+            }))
+            .map_err(err)?;
+        if !categorical(knob) {
+            chart
+                .draw_series(LineSeries::new(
+                    pts.iter().map(|r| (r.median_s, r.psnr_db.unwrap_or(0.0))),
+                    colour.stroke_width(2),
+                ))
+                .map_err(err)?;
+        }
+        chart
+            .draw_series(
+                pts.iter().map(|r| {
+                    Circle::new((r.median_s, r.psnr_db.unwrap_or(0.0)), 4, colour.filled())
+                }),
+            )
+            .map_err(err)?;
+        chart
+            .draw_series(pts.iter().filter(|r| is_default(knob, &r.value)).map(|r| {
+                Circle::new(
+                    (r.median_s, r.psnr_db.unwrap_or(0.0)),
+                    8,
+                    BLACK.stroke_width(2),
+                )
+            }))
+            .map_err(err)?;
+        // Value labels beside their markers, cycling through three heights
+        // so neighbours at nearly the same time do not overlap.
+        let lift = (p1 - p0) / 24.0;
+        chart
+            .draw_series(pts.iter().enumerate().map(|(j, r)| {
+                let dy = lift * [1.5, -1.0, 3.5][j % 3];
+                let mut label = r.value.clone();
+                if is_default(knob, &r.value) {
+                    label.push_str(" (default)");
+                }
+                if r.build_s > 0.0 {
+                    label.push_str(&format!(" (+{} s build)", seconds(r.build_s)));
+                }
+                Text::new(
+                    label,
+                    (r.median_s * 1.06, r.psnr_db.unwrap_or(0.0) + dy),
+                    ("sans-serif", 12).into_font().color(&colour.mix(0.9)),
+                )
+            }))
+            .map_err(err)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
     root.present().map_err(err)?;
     Ok(())
 }

@@ -2,7 +2,7 @@
 //! frame's lights need, and the occlusion grid and AO field, all built
 //! once before any ray is traced.
 
-use super::ao::{Ao, AoField, AoLookup, AoMethod, AoSource};
+use super::ao::{Ao, AoField, AoLookup, AoMethod, AoSource, Spiral};
 use super::light_grid::LightGrid;
 use super::occluder::{Classified, IsoInside, Occluder};
 use super::occlusion_grid::{Intervals, OcclusionGrid, OCCLUSION_CELL};
@@ -196,16 +196,18 @@ pub struct AoParts {
     pub intervals: Intervals,
     /// The precomputed field (`--ao-field`).
     pub field: Option<AoField>,
+    /// The directions of a shaded sample (`--ao N`).
+    pub spiral: Spiral,
 }
 
 impl AoParts {
     /// The frame's occlusion, looked up `offset_cells` occlusion-grid
     /// cells off shaded samples along their normal, in the box `[0, hi]`.
     pub fn source(&self, hi: Vec3, offset_cells: f32, min_spacing: f32) -> AoSource<'_> {
-        let lookup = match (&self.field, self.ao.method) {
-            (Some(f), _) => AoLookup::Field(f),
-            (None, AoMethod::Rays { n }) | (None, AoMethod::Field { k: n }) => AoLookup::Rays {
-                n,
+        let lookup = match &self.field {
+            Some(f) => AoLookup::Field(f),
+            None => AoLookup::Rays {
+                spiral: &self.spiral,
                 intervals: &self.intervals,
                 sampler: HashSampler::new(self.ao.seed),
             },
@@ -270,11 +272,16 @@ fn ao_parts<O: Occluder>(
         }
         AoMethod::Rays { .. } => None,
     };
+    let spiral = match ao.method {
+        AoMethod::Rays { n } => Spiral::new(n),
+        AoMethod::Field { .. } => Spiral::new(0),
+    };
     Ok(AoParts {
         ao: *ao,
         grid,
         intervals,
         field,
+        spiral,
     })
 }
 
