@@ -1,19 +1,18 @@
 //! Ambient occlusion: closed forms, determinism, costs that are zero when
 //! off, and hard cases.
 
+mod common;
+
+use common::{orbit_camera, shapes};
 use glam::Vec3;
-use volcore::region::pack_sliced;
-use volcore::scene::{Scene, SceneSource, ShapesScene};
 use volcore::{Cursor, Dims, Volume, VolumeVisitor, VoxelSource};
-use volindex::{BuildOptions, MajorantIndex};
 use volrender::effects::ao::{AoField, AoLookup, AoSource, Spiral};
 use volrender::effects::occlusion_grid::{Intervals, OcclusionGrid};
 use volrender::effects::{Occluder, RayEffects};
 use volrender::sampler::HashSampler;
 use volrender::tf::TransferFunction;
 use volrender::{
-    render, Ao, AoMethod, Camera, Frame, Light, Lighting, Mode, Projection, RenderSettings,
-    ShadowMethod, Shadows,
+    render, Ao, AoMethod, Frame, Light, Lighting, Mode, RenderSettings, ShadowMethod, Shadows,
 };
 
 /// A medium of one optical depth per `STEP` everywhere, or only at and
@@ -176,27 +175,6 @@ fn only_the_hemisphere_around_the_normal_counts() {
     assert!((fup - up).abs() < 0.25, "field {fup} vs rays {up}");
 }
 
-fn shapes() -> (Volume, MajorantIndex) {
-    let scene = ShapesScene::new(Dims::new(48, 40, 44).unwrap(), 2, 12, 14, 100.0);
-    let v =
-        Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<u8>::new(&scene))).unwrap();
-    let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
-    (v, ix)
-}
-
-fn camera() -> Camera {
-    Camera::orbit(
-        Vec3::new(24.0, 20.0, 22.0),
-        30.0,
-        25.0,
-        110.0,
-        Projection::Perspective(40.0),
-        40,
-        36,
-    )
-    .unwrap()
-}
-
 fn lighting() -> Lighting {
     Lighting {
         lights: vec![
@@ -242,7 +220,7 @@ fn sum(f: &Frame) -> f64 {
 fn occluded_frames_are_identical_across_threads_tiles_and_skipping() {
     let (v, ix) = shapes();
     let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
-    let cam = camera();
+    let cam = orbit_camera();
     for mode in [Mode::Dvr, Mode::Iso(90.0)] {
         for (method, shadows) in [
             (AoMethod::Rays { n: 4 }, false),
@@ -302,7 +280,7 @@ fn with_ao_off_no_occlusion_work_is_done_and_on_it_darkens() {
             &v,
             Some(&ix),
             Some(&tf),
-            &camera(),
+            &orbit_camera(),
             &settings(mode, None, false),
         )
         .unwrap();
@@ -312,7 +290,7 @@ fn with_ao_off_no_occlusion_work_is_done_and_on_it_darkens() {
                 &v,
                 Some(&ix),
                 Some(&tf),
-                &camera(),
+                &orbit_camera(),
                 &settings(mode, ao(method), false),
             )
             .unwrap();
@@ -326,7 +304,7 @@ fn with_ao_off_no_occlusion_work_is_done_and_on_it_darkens() {
             // frame without ambient light.
             let mut dark = settings(mode, None, false);
             dark.lighting.ambient = Vec3::ZERO;
-            let no_ambient = render(&v, Some(&ix), Some(&tf), &camera(), &dark).unwrap();
+            let no_ambient = render(&v, Some(&ix), Some(&tf), &orbit_camera(), &dark).unwrap();
             assert!(sum(&on) > sum(&no_ambient), "{mode:?} {method:?}");
         }
     }
@@ -341,7 +319,7 @@ fn different_seeds_give_different_noise_and_more_rays_less_of_it() {
         if let Some(a) = s.ao.as_mut() {
             a.seed = seed;
         }
-        render(&v, Some(&ix), Some(&tf), &camera(), &s).unwrap()
+        render(&v, Some(&ix), Some(&tf), &orbit_camera(), &s).unwrap()
     };
     let diff = |a: &Frame, b: &Frame| {
         a.rgba
@@ -399,7 +377,7 @@ fn bad_ao_settings_are_refused() {
         ),
     ];
     for (s, want) in cases {
-        let e = render(&v, Some(&ix), Some(&tf), &camera(), &s).unwrap_err();
+        let e = render(&v, Some(&ix), Some(&tf), &orbit_camera(), &s).unwrap_err();
         let msg = e.to_string();
         assert!(msg.contains(want), "{msg}");
         assert!(!msg.contains('\n'));

@@ -1,9 +1,10 @@
 //! Shadows: closed forms, determinism, costs that are zero when off, and
 //! hard cases.
 
+mod common;
+
+use common::{orbit_camera, shapes};
 use glam::Vec3;
-use volcore::region::pack_sliced;
-use volcore::scene::{Scene, SceneSource, ShapesScene};
 use volcore::{Dims, Volume};
 use volindex::{BuildOptions, MajorantIndex};
 use volrender::tf::{TfRange, TransferFunction};
@@ -179,27 +180,6 @@ fn an_opaque_slab_blocks_all_light_and_nothing_is_nan() {
         let visible = without.rgba.iter().filter(|p| p[0] > 0.0).count();
         assert!(visible > 50 && lit_receiver < visible, "{method:?}");
     }
-}
-
-fn shapes() -> (Volume, MajorantIndex) {
-    let scene = ShapesScene::new(Dims::new(48, 40, 44).unwrap(), 2, 12, 14, 100.0);
-    let v =
-        Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<u8>::new(&scene))).unwrap();
-    let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
-    (v, ix)
-}
-
-fn orbit_camera() -> Camera {
-    Camera::orbit(
-        Vec3::new(24.0, 20.0, 22.0),
-        30.0,
-        25.0,
-        110.0,
-        Projection::Perspective(40.0),
-        40,
-        36,
-    )
-    .unwrap()
 }
 
 /// Two directional lights and a point light inside the volume.

@@ -22,7 +22,7 @@
 //! The ambient term of the lighting is multiplied by the occlusion; lights
 //! are not (their shadows are the shadow methods' job).
 
-use super::occlusion_grid::{Intervals, OcclusionGrid, OCCLUSION_CELL};
+use super::occlusion_grid::{trilinear, Intervals, Lattice, OcclusionGrid, OCCLUSION_CELL};
 use super::RayEffects;
 use crate::error::RenderError;
 use crate::sampler::HashSampler;
@@ -182,9 +182,8 @@ const SH_NORM: [f32; SH - 1] = [
 #[derive(Clone, Debug)]
 pub struct AoField {
     k: u32,
-    g: [usize; 3],
-    top: Vec3,
-    world_to_grid: Vec3,
+    /// Where its points are.
+    lattice: Lattice,
     /// Per point (x fastest): the mean transmittance, then the order-1
     /// and order-2 terms, scaled so that the occlusion for unit normal
     /// `n` is `c[0] + Σ c[i]·shape_i(n)`.
@@ -289,16 +288,9 @@ impl AoField {
                 taken
             })
             .sum();
-        let cell = AO_FIELD_CELL as f32;
         Ok(AoField {
             k,
-            g,
-            top: Vec3::new((g[0] - 1) as f32, (g[1] - 1) as f32, (g[2] - 1) as f32),
-            world_to_grid: Vec3::new(
-                1.0 / (spacing[0] * cell),
-                1.0 / (spacing[1] * cell),
-                1.0 / (spacing[2] * cell),
-            ),
+            lattice: Lattice::new(g, spacing, AO_FIELD_CELL as f32),
             data,
             build_s: start.elapsed().as_secs_f64(),
             samples,
@@ -310,45 +302,9 @@ impl AoField {
     /// clamped to `[0, 1]` (a truncated expansion can ring past them).
     #[inline]
     pub fn occlusion(&self, p: Vec3, n: Option<Vec3>) -> f32 {
-        let c = (p * self.world_to_grid).clamp(Vec3::ZERO, self.top);
-        let [gx, gy, gz] = self.g;
-        // Clamped to be non-negative: truncation is the floor (and one
-        // instruction, where `floor` is a libm call on baseline x86-64).
-        let i = c.as_uvec3();
-        let f = c - i.as_vec3();
-        let (ix, iy, iz) = (i.x as usize, i.y as usize, i.z as usize);
-        let sx = usize::from(ix + 1 < gx);
-        let sy = if iy + 1 < gy { gx } else { 0 };
-        let sz = if iz + 1 < gz { gx * gy } else { 0 };
-        let base = (iz * gy + iy) * gx + ix;
-        let v = [
-            base,
-            base + sx,
-            base + sy,
-            base + sy + sx,
-            base + sz,
-            base + sz + sx,
-            base + sz + sy,
-            base + sz + sy + sx,
-        ]
-        .map(|at| &self.data[at]);
-        // Lerps, so equal corners give their coefficients exactly.
-        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-        let coef = |j: usize| {
-            lerp(
-                lerp(
-                    lerp(v[0][j], v[1][j], f.x),
-                    lerp(v[2][j], v[3][j], f.x),
-                    f.y,
-                ),
-                lerp(
-                    lerp(v[4][j], v[5][j], f.x),
-                    lerp(v[6][j], v[7][j], f.x),
-                    f.y,
-                ),
-                f.z,
-            )
-        };
+        let (at, f) = self.lattice.corners(p);
+        let v = at.map(|i| &self.data[i]);
+        let coef = |j: usize| trilinear(v.map(|c| c[j]), f);
         let mut ao = coef(0);
         if let Some(n) = n {
             let shape = sh_shape(n);

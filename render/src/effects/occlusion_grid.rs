@@ -39,22 +39,24 @@ const MAX_INTERVALS: usize = 64;
 /// Levels of the grid: cells of 4, 8 and 16 voxels.
 pub const OCCLUSION_LEVELS: usize = 3;
 
-/// One level of the grid: extinction per world unit at its points.
-#[derive(Clone, Debug)]
-struct Level {
+/// A regular lattice of points every `cell` voxels (x fastest), and how
+/// a world point falls between them: what the occlusion grid's levels and
+/// the AO field share.
+#[derive(Clone, Copy, Debug)]
+pub struct Lattice {
     /// Points per axis.
-    g: [usize; 3],
+    pub g: [usize; 3],
     /// Largest continuous grid coordinate per axis (`g − 1`).
     top: Vec3,
     /// World to grid coordinates, per axis.
     world_to_grid: Vec3,
-    /// Extinction per world unit, x fastest.
-    sigma: Vec<f32>,
 }
 
-impl Level {
-    fn new(g: [usize; 3], spacing: [f32; 3], cell: f32, sigma: Vec<f32>) -> Level {
-        Level {
+impl Lattice {
+    /// `g` points per axis (each at least 1), `cell` voxels of `spacing`
+    /// apart.
+    pub fn new(g: [usize; 3], spacing: [f32; 3], cell: f32) -> Lattice {
+        Lattice {
             g,
             top: Vec3::new((g[0] - 1) as f32, (g[1] - 1) as f32, (g[2] - 1) as f32),
             world_to_grid: Vec3::new(
@@ -62,6 +64,65 @@ impl Level {
                 1.0 / (spacing[1] * cell),
                 1.0 / (spacing[2] * cell),
             ),
+        }
+    }
+
+    /// The eight points around world point `p` (x fastest, then y, then
+    /// z; points past the lattice read its nearest face) and the weights
+    /// between them.
+    #[inline(always)]
+    pub fn corners(&self, p: Vec3) -> ([usize; 8], Vec3) {
+        let c = (p * self.world_to_grid).clamp(Vec3::ZERO, self.top);
+        let [gx, gy, gz] = self.g;
+        // Clamped to be non-negative: truncation is the floor (and one
+        // instruction, where `floor` is a libm call on baseline x86-64).
+        let i = c.as_uvec3();
+        let f = c - i.as_vec3();
+        let (ix, iy, iz) = (i.x as usize, i.y as usize, i.z as usize);
+        let sx = usize::from(ix + 1 < gx);
+        let sy = if iy + 1 < gy { gx } else { 0 };
+        let sz = if iz + 1 < gz { gx * gy } else { 0 };
+        let b = (iz * gy + iy) * gx + ix;
+        let at = [
+            b,
+            b + sx,
+            b + sy,
+            b + sy + sx,
+            b + sz,
+            b + sz + sx,
+            b + sz + sy,
+            b + sz + sy + sx,
+        ];
+        (at, f)
+    }
+}
+
+/// The trilinear blend of corner values `v` (in [`Lattice::corners`]
+/// order) at weights `f`, by lerps, so equal corners give their value
+/// exactly.
+#[inline(always)]
+pub fn trilinear(v: [f32; 8], f: Vec3) -> f32 {
+    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+    let c00 = lerp(v[0], v[1], f.x);
+    let c10 = lerp(v[2], v[3], f.x);
+    let c01 = lerp(v[4], v[5], f.x);
+    let c11 = lerp(v[6], v[7], f.x);
+    lerp(lerp(c00, c10, f.y), lerp(c01, c11, f.y), f.z)
+}
+
+/// One level of the grid: extinction per world unit at its points.
+#[derive(Clone, Debug)]
+struct Level {
+    /// Where its points are.
+    lattice: Lattice,
+    /// Extinction per world unit, x fastest.
+    sigma: Vec<f32>,
+}
+
+impl Level {
+    fn new(g: [usize; 3], spacing: [f32; 3], cell: f32, sigma: Vec<f32>) -> Level {
+        Level {
+            lattice: Lattice::new(g, spacing, cell),
             sigma,
         }
     }
@@ -69,8 +130,8 @@ impl Level {
     /// The next coarser level: every other point, each the tent-filtered
     /// mean (weights 1/4, 1/2, 1/4 per axis) of its neighbourhood.
     fn coarser(&self, spacing: [f32; 3], cell: f32) -> Level {
-        let g = self.g.map(|n| n.div_ceil(2));
-        let [fx, fy, fz] = self.g;
+        let g = self.lattice.g.map(|n| n.div_ceil(2));
+        let [fx, fy, fz] = self.lattice.g;
         let mut sigma = vec![0.0f32; g[0] * g[1] * g[2]];
         sigma
             .par_chunks_mut(g[0] * g[1])
@@ -114,24 +175,8 @@ impl Level {
     /// read its nearest face).
     #[inline(always)]
     fn sigma(&self, p: Vec3) -> f32 {
-        let c = (p * self.world_to_grid).clamp(Vec3::ZERO, self.top);
-        let [gx, gy, gz] = self.g;
-        // Clamped to be non-negative: truncation is the floor (and one
-        // instruction, where `floor` is a libm call on baseline x86-64).
-        let i = c.as_uvec3();
-        let f = c - i.as_vec3();
-        let (ix, iy, iz) = (i.x as usize, i.y as usize, i.z as usize);
-        let sx = usize::from(ix + 1 < gx);
-        let sy = if iy + 1 < gy { gx } else { 0 };
-        let sz = if iz + 1 < gz { gx * gy } else { 0 };
-        let base = (iz * gy + iy) * gx + ix;
-        let at = |o: usize| self.sigma[base + o];
-        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-        let c00 = lerp(at(0), at(sx), f.x);
-        let c10 = lerp(at(sy), at(sy + sx), f.x);
-        let c01 = lerp(at(sz), at(sz + sx), f.x);
-        let c11 = lerp(at(sz + sy), at(sz + sy + sx), f.x);
-        lerp(lerp(c00, c10, f.y), lerp(c01, c11, f.y), f.z)
+        let (at, f) = self.lattice.corners(p);
+        trilinear(at.map(|i| self.sigma[i]), f)
     }
 }
 
