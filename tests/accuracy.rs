@@ -61,51 +61,53 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
         ("threads", &["1", "2"]),
     ];
     let per_scene: usize = expected.iter().map(|(_, v)| v.len()).sum();
-    let scenes = ["thesis", "noise", "boundary"];
-    // The thesis scene's shadow study: reference, off, 2 ray steps, 2
-    // grids; and its AO study: reference, off, 2 ray counts, 2 fields.
+    let scenes = ["thesis", "noise", "boundary", "ct"];
+    // The thesis and CT scenes' shadow studies: reference, off, 2 ray
+    // steps, 2 grids; and their AO studies: reference, off, 2 ray counts,
+    // 2 fields.
+    let effect_scenes = ["thesis", "ct"];
     let (shadow_rows, ao_rows) = (6, 6);
     assert_eq!(
         rows.len(),
-        scenes.len() * per_scene + shadow_rows + ao_rows,
+        scenes.len() * per_scene + effect_scenes.len() * (shadow_rows + ao_rows),
         "{text}"
     );
-    let shadow = |knob: &str, v: &str| {
-        let key = (
-            "thesis-shadows".to_string(),
-            knob.to_string(),
-            v.to_string(),
+    for scene in effect_scenes {
+        let get = |study: &str, knob: &str, v: &str| {
+            let key = (format!("{scene}-{study}"), knob.to_string(), v.to_string());
+            *rows
+                .get(&key)
+                .unwrap_or_else(|| panic!("missing row {key:?}"))
+        };
+        let shadow = |knob: &str, v: &str| get("shadows", knob, v);
+        assert!(shadow("reference", "ray:0.1").2.is_infinite());
+        let off = shadow("shadows off", "off").2;
+        let ray = shadow("shadow rays", "0.5").2;
+        let grid = shadow("shadow grid", "2").2;
+        shadow("shadow rays", "2");
+        shadow("shadow grid", "4");
+        // Shadows matter in these scenes, and both methods come closer to
+        // the reference than leaving them off.
+        assert!(
+            off.is_finite() && ray > off && grid > off,
+            "{scene}: {text}"
         );
-        *rows
-            .get(&key)
-            .unwrap_or_else(|| panic!("missing row {key:?}"))
-    };
-    assert!(shadow("reference", "ray:0.1").2.is_infinite());
-    let off = shadow("shadows off", "off").2;
-    let ray = shadow("shadow rays", "0.5").2;
-    let grid = shadow("shadow grid", "2").2;
-    shadow("shadow rays", "2");
-    shadow("shadow grid", "4");
-    // Shadows matter in this scene, and both methods come closer to the
-    // reference than leaving them off.
-    assert!(off.is_finite() && ray > off && grid > off, "{text}");
-    let ao = |knob: &str, v: &str| {
-        let key = ("thesis-ao".to_string(), knob.to_string(), v.to_string());
-        *rows
-            .get(&key)
-            .unwrap_or_else(|| panic!("missing row {key:?}"))
-    };
-    assert!(ao("reference", "rays:64").2.is_infinite());
-    let (off, few, many) = (
-        ao("AO off", "off").2,
-        ao("AO rays", "4").2,
-        ao("AO rays", "16").2,
-    );
-    let (k16, k32) = (ao("AO field", "16").2, ao("AO field", "32").2);
-    // Occlusion matters here; more directions come closer to the
-    // reference, and a field beats leaving AO off.
-    assert!(off.is_finite() && few > off && many > few, "{text}");
-    assert!(k16 > off && k32 > off, "{text}");
+        let ao = |knob: &str, v: &str| get("ao", knob, v);
+        assert!(ao("reference", "rays:64").2.is_infinite());
+        let (off, few, many) = (
+            ao("AO off", "off").2,
+            ao("AO rays", "4").2,
+            ao("AO rays", "16").2,
+        );
+        let (k16, k32) = (ao("AO field", "16").2, ao("AO field", "32").2);
+        // Occlusion matters here; more directions come closer to the
+        // reference, and a field beats leaving AO off.
+        assert!(
+            off.is_finite() && few > off && many > few,
+            "{scene}: {text}"
+        );
+        assert!(k16 > off && k32 > off, "{scene}: {text}");
+    }
     for scene in scenes {
         for (knob, values) in expected {
             for v in *values {
@@ -144,6 +146,9 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
             "accuracy-boundary.svg",
             "accuracy-thesis-shadows.svg",
             "accuracy-thesis-ao.svg",
+            "accuracy-ct.svg",
+            "accuracy-ct-shadows.svg",
+            "accuracy-ct-ao.svg",
         ] {
             let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
             assert!(len > 1000, "{f} missing or empty");

@@ -418,3 +418,45 @@ fn raw_and_unknown_output_names_are_usage_errors_before_any_work() {
     let man = ok(tool("vol-convert").arg("--man"));
     assert!(man.contains(".TH") && man.contains("raw\\-endian"), "{man}");
 }
+
+/// The CT-like phantom: Hounsfield units in i16 by default, air to bone,
+/// refused in types that cannot hold them, and seen by the `ct` preset.
+#[test]
+fn phantom_is_a_ct_in_hounsfield_units() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("head.vvol");
+    let v = json(&ok(tool("vol-gen")
+        .args(["phantom", "--dims", "48,48,48", "--json", "-o"])
+        .arg(&out)));
+    assert_eq!(v["type"], "i16", "{v}");
+    let (lo, hi) = (v["min"].as_f64().unwrap(), v["max"].as_f64().unwrap());
+    assert!((-1030.0..=-970.0).contains(&lo), "{v}");
+    assert!((1050.0..=1330.0).contains(&hi), "{v}");
+    for t in ["u8", "u16"] {
+        let bad = dir.path().join(format!("{t}.vvol"));
+        fails(
+            tool("vol-gen")
+                .args(["phantom", "--dims", "8,8,8", "--type", t, "-o"])
+                .arg(&bad),
+            "Hounsfield",
+        );
+        assert!(!bad.exists());
+    }
+    // The ct preset shows the skull: most of the centre of the image is
+    // lit, the corners stay background.
+    let hdr = dir.path().join("head.pfm");
+    ok(tool("vol-render")
+        .arg(&out)
+        .args(["--tf", "ct", "--size", "32x32", "--quiet", "-o"])
+        .arg(dir.path().join("head.png"))
+        .arg("--hdr")
+        .arg(&hdr));
+    let img = volcompare::pfm::read_pfm(&hdr).unwrap();
+    let lit = |x: usize, y: usize| {
+        img.samples[(y * 32 + x) * 3..][..3]
+            .iter()
+            .any(|&c| c > 0.1)
+    };
+    assert!(lit(16, 16));
+    assert!(!lit(0, 0));
+}

@@ -41,8 +41,9 @@ struct Cli {
     /// Runs per setting; the median is reported (default: 3, quick: 1).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     repeat: Option<u32>,
-    /// Only this scene (thesis, noise, or boundary: the noise volume through
-    /// the 2D boundary transfer function); default: all three.
+    /// Only this scene (thesis; noise; boundary: the noise volume through
+    /// the 2D boundary transfer function; ct: a CT-like head through the
+    /// `ct` preset); default: all four.
     #[arg(long, value_name = "NAME")]
     scene: Option<String>,
     /// Directory holding vol-gen, vol-render and vol-psnr (default: next
@@ -166,7 +167,7 @@ fn run(cli: &Cli) -> Result<()> {
         Some(want) => {
             let s: Vec<Scene> = scenes.into_iter().filter(|s| s.name == want).collect();
             if s.is_empty() {
-                bail!("unknown scene '{want}' (thesis, noise, boundary)");
+                bail!("unknown scene '{want}' (thesis, noise, boundary, ct)");
             }
             s
         }
@@ -226,10 +227,10 @@ fn strs(a: &[&str]) -> Vec<String> {
 fn study(quick: bool) -> (Vec<Scene>, Sweep) {
     // The thesis scene is 800³ with shapes of size 70 and the eye at
     // (1100, 1100, 1100) looking at the origin; scale all three together.
-    let (n, size, img, noise_n) = if quick {
-        (48u32, 4u32, "64x64", 48u32)
+    let (n, size, img, noise_n, ct_n) = if quick {
+        (48u32, 4u32, "64x64", 48u32, 48u32)
     } else {
-        (256, 22, "256x256", 128)
+        (256, 22, "256x256", 128, 192)
     };
     let eye = (1100.0 * f64::from(n) / 800.0).round();
     let thesis = Scene {
@@ -297,6 +298,32 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         tf_file: None,
         effects: false,
     };
+    // A CT-like head (air, skin, a closed skull, brain, small lesions, in
+    // Hounsfield units with noise) through the `ct` preset: dense where
+    // the thesis scene is sparse, so shadow and occlusion rays cross
+    // semi-transparent tissue and stop in bone.
+    let ct = Scene {
+        name: "ct",
+        gen: vec![
+            "phantom".into(),
+            "--dims".into(),
+            format!("{ct_n},{ct_n},{ct_n}"),
+        ],
+        view: vec![
+            "--tf".into(),
+            "ct".into(),
+            "--shading".into(),
+            "phong".into(),
+            // The head's long axis is z; the default orbit then looks at
+            // its face from 30 degrees to the side.
+            "--up".into(),
+            "0,0,1".into(),
+            "--size".into(),
+            img.into(),
+        ],
+        tf_file: None,
+        effects: true,
+    };
     let sweep = if quick {
         Sweep {
             step: vec!["0.05", "0.2", "0.8", "1.6"],
@@ -322,7 +349,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             ao_fields: vec!["16", "32", "64"],
         }
     };
-    (vec![thesis, noise, boundary], sweep)
+    (vec![thesis, noise, boundary, ct], sweep)
 }
 
 /// Generate, render the reference, sweep every knob; returns the rows.

@@ -8,8 +8,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::scene::{
-    BoxScene, NoiseKind, NoiseScene, RampScene, Scene, SceneSource, ShapesScene, SolidScene,
-    SphereScene, SpheresScene,
+    BoxScene, NoiseKind, NoiseScene, PhantomScene, RampScene, Scene, SceneSource, ShapesScene,
+    SolidScene, SphereScene, SpheresScene,
 };
 use volcore::{BrickGeometry, Compression, Dims, Layout, Sample, SampleType, VolumeMeta};
 use volformats::output::{AtomicFile, Sink};
@@ -33,6 +33,9 @@ enum SceneName {
     Ramp,
     /// Analytic: one sphere, value·max(0, 1 − r/radius), at the centre.
     Sphere,
+    /// CT-like head in Hounsfield units (air −1000, brain 35, bone 1100)
+    /// with partial-volume edges and noise; i16 unless --type f32.
+    Phantom,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -66,9 +69,9 @@ struct Cli {
     /// Dimensions X,Y,Z in voxels.
     #[arg(long, value_parser = args::dims3)]
     dims: [u64; 3],
-    /// Sample type.
-    #[arg(long = "type", default_value = "u8", value_parser = args::sample_type)]
-    sample_type: SampleType,
+    /// Sample type (default: u8; i16 for phantom).
+    #[arg(long = "type", value_parser = args::sample_type)]
+    type_arg: Option<SampleType>,
     /// Voxel spacing x,y,z (world units between voxel centres).
     #[arg(long, default_value = "1,1,1", value_parser = args::spacing3)]
     spacing: [f32; 3],
@@ -134,11 +137,23 @@ struct Cli {
     quiet: bool,
 }
 
+impl Cli {
+    /// The sample type written: as given, else the scene's own.
+    fn sample_type(&self) -> SampleType {
+        match (self.type_arg, self.scene) {
+            (Some(t), _) => t,
+            (None, SceneName::Phantom) => SampleType::I16,
+            (None, _) => SampleType::U8,
+        }
+    }
+}
+
 const EXAMPLES: &str = "Examples:
   vol-gen shapes --dims 800,800,800 --seed 2 --count 70 --size 70 --value 100 -o shapes.vvol
   vol-gen noise --dims 256,256,256 --layout bricked:32 --compress zstd -o noise.vvol
   vol-gen sphere --dims 64,64,64 --type f32 --radius 30 -o sphere.vvol
   vol-gen sphere --dims 96,96,96 --radius 36 --edge 4 -o ball.vvol
+  vol-gen phantom --dims 256,256,256 --layout bricked:32 -o head.vvol
   vol-gen shapes --dims 256,256,256 --layout bricked:16 -o thesis.vol
   vol-gen shapes --dims 128,128,128 -o - | vol-info -";
 
@@ -164,20 +179,28 @@ fn positive_f32(s: &str) -> Result<f32, String> {
 /// sample type, the margin against the dimensions.
 fn validate(cli: &Cli) -> Result<(), String> {
     if let Some(v) = cli.value {
-        let fits = match cli.sample_type.integer_range() {
+        let fits = match cli.sample_type().integer_range() {
             Some((lo, hi)) => (lo..=hi).contains(&(v as f64)),
             None => v.is_finite(),
         };
         if !fits {
-            let range = match cli.sample_type.integer_range() {
+            let range = match cli.sample_type().integer_range() {
                 Some((lo, hi)) => format!("{lo}..={hi}"),
                 None => "a finite number".to_string(),
             };
             return Err(format!(
                 "--value {v} does not fit {} samples (use {range}, or another --type)",
-                cli.sample_type
+                cli.sample_type()
             ));
         }
+    }
+    if matches!(cli.scene, SceneName::Phantom)
+        && matches!(cli.sample_type(), SampleType::U8 | SampleType::U16)
+    {
+        return Err(format!(
+            "phantom writes Hounsfield units (-1000 to 1300), which {} cannot hold: use --type i16 or f32",
+            cli.sample_type()
+        ));
     }
     let smallest = cli.dims.iter().copied().min().unwrap_or(1);
     if matches!(cli.scene, SceneName::Box) && cli.margin.saturating_mul(2) >= smallest {
@@ -228,6 +251,7 @@ fn build_scene(cli: &Cli, dims: Dims) -> Box<dyn Scene> {
                 None => Box::new(SphereScene::new(dims, r, value(255.0))),
             }
         }
+        SceneName::Phantom => Box::new(PhantomScene::new(dims, cli.seed)),
     }
 }
 
@@ -261,10 +285,10 @@ fn check_output(cli: &Cli, dims: Dims) -> Result<()> {
                 dims.x,
                 dims.y,
                 dims.z,
-                volformats::raw::type_name(cli.sample_type)
+                volformats::raw::type_name(cli.sample_type())
             );
             match volformats::raw::parse_name(out) {
-                Some((d, t)) if d == dims && t == cli.sample_type => Ok(()),
+                Some((d, t)) if d == dims && t == cli.sample_type() => Ok(()),
                 Some(_) => Err(usage(format!(
                     "{name}: the name says other dims or type than --dims and --type: name it NAME_{want}.raw"
                 ))),
@@ -283,7 +307,7 @@ fn generate(cli: &Cli) -> Result<()> {
     let dims = Dims::new(x, y, z)?;
     check_output(cli, dims)?;
     let scene = build_scene(cli, dims);
-    let stats = match cli.sample_type {
+    let stats = match cli.sample_type() {
         SampleType::U8 => write_as::<u8>(cli, dims, scene.as_ref()),
         SampleType::U16 => write_as::<u16>(cli, dims, scene.as_ref()),
         SampleType::I16 => write_as::<i16>(cli, dims, scene.as_ref()),
@@ -297,7 +321,7 @@ fn generate(cli: &Cli) -> Result<()> {
             "scene": format!("{:?}", cli.scene).to_lowercase(),
             "output": cli.output.display().to_string(),
             "dims": cli.dims,
-            "type": cli.sample_type.name(),
+            "type": cli.sample_type().name(),
             "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
             "compression": match cli.compress { Compression::None => "none".to_string(), Compression::Zstd(l) => format!("zstd:{l}") },
             "seed": cli.seed,

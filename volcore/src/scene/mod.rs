@@ -4,11 +4,13 @@
 
 mod analytic;
 mod noise;
+mod phantom;
 mod shapes;
 mod spheres;
 
 pub use analytic::{BoxScene, RampScene, SolidScene, SphereScene};
 pub use noise::{NoiseKind, NoiseScene};
+pub use phantom::{PhantomScene, PHANTOM_AIR, PHANTOM_EDGE, PHANTOM_NOISE_SD};
 pub use shapes::{Shape, ShapeKind, ShapesScene};
 pub use spheres::SpheresScene;
 
@@ -118,6 +120,7 @@ mod tests {
             Box::new(BoxScene::new(d, 2, 9.0)),
             Box::new(RampScene::new(d, 1, 100.0)),
             Box::new(SphereScene::new(d, 5.0, 100.0)),
+            Box::new(PhantomScene::new(d, 5)),
         ];
         for s in &scenes {
             let whole = pack_sliced(&SceneSource::<f32>::new(s.as_ref()));
