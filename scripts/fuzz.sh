@@ -17,7 +17,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png"
+TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png scene"
 OUT=${FUZZ_OUT:-target/fuzz-out}
 BIN=target/fuzz/release/volkit-fuzz
 # Corpus files kept per target, and their largest size.
@@ -143,7 +143,7 @@ seeds() {
     work=$(mktemp -d)
     trap 'rm -rf "$work"' RETURN
     local c=fuzz/corpus
-    mkdir -p "$c"/{vvol,thesis,raw,nrrd,mhd,tiff,vidx,tf,pfm,png}
+    mkdir -p "$c"/{vvol,thesis,raw,nrrd,mhd,tiff,vidx,tf,pfm,png,scene}
     local g="$tools/vol-gen" cv="$tools/vol-convert"
     # .vvol: every type and layout, tiny.
     "$g" solid --dims 3,2,2 --value 7 -o "$work/a.vvol" -q && cp "$work/a.vvol" "$c/vvol/u8-sliced"
@@ -192,6 +192,28 @@ seeds() {
     "$tools/vol-psnr" "$work/t-u8.vvol" "$work/t-u16.vvol" --range 1 --diff "$work/d.png" -q 2>/dev/null || true
     [ -f "$work/d.png" ] && cp "$work/d.png" "$c/png/diff"
     printf 'Pf\n2 1\n-1.0\n\0\0\200?\0\0\300\177' >"$c/pfm/grey"
+    # Scene files: effective scenes vol-render prints (every kind of
+    # light, both effects), and one written by hand.
+    local r="$tools/vol-render"
+    "$r" "$work/t-u8.vvol" --light 1,2,0.5 --shadows grid:2 --ao 8:3 --print-scene >"$c/scene/shadows-ao"
+    "$r" "$work/t-u8.vvol" --mode iso --iso 1 --orbit 10,20,3 --ao-field 16 --print-scene >"$c/scene/iso-field"
+    cat >"$c/scene/lights" <<'EOF'
+volume = "v.vvol"
+tf-text = """
+domain 0 255
+point 0 0 0 0 0
+point 255 255 255 255 1
+"""
+up = "patient"
+ambient = [0.1, 0.2, 0.3]
+[[lights]]
+type = "point"
+position = [1, 2, 3]
+intensity = 40
+[[lights]]
+type = "headlight"
+colour = 0.5
+EOF
     for t in $TARGETS; do
         echo "fuzz: seeds for $t: $(find "$c/$t" -type f | wc -l) files"
     done

@@ -47,11 +47,14 @@ pub enum Target {
     Pfm,
     /// PNG images as vol-psnr loads them.
     Png,
+    /// vol-render scene files (TOML): a scene that reads must print and
+    /// read back the same.
+    Scene,
 }
 
 impl Target {
     /// Every target, in the order the README lists them.
-    pub const ALL: [Target; 10] = [
+    pub const ALL: [Target; 11] = [
         Target::Vvol,
         Target::Thesis,
         Target::Raw,
@@ -62,6 +65,7 @@ impl Target {
         Target::Tf,
         Target::Pfm,
         Target::Png,
+        Target::Scene,
     ];
 
     /// The target's name (its corpus directory, and the driver's argument).
@@ -77,6 +81,7 @@ impl Target {
             Target::Tf => "tf",
             Target::Pfm => "pfm",
             Target::Png => "png",
+            Target::Scene => "scene",
         }
     }
 
@@ -100,6 +105,7 @@ pub fn run(target: Target, data: &[u8], scratch: &Path) {
         Target::Tf => tf(data),
         Target::Pfm => pfm(data),
         Target::Png => png(data, scratch),
+        Target::Scene => scene(data),
     }
 }
 
@@ -251,5 +257,22 @@ fn pfm(data: &[u8]) {
 fn png(data: &[u8], scratch: &Path) {
     if let Some(p) = file(scratch, "fuzz.png", data) {
         let _ = volcompare::Image::load(&p);
+    }
+}
+
+fn scene(data: &[u8]) {
+    use volkit_cli::scene::{to_toml, Scene};
+    let text = String::from_utf8_lossy(data);
+    let Ok(s) = Scene::parse(&text) else {
+        return;
+    };
+    // What --print-scene writes must read back as the same scene.
+    let printed = match to_toml(&s) {
+        Ok(t) => t,
+        Err(e) => panic!("a scene that reads does not print: {e}"),
+    };
+    match Scene::parse(&printed) {
+        Ok(back) => assert_eq!(back, s, "printed scene reads back different:\n{printed}"),
+        Err(e) => panic!("printed scene does not read back: {e}\n{printed}"),
     }
 }

@@ -6,6 +6,7 @@ pub mod json;
 pub mod progress;
 pub mod raw;
 pub mod run;
+pub mod scene;
 
 pub use raw::RawSpec;
 pub use run::{parse, run, usage};

@@ -2,59 +2,11 @@
 //! they are resolved against the volume into a render plan
 //! ([`crate::plan`]).
 
-use crate::scene::LightSpec;
-use clap::{Parser, ValueEnum};
+use clap::Parser;
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
-
-/// `--mode`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ModeArg {
-    /// Emission-absorption through the transfer function.
-    Dvr,
-    /// Maximum intensity projection.
-    Mip,
-    /// Minimum intensity projection.
-    Minip,
-    /// X-ray: line integral of the value (value × world length).
-    Xray,
-    /// X-ray: mean sample value along the ray.
-    XrayMean,
-    /// Iso-surface at --iso.
-    Iso,
-}
-
-/// `--interp`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum InterpArg {
-    /// The nearest voxel.
-    Nearest,
-    /// Trilinear interpolation.
-    Trilinear,
-}
-
-/// `--shading`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ShadingArg {
-    /// Classified colour as is.
-    None,
-    /// Blinn-Phong with the light.
-    Phong,
-}
-
-/// `--gradient`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum GradientArg {
-    /// Central differences.
-    Central,
-    /// The analytic gradient of the trilinear cell.
-    Analytic,
-}
+use volkit_cli::scene::LightSpec;
+pub use volkit_cli::scene::{GradientArg, InterpArg, ModeArg, ShadingArg, UpArg};
 
 /// Render a volume to an image with a tiled, parallel CPU ray caster.
 ///
@@ -289,15 +241,6 @@ pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
         (w, h) if (1..=32768).contains(&w) && (1..=32768).contains(&h) => Ok((w, h)),
         _ => Err(format!("'{s}': width and height must be 1..=32768")),
     }
-}
-
-/// `--up`: a vector, or the patient's superior direction.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum UpArg {
-    /// This vector (any nonzero length).
-    Vector(Vec3),
-    /// The data's superior direction, from its geometry.
-    Patient,
 }
 
 /// `x,y,z` or `patient`.

@@ -28,9 +28,9 @@ fn main() -> ExitCode {
     volkit_cli::run("vol-render", || {
         let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
         if let Some(path) = cli.scene.clone() {
-            let scene = scene::Scene::read(&path)?;
+            let file = volkit_cli::scene::Scene::read(&path)?;
             let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-            scene.apply(&dir, &mut cli, given);
+            scene::apply(file, &dir, &mut cli, given);
         }
         let volume = cli.volume.clone().ok_or_else(|| {
             volkit_cli::usage("no volume: give its path, or `volume` in the --scene file")
@@ -70,7 +70,7 @@ fn run(cli: &Cli, volume: &Path) -> Result<()> {
     let plan = Plan::new(cli, &vol, index.as_ref()).with_context(|| name.clone())?;
     let effective = scene::effective(cli, &plan.resolved);
     if cli.print_scene {
-        outln!("{}", scene::to_toml(&effective)?)?;
+        outln!("{}", volkit_cli::scene::to_toml(&effective)?)?;
         return Ok(());
     }
     let Some(output) = cli.output.as_deref() else {
