@@ -5,6 +5,17 @@ mod common;
 use common::*;
 use std::path::{Path, PathBuf};
 
+/// Render `vol` from the tests' camera with `--json` and `extra`; the
+/// figures printed.
+fn render_json(dir: &Path, vol: &str, extra: &[&str]) -> serde_json::Value {
+    json(&ok(tool("vol-render")
+        .arg(vol)
+        .args(CAMERA)
+        .args(["--json", "-o"])
+        .arg(dir.join("j.png"))
+        .args(extra)))
+}
+
 fn shapes(dir: &Path) -> PathBuf {
     let p = dir.join("s.vvol");
     ok(tool("vol-gen")
@@ -258,15 +269,7 @@ fn shadows_from_the_command_line_or_a_scene_report_their_counters() {
     let d = dir.path();
     let vol = shapes(d);
     let v = vol.to_str().unwrap();
-    let json = |extra: &[&str]| -> serde_json::Value {
-        let out = ok(tool("vol-render")
-            .arg(v)
-            .args(CAMERA)
-            .args(["--light", "1,2,0.5", "--json", "-o"])
-            .arg(d.join("j.png"))
-            .args(extra));
-        serde_json::from_str(&out).unwrap()
-    };
+    let json = |extra: &[&str]| render_json(d, v, &[&["--light", "1,2,0.5"], extra].concat());
     // Off: no shadow keys at all.
     let off = json(&[]);
     assert!(off.get("shadow_rays").is_none(), "{off}");
@@ -324,15 +327,7 @@ fn ambient_occlusion_from_the_command_line_or_a_scene_reports_its_counters() {
     let d = dir.path();
     let vol = shapes(d);
     let v = vol.to_str().unwrap();
-    let json = |extra: &[&str]| -> serde_json::Value {
-        let out = ok(tool("vol-render")
-            .arg(v)
-            .args(CAMERA)
-            .args(["--json", "-o"])
-            .arg(d.join("j.png"))
-            .args(extra));
-        serde_json::from_str(&out).unwrap()
-    };
+    let json = |extra: &[&str]| render_json(d, v, extra);
     // Off: no AO keys at all.
     let off = json(&[]);
     assert!(off.get("ao_rays").is_none(), "{off}");
