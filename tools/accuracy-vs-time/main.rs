@@ -314,10 +314,12 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             "ct".into(),
             "--shading".into(),
             "phong".into(),
-            // The head's long axis is z; the default orbit then looks at
-            // its face from 30 degrees to the side.
+            // The head's long axis is z: look at its face from 30 degrees
+            // to the side, close enough for the head to fill the frame.
             "--up".into(),
             "0,0,1".into(),
+            "--orbit".into(),
+            format!("30,15,{:.0}", 1.1 * 3f64.sqrt() * f64::from(ct_n - 1)),
             "--size".into(),
             img.into(),
         ],
