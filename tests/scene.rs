@@ -345,10 +345,22 @@ fn ambient_occlusion_from_the_command_line_or_a_scene_reports_its_counters() {
     assert_eq!(field["ao_rays"], 0, "{field}");
     assert!(field["ao_field_bytes"].as_u64().unwrap() > 0);
     assert!(field["ao_field_s"].as_f64().unwrap() > 0.0);
+    assert_eq!(field["ao_field_cell"], 8, "{field}");
     // The same from a scene file, and bit for bit the same image.
     std::fs::write(d.join("ao.toml"), "ao-field = \"16\"\n").unwrap();
     let from_scene = json(&["--scene", d.join("ao.toml").to_str().unwrap()]);
     assert_eq!(from_scene["ao_field_bytes"], field["ao_field_bytes"]);
+    // Points every 4 voxels: about eight times the memory, from the
+    // command line or the scene file.
+    let fine = json(&["--ao-field", "16", "--ao-field-cell", "4"]);
+    assert_eq!(fine["ao_field_cell"], 4, "{fine}");
+    let ratio =
+        fine["ao_field_bytes"].as_f64().unwrap() / field["ao_field_bytes"].as_f64().unwrap();
+    assert!((4.0..=8.0).contains(&ratio), "{ratio}");
+    assert_eq!(fine["scene"]["ao-field-cell"], 4, "{fine}");
+    std::fs::write(d.join("ao4.toml"), "ao-field = \"16\"\nao-field-cell = 4\n").unwrap();
+    let from_scene = json(&["--scene", d.join("ao4.toml").to_str().unwrap()]);
+    assert_eq!(from_scene["ao_field_bytes"], fine["ao_field_bytes"]);
     // Bad values: one line naming the option; nothing written.
     for (args, want) in [
         (&["--ao", "0"][..], "--ao"),
@@ -356,6 +368,15 @@ fn ambient_occlusion_from_the_command_line_or_a_scene_reports_its_counters() {
         (&["--ao-field", "x"][..], "--ao-field"),
         (&["--ao", "4", "--ao-field", "8"][..], "cannot be used with"),
         (&["--mode", "mip", "--ao", "4"][..], "DVR and iso"),
+        (
+            &["--ao-field", "8", "--ao-field-cell", "0"][..],
+            "--ao-field-cell",
+        ),
+        (
+            &["--ao-field", "8", "--ao-field-cell", "65"][..],
+            "--ao-field-cell",
+        ),
+        (&["--ao", "8", "--ao-field-cell", "4"][..], "--ao-field"),
     ] {
         fails(
             tool("vol-render")

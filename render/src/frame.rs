@@ -184,10 +184,16 @@ fn check_ao(settings: &RenderSettings, ao: &Ao) -> Result<(), RenderError> {
                 effects::ao::MAX_AO_RAYS
             )))
         }
-        AoMethod::Field { k } if !(1..=effects::ao::MAX_AO_FIELD_DIRECTIONS).contains(&k) => {
+        AoMethod::Field { k, .. } if !(1..=effects::ao::MAX_AO_FIELD_DIRECTIONS).contains(&k) => {
             return Err(RenderError::Setting(format!(
                 "AO field directions {k} must be 1 to {}",
                 effects::ao::MAX_AO_FIELD_DIRECTIONS
+            )))
+        }
+        AoMethod::Field { cell, .. } if !(1..=effects::ao::MAX_AO_FIELD_CELL).contains(&cell) => {
+            return Err(RenderError::Setting(format!(
+                "AO field cell {cell} must be 1 to {} voxels",
+                effects::ao::MAX_AO_FIELD_CELL
             )))
         }
         _ => {}

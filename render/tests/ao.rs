@@ -75,10 +75,24 @@ fn by_rays(g: &OcclusionGrid, radius: f32, count: u32, p: Vec3, n: Option<Vec3>)
     a
 }
 
-/// Occlusion at `p` with normal `n` from a field of `k` directions.
+/// Occlusion at `p` with normal `n` from a field of `k` directions at
+/// points 8 voxels apart.
 fn by_field(g: &OcclusionGrid, radius: f32, k: u32, p: Vec3, n: Option<Vec3>) -> f32 {
+    by_field_cell(g, radius, k, 8, p, n)
+}
+
+/// The same with points `cell` voxels apart.
+fn by_field_cell(
+    g: &OcclusionGrid,
+    radius: f32,
+    k: u32,
+    cell: u32,
+    p: Vec3,
+    n: Option<Vec3>,
+) -> f32 {
     let iv = Intervals::new(radius, 2.0, 4.0);
-    let f = AoField::build(g, &iv, [N; 3], [1.0; 3], k, u64::MAX).unwrap();
+    let f = AoField::build(g, &iv, [N; 3], [1.0; 3], k, cell, u64::MAX).unwrap();
+    assert_eq!(f.cell(), cell);
     let src = AoSource::new(g, AoLookup::Field(&f), hi(), 4.0);
     let mut fx = RayEffects::default();
     let a = src.occlusion(p, n, [0, 0], 0, &mut fx);
@@ -116,6 +130,15 @@ fn a_homogeneous_medium_occludes_by_exp_minus_sigma_r_for_any_n() {
                 assert!(
                     (a - want).abs() <= want * 1e-5,
                     "R {radius}, K {k}, {n:?}: {a} vs {want}"
+                );
+            }
+            // At other spacings of its points (up to 16: at 64 the points
+            // sit on the box's faces, where the medium ends within R).
+            for cell in [1, 3, 4, 16] {
+                let a = by_field_cell(&g, radius, 16, cell, centre, n);
+                assert!(
+                    (a - want).abs() <= want * 1e-5,
+                    "R {radius}, cell {cell}, {n:?}: {a} vs {want}"
                 );
             }
         }
@@ -225,7 +248,8 @@ fn occluded_frames_are_identical_across_threads_tiles_and_skipping() {
         for (method, shadows) in [
             (AoMethod::Rays { n: 4 }, false),
             (AoMethod::Rays { n: 3 }, true),
-            (AoMethod::Field { k: 16 }, true),
+            (AoMethod::Field { k: 16, cell: 8 }, true),
+            (AoMethod::Field { k: 8, cell: 3 }, false),
         ] {
             let s = settings(mode, ao(method), shadows);
             let name = format!("{mode:?} {method:?} shadows {shadows}");
@@ -285,7 +309,7 @@ fn with_ao_off_no_occlusion_work_is_done_and_on_it_darkens() {
         )
         .unwrap();
         assert_eq!(off.stats.effects, Default::default(), "{mode:?}");
-        for method in [AoMethod::Rays { n: 8 }, AoMethod::Field { k: 32 }] {
+        for method in [AoMethod::Rays { n: 8 }, AoMethod::Field { k: 32, cell: 8 }] {
             let on = render(
                 &v,
                 Some(&ix),
@@ -360,8 +384,23 @@ fn bad_ao_settings_are_refused() {
             "must be 1 to",
         ),
         (
-            settings(Mode::Dvr, ao(AoMethod::Field { k: 100_000 }), false),
+            settings(
+                Mode::Dvr,
+                ao(AoMethod::Field {
+                    k: 100_000,
+                    cell: 8,
+                }),
+                false,
+            ),
             "must be 1 to",
+        ),
+        (
+            settings(Mode::Dvr, ao(AoMethod::Field { k: 16, cell: 0 }), false),
+            "cell 0 must be 1 to 64",
+        ),
+        (
+            settings(Mode::Dvr, ao(AoMethod::Field { k: 16, cell: 65 }), false),
+            "cell 65 must be 1 to 64",
         ),
         (
             settings(

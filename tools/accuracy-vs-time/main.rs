@@ -93,6 +93,9 @@ struct Sweep {
     /// AO directions sampled and field directions (scenes with effects).
     ao_rays: Vec<&'static str>,
     ao_fields: Vec<&'static str>,
+    /// Spacings of a 32-direction field's points, voxels (the default 8
+    /// is the `AO field` panel's K = 32 point).
+    ao_field_cells: Vec<&'static str>,
 }
 
 /// The noise scene's transfer function: empty below 110, a thin blue haze
@@ -337,6 +340,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             shadow_grids: vec!["2", "4"],
             ao_rays: vec!["4", "16"],
             ao_fields: vec!["16", "32"],
+            ao_field_cells: vec!["4"],
         }
     } else {
         Sweep {
@@ -349,6 +353,7 @@ fn study(quick: bool) -> (Vec<Scene>, Sweep) {
             shadow_grids: vec!["1", "2", "4"],
             ao_rays: vec!["4", "8", "16", "32"],
             ao_fields: vec!["16", "32", "64"],
+            ao_field_cells: vec!["2", "4", "16"],
         }
     };
     (vec![thesis, noise, boundary, ct], sweep)
@@ -550,6 +555,13 @@ fn ao_study(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> EffectStudy {
     }
     for k in &sweep.ao_fields {
         settings.push(("AO field", k.to_string(), strs(&["--ao-field", k])));
+    }
+    for c in &sweep.ao_field_cells {
+        settings.push((
+            "AO field cell",
+            c.to_string(),
+            strs(&["--ao-field", "32", "--ao-field-cell", c]),
+        ));
     }
     EffectStudy {
         name: format!("{}-ao", scene.name),

@@ -154,6 +154,9 @@ pub struct Scene {
     /// Ambient occlusion from a precomputed field: `K` or `K:R`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ao_field: Option<String>,
+    /// Voxels between the AO field's points.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ao_field_cell: Option<u32>,
     /// Background colour r, g, b (0-255).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub background: Option<[f32; 3]>,

@@ -135,11 +135,18 @@ pub struct Cli {
     pub ao: Option<String>,
     /// Ambient occlusion from a field precomputed once per frame: the
     /// transmittance toward K fixed directions up to R (default a tenth of
-    /// the diagonal) every 8 voxels, read trilinearly and weighted by each
-    /// direction's cosine to the normal. Its build time and memory are
-    /// reported beside the frame's (--json: ao_field_s, ao_field_bytes).
+    /// the diagonal) every --ao-field-cell voxels, read trilinearly and
+    /// weighted by each direction's cosine to the normal. Its build time
+    /// and memory are reported beside the frame's (--json: ao_field_s,
+    /// ao_field_bytes).
     #[arg(long, value_name = "K[:R]", value_parser = parse_ao)]
     pub ao_field: Option<String>,
+    /// Voxels between the AO field's points, 1-64 (default 8): halving it
+    /// resolves thinner structures for eight times the field's memory and
+    /// precomputation.
+    #[arg(long, value_name = "VOXELS", requires = "ao_field",
+          value_parser = clap::value_parser!(u32).range(1..=volrender::effects::ao::MAX_AO_FIELD_CELL as i64))]
+    pub ao_field_cell: Option<u32>,
     /// The scene file's lights (set by --scene; `None`: a headlight).
     #[arg(skip)]
     pub lights: Option<Vec<LightSpec>>,
@@ -200,6 +207,7 @@ const EXAMPLES: &str = "Examples:
   vol-render shapes.vvol --tf shapes --light 1,2,3 --shadows grid:4 -o fast.png
   vol-render shapes.vvol --tf shapes --ao 8 -o ao.png
   vol-render shapes.vvol --tf shapes --light 1,2,3 --shadows grid:4 --ao-field 32 -o both.png
+  vol-render head.vvol --tf ct --ao-field 32 --ao-field-cell 4 -o head-ao.png
   vol-render --scene thesis.toml --size 256x256 -o small.png
   vol-render shapes.vvol --tf shapes --orbit 30,20,700 --print-scene > shapes.toml
 

@@ -230,6 +230,10 @@ fn report(
             v["ao_field_s"] = e.ao_field_s.into();
             v["ao_field_bytes"] = e.ao_field_bytes.into();
             v["ao_field_samples"] = e.ao_field_samples.into();
+            v["ao_field_cell"] = cli
+                .ao_field_cell
+                .unwrap_or(volrender::effects::ao::DEFAULT_AO_FIELD_CELL)
+                .into();
         }
         outln!("{v}")?;
     } else if !cli.quiet {
@@ -267,7 +271,9 @@ fn report(
                 e.ao_grid_s,
                 if cli.ao_field.is_some() {
                     format!(
-                        "; field {:.1} MB precomputed in {:.3} s (not in the frame time)",
+                        "; field (points every {} voxels) {:.1} MB precomputed in {:.3} s (not in the frame time)",
+                        cli.ao_field_cell
+                            .unwrap_or(volrender::effects::ao::DEFAULT_AO_FIELD_CELL),
                         e.ao_field_bytes as f64 / 1e6,
                         e.ao_field_s
                     )

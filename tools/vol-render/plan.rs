@@ -302,14 +302,28 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
             })
             .map_err(|e| volkit_cli::usage(format!("{flag} {e}")))
     };
+    if cli.ao_field_cell.is_some() && cli.ao_field.is_none() {
+        return Err(volkit_cli::usage(
+            "--ao-field-cell (ao-field-cell) needs --ao-field (ao-field)",
+        ));
+    }
     let ao = match (&cli.ao, &cli.ao_field) {
         (Some(_), Some(_)) => {
             bail!("--ao and --ao-field are two ways to the same effect: give one")
         }
         (Some(s), None) => Some(ao_of("--ao", s, |n| volrender::AoMethod::Rays { n })?),
-        (None, Some(s)) => Some(ao_of("--ao-field", s, |k| volrender::AoMethod::Field {
-            k,
-        })?),
+        (None, Some(s)) => {
+            let mut ao = ao_of("--ao-field", s, |k| volrender::AoMethod::Field {
+                k,
+                cell: volrender::effects::ao::DEFAULT_AO_FIELD_CELL,
+            })?;
+            if let (volrender::AoMethod::Field { cell, .. }, Some(c)) =
+                (&mut ao.method, cli.ao_field_cell)
+            {
+                *cell = c;
+            }
+            Some(ao)
+        }
         (None, None) => None,
     };
     let defaults = Lighting::default();

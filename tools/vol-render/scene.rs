@@ -62,6 +62,7 @@ pub fn apply(this: Scene, dir: &Path, cli: &mut Cli, on_command_line: impl Fn(&s
     set!(shadow_step, "shadow_step", Some);
     set!(ao, "ao", Some);
     set!(ao_field, "ao_field", Some);
+    set!(ao_field_cell, "ao_field_cell", Some);
     // The command line's transfer function wins whichever form it takes.
     if !on_command_line("tf") {
         match (this.tf, this.tf_text) {
@@ -130,6 +131,7 @@ pub fn effective(cli: &Cli, resolved: &Resolved) -> Scene {
         shadow_step: cli.shadow_step,
         ao: cli.ao.clone(),
         ao_field: cli.ao_field.clone(),
+        ao_field_cell: cli.ao_field_cell,
         background: Some(cli.background.to_array()),
         alpha: Some(cli.alpha),
         output: cli.output.as_deref().map(absolute),

@@ -11,7 +11,8 @@
 //!   the same for any thread count or tile size;
 //! - **field** (`--ao-field K[:R]`): transmittance toward `K` fixed
 //!   directions (a spherical Fibonacci set) precomputed at the points of a
-//!   coarser grid ([`AO_FIELD_CELL`] voxels apart), after the visibility
+//!   coarser grid ([`DEFAULT_AO_FIELD_CELL`] voxels apart unless
+//!   `--ao-field-cell` says otherwise), after the visibility
 //!   fields of Mortensen et al. Each point keeps the cosine-weighted
 //!   occlusion as a function of the normal, projected on spherical
 //!   harmonics up to order 2 (the `K` directions are the quadrature; the
@@ -31,8 +32,11 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::time::Instant;
 
-/// Voxels between the points of a precomputed AO field.
-pub const AO_FIELD_CELL: usize = 8;
+/// Voxels between the points of a precomputed AO field, by default.
+pub const DEFAULT_AO_FIELD_CELL: u32 = 8;
+
+/// The most voxels between the points of a field (`--ao-field-cell`).
+pub const MAX_AO_FIELD_CELL: u32 = 64;
 
 /// The most directions per shaded sample (`--ao N`).
 pub const MAX_AO_RAYS: u32 = 1024;
@@ -48,10 +52,14 @@ pub enum AoMethod {
         /// Directions per shaded sample.
         n: u32,
     },
-    /// A field of `k` fixed directions, precomputed per frame.
+    /// A field of `k` fixed directions at points `cell` voxels apart,
+    /// precomputed per frame.
     Field {
         /// Directions.
         k: u32,
+        /// Voxels between the field's points (the speed knob: each halving
+        /// takes eight times the memory and precomputation).
+        cell: u32,
     },
 }
 
@@ -182,6 +190,7 @@ const SH_NORM: [f32; SH - 1] = [
 #[derive(Clone, Debug)]
 pub struct AoField {
     k: u32,
+    cell: usize,
     /// Where its points are.
     lattice: Lattice,
     /// Per point (x fastest): the mean transmittance, then the order-1
@@ -195,10 +204,11 @@ pub struct AoField {
 }
 
 impl AoField {
-    /// Bytes a field over `dims` takes.
-    pub fn bytes_for(dims: [usize; 3]) -> Option<u64> {
+    /// Bytes a field over `dims` with points `cell` voxels apart takes.
+    pub fn bytes_for(dims: [usize; 3], cell: u32) -> Option<u64> {
+        let cell = cell.max(1) as usize;
         dims.iter().try_fold((SH * 4) as u64, |acc, &n| {
-            acc.checked_mul((n.saturating_sub(1).div_ceil(AO_FIELD_CELL) + 1) as u64)
+            acc.checked_mul((n.saturating_sub(1).div_ceil(cell) + 1) as u64)
         })
     }
 
@@ -212,25 +222,34 @@ impl AoField {
         self.k
     }
 
-    /// Build the field from `k` directions over a volume of `dims` voxels
-    /// at `spacing`, marching `grid` with `intervals` from each point, on
-    /// all threads. Refuses a field past `budget` bytes.
+    /// Voxels between its points.
+    pub fn cell(&self) -> u32 {
+        self.cell as u32
+    }
+
+    /// Build the field from `k` directions at points `cell` voxels apart
+    /// over a volume of `dims` voxels at `spacing`, marching `grid` with
+    /// `intervals` from each point, on all threads. Refuses a field past
+    /// `budget` bytes.
+    #[allow(clippy::too_many_arguments)]
     pub fn build(
         grid: &OcclusionGrid,
         intervals: &Intervals,
         dims: [usize; 3],
         spacing: [f32; 3],
         k: u32,
+        cell: u32,
         budget: u64,
     ) -> Result<AoField, RenderError> {
         let start = Instant::now();
-        let bytes = AoField::bytes_for(dims).unwrap_or(u64::MAX);
+        let bytes = AoField::bytes_for(dims, cell).unwrap_or(u64::MAX);
         if bytes > budget {
             return Err(RenderError::Setting(format!(
-                "an AO field would take {bytes} bytes, more than the budget of {budget}: use --ao N"
+                "an AO field with points every {cell} voxels would take {bytes} bytes, more than the budget of {budget}: use a larger --ao-field-cell, or --ao N"
             )));
         }
-        let g = dims.map(|n| n.saturating_sub(1).div_ceil(AO_FIELD_CELL) + 1);
+        let cell = cell.max(1) as usize;
+        let g = dims.map(|n| n.saturating_sub(1).div_ceil(cell) + 1);
         let dirs = fibonacci_directions(k.max(1));
         let shapes: Vec<[f32; SH - 1]> = dirs.iter().map(|&d| sh_shape(d)).collect();
         let hi = Vec3::from(std::array::from_fn::<f32, 3, _>(|a| {
@@ -259,9 +278,9 @@ impl AoField {
                 let mut t = vec![0.0f32; dirs.len()];
                 for (i, out) in slice.iter_mut().enumerate() {
                     let voxel = Vec3::new(
-                        ((i % g[0]) * AO_FIELD_CELL).min(dims[0].saturating_sub(1)) as f32,
-                        ((i / g[0]) * AO_FIELD_CELL).min(dims[1].saturating_sub(1)) as f32,
-                        (z * AO_FIELD_CELL).min(dims[2].saturating_sub(1)) as f32,
+                        ((i % g[0]) * cell).min(dims[0].saturating_sub(1)) as f32,
+                        ((i / g[0]) * cell).min(dims[1].saturating_sub(1)) as f32,
+                        (z * cell).min(dims[2].saturating_sub(1)) as f32,
                     );
                     let p = voxel * Vec3::from(spacing);
                     for (tk, &d) in t.iter_mut().zip(&dirs) {
@@ -290,7 +309,8 @@ impl AoField {
             .sum();
         Ok(AoField {
             k,
-            lattice: Lattice::new(g, spacing, AO_FIELD_CELL as f32),
+            cell,
+            lattice: Lattice::new(g, spacing, cell as f32),
             data,
             build_s: start.elapsed().as_secs_f64(),
             samples,
