@@ -260,7 +260,10 @@ fn ao_parts<O: Occluder>(
     let cell = OCCLUSION_CELL as f32 * vol.meta.min_spacing();
     let intervals = Intervals::new(ao_radius(vol, ao), 0.5 * cell, cell);
     let field = match ao.method {
-        AoMethod::Field { k, cell: field_cell } => {
+        AoMethod::Field {
+            k,
+            cell: field_cell,
+        } => {
             let d = vol.dims().as_array();
             let dims = [d[0] as usize, d[1] as usize, d[2] as usize];
             let budget = budget.saturating_sub(grid.bytes());
