@@ -388,15 +388,15 @@ fn open_stdin(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> 
 }
 
 /// Open any input as a whole [`Volume`]: `.vvol` files are memory-mapped
-/// (compressed bricks decoded on demand), raw files of a stored type
-/// mapped too, everything else read into memory through [`open_input`]
+/// (compressed bricks decoded on demand), raw files of a stored type and
+/// sliced thesis `.vol` files (in their z-fastest order) mapped too, everything else read into memory through [`open_input`]
 /// (wider sample types become the smallest stored type that holds their
 /// values, as `vol-convert` would pick). Origin and directions are kept.
 pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
     if path.as_os_str() != "-" {
         match input_kind(path, opts)? {
             InputKind::Vvol => return vvol::open(path, opts.vvol).at(path),
-            InputKind::ThesisVol => return thesis::open(path).and_then(|f| f.load()).at(path),
+            InputKind::ThesisVol => return thesis::open(path).and_then(|f| f.volume()).at(path),
             InputKind::Raw => {
                 let l = opts.raw.resolve(path).at(path)?;
                 if l.sample_type.stored().is_some() && l.skip == 0 {

@@ -5,8 +5,10 @@ use crate::{raw, thesis, vvol};
 use std::io::{Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use volcore::scene::{NoiseKind, NoiseScene, SceneSource, ShapesScene};
+use volcore::volume::TypedGrid;
 use volcore::{
-    BrickGeometry, Compression, Dims, Layout, RegionSource, Sample, SampleType, Volume, VolumeMeta,
+    BrickGeometry, Compression, Data, Dims, Layout, RegionSource, SampleType, SlicedGrid, Volume,
+    VolumeMeta,
 };
 
 fn no_progress(_: u64) {}
@@ -28,8 +30,13 @@ fn write_file<R: RegionSource>(src: &R, m: VolumeMeta, path: &Path) {
     vvol::write(src, m, Sink::File(&mut f), &no_progress).unwrap();
 }
 
-/// Writes the same scene in the three storage forms and returns them.
-fn three_copies<T: Sample>(dir: &Path, dims: Dims, brick: u32) -> Vec<Volume> {
+/// One volume in every layout: sliced, bricked and zstd-bricked `.vvol`
+/// files, and a z-fastest sliced array in memory.
+fn layout_copies<T: volcore::volume::IntoVolumeData>(
+    dir: &Path,
+    dims: Dims,
+    brick: u32,
+) -> Vec<Volume> {
     let scene = NoiseScene::new(dims, 9, NoiseKind::Gradient, 5.0, 3, 1000.0);
     let src = SceneSource::<T>::new(&scene);
     let g = BrickGeometry::new(dims, brick).unwrap();
@@ -38,7 +45,7 @@ fn three_copies<T: Sample>(dir: &Path, dims: Dims, brick: u32) -> Vec<Volume> {
         (Layout::Bricked(g), Compression::None),
         (Layout::Bricked(g), Compression::Zstd(3)),
     ];
-    forms
+    let mut copies: Vec<Volume> = forms
         .iter()
         .enumerate()
         .map(|(i, &(l, c))| {
@@ -53,7 +60,25 @@ fn three_copies<T: Sample>(dir: &Path, dims: Dims, brick: u32) -> Vec<Volume> {
             )
             .unwrap()
         })
-        .collect()
+        .collect();
+    let x_fastest = volcore::region::pack_sliced(&src);
+    let mut z_fastest = vec![T::default(); x_fastest.len()];
+    let [sx, sy, sz] = volcore::SliceOrder::ZFastest.strides(dims);
+    for z in 0..dims.z {
+        for y in 0..dims.y {
+            for x in 0..dims.x {
+                z_fastest[(x * sx + y * sy + z * sz) as usize] =
+                    x_fastest[dims.index(x, y, z) as usize];
+            }
+        }
+    }
+    let grid = SlicedGrid::with_order(dims, volcore::SliceOrder::ZFastest, Data::Owned(z_fastest))
+        .unwrap();
+    copies.push(Volume {
+        meta: copies[0].meta,
+        data: T::into_data(TypedGrid::Sliced(grid)),
+    });
+    copies
 }
 
 fn random_points(dims: Dims, n: usize, seed: u64) -> Vec<[f32; 3]> {
@@ -81,10 +106,10 @@ fn layouts_sample_identically_for_every_type() {
         (Dims::new(33, 17, 8).unwrap(), 16),
     ] {
         let vols: Vec<Vec<Volume>> = vec![
-            three_copies::<u8>(dir.path(), dims, brick),
-            three_copies::<u16>(dir.path(), dims, brick),
-            three_copies::<i16>(dir.path(), dims, brick),
-            three_copies::<f32>(dir.path(), dims, brick),
+            layout_copies::<u8>(dir.path(), dims, brick),
+            layout_copies::<u16>(dir.path(), dims, brick),
+            layout_copies::<i16>(dir.path(), dims, brick),
+            layout_copies::<f32>(dir.path(), dims, brick),
         ];
         for copies in &vols {
             let reference = copies[0].to_f32_vec();
@@ -111,8 +136,8 @@ fn layouts_sample_identically_for_every_type() {
     }
 }
 
-/// Every interior cell's [`volcore::Cursor::cross_cells`], flattened, and
-/// the same six cells fetched one by one with `cell`.
+/// Every interior cell's [`volcore::Cursor::cross_diffs`], flattened, and
+/// the same differences of the six cells fetched one by one with `cell`.
 fn crosses(v: &Volume) -> (Vec<f32>, Vec<f32>) {
     struct Cross;
     impl volcore::VolumeVisitor for Cross {
@@ -125,16 +150,15 @@ fn crosses(v: &Volume) -> (Vec<f32>, Vec<f32>) {
             for k in 1..d.z.saturating_sub(2) {
                 for j in 1..d.y.saturating_sub(2) {
                     for i in 1..d.x.saturating_sub(2) {
-                        fast.extend(cur.cross_cells(i, j, k).into_iter().flatten());
-                        for (a, b, c) in [
-                            (i - 1, j, k),
-                            (i + 1, j, k),
-                            (i, j - 1, k),
-                            (i, j + 1, k),
-                            (i, j, k - 1),
-                            (i, j, k + 1),
+                        fast.extend(cur.cross_diffs(i, j, k).into_iter().flatten());
+                        for (hi, lo) in [
+                            ((i + 1, j, k), (i - 1, j, k)),
+                            ((i, j + 1, k), (i, j - 1, k)),
+                            ((i, j, k + 1), (i, j, k - 1)),
                         ] {
-                            slow.extend(cur.cell(a, b, c));
+                            let a = cur.cell(hi.0, hi.1, hi.2);
+                            let b = cur.cell(lo.0, lo.1, lo.2);
+                            slow.extend((0..8).map(|c| a[c] - b[c]));
                         }
                     }
                 }
@@ -146,20 +170,22 @@ fn crosses(v: &Volume) -> (Vec<f32>, Vec<f32>) {
 }
 
 #[test]
-fn cross_cells_match_single_cells_in_every_layout() {
+fn cross_diffs_match_single_cells_in_every_layout() {
     let dir = tempfile::tempdir().unwrap();
     // Brick edge 4 puts many crosses against brick seams.
     let dims = Dims::new(19, 13, 11).unwrap();
     for copies in [
-        three_copies::<u8>(dir.path(), dims, 4),
-        three_copies::<f32>(dir.path(), dims, 4),
+        layout_copies::<u8>(dir.path(), dims, 4),
+        layout_copies::<i16>(dir.path(), dims, 4),
+        layout_copies::<f32>(dir.path(), dims, 4),
     ] {
         let (reference, _) = crosses(&copies[0]);
-        assert_eq!(reference.len(), 16 * 10 * 8 * 48);
+        assert_eq!(reference.len(), 16 * 10 * 8 * 24);
         for v in &copies {
             let (fast, slow) = crosses(v);
-            assert_eq!(fast, slow, "{}", v.meta);
-            assert_eq!(fast, reference, "{}", v.meta);
+            let bits = |x: &[f32]| x.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&fast), bits(&slow), "{}", v.meta);
+            assert_eq!(bits(&fast), bits(&reference), "{}", v.meta);
         }
     }
 }
@@ -377,6 +403,24 @@ fn thesis_vol_round_trips_both_layouts() {
         assert_eq!(v.meta.spacing, [1.0, 1.0, 2.0]);
         let got: Vec<u8> = v.to_f32_vec().iter().map(|&f| f as u8).collect();
         assert_eq!(got, want, "{layout:?}");
+        // Opened to sample: a sliced file in place (mapped, z fastest),
+        // sampling as the copy does, bit for bit, with the same range.
+        let opened = t.volume().unwrap();
+        let in_place = layout == thesis::ThesisLayout::Sliced;
+        let is_mapped = match &opened.data {
+            volcore::VolumeData::U8(TypedGrid::Sliced(g)) => {
+                assert_eq!(g.order() == volcore::SliceOrder::ZFastest, in_place);
+                g.is_mapped()
+            }
+            _ => false,
+        };
+        assert_eq!(is_mapped, in_place, "{layout:?}");
+        assert_eq!(opened.meta.range, v.meta.range);
+        assert_eq!(opened.meta.spacing, [1.0, 1.0, 2.0]);
+        assert_eq!(opened.to_f32_vec(), v.to_f32_vec());
+        for p in random_points(dims, 2000, 3) {
+            assert_eq!(opened.trilinear(p).to_bits(), v.trilinear(p).to_bits());
+        }
         // Truncated file is rejected by length.
         let len = std::fs::metadata(&p).unwrap().len();
         std::fs::OpenOptions::new()

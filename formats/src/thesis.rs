@@ -20,8 +20,12 @@ use std::fs::File;
 use std::io::{Read, Write};
 use std::path::Path;
 
+use std::sync::Arc;
 use volcore::region::{pack_sliced, RegionSource};
-use volcore::{Dims, Volume};
+use volcore::volume::TypedGrid;
+use volcore::{
+    Data, Dims, SampleType, SliceOrder, SlicedGrid, ValueRange, Volume, VolumeData, VolumeMeta,
+};
 
 /// Size of the header.
 pub const HEADER_LEN: u64 = 26;
@@ -117,7 +121,8 @@ impl ThesisHeader {
 /// An open `.vol` file, memory-mapped; a [`RegionSource`] of `u8`.
 pub struct ThesisFile {
     header: ThesisHeader,
-    map: Mmap,
+    map: Arc<Mmap>,
+    file: Arc<File>,
 }
 
 /// Open a `.vol` file, checking its length against the header.
@@ -138,8 +143,12 @@ pub fn open(path: &Path) -> Result<ThesisFile> {
         )));
     }
     // SAFETY: read-only map; the file must not be truncated meanwhile.
-    let map = unsafe { Mmap::map(&f)? };
-    Ok(ThesisFile { header, map })
+    let map = Arc::new(unsafe { Mmap::map(&f)? });
+    Ok(ThesisFile {
+        header,
+        map,
+        file: Arc::new(f),
+    })
 }
 
 impl ThesisFile {
@@ -170,6 +179,29 @@ impl ThesisFile {
         (HEADER_LEN + o) as usize
     }
 
+    /// The volume to sample: a sliced file in place, through its memory
+    /// map in its own z-fastest order (no copy, so opening costs one pass
+    /// for the value range); a bricked one copied into memory by
+    /// [`ThesisFile::load`], as its overlapping bricks are not volkit's.
+    pub fn volume(&self) -> Result<Volume> {
+        let h = self.header;
+        if h.layout != ThesisLayout::Sliced {
+            return self.load();
+        }
+        let n = usize::try_from(h.dims.count())
+            .map_err(|_| Error::invalid(format!("{} does not fit in memory", h.dims)))?;
+        let data = Data::mapped_file(self.map.clone(), self.file.clone(), HEADER_LEN as usize, n)?;
+        let range = range_in_place(&data);
+        let grid = SlicedGrid::with_order(h.dims, SliceOrder::ZFastest, data)?;
+        let mut meta = VolumeMeta::sliced(h.dims, SampleType::U8);
+        meta.spacing = h.spacing;
+        meta.range = range;
+        Ok(Volume {
+            meta,
+            data: VolumeData::U8(TypedGrid::Sliced(grid)),
+        })
+    }
+
     /// The whole volume in memory, sliced (x fastest).
     pub fn load(&self) -> Result<Volume> {
         let samples = pack_sliced(self);
@@ -189,6 +221,15 @@ impl RegionSource for ThesisFile {
             *o = self.map[self.offset(x0 + i as u64, y, z)];
         }
     }
+}
+
+/// The smallest and largest of `data`, read in storage order in parallel
+/// chunks (any order gives the same range).
+fn range_in_place(data: &[u8]) -> ValueRange {
+    use rayon::prelude::*;
+    data.par_chunks(1 << 22)
+        .map(ValueRange::of)
+        .reduce(|| ValueRange::EMPTY, |a, b| a.merge(b))
 }
 
 /// Write `src` as a `.vol` file with the given spacing and layout.

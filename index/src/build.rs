@@ -44,7 +44,7 @@ use rayon::prelude::*;
 use std::ops::Range;
 use std::sync::Mutex;
 use volcore::volume::TypedGrid;
-use volcore::{Sample, SampleType, Volume, VolumeData, VoxelSource};
+use volcore::{Sample, SampleType, SliceOrder, Volume, VolumeData, VoxelSource};
 
 /// Smallest allowed macrocell edge.
 pub const MIN_CELL_EDGE: u32 = 2;
@@ -147,9 +147,17 @@ fn build_grid<T: ScanSample>(
 ) -> Result<MajorantIndex, IndexError> {
     let edge = u64::from(opts.cell_edge);
     match grid {
-        TypedGrid::Sliced(grid) => {
-            build_walk(&BandWalk::new(SlicedBands(grid), edge), opts, fingerprint)
-        }
+        TypedGrid::Sliced(grid) => match grid.order() {
+            SliceOrder::XFastest => build_walk(
+                &BandWalk::new(SlicedBands::new(grid), edge),
+                opts,
+                fingerprint,
+            ),
+            SliceOrder::ZFastest => {
+                let bands = BandWalk::new(SlicedBands::transposed(grid), edge);
+                build_walk(&bands, opts, fingerprint).map(MajorantIndex::transposed_xz)
+            }
+        },
         TypedGrid::Bricked(grid) => build_walk(&BrickedWalk::new(grid), opts, fingerprint),
         TypedGrid::Compressed(grid) => build_walk(&CompressedWalk { grid }, opts, fingerprint),
     }
@@ -802,12 +810,12 @@ mod tests {
         };
         if Avx2::detect().is_some() {
             for avx2 in [None, Avx2::detect()] {
-                let walk = BandWalk::new(SlicedBands(&in_file), u64::from(edge));
+                let walk = BandWalk::new(SlicedBands::new(&in_file), u64::from(edge));
                 assert!(bits_with(&walk, avx2) == reference, "{} {avx2:?}", T::TYPE);
             }
         }
         // Blocks of one slice, smaller than the pieces (very wide rows).
-        let small = BandWalk::bounded(SlicedBands(&in_file), u64::from(edge), 1);
+        let small = BandWalk::bounded(SlicedBands::new(&in_file), u64::from(edge), 1);
         let what = format!("{} sliced in small blocks", T::TYPE);
         for avx2 in [None, Avx2::detect()] {
             assert!(bits_with(&small, avx2) == reference, "{what}, {avx2:?}");
@@ -815,9 +823,26 @@ mod tests {
         let vol = volume_of(dims, TypedGrid::Sliced(in_file));
         let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
         assert!(got == reference, "{} sliced from a file differs", T::TYPE);
-        let vol = volume(dims, samples);
+        let vol = volume(dims, samples.clone());
         let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
         assert!(got == reference, "{} sliced in memory differs", T::TYPE);
+        // z fastest (the thesis's order): indexed as its transpose, in a
+        // file and in memory, and through rows gathered across the order.
+        let mut z_fastest = vec![T::default(); samples.len()];
+        let [sx, sy, sz] = SliceOrder::ZFastest.strides(dims);
+        for (n, &v) in samples.iter().enumerate() {
+            let n = n as u64;
+            let (x, y, z) = (n % dims.x, (n / dims.x) % dims.y, n / (dims.x * dims.y));
+            z_fastest[(x * sx + y * sy + z * sz) as usize] = v;
+        }
+        for data in [file_data(&z_fastest, 8), Data::Owned(z_fastest.clone())] {
+            let grid = SlicedGrid::with_order(dims, SliceOrder::ZFastest, data).unwrap();
+            let got = to_bytes(&MajorantIndex::build(&grid, &opts, 5).unwrap());
+            assert!(got == reference, "{} z-fastest by rows differs", T::TYPE);
+            let vol = volume_of(dims, TypedGrid::Sliced(grid));
+            let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+            assert!(got == reference, "{} z-fastest differs", T::TYPE);
+        }
         for brick in [2, 5, 16, 64] {
             let grid = bricked(&sliced, brick);
             let got = to_bytes(&MajorantIndex::build(&grid, &opts, 5).unwrap());

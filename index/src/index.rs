@@ -90,6 +90,19 @@ impl MajorantIndex {
         })
     }
 
+    /// The index of the volume with axes x and z swapped (a z-fastest
+    /// volume is indexed as the x-fastest volume its storage order spells,
+    /// then transposed: every per-cell range and global figure is the same
+    /// under the swap, as the cells' bounds are the same on every axis).
+    pub(crate) fn transposed_xz(self) -> MajorantIndex {
+        let d = self.dims;
+        MajorantIndex {
+            dims: Dims::new(d.z, d.y, d.x).unwrap_or(d),
+            levels: self.levels.iter().map(Level::transposed_xz).collect(),
+            ..self
+        }
+    }
+
     /// Dimensions of the indexed volume.
     pub fn dims(&self) -> Dims {
         self.dims

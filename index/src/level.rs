@@ -81,6 +81,34 @@ impl Level {
         })
     }
 
+    /// The level of the volume with x and z swapped: cell `(cx, cy, cz)`
+    /// of the result is cell `(cz, cy, cx)` of this one.
+    pub(crate) fn transposed_xz(&self) -> Level {
+        let [nx, ny, nz] = self.cells;
+        let cells = [nz, ny, nx];
+        let (mut min, mut max) = (
+            Vec::with_capacity(self.len()),
+            Vec::with_capacity(self.len()),
+        );
+        // Output order (x fastest in the result) is z fastest here.
+        for cx in 0..nx {
+            for cy in 0..ny {
+                let row = self.index(cx, cy, 0);
+                let plane = (nx * ny) as usize;
+                for cz in 0..nz as usize {
+                    min.push(self.min[row + cz * plane]);
+                    max.push(self.max[row + cz * plane]);
+                }
+            }
+        }
+        Level {
+            cells,
+            edge: self.edge,
+            min,
+            max,
+        }
+    }
+
     /// Cells along x, y, z.
     pub fn cells(&self) -> [u64; 3] {
         self.cells

@@ -22,7 +22,10 @@ use std::mem::size_of;
 use std::ops::Range;
 use std::sync::Mutex;
 use volcore::brick::APRON_LO;
-use volcore::{BrickGeometry, BrickedGrid, CompressedGrid, Dims, Sample, SlicedGrid, VoxelSource};
+use volcore::{
+    BrickGeometry, BrickedGrid, CompressedGrid, Data, Dims, Sample, SliceOrder, SlicedGrid,
+    VoxelSource,
+};
 
 /// Samples a band walk's block holds at most, unless one band of rows of
 /// one slice is larger.
@@ -183,16 +186,42 @@ impl<S: VoxelSource, T: Sample> BandSource<T> for SourceRows<'_, S> {
 /// folding the samples in place, even in memory: the folds go down a box
 /// of rows from several slices at once, too many streams for the hardware
 /// prefetcher.
-pub(crate) struct SlicedBands<'a, T: Sample>(pub &'a SlicedGrid<T>);
+pub(crate) struct SlicedBands<'a, T: Sample> {
+    /// The dimensions the storage order spells, x fastest.
+    dims: Dims,
+    data: &'a Data<T>,
+}
+
+impl<'a, T: Sample> SlicedBands<'a, T> {
+    /// The bands of an x-fastest grid.
+    pub(crate) fn new(grid: &'a SlicedGrid<T>) -> Self {
+        debug_assert_eq!(grid.order(), SliceOrder::XFastest);
+        SlicedBands {
+            dims: grid.dims(),
+            data: grid.data(),
+        }
+    }
+
+    /// The bands of a z-fastest grid read as the x-fastest grid of its
+    /// transpose (dimensions z, y, x): an index built from them is the
+    /// grid's own after [`crate::MajorantIndex::transposed_xz`].
+    pub(crate) fn transposed(grid: &'a SlicedGrid<T>) -> Self {
+        let d = grid.dims();
+        SlicedBands {
+            dims: Dims::new(d.z, d.y, d.x).unwrap_or(d),
+            data: grid.data(),
+        }
+    }
+}
 
 impl<T: Sample> BandSource<T> for SlicedBands<'_, T> {
     fn dims(&self) -> Dims {
-        self.0.dims()
+        self.dims
     }
 
     fn read_band(&self, ys: Range<u64>, z: u64, out: &mut [T]) -> Result<(), IndexError> {
         let first = self.dims().index(0, ys.start, z) as usize;
-        self.0.data().read_at(first, out).map_err(read_failed)
+        self.data.read_at(first, out).map_err(read_failed)
     }
 }
 
@@ -490,14 +519,18 @@ mod tests {
             let s: Vec<u16> = random_samples(dims, 4, 0);
             let sliced = SlicedGrid::new(dims, Data::Owned(s.clone())).unwrap();
             for edge in [2, 3, 8] {
-                check_walk(&BandWalk::new(SlicedBands(&sliced), edge), &s, "sliced");
+                check_walk(
+                    &BandWalk::new(SlicedBands::new(&sliced), edge),
+                    &s,
+                    "sliced",
+                );
                 check_walk(&BandWalk::new(SourceRows(&sliced), edge), &s, "rows");
             }
             let in_file = SlicedGrid::new(dims, file_data(&s, 4)).unwrap();
             for edge in [2, 3, 8] {
-                check_walk(&BandWalk::new(SlicedBands(&in_file), edge), &s, "file");
+                check_walk(&BandWalk::new(SlicedBands::new(&in_file), edge), &s, "file");
                 // Blocks of one slice, or one band of a slice.
-                let one = BandWalk::bounded(SlicedBands(&in_file), edge, 1);
+                let one = BandWalk::bounded(SlicedBands::new(&in_file), edge, 1);
                 check_walk(&one, &s, "file, small blocks");
             }
             for brick in [2, 5, 16] {

@@ -63,21 +63,19 @@ pub trait Cursor {
     /// `dx + 2·dy + 4·dz`.
     fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8];
 
-    /// The six cells beside the cell at base `(i, j, k)`, for central
-    /// differences: bases `i − 1, i + 1, j − 1, j + 1, k − 1, k + 1` along
-    /// their axes, each ordered as [`Cursor::cell`]. For interior cells only:
-    /// the caller guarantees `i, j, k >= 1` and `i + 2`, `j + 2`, `k + 2`
-    /// inside the volume, so no neighbour is clamped. Layouts override it to
-    /// find the six cells from one address.
+    /// The differences `cell(+1) − cell(−1)` along x, y and z around the
+    /// cell at base `(i, j, k)`, corner by corner (ordered as
+    /// [`Cursor::cell`]): what a central-difference gradient blends. For
+    /// interior cells only: the caller guarantees `i, j, k >= 1` and
+    /// `i + 2`, `j + 2`, `k + 2` inside the volume, so no neighbour is
+    /// clamped. Layouts override it to read the cross from one address.
     #[inline(always)]
-    fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
+    fn cross_diffs(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 3] {
+        let diff = |a: [f32; 8], b: [f32; 8]| std::array::from_fn(|c| a[c] - b[c]);
         [
-            self.cell(i - 1, j, k),
-            self.cell(i + 1, j, k),
-            self.cell(i, j - 1, k),
-            self.cell(i, j + 1, k),
-            self.cell(i, j, k - 1),
-            self.cell(i, j, k + 1),
+            diff(self.cell(i + 1, j, k), self.cell(i - 1, j, k)),
+            diff(self.cell(i, j + 1, k), self.cell(i, j - 1, k)),
+            diff(self.cell(i, j, k + 1), self.cell(i, j, k - 1)),
         ]
     }
 
@@ -237,36 +235,71 @@ fn cell_from<T: Sample>(s: &[T], base: usize, ox: usize, oy: usize, oz: usize) -
     ]
 }
 
-/// [`Cursor::cross_cells`] around the cell whose first corner is `s[base]`,
-/// with neighbours `ox`, `oy`, `oz` samples apart (all in `s`).
+/// [`Cursor::cross_diffs`] around the cell whose first corner is
+/// `s[base]`, with neighbours `ox`, `oy`, `oz` samples apart (all in `s`).
+/// Integer samples are subtracted before they are converted
+/// ([`Sample::diff_f32`]): 24 conversions instead of 48, the same bits.
 #[inline(always)]
-fn cross_from<T: Sample>(s: &[T], base: usize, ox: usize, oy: usize, oz: usize) -> [[f32; 8]; 6] {
-    // One bounds check for all six cells: the lowest corner read is
-    // `base − oz`, the highest `base + ox + oy + 2·oz`.
-    let s = &s[base - oz..=base + ox + oy + 2 * oz];
-    let b = oz;
-    let cell = |o: usize| cell_from(s, o, ox, oy, oz);
-    [
-        cell(b - ox),
-        cell(b + ox),
-        cell(b - oy),
-        cell(b + oy),
-        cell(b - oz),
-        cell(b + oz),
-    ]
+fn cross_diffs_from<T: Sample>(
+    s: &[T],
+    base: usize,
+    ox: usize,
+    oy: usize,
+    oz: usize,
+) -> [[f32; 8]; 3] {
+    // One bounds check for the whole cross: the lowest sample read is
+    // `base − m`, the highest `base + ox + oy + oz + m`, `m` the largest
+    // neighbour distance.
+    let m = ox.max(oy).max(oz);
+    let s = &s[base - m..=base + ox + oy + oz + m];
+    let corners = [0, ox, oy, ox + oy, oz, ox + oz, oy + oz, ox + oy + oz];
+    let diffs = |o: usize| -> [f32; 8] {
+        std::array::from_fn(|c| T::diff_f32(s[m + corners[c] + o], s[m + corners[c] - o]))
+    };
+    [diffs(ox), diffs(oy), diffs(oz)]
 }
 
 // ---------------------------------------------------------------- sliced --
 
-/// Samples in one x-fastest array (owned or mapped).
+/// The order of a sliced grid's samples in storage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SliceOrder {
+    /// x fastest, z slowest: index `x + X·(y + Y·z)` (volkit's own).
+    XFastest,
+    /// z fastest, x slowest: index `z + Z·(y + Y·x)` (the thesis `.vol`).
+    ZFastest,
+}
+
+impl SliceOrder {
+    /// Samples between neighbours along x, y and z in a `dims` volume.
+    pub fn strides(self, dims: Dims) -> [u64; 3] {
+        match self {
+            SliceOrder::XFastest => [1, dims.x, dims.x * dims.y],
+            SliceOrder::ZFastest => [dims.y * dims.z, dims.z, 1],
+        }
+    }
+}
+
+/// Samples in one array (owned or mapped), x fastest or z fastest. Both
+/// orders sample alike: a cell's corners are read in the same order and
+/// blended the same way, so they give the same bits.
 pub struct SlicedGrid<T: Sample> {
     dims: Dims,
+    order: SliceOrder,
     data: Data<T>,
 }
 
 impl<T: Sample> SlicedGrid<T> {
-    /// Wrap `data`, which must hold exactly `dims.count()` samples.
+    /// Wrap x-fastest `data`, which must hold exactly `dims.count()`
+    /// samples.
     pub fn new(dims: Dims, data: Data<T>) -> crate::Result<SlicedGrid<T>> {
+        SlicedGrid::with_order(dims, SliceOrder::XFastest, data)
+    }
+
+    /// Wrap `data` stored in `order`, which must hold exactly
+    /// `dims.count()` samples: a z-fastest file is sampled in place, with
+    /// no transposing copy.
+    pub fn with_order(dims: Dims, order: SliceOrder, data: Data<T>) -> crate::Result<Self> {
         if data.len() as u64 != dims.count() {
             return Err(crate::Error::Corrupt(format!(
                 "sliced data has {} samples, {dims} needs {}",
@@ -274,10 +307,15 @@ impl<T: Sample> SlicedGrid<T> {
                 dims.count()
             )));
         }
-        Ok(SlicedGrid { dims, data })
+        Ok(SlicedGrid { dims, order, data })
     }
 
-    /// All samples, x fastest.
+    /// The order of the samples in storage.
+    pub fn order(&self) -> SliceOrder {
+        self.order
+    }
+
+    /// All samples, in [`SlicedGrid::order`].
     pub fn samples(&self) -> &[T] {
         &self.data
     }
@@ -296,7 +334,18 @@ impl<T: Sample> SlicedGrid<T> {
 /// Cursor over a [`SlicedGrid`].
 pub struct SlicedCursor<'a, T: Sample> {
     dims: Dims,
+    /// Samples between neighbours along x, y and z.
+    strides: [usize; 3],
     data: &'a [T],
+}
+
+impl<T: Sample> SlicedCursor<'_, T> {
+    /// Index in the samples of voxel `(i, j, k)`.
+    #[inline(always)]
+    fn at(&self, i: u64, j: u64, k: u64) -> usize {
+        let [sx, sy, sz] = self.strides;
+        i as usize * sx + j as usize * sy + k as usize * sz
+    }
 }
 
 impl<T: Sample> VoxelSource for SlicedGrid<T> {
@@ -310,13 +359,25 @@ impl<T: Sample> VoxelSource for SlicedGrid<T> {
     fn cursor(&self) -> SlicedCursor<'_, T> {
         SlicedCursor {
             dims: self.dims,
+            strides: self.order.strides(self.dims).map(|s| s as usize),
             data: &self.data,
         }
     }
 
     fn read_row(&self, x0: u64, y: u64, z: u64, out: &mut [T]) {
-        let start = self.dims.index(x0, y, z) as usize;
-        out.copy_from_slice(&self.data[start..start + out.len()]);
+        match self.order {
+            SliceOrder::XFastest => {
+                let start = self.dims.index(x0, y, z) as usize;
+                out.copy_from_slice(&self.data[start..start + out.len()]);
+            }
+            SliceOrder::ZFastest => {
+                let [sx, sy, _] = self.order.strides(self.dims).map(|s| s as usize);
+                let start = x0 as usize * sx + y as usize * sy + z as usize;
+                for (n, o) in out.iter_mut().enumerate() {
+                    *o = self.data[start + n * sx];
+                }
+            }
+        }
     }
 }
 
@@ -328,23 +389,23 @@ impl<T: Sample> Cursor for SlicedCursor<'_, T> {
 
     #[inline(always)]
     fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
-        self.data[self.dims.index(x, y, z) as usize].to_f32()
+        self.data[self.at(x, y, z)].to_f32()
     }
 
     #[inline(always)]
     fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8] {
         let d = self.dims;
-        let ox = (i + 1 < d.x) as usize;
-        let oy = if j + 1 < d.y { d.x as usize } else { 0 };
-        let oz = if k + 1 < d.z { (d.x * d.y) as usize } else { 0 };
-        cell_from(self.data, d.index(i, j, k) as usize, ox, oy, oz)
+        let [sx, sy, sz] = self.strides;
+        let ox = if i + 1 < d.x { sx } else { 0 };
+        let oy = if j + 1 < d.y { sy } else { 0 };
+        let oz = if k + 1 < d.z { sz } else { 0 };
+        cell_from(self.data, self.at(i, j, k), ox, oy, oz)
     }
 
     #[inline(always)]
-    fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
-        let d = self.dims;
-        let (oy, oz) = (d.x as usize, (d.x * d.y) as usize);
-        cross_from(self.data, d.index(i, j, k) as usize, 1, oy, oz)
+    fn cross_diffs(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 3] {
+        let [sx, sy, sz] = self.strides;
+        cross_diffs_from(self.data, self.at(i, j, k), sx, sy, sz)
     }
 }
 
@@ -544,11 +605,11 @@ impl<T: Sample> Cursor for BrickedCursor<'_, T> {
     }
 
     #[inline(always)]
-    fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
+    fn cross_diffs(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 3] {
         // The apron (one voxel before, two after) holds the whole cross
         // inside the brick of (i, j, k).
         let (base, e) = self.at(i, j, k);
-        cross_from(self.data, base, 1, e, e * e)
+        cross_diffs_from(self.data, base, 1, e, e * e)
     }
 }
 
@@ -763,11 +824,11 @@ impl<T: Sample> Cursor for CompressedCursor<'_, T> {
     }
 
     #[inline(always)]
-    fn cross_cells(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 6] {
+    fn cross_diffs(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 3] {
         // The apron holds the whole cross inside the brick of (i, j, k).
         let a = self.addr.addr(i, j, k);
         let e = self.addr.e;
-        cross_from(self.brick(a.brick), a.local, 1, e, e * e)
+        cross_diffs_from(self.brick(a.brick), a.local, 1, e, e * e)
     }
 }
 

@@ -2,7 +2,8 @@
 //!
 //! A volume is a 3D grid of samples with [`Dims`], voxel spacing, a
 //! [`SampleType`], a value range and a [`Layout`]. Samples are stored either
-//! *sliced* (x fastest, then y, then z) or *bricked* (cubic bricks with an
+//! *sliced* (x fastest, then y, then z; or z fastest, as the thesis `.vol`
+//! files are, sampled in place) or *bricked* (cubic bricks with an
 //! apron so that interpolation and gradients never cross a brick), in memory,
 //! in a memory map, or as zstd-compressed bricks decoded on demand.
 //!
@@ -27,7 +28,7 @@ pub mod volume;
 pub use brick::BrickGeometry;
 pub use dims::Dims;
 pub use error::{Error, Result};
-pub use grid::{BrickedGrid, CompressedGrid, Cursor, SlicedGrid, VoxelSource};
+pub use grid::{BrickedGrid, CompressedGrid, Cursor, SliceOrder, SlicedGrid, VoxelSource};
 pub use meta::{Compression, Geometry, Layout, ValueRange, VolumeMeta};
 pub use region::RegionSource;
 pub use sample::{Sample, SampleType};

@@ -103,6 +103,13 @@ pub trait Sample:
     const TYPE: SampleType;
     /// Exact widening conversion.
     fn to_f32(self) -> f32;
+    /// `hi.to_f32() − lo.to_f32()`, bit for bit; integer types subtract
+    /// before converting (exact: every difference fits `f32`'s 24 bits),
+    /// which halves the conversions of a central-difference gradient.
+    #[inline(always)]
+    fn diff_f32(hi: Self, lo: Self) -> f32 {
+        hi.to_f32() - lo.to_f32()
+    }
     /// Narrowing from `f32`: round half away from zero, clamp to the type's
     /// range; NaN becomes 0 for integer types and stays NaN for `f32`.
     fn from_f32(v: f32) -> Self;
@@ -124,6 +131,10 @@ macro_rules! int_sample {
             #[inline(always)]
             fn to_f32(self) -> f32 {
                 self as f32
+            }
+            #[inline(always)]
+            fn diff_f32(hi: Self, lo: Self) -> f32 {
+                (hi as i32 - lo as i32) as f32
             }
             #[inline(always)]
             fn from_f32(v: f32) -> Self {
@@ -189,6 +200,24 @@ impl Sample for f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Integer differences converted once equal the difference of the
+    /// converted samples, bit for bit, at the types' extremes too.
+    #[test]
+    fn differences_match_converted_differences() {
+        fn check<T: Sample>(values: &[T]) {
+            for &a in values {
+                for &b in values {
+                    let want = a.to_f32() - b.to_f32();
+                    assert_eq!(T::diff_f32(a, b).to_bits(), want.to_bits(), "{a:?} - {b:?}");
+                }
+            }
+        }
+        check::<u8>(&[0, 1, 127, 128, 254, 255]);
+        check::<u16>(&[0, 1, 255, 32768, 65534, 65535]);
+        check::<i16>(&[i16::MIN, -32767, -1, 0, 1, 32766, i16::MAX]);
+        check::<f32>(&[0.0, -0.0, 1.5, -3.25, 1e30, -1e-30]);
+    }
 
     #[test]
     fn narrowing_rounds_clamps_and_maps_nan() {

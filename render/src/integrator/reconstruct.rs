@@ -141,7 +141,7 @@ pub fn cell_gradient(c: &[f32; 8], t: [f32; 3]) -> Vec3 {
 /// The central-difference gradient of the interpolant (per voxel):
 /// `(f(p + e) − f(p − e)) / 2` per axis. Away from the faces the six
 /// points share `p`'s cell offsets, so the point is located once and the
-/// six neighbouring cells are fetched together; within a voxel of a face
+/// cross of neighbouring cells is fetched together; within a voxel of a face
 /// the clamping rules of [`Cursor::gradient`] apply.
 #[inline(always)]
 pub fn central_gradient<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> Vec3 {
@@ -151,12 +151,11 @@ pub fn central_gradient<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> Vec3 
     if !interior {
         return Vec3::from(cur.gradient(p.into()));
     }
-    let [x0, x1, y0, y1, z0, z1] = cur.cross_cells(base[0], base[1], base[2]);
     // The interpolant is linear in the cell values, so f(p + e) − f(p − e)
     // is the blend of the two cells' differences: three blends, not six
     // (and exact differences for integer samples).
-    let diff = |a: [f32; 8], b: [f32; 8]| blend(&std::array::from_fn(|i| a[i] - b[i]), t);
-    Vec3::new(diff(x1, x0), diff(y1, y0), diff(z1, z0)) * 0.5
+    let [dx, dy, dz] = cur.cross_diffs(base[0], base[1], base[2]);
+    Vec3::new(blend(&dx, t), blend(&dy, t), blend(&dz, t)) * 0.5
 }
 
 #[cfg(test)]
