@@ -14,9 +14,21 @@
 # Ambient occlusion (issue 12): the same lit scene with --ao 8 (target <=
 # 6x; the occlusion grid's build counts in the frame) and --ao-field 32
 # (target <= 1.5x per frame; the field's precomputation is reported apart).
+# Peers (issue 16), timed in the same run when they are available (the
+# script says which it skipped): the thesis renderer through
+# ../shared/peers/thesis.sh (built and its volumes generated on first use:
+# ~4 min), and VTK's CPU ray caster through scripts/peers/vtk_render.py
+# (needs `pip install vtk` and Debian's libosmesa6). Each peer's median over
+# REPEAT frames is divided by ours, 2 threads (and 1 thread for VTK). The
+# thesis's own sliced .vol file (z fastest) is rendered in place as well
+# (target: within 1.3x of the bricked file's frame).
+# Targets (issue 16): 2 threads <= 0.16 s, >= 5x the thesis renderer and
+# >= 7x VTK; 1 thread <= 0.3 s; parallel efficiency >= 1.85x.
 # Usage: scripts/bench-render.sh [DIM] [REPEAT]   (default 800 5)
 #        ONLY=shadows scripts/bench-render.sh      (the shadow rows alone)
 #        ONLY=ao scripts/bench-render.sh           (the AO rows alone)
+#        ONLY=peers scripts/bench-render.sh        (ours against the peers)
+#        PEERS=0 scripts/bench-render.sh           (no peers)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DIM=${1:-800}
@@ -47,13 +59,56 @@ run() { # name, extra args...
 
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a/b}'; }
 echo "thesis benchmark, ${DIM}^3, load average: $(cut -d' ' -f1-3 /proc/loadavg)"
-if [ -z "${ONLY:-}" ]; then
+if [ -z "${ONLY:-}" ] || [ "${ONLY:-}" = peers ]; then
 run "2 threads, ERT+ESS, memory-mapped" --threads 2 --repeat "$REPEAT"; t2=$(cat "$DIR/last.txt")
+if [ -z "${ONLY:-}" ]; then
 run "2 threads, ERT+ESS, in memory" --threads 2 --repeat "$REPEAT" --in-memory
 run "2 threads, ERT+ESS, analytic gradient" --threads 2 --repeat "$REPEAT" --gradient analytic
+fi
 run "1 thread, ERT+ESS" --threads 1 --repeat "$REPEAT"; t1=$(cat "$DIR/last.txt")
-run "1 thread, no ERT, no ESS" --threads 1 --repeat 1 --no-ert --no-ess
+if [ -z "${ONLY:-}" ]; then run "1 thread, no ERT, no ESS" --threads 1 --repeat 1 --no-ert --no-ess; fi
 echo "parallel efficiency (1 thread / 2 threads): $(ratio "$t1" "$t2")"
+fi
+if [ "${PEERS:-1}" != 0 ] && { [ -z "${ONLY:-}" ] || [ "${ONLY:-}" = peers ]; }; then
+    THESIS=../shared/peers/thesis.sh
+    PEER_DIR=${PEER_DIR:-$HOME/.cache/volkit-peers/raycaster_lib}
+    # The same voxels as the bricked file, in the thesis's sliced .vol
+    # format (z fastest); the thesis renderer reads its own generator's
+    # files (the same scene description, other random shapes).
+    TVOL="$DIR/shapes-$DIM.vol"
+    [ -f "$TVOL" ] || "$B/vol-gen" shapes --dims "$DIM,$DIM,$DIM" --seed 2 --count 70 --size "$SIZE" \
+        --value 100 -o "$TVOL" --quiet
+    cat "$TVOL" > /dev/null
+    j=$("$B/vol-render" "$TVOL" "${SCENE[@]}" -o "$DIR/render-vol.png" --json --threads 2 --repeat "$REPEAT")
+    echo "$j" | field render_s > "$DIR/last.txt"
+    printf '%-38s median %8.3f s  (opened in %.3f s, index %.3f s)\n' "2 threads, sliced .vol in place" \
+        "$(cat "$DIR/last.txt")" "$(echo "$j" | field load_s)" "$(echo "$j" | field index_s)"
+    echo "    sliced .vol / bricked .vvol: $(ratio "$(cat "$DIR/last.txt")" "$t2")"
+    if [ "$DIM" != 800 ]; then
+        echo "peer thesis renderer: skipped (its benchmark is 800^3)"
+    elif [ ! -f "$THESIS" ]; then
+        echo "peer thesis renderer: skipped ($THESIS not found)"
+    else
+        [ -x "$PEER_DIR/target/release/examples/frame" ] || bash "$THESIS" build > "$DIR/thesis-build.log" 2>&1
+        [ -f "$PEER_DIR/volumes/800shapes_block16.vol" ] || bash "$THESIS" volumes > "$DIR/thesis-volumes.log" 2>&1
+        th=$(bash "$THESIS" time "$REPEAT" | sed -n 's/.* median \([0-9.]*\).*/\1/p')
+        printf '%-38s median %8.3f s\n' "peer thesis renderer, 2 threads" "$th"
+        echo "    thesis renderer / vol-render, 2 threads: $(ratio "$th" "$t2")   (target >= 5x)"
+    fi
+    if ! python3 -c "import vtk" 2> /dev/null; then
+        echo "peer VTK: skipped (python3 cannot import vtk: pip install vtk; apt-get install libosmesa6)"
+    else
+        for n in 2 1; do
+            v=$(python3 scripts/peers/vtk_render.py "$TVOL" --threads "$n" --repeat "$REPEAT" | field render_s)
+            if [ "$n" = 2 ]; then ours=$t2; else ours=$t1; fi
+            printf '%-38s median %8.3f s\n' "peer VTK fixed-point ray caster, $n thr" "$v"
+            echo "    VTK / vol-render, $n thread(s): $(ratio "$v" "$ours")   (target >= 7x at 2 threads)"
+        done
+    fi
+fi
+if [ "${ONLY:-}" = peers ]; then
+    echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
+    exit 0
 fi
 LIGHT=(--light 1,2,0.5 --threads 2 --repeat "$REPEAT")
 run "2 threads, directional light" "${LIGHT[@]}"; t0=$(cat "$DIR/last.txt")
