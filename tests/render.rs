@@ -77,6 +77,8 @@ fn image_is_identical_across_threads_skipping_layouts_and_index_files() {
         "shapes", "--dims", "70,60,50", "--count", "12", "--size", "18", "--seed", "3",
     ];
     let sliced = gen(d, "s.vvol", &args);
+    // The thesis's sliced .vol (z fastest), sampled in place.
+    let thesis = gen(d, "t.vol", &args);
     let zstd = gen(
         d,
         "z.vvol",
@@ -98,6 +100,8 @@ fn image_is_identical_across_threads_skipping_layouts_and_index_files() {
         (&sliced, vec!["--no-ess"]),
         (&sliced, vec!["--in-memory"]),
         (&zstd, vec![]),
+        (&thesis, vec![]),
+        (&thesis, vec!["--no-ess", "--threads", "1"]),
     ]
     .into_iter()
     .enumerate()
@@ -120,6 +124,49 @@ fn image_is_identical_across_threads_skipping_layouts_and_index_files() {
         images.push(std::fs::read(&hdr).unwrap());
     }
     assert!(images.windows(2).all(|w| w[0] == w[1]));
+}
+
+/// Pixel blocks whose rays can meet only transparent cells are not
+/// traced: the image is the one rendered without skipping, bit for bit,
+/// and `--json` counts the culled blocks (and fewer rays).
+#[test]
+fn blocks_that_can_see_nothing_are_culled_without_changing_the_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = gen(
+        d,
+        "few.vvol",
+        &[
+            "shapes", "--dims", "64,64,64", "--count", "3", "--size", "10", "--seed", "5",
+        ],
+    );
+    let base = [
+        "--tf",
+        "shapes",
+        "--shading",
+        "phong",
+        "--tile",
+        "4",
+        "--orbit",
+        "40,25,200",
+    ];
+    let render = |name: &str, extra: &[&str]| {
+        let hdr = d.join(format!("{name}.pfm"));
+        let hdr_arg = ["--hdr", hdr.to_str().unwrap()];
+        let v = render_json(
+            &vol,
+            &d.join(format!("{name}.png")),
+            &[&base[..], &hdr_arg, extra].concat(),
+        );
+        (v, std::fs::read(&hdr).unwrap())
+    };
+    let (culled, a) = render("culled", &[]);
+    let (plain, b) = render("plain", &["--no-ess"]);
+    let n = |v: &serde_json::Value, k: &str| v[k].as_u64().unwrap();
+    assert!(n(&culled, "culled_blocks") > 0, "{culled}");
+    assert_eq!(n(&plain, "culled_blocks"), 0);
+    assert!(n(&culled, "rays") < n(&plain, "rays"));
+    assert!(a == b, "culling changed the image");
 }
 
 #[test]

@@ -198,6 +198,28 @@ impl Camera {
         self.forward
     }
 
+    /// Where point `p` lands on the image, in pixel coordinates with pixel
+    /// `(x, y)`'s centre at `(x, y)` (the inverse of [`Camera::ray`]), or
+    /// `None` when a perspective camera does not see it in front of the
+    /// eye (or the result is not finite).
+    pub fn project(&self, p: Vec3) -> Option<[f32; 2]> {
+        let d = p - self.eye;
+        let (a, b) = match self.projection {
+            Projection::Perspective(_) => {
+                let z = d.dot(self.forward);
+                // In front of the eye only (NaN is not).
+                if z.is_nan() || z <= 0.0 {
+                    return None;
+                }
+                (d.dot(self.right) / z, d.dot(self.up) / z)
+            }
+            Projection::Orthographic(_) => (d.dot(self.right), d.dot(self.up)),
+        };
+        let x = (a / self.half.0 + 1.0) * 0.5 * self.width as f32 - 0.5;
+        let y = (1.0 - b / self.half.1) * 0.5 * self.height as f32 - 0.5;
+        (x.is_finite() && y.is_finite()).then_some([x, y])
+    }
+
     /// The ray through the centre of pixel `(x, y)`, row 0 at the top.
     #[inline]
     pub fn ray(&self, x: u32, y: u32) -> Ray {
@@ -236,6 +258,38 @@ mod tests {
         assert!((r.dir - Vec3::NEG_Z).length() < 1e-6);
         // Top row points up, right column points right.
         assert!(c.ray(50, 0).dir.y > 0.0 && c.ray(100, 25).dir.x > 0.0);
+    }
+
+    /// `project` inverts `ray`: points along the ray through a pixel's
+    /// centre land on that pixel, for both projections; a point behind a
+    /// perspective eye lands nowhere.
+    #[test]
+    fn projection_inverts_rays() {
+        let eye = Vec3::new(300.0, -120.0, 500.0);
+        for proj in [
+            Projection::Perspective(50.0),
+            Projection::Orthographic(80.0),
+        ] {
+            let c =
+                Camera::look_at(eye, Vec3::new(10.0, 20.0, 30.0), Vec3::Y, proj, 64, 48).unwrap();
+            for (x, y) in [(0, 0), (63, 47), (17, 30), (32, 24)] {
+                let r = c.ray(x, y);
+                for t in [1.0f32, 50.0, 700.0] {
+                    let [px, py] = c.project(r.origin + r.dir * t).unwrap();
+                    assert!(
+                        (px - x as f32).abs() < 1e-2 && (py - y as f32).abs() < 1e-2,
+                        "{proj:?} {x},{y} at {t}: {px},{py}"
+                    );
+                }
+            }
+            let behind = eye - c.forward() * 10.0;
+            let seen = c.project(behind).is_some();
+            assert_eq!(
+                seen,
+                matches!(proj, Projection::Orthographic(_)),
+                "{proj:?}"
+            );
+        }
     }
 
     #[test]

@@ -14,8 +14,13 @@ use glam::Vec3;
 /// Counts and times for one frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameStats {
-    /// Rays that met the volume.
+    /// Rays traced that met the volume (rays of culled pixel blocks are
+    /// not traced).
     pub rays: u64,
+    /// Pixel blocks left untraced because their rays could meet no cell
+    /// the skipping rule keeps (DVR with skipping; see
+    /// [`crate::accel::cull`]).
+    pub culled_blocks: u64,
     /// Samples taken (interpolations of the volume, bisection included).
     pub samples: u64,
     /// Jumps over empty cells.
@@ -131,6 +136,11 @@ impl Film {
     /// Record the time spent rendering into the film.
     pub fn set_render_seconds(&mut self, s: f64) {
         self.stats.render_s = s;
+    }
+
+    /// Record the pixel blocks culled before tracing.
+    pub fn set_culled_blocks(&mut self, n: u64) {
+        self.stats.culled_blocks = n;
     }
 
     /// The frame: mean colour per pixel, mapped by `display`, over the

@@ -1,7 +1,7 @@
 //! A whole frame: settings resolved into one specialised integrator,
 //! tiles traced in parallel into a film, the film resolved into a frame.
 
-use crate::accel::{FixedCells, IsoSides};
+use crate::accel::{cull, FixedCells, IsoSides};
 use crate::camera::Camera;
 use crate::classify::{srgb_to_linear, Classifier, GradientBound, TfTable, TfTable2d};
 use crate::dispatch::{
@@ -260,6 +260,7 @@ pub fn render_tf(
         // than pixels (tiling does not change the image).
         tile: settings.tile.min(camera.width().max(camera.height())),
         hi: Vec3::from(vol.meta.world_extent()),
+        busy: None,
     };
     let (film, display) = match settings.mode {
         Mode::Dvr => {
@@ -467,6 +468,23 @@ impl DvrFrame<'_> {
             inv_spacing: geom.inv_spacing,
         };
         let skip = transparent_cells(skip_index, table, &gradients)?;
+        // Pixel blocks whose rays meet no cell the rule keeps are not
+        // traced (their pixels are empty either way); finding them counts
+        // in the frame's time.
+        let cull_start = Instant::now();
+        let busy = skip.as_ref().and_then(|s| {
+            cull::busy_blocks(
+                tiles.camera,
+                s.index(),
+                Vec3::from(vol.meta.spacing),
+                |level, cell| !s.skippable(level, cell),
+            )
+        });
+        let cull_s = cull_start.elapsed().as_secs_f64();
+        let tiles = Tiles {
+            busy: busy.as_ref(),
+            ..tiles
+        };
         // Effects: the depth table, its clear cells, the light grids, the
         // occlusion grid and field.
         let effect_parts = match shadow {
@@ -531,6 +549,8 @@ impl DvrFrame<'_> {
             effects,
         };
         let mut film = dispatch::dvr(plan, tiles);
+        film.set_render_seconds(film.stats().render_s + cull_s);
+        film.set_culled_blocks(busy.as_ref().map_or(0, |b| b.culled()) as u64);
         if let Some((.., stats, _)) = &effect_parts {
             film.add_grid_stats(stats);
         }
@@ -561,6 +581,9 @@ struct Tiles<'a> {
     tile: u32,
     /// The far corner of the volume's box.
     hi: Vec3,
+    /// Which pixels' rays may take samples; the others are left empty,
+    /// untraced.
+    busy: Option<&'a cull::BlockMask>,
 }
 
 impl IntegratorVisitor for Tiles<'_> {
@@ -585,7 +608,11 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
     type Output = Film;
     fn visit<S: VoxelSource>(self, src: &S) -> Film {
         let Tiles {
-            camera, tile, hi, ..
+            camera,
+            tile,
+            hi,
+            busy,
+            ..
         } = self.tiles;
         let (w, h) = (camera.width(), camera.height());
         let (tx, ty) = (w.div_ceil(tile), h.div_ceil(tile));
@@ -598,6 +625,10 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
                 let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
+                        if busy.is_some_and(|b| !b.may_see(x, y)) {
+                            out.push(RayResult::empty());
+                            continue;
+                        }
                         let ray = camera.ray(x, y);
                         out.push(match intersect_box(&ray, Vec3::ZERO, hi) {
                             None => RayResult::empty(),

@@ -197,6 +197,7 @@ fn report(
             "rays": s.rays,
             "samples": s.samples,
             "skips": s.skips,
+            "culled_blocks": s.culled_blocks,
             "load_s": load_s,
             "index_s": index_s,
             "render_s": render_s,

@@ -9,9 +9,11 @@
 //!   stay private.
 //! - [`dda`]: the macrocells a ray crosses, in order, as segments
 //!   `(t_enter, t_exit, cell)` (pbrt's majorant-iterator shape).
+//! - [`cull`]: the image tiles whose rays meet no cell a rule keeps.
 //! - [`majorant`]: per-cell maximum extinction under a transfer function
 //!   (or a density mapping), for shadow rays and delta tracking.
 
+pub mod cull;
 pub mod dda;
 pub mod hierarchy;
 pub mod majorant;

@@ -51,6 +51,20 @@ impl<'a> FixedCells<'a> {
         ClearBoxes::new(self.h.index(), &self.flags, |f| f != 0)
     }
 
+    /// The index the rule flags.
+    pub fn index(&self) -> &'a MajorantIndex {
+        self.h.index()
+    }
+
+    /// Whether the rule may skip cell `cell` (linear index) of `level`.
+    pub fn skippable(&self, level: usize, cell: usize) -> bool {
+        let below: usize = self.h.index().levels()[..level]
+            .iter()
+            .map(|l| l.len())
+            .sum();
+        self.flags[below + cell] != 0
+    }
+
     /// The fraction of level-0 cells that may be skipped.
     pub fn skippable_fraction(&self) -> f64 {
         let n = self.h.index().levels().first().map_or(0, |l| l.len());
