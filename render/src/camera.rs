@@ -223,8 +223,16 @@ impl Camera {
     /// The ray through the centre of pixel `(x, y)`, row 0 at the top.
     #[inline]
     pub fn ray(&self, x: u32, y: u32) -> Ray {
-        let u = ((x as f32 + 0.5) / self.width as f32) * 2.0 - 1.0;
-        let v = 1.0 - ((y as f32 + 0.5) / self.height as f32) * 2.0;
+        self.ray_at(x as f32 + 0.5, y as f32 + 0.5)
+    }
+
+    /// The ray through image-plane position `(fx, fy)` in pixel units,
+    /// `(0, 0)` the top-left corner of the image and pixel `(x, y)`
+    /// covering `[x, x + 1) × [y, y + 1)` (jittered samples).
+    #[inline]
+    pub fn ray_at(&self, fx: f32, fy: f32) -> Ray {
+        let u = (fx / self.width as f32) * 2.0 - 1.0;
+        let v = 1.0 - (fy / self.height as f32) * 2.0;
         let offset = self.right * (u * self.half.0) + self.up * (v * self.half.1);
         match self.projection {
             Projection::Perspective(_) => Ray {

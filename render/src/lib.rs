@@ -15,7 +15,8 @@
 //! [`classify`] (their per-frame tables); [`accel`] (macrocell skipping
 //! rules, DDA segments and majorants over the index); [`integrator`]
 //! (DVR, MIP/MinIP, X-ray, iso over one march loop); [`effects`]
-//! (shadows by shadow rays or light grids, only when a frame asks).
+//! (shadows by shadow rays or light grids, only when a frame asks);
+//! [`path`] (Monte Carlo volumetric path tracing over the majorant grid).
 //!
 //! Conventions (VTK's image data): voxel `(i, j, k)` sits at world position
 //! `(i·sx, j·sy, k·sz)` and the volume's box is `[0, (dims − 1)·spacing]`.
@@ -33,6 +34,7 @@ pub mod film;
 pub mod frame;
 pub mod integrator;
 pub mod light;
+pub mod path;
 pub mod ray;
 pub mod sampler;
 pub mod settings;

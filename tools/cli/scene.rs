@@ -30,6 +30,9 @@ pub enum ModeArg {
     XrayMean,
     /// Iso-surface at --iso.
     Iso,
+    /// Monte Carlo volumetric path tracing (delta tracking over the
+    /// majorant grid, next-event estimation, progressive).
+    Path,
 }
 
 /// `--interp`.
@@ -172,6 +175,57 @@ pub struct Scene {
     /// Samples-per-pixel heat map (.png).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub heatmap: Option<PathBuf>,
+    /// Path tracing: samples per pixel.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spp: Option<u64>,
+    /// Path tracing: a time budget, seconds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time: Option<f64>,
+    /// Path tracing: stop at this relative standard error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub until_error: Option<f64>,
+    /// Path tracing: scattering events per path.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bounces: Option<u32>,
+    /// Path tracing: Henyey-Greenstein asymmetry.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub g: Option<f32>,
+    /// Path tracing: extinction per world unit at normalised value 1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub density_scale: Option<f32>,
+    /// Path tracing: albedo of the density medium.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub albedo: Option<Colour>,
+    /// Path tracing: suns, `dx,dy,dz[:E]` each.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sun: Option<Vec<String>>,
+    /// Path tracing: constant environment radiance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub env: Option<Colour>,
+    /// Path tracing: `grid` or `global`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub majorant: Option<String>,
+    /// Path tracing: the sampler's seed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Path tracing: exposure of the PNG.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exposure: Option<f32>,
+    /// Path tracing: the PNG's tone map.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tonemap: Option<TonemapArg>,
+}
+
+/// `--tonemap`: how linear radiance becomes the PNG's display values.
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TonemapArg {
+    /// Clamp to [0, 1].
+    Clamp,
+    /// Reinhard: x / (1 + x).
+    Reinhard,
+    /// The ACES filmic curve (Narkowicz's fit).
+    Aces,
 }
 
 /// `up`: a vector or a name (`"patient"`).
@@ -396,10 +450,23 @@ impl Scene {
             ("step", self.step),
             ("ert", self.ert),
             ("shadow-step", self.shadow_step),
+            ("g", self.g),
+            ("density-scale", self.density_scale),
+            ("exposure", self.exposure),
         ];
         for (key, v) in scalars {
             if v.is_some_and(|v| !v.is_finite()) {
                 return Err(format!("key `{key}`: must be a finite number"));
+            }
+        }
+        for (key, v) in [("time", self.time), ("until-error", self.until_error)] {
+            if v.is_some_and(|v| !v.is_finite()) {
+                return Err(format!("key `{key}`: must be a finite number"));
+            }
+        }
+        for (key, c) in [("albedo", self.albedo), ("env", self.env)] {
+            if c.is_some_and(|c| !c.rgb().is_finite()) {
+                return Err(format!("key `{key}`: must be finite"));
             }
         }
         if self.tf.is_some() && self.tf_text.is_some() {
@@ -536,6 +603,15 @@ position = [10, 10, 10]
                 }),
             ]),
             tf_text: Some("domain 0 1\npoint 0 0 0 0 0\n".into()),
+            spp: Some(64),
+            bounces: Some(8),
+            g: Some(-0.5),
+            density_scale: Some(0.1),
+            albedo: Some(Colour::Grey(0.8)),
+            sun: Some(vec!["-1,-1.2,0.4:4".into()]),
+            env: Some(Colour::Rgb([0.1, 0.2, 0.3])),
+            majorant: Some("global".into()),
+            tonemap: Some(TonemapArg::Aces),
             ..Default::default()
         };
         let text = to_toml(&s).unwrap();

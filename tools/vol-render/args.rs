@@ -6,7 +6,7 @@ use clap::Parser;
 use glam::Vec3;
 use std::path::PathBuf;
 use volkit_cli::scene::LightSpec;
-pub use volkit_cli::scene::{GradientArg, InterpArg, ModeArg, ShadingArg, UpArg};
+pub use volkit_cli::scene::{GradientArg, InterpArg, ModeArg, ShadingArg, TonemapArg, UpArg};
 
 /// Render a volume to an image with a tiled, parallel CPU ray caster.
 ///
@@ -153,9 +153,14 @@ pub struct Cli {
     /// The scene file's transfer function text (set by --scene).
     #[arg(skip)]
     pub tf_text: Option<String>,
-    /// Background colour r,g,b (0-255).
+    /// Background colour r,g,b (0-255). In path mode it replaces the
+    /// environment where camera rays leave the volume unscattered.
     #[arg(long, value_parser = parse_vec3, default_value = "0,0,0")]
     pub background: Vec3,
+    /// Whether the background was given (on the command line or in the
+    /// scene file).
+    #[arg(skip)]
+    pub background_given: bool,
     /// Write an RGBA PNG with coverage alpha instead of compositing onto the background.
     #[arg(long)]
     pub alpha: bool,
@@ -177,12 +182,102 @@ pub struct Cli {
     /// Render this many times and report the median time (for benchmarks).
     #[arg(long, default_value_t = 1)]
     pub repeat: u32,
-    /// Also write the linear float image (.pfm).
+    /// Also write the linear float image (.pfm, or .exr).
     #[arg(long)]
     pub hdr: Option<PathBuf>,
     /// Also write a samples-per-pixel heat map with a colour scale (.png).
     #[arg(long)]
     pub heatmap: Option<PathBuf>,
+    /// Path tracing: samples per pixel to add (default 64 unless --time
+    /// or --until-error decides; with them, the most to add).
+    #[arg(long, help_heading = "Path tracing (--mode path)")]
+    pub spp: Option<u64>,
+    /// Path tracing: render whole passes until this many seconds are spent.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        help_heading = "Path tracing (--mode path)"
+    )]
+    pub time: Option<f64>,
+    /// Path tracing: stop once the relative standard error of the image
+    /// (the root mean square standard error of lit pixels' mean luminance
+    /// over their mean) falls below E.
+    #[arg(long, value_name = "E", help_heading = "Path tracing (--mode path)")]
+    pub until_error: Option<f64>,
+    /// Path tracing: scattering events per path (1 = single scattering).
+    #[arg(long, default_value_t = 8, help_heading = "Path tracing (--mode path)")]
+    pub bounces: u32,
+    /// Path tracing: Henyey-Greenstein asymmetry in [-1, 1] (0 isotropic,
+    /// > 0 forward).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_hyphen_values = true,
+        help_heading = "Path tracing (--mode path)"
+    )]
+    pub g: f32,
+    /// Path tracing: extinction per world unit = S x the normalised value
+    /// (value/255 for u8, /65535 for u16, /32767 for i16, the value for
+    /// f32; negative and NaN values are 0), with --albedo. Without it the
+    /// transfer function is the medium: extinction -ln(1 - opacity per
+    /// unit length), albedo its colour.
+    #[arg(long, value_name = "S", help_heading = "Path tracing (--mode path)")]
+    pub density_scale: Option<f32>,
+    /// Path tracing: the density medium's albedo, a grey level or linear
+    /// r,g,b in [0, 1] (default 0.8; 0 = absorption only).
+    #[arg(long, value_parser = parse_colour, help_heading = "Path tracing (--mode path)")]
+    pub albedo: Option<Vec3>,
+    /// Path tracing: a directional light travelling along dx,dy,dz with
+    /// irradiance E (grey; default 3); repeatable. Values starting with '-'
+    /// need the '=' form: --sun=-1,-1.2,0.4:4.
+    #[arg(long, value_name = "DX,DY,DZ[:E]", value_parser = parse_sun_arg,
+          allow_hyphen_values = true, help_heading = "Path tracing (--mode path)")]
+    pub sun: Vec<String>,
+    /// Path tracing: constant environment radiance, grey or linear r,g,b
+    /// (default 1 when there is no sun or point light, else 0). It is seen
+    /// behind the volume unless --background is given.
+    #[arg(long, value_parser = parse_colour, help_heading = "Path tracing (--mode path)")]
+    pub env: Option<Vec3>,
+    /// Path tracing: majorants for delta and ratio tracking: `grid` (per
+    /// macrocell of the index) or `global` (one for the volume).
+    #[arg(long, default_value = "grid", value_parser = ["grid", "global"],
+          help_heading = "Path tracing (--mode path)")]
+    pub majorant: String,
+    /// Path tracing: the sampler's seed.
+    #[arg(long, default_value_t = 0, help_heading = "Path tracing (--mode path)")]
+    pub seed: u64,
+    /// Path tracing: keep the per-pixel sums in this state file and
+    /// continue from it when it exists (64 samples, then 64 more, equal
+    /// 128 at once, bit for bit); a state from another scene is refused.
+    #[arg(
+        long,
+        value_name = "STATE",
+        help_heading = "Path tracing (--mode path)"
+    )]
+    pub accumulate: Option<PathBuf>,
+    /// Path tracing: scale radiance by this before the PNG's tone map.
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        help_heading = "Path tracing (--mode path)"
+    )]
+    pub exposure: f32,
+    /// Path tracing: tone map of the PNG (the --hdr file stays linear).
+    #[arg(
+        long,
+        value_enum,
+        default_value = "clamp",
+        help_heading = "Path tracing (--mode path)"
+    )]
+    pub tonemap: TonemapArg,
+    /// Path tracing: write a heat map of each pixel's standard error
+    /// (.png).
+    #[arg(
+        long,
+        value_name = "OUT.png",
+        help_heading = "Path tracing (--mode path)"
+    )]
+    pub variance: Option<PathBuf>,
     /// Print one JSON object with the figures.
     #[arg(long)]
     pub json: bool,
@@ -210,6 +305,12 @@ const EXAMPLES: &str = "Examples:
   vol-render head.vvol --tf ct --ao-field 32 --ao-field-cell 4 -o head-ao.png
   vol-render --scene thesis.toml --size 256x256 -o small.png
   vol-render shapes.vvol --tf shapes --orbit 30,20,700 --print-scene > shapes.toml
+
+  vol-render spheres.vvol --mode path --density-scale 0.1 --albedo 0.8 --sun=-1,-1.2,0.4:4 \
+      --env 0.1 --spp 64 --bounces 8 --hdr spheres.exr -o spheres.png --json
+  vol-render shapes.vvol --mode path --tf shapes --env 1 --time 30 --tonemap aces -o pt.png
+  vol-render ct.vvol --mode path --tf ct --until-error 0.01 --variance noise.png -o ct-pt.png
+  vol-render big.vvol --mode path --density-scale 2 --spp 64 --accumulate big.state -o a.png
 
 Scene files (TOML) take every option above by the same name, and lights:
   volume = \"shapes.vvol\"            # relative paths: from the scene file's folder
@@ -342,4 +443,33 @@ pub fn shadow_method(s: &str) -> Result<volrender::ShadowMethod, String> {
             )),
         },
     }
+}
+
+/// `--sun`: checked here, resolved by [`sun_spec`].
+fn parse_sun_arg(s: &str) -> Result<String, String> {
+    sun_spec(s).map(|_| s.to_string())
+}
+
+/// A sun `dx,dy,dz[:E]`: the direction it travels (not zero) and its
+/// irradiance (grey, finite, not negative; default 3).
+pub fn sun_spec(s: &str) -> Result<(Vec3, f32), String> {
+    let (d, e) = match s.split_once(':') {
+        Some((d, e)) => (d, Some(e)),
+        None => (s, None),
+    };
+    let shown = || volcore::text::clip(&volcore::text::escape(s), 40);
+    let dir = parse_vec3(d).map_err(|_| format!("`{}`: expected dx,dy,dz[:E]", shown()))?;
+    if dir == Vec3::ZERO {
+        return Err(format!("`{}`: the direction must not be zero", shown()));
+    }
+    let e = match e {
+        Some(e) => e
+            .trim()
+            .parse::<f32>()
+            .ok()
+            .filter(|e| e.is_finite() && *e >= 0.0)
+            .ok_or_else(|| format!("`{}`: the irradiance must be a finite number >= 0", shown()))?,
+        None => 3.0,
+    };
+    Ok((dir, e))
 }

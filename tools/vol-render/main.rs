@@ -3,6 +3,7 @@
 //! frame rendered and written here.
 
 mod args;
+mod path;
 mod plan;
 mod scene;
 
@@ -27,6 +28,7 @@ fn main() -> ExitCode {
     };
     volkit_cli::run("vol-render", || {
         let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
+        cli.background_given = given("background");
         if let Some(path) = cli.scene.clone() {
             let file = volkit_cli::scene::Scene::read(&path)?;
             let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
@@ -80,6 +82,18 @@ fn run(cli: &Cli, volume: &Path) -> Result<()> {
         for note in &plan.notes {
             noteln!("vol-render: {name}: {note}");
         }
+    }
+    if let Some((settings, budget)) = &plan.path {
+        let run = path::Run {
+            cli,
+            volume,
+            output,
+            camera: &plan.camera,
+            load_s,
+            index_s,
+            scene: serde_json::to_value(&effective)?,
+        };
+        return path::run(&run, &vol, index.as_ref(), settings, budget);
     }
 
     let mut times = Vec::new();

@@ -9,6 +9,7 @@ use glam::{DMat3, DVec3, Vec3};
 use std::path::Path;
 use volcore::Volume;
 use volindex::{BuildOptions, MajorantIndex};
+use volrender::path::{Budget, PathSettings};
 use volrender::tf::{
     looks_like_hounsfield, parse::parse_any, Tf, TransferFunction, AUTO_TAIL_PERCENT, PRESETS,
 };
@@ -30,6 +31,8 @@ pub struct Plan {
     pub resolved: Resolved,
     /// Warnings for the user (one line each; `--quiet` drops them).
     pub notes: Vec<String>,
+    /// Path tracing (`--mode path`): the scene and when to stop.
+    pub path: Option<(PathSettings, Budget)>,
 }
 
 impl Plan {
@@ -39,10 +42,25 @@ impl Plan {
         let mut notes = Vec::new();
         let tf = match cli.mode {
             ModeArg::Dvr => Some(transfer_function(cli, vol, index, &mut notes)?),
+            ModeArg::Path if cli.density_scale.is_none() => {
+                Some(transfer_function(cli, vol, index, &mut notes)?)
+            }
             _ => None,
         };
         let (camera, look_at, orbit) = camera(cli, vol)?;
         let settings = settings(cli, vol, index)?;
+        let path = match cli.mode {
+            ModeArg::Path => Some(crate::path::settings(
+                cli,
+                &settings.lighting.lights,
+                tf.as_ref(),
+                &mut notes,
+            )?),
+            _ => {
+                crate::path::refuse_path_options(cli)?;
+                None
+            }
+        };
         if settings.ao.is_some() && cli.mode == ModeArg::Dvr && cli.shading != ShadingArg::Phong {
             notes.push("ambient occlusion turns on --shading phong".into());
         }
@@ -74,6 +92,8 @@ impl Plan {
             },
             ambient: settings.lighting.ambient,
             lights: settings.lighting.lights.clone(),
+            spp: path.as_ref().and_then(|(_, b)| b.spp),
+            env: path.as_ref().map(|(p, _)| p.lights.env),
         };
         Ok(Plan {
             camera,
@@ -81,6 +101,7 @@ impl Plan {
             tf,
             resolved,
             notes,
+            path,
         })
     }
 }
@@ -266,7 +287,15 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
             Some(v) => v,
             None => default_iso(vol, index)?,
         }),
+        // The path tracer reads its own settings (crate::path); the ray
+        // caster's stay at their defaults and unused.
+        ModeArg::Path => Mode::Dvr,
     };
+    if cli.mode == ModeArg::Path
+        && (cli.shadows.is_some() || cli.ao.is_some() || cli.ao_field.is_some())
+    {
+        bail!("--shadows, --ao and --ao-field are the ray caster's effects: the path tracer casts its own shadow rays and scatters light");
+    }
     if cli.iso.is_some() && cli.mode != ModeArg::Iso {
         bail!("--iso needs --mode iso");
     }

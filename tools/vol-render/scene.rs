@@ -54,6 +54,9 @@ pub fn apply(this: Scene, dir: &Path, cli: &mut Cli, on_command_line: impl Fn(&s
     set!(shading, "shading", |s| s);
     set!(gradient, "gradient", |g| g);
     set!(background, "background", v3);
+    if this.background.is_some() {
+        cli.background_given = true;
+    }
     set!(alpha, "alpha", |b| b);
     set!(hdr, "hdr", |p| Some(path(p)));
     set!(heatmap, "heatmap", |p| Some(path(p)));
@@ -63,6 +66,19 @@ pub fn apply(this: Scene, dir: &Path, cli: &mut Cli, on_command_line: impl Fn(&s
     set!(ao, "ao", Some);
     set!(ao_field, "ao_field", Some);
     set!(ao_field_cell, "ao_field_cell", Some);
+    set!(spp, "spp", Some);
+    set!(time, "time", Some);
+    set!(until_error, "until_error", Some);
+    set!(bounces, "bounces", |b| b);
+    set!(g, "g", |g| g);
+    set!(density_scale, "density_scale", Some);
+    set!(albedo, "albedo", |a: Colour| Some(a.rgb()));
+    set!(sun, "sun", |v| v);
+    set!(env, "env", |c: Colour| Some(c.rgb()));
+    set!(majorant, "majorant", |m| m);
+    set!(seed, "seed", |s| s);
+    set!(exposure, "exposure", |e| e);
+    set!(tonemap, "tonemap", |t| t);
     // The command line's transfer function wins whichever form it takes.
     if !on_command_line("tf") {
         match (this.tf, this.tf_text) {
@@ -137,6 +153,33 @@ pub fn effective(cli: &Cli, resolved: &Resolved) -> Scene {
         output: cli.output.as_deref().map(absolute),
         hdr: cli.hdr.as_deref().map(absolute),
         heatmap: cli.heatmap.as_deref().map(absolute),
+        ..path_keys(cli, resolved)
+    }
+}
+
+/// The path tracer's keys, in path mode only.
+fn path_keys(cli: &Cli, resolved: &Resolved) -> Scene {
+    if cli.mode != volkit_cli::scene::ModeArg::Path {
+        return Scene::default();
+    }
+    let rgb = |v: Vec3| Colour::Rgb(v.to_array());
+    Scene {
+        spp: resolved.spp,
+        time: cli.time,
+        until_error: cli.until_error,
+        bounces: Some(cli.bounces),
+        g: Some(cli.g),
+        density_scale: cli.density_scale,
+        albedo: cli
+            .density_scale
+            .map(|_| rgb(cli.albedo.unwrap_or(Vec3::splat(0.8)))),
+        sun: Some(cli.sun.clone()),
+        env: resolved.env.map(rgb),
+        majorant: Some(cli.majorant.clone()),
+        seed: Some(cli.seed),
+        exposure: Some(cli.exposure),
+        tonemap: Some(cli.tonemap),
+        ..Scene::default()
     }
 }
 
@@ -154,4 +197,8 @@ pub struct Resolved {
     pub ambient: Vec3,
     /// The lights.
     pub lights: Vec<Light>,
+    /// Path tracing: samples per pixel asked for (the default filled in).
+    pub spp: Option<u64>,
+    /// Path tracing: the environment radiance (the default filled in).
+    pub env: Option<Vec3>,
 }

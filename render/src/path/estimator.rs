@@ -1,0 +1,234 @@
+//! The radiance one camera sample carries: a volumetric path traced from
+//! the eye with delta tracking, next-event estimation toward every sun and
+//! point light at each real scattering event (transmittance by ratio
+//! tracking), continuation by sampling the phase function, and the
+//! environment where a path leaves the volume.
+//!
+//! Bounces count scattering events: with `bounces = D` a path scatters at
+//! most D times; after the D-th event only the environment can still be
+//! reached (the continuation ray is traced for it, and stops at its first
+//! real collision). Russian roulette on the throughput starts after
+//! [`ROULETTE_DEPTH`] events. A medium with albedo 0 everywhere never
+//! scatters: its pixels are the background's radiance times the camera
+//! ray's transmittance, by ratio tracking, and no scattering code runs.
+
+use super::medium::Medium;
+use super::phase::HenyeyGreenstein;
+use super::tracking::{Flight, Tracker};
+use super::{PathCounters, PathLights};
+use crate::accel::VoxelRay;
+use crate::camera::Camera;
+use crate::ray::{intersect_box, Ray};
+use crate::sampler::{HashSampler, PixelSampler};
+use glam::Vec3;
+use volcore::Cursor;
+
+/// Scattering events after which Russian roulette on the throughput
+/// starts.
+pub const ROULETTE_DEPTH: u32 = 3;
+
+/// Point lights closer than this (world units, squared) light as if
+/// they were this far.
+const MIN_DISTANCE2: f32 = 1e-12;
+
+/// Everything a sample needs that is fixed for the frame.
+pub struct Estimator<'a, M: Medium> {
+    /// Tracking over the majorant grid.
+    pub tracker: Tracker<'a, M>,
+    /// The camera.
+    pub camera: &'a Camera,
+    /// `1 / spacing` per axis (world to voxel coordinates).
+    pub inv_spacing: Vec3,
+    /// The volume's world box `[0, extent]`.
+    pub extent: Vec3,
+    /// The phase function.
+    pub phase: HenyeyGreenstein,
+    /// The lights.
+    pub lights: &'a PathLights,
+    /// Radiance a camera ray sees where it leaves the volume unscattered
+    /// (the environment, or the background when one is given).
+    pub seen: Vec3,
+    /// Scattering events allowed.
+    pub bounces: u32,
+    /// Whether the medium can scatter at all.
+    pub scatters: bool,
+    /// The frame's random numbers.
+    pub sampler: HashSampler,
+}
+
+/// A world ray's stretch inside the box, and its voxel-space twin.
+struct Inside {
+    ray: VoxelRay,
+    t0: f32,
+    t1: f32,
+}
+
+impl<M: Medium> Estimator<'_, M> {
+    #[inline(always)]
+    fn inside(&self, ray: &Ray, t_max: f32) -> Option<Inside> {
+        let (t0, t1) = intersect_box(ray, Vec3::ZERO, self.extent)?;
+        let t1 = t1.min(t_max);
+        (t0 <= t1).then(|| Inside {
+            ray: VoxelRay::new(ray.origin * self.inv_spacing, ray.dir * self.inv_spacing),
+            t0,
+            t1,
+        })
+    }
+
+    /// The transmittance from `p` along unit `dir` up to `t_max`.
+    #[inline(always)]
+    fn transmittance<C: Cursor>(
+        &self,
+        cur: &mut C,
+        p: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+    ) -> f32 {
+        n.shadow_rays += 1;
+        match self.inside(&Ray { origin: p, dir }, t_max) {
+            Some(s) => self.tracker.transmittance(cur, &s.ray, s.t0, s.t1, rng, n),
+            None => 1.0,
+        }
+    }
+
+    /// Light from the suns and point lights scattered at `p` toward the
+    /// eye of a ray travelling along `d`, per unit throughput.
+    #[inline]
+    fn direct<C: Cursor>(
+        &self,
+        cur: &mut C,
+        p: Vec3,
+        d: Vec3,
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+    ) -> Vec3 {
+        let mut l = Vec3::ZERO;
+        for sun in &self.lights.suns {
+            let tr = self.transmittance(cur, p, -sun.travel, f32::INFINITY, rng, n);
+            if tr > 0.0 {
+                l += sun.irradiance * (tr * self.phase.eval(sun.travel.dot(-d)));
+            }
+        }
+        for pl in &self.lights.points {
+            let to = pl.position - p;
+            let d2 = to.length_squared().max(MIN_DISTANCE2);
+            let dist = d2.sqrt();
+            let Some(wi) = crate::ray::unit(to) else {
+                continue;
+            };
+            let tr = self.transmittance(cur, p, wi, dist, rng, n);
+            if tr > 0.0 {
+                l += pl.intensity * (tr * self.phase.eval(wi.dot(d)) / d2);
+            }
+        }
+        l
+    }
+
+    /// The radiance of sample `index` of pixel `(x, y)` (finite: a
+    /// non-finite estimate is counted and dropped).
+    pub fn radiance<C: Cursor>(
+        &self,
+        cur: &mut C,
+        x: u32,
+        y: u32,
+        index: u64,
+        n: &mut PathCounters,
+    ) -> Vec3 {
+        let mut rng = self.sampler.pixel(x, y, index);
+        let (jx, jy) = rng.next_2d();
+        let ray = self.camera.ray_at(x as f32 + jx, y as f32 + jy);
+        n.paths += 1;
+        let l = if self.scatters {
+            self.path(cur, ray, &mut rng, n)
+        } else {
+            self.absorbing(cur, ray, &mut rng, n)
+        };
+        if l.is_finite() {
+            l
+        } else {
+            n.non_finite += 1;
+            Vec3::ZERO
+        }
+    }
+
+    /// A medium that only absorbs: the background through the camera
+    /// ray's transmittance.
+    fn absorbing<C: Cursor>(
+        &self,
+        cur: &mut C,
+        ray: Ray,
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+    ) -> Vec3 {
+        if self.seen == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        match self.inside(&ray, f32::INFINITY) {
+            Some(s) => self.seen * self.tracker.transmittance(cur, &s.ray, s.t0, s.t1, rng, n),
+            None => self.seen,
+        }
+    }
+
+    /// A scattering path.
+    fn path<C: Cursor>(
+        &self,
+        cur: &mut C,
+        mut ray: Ray,
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+    ) -> Vec3 {
+        let env = self.lights.env;
+        let mut beta = Vec3::ONE;
+        let mut l = Vec3::ZERO;
+        let mut depth = 0u32;
+        loop {
+            // Where the path leaves the volume it meets the environment
+            // (the camera ray sees the background instead, when given).
+            let escape = if depth == 0 { self.seen } else { env };
+            let Some(s) = self.inside(&ray, f32::INFINITY) else {
+                l += beta * escape;
+                break;
+            };
+            let (t, value) = match self.tracker.free_flight(cur, &s.ray, s.t0, s.t1, rng, n) {
+                Flight::Escaped => {
+                    l += beta * escape;
+                    break;
+                }
+                Flight::Truncated => break,
+                Flight::Collision { t, value } => (t, value),
+            };
+            if depth == self.bounces {
+                // The continuation after the last event: it reached no
+                // light.
+                break;
+            }
+            depth += 1;
+            n.scatter_events += 1;
+            beta *= self.tracker.medium.albedo(value);
+            if beta.max_element() <= 0.0 {
+                break;
+            }
+            let p = ray.origin + ray.dir * t;
+            l += beta * self.direct(cur, p, ray.dir, rng, n);
+            if depth == self.bounces && env == Vec3::ZERO {
+                break;
+            }
+            if depth > ROULETTE_DEPTH {
+                let q = beta.max_element().min(1.0);
+                if rng.next_1d() >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            let (u, v) = rng.next_2d();
+            ray = Ray {
+                origin: p,
+                dir: self.phase.sample(ray.dir, u, v),
+            };
+            n.bounce_rays += 1;
+        }
+        l
+    }
+}

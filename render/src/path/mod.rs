@@ -1,0 +1,444 @@
+//! Monte Carlo volumetric path tracing over the index's majorant grid.
+//!
+//! The pieces, each in its module: the [`medium`] (extinction and albedo
+//! from a density mapping or a transfer function, and its majorants per
+//! macrocell), [`tracking`] (delta tracking for free flights, ratio
+//! tracking for transmittance, both over the DDA segments of the majorant
+//! grid), the Henyey-Greenstein [`phase`] function, the per-sample
+//! [`estimator`] (next-event estimation toward suns and point lights,
+//! environment light where paths escape, Russian roulette), and the
+//! progressive [`accum`]ulator (per-pixel f64 sums, resumable from a
+//! state file).
+//!
+//! Every random number is a hash of (seed, pixel, sample index,
+//! dimension) ([`crate::sampler`]) and every pixel adds its samples in
+//! sample order, so an image is the same bit for bit for any thread
+//! count, and a render continued from its state equals one run.
+//!
+//! Only what the scene asks for runs: no light of a kind, no code for it
+//! (no shadow rays without suns or point lights); a medium that cannot
+//! scatter runs no scattering code; one bounce runs no multiple-scattering
+//! code. The counters ([`PathCounters`]) show it.
+
+pub mod accum;
+pub mod estimator;
+pub mod medium;
+pub mod phase;
+pub mod tracking;
+
+pub use accum::Accumulator;
+pub use medium::{DensityMedium, Medium, TableMedium};
+pub use tracking::MajorantMode;
+
+use crate::accel::majorant::MajorantGrid;
+use crate::camera::Camera;
+use crate::error::RenderError;
+use crate::tf::TransferFunction;
+use estimator::Estimator;
+use glam::Vec3;
+use phase::HenyeyGreenstein;
+use rayon::prelude::*;
+use std::time::Instant;
+use tracking::Tracker;
+use volcore::{Volume, VolumeVisitor, VoxelSource};
+use volindex::MajorantIndex;
+
+/// A directional light: parallel rays travelling along `travel`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sun {
+    /// Unit direction the light travels.
+    pub travel: Vec3,
+    /// Irradiance on a surface facing it, linear RGB.
+    pub irradiance: Vec3,
+}
+
+/// A point light with inverse-square falloff.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointLight {
+    /// Position, world units.
+    pub position: Vec3,
+    /// Intensity (radiance at unit distance), linear RGB.
+    pub intensity: Vec3,
+}
+
+/// The lights of a path-traced scene.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PathLights {
+    /// Directional lights.
+    pub suns: Vec<Sun>,
+    /// Point lights.
+    pub points: Vec<PointLight>,
+    /// Constant environment radiance, linear RGB (zero: none).
+    pub env: Vec3,
+}
+
+/// What the medium is made of.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MediumSpec {
+    /// `σt = scale × normalised value`, constant albedo.
+    Density {
+        /// Extinction per world unit at normalised value 1.
+        scale: f32,
+        /// Albedo, linear RGB in `[0, 1]`.
+        albedo: Vec3,
+    },
+    /// From a 1D transfer function (opacity per unit length and colour).
+    Table(TransferFunction),
+}
+
+/// How to path-trace a frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathSettings {
+    /// The medium.
+    pub medium: MediumSpec,
+    /// Scattering events allowed per path (>= 1).
+    pub bounces: u32,
+    /// Henyey-Greenstein asymmetry.
+    pub g: f32,
+    /// Majorant grid or one global majorant.
+    pub majorant: MajorantMode,
+    /// The lights.
+    pub lights: PathLights,
+    /// Radiance seen directly where camera rays leave the volume without
+    /// scattering (`None`: the environment).
+    pub background: Option<Vec3>,
+    /// Seed of the hashed sampler.
+    pub seed: u64,
+}
+
+/// Most scattering events a path may be allowed.
+pub const MAX_BOUNCES: u32 = 1 << 16;
+
+/// What a path-traced frame did, summed over its samples (order
+/// independent: every count is a sum of per-sample counts).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PathCounters {
+    /// Camera samples traced.
+    pub paths: u64,
+    /// Real collisions (scattering or absorbing events found).
+    pub real_collisions: u64,
+    /// Null collisions (tentative collisions rejected).
+    pub null_collisions: u64,
+    /// Macrocells (with a majorant above 0) a tracking call walked.
+    pub majorant_cells: u64,
+    /// Macrocells crossed without a sample (majorant 0).
+    pub empty_cells: u64,
+    /// Extinction lookups (trilinear samples).
+    pub density_lookups: u64,
+    /// Transmittance rays toward lights (and camera rays of an absorbing
+    /// medium).
+    pub shadow_rays: u64,
+    /// Scattering events.
+    pub scatter_events: u64,
+    /// Continuation rays after a scattering event.
+    pub bounce_rays: u64,
+    /// Tracking calls cut at [`tracking::MAX_COLLISIONS`].
+    pub truncated: u64,
+    /// Samples whose estimate was not finite (dropped).
+    pub non_finite: u64,
+}
+
+impl std::ops::AddAssign for PathCounters {
+    fn add_assign(&mut self, o: PathCounters) {
+        self.paths += o.paths;
+        self.real_collisions += o.real_collisions;
+        self.null_collisions += o.null_collisions;
+        self.majorant_cells += o.majorant_cells;
+        self.empty_cells += o.empty_cells;
+        self.density_lookups += o.density_lookups;
+        self.shadow_rays += o.shadow_rays;
+        self.scatter_events += o.scatter_events;
+        self.bounce_rays += o.bounce_rays;
+        self.truncated += o.truncated;
+        self.non_finite += o.non_finite;
+    }
+}
+
+/// When a progressive render stops (whichever comes first; at least one
+/// must be given).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Budget {
+    /// Samples per pixel to add.
+    pub spp: Option<u64>,
+    /// Seconds of rendering (whole passes: the last may run over).
+    pub seconds: Option<f64>,
+    /// Stop once the relative standard error falls below this.
+    pub until_error: Option<f64>,
+}
+
+/// Samples per pixel a render adds at most when only `until_error`
+/// bounds it.
+pub const MAX_SPP: u64 = 1 << 16;
+
+/// The medium resolved for the volume.
+enum AnyMedium {
+    Density(DensityMedium),
+    Table(TableMedium),
+}
+
+/// A path tracer set up for one volume, camera and scene: the medium and
+/// its majorant grid are built once and serve every pass.
+pub struct PathTracer<'a> {
+    vol: &'a Volume,
+    index: &'a MajorantIndex,
+    camera: &'a Camera,
+    settings: &'a PathSettings,
+    medium: AnyMedium,
+    grid: MajorantGrid,
+    scatters: bool,
+}
+
+/// The majorant grid's level: the index's finest.
+const GRID_LEVEL: usize = 0;
+
+impl<'a> PathTracer<'a> {
+    /// Resolve the medium and build its majorant grid.
+    pub fn new(
+        vol: &'a Volume,
+        index: &'a MajorantIndex,
+        camera: &'a Camera,
+        settings: &'a PathSettings,
+    ) -> Result<PathTracer<'a>, RenderError> {
+        index
+            .check_volume(vol.dims(), vol.meta.sample_type)
+            .map_err(|e| RenderError::Index(e.to_string()))?;
+        if !(1..=MAX_BOUNCES).contains(&settings.bounces) {
+            return Err(RenderError::Setting(format!(
+                "bounces {} must be 1..={MAX_BOUNCES}",
+                settings.bounces
+            )));
+        }
+        if !settings.g.is_finite() || settings.g.abs() > 1.0 {
+            return Err(RenderError::Setting(format!(
+                "g {} must be in [-1, 1]",
+                settings.g
+            )));
+        }
+        let l = &settings.lights;
+        let radiance_ok = |c: Vec3| c.is_finite() && c.min_element() >= 0.0;
+        if !radiance_ok(l.env)
+            || !settings.background.is_none_or(radiance_ok)
+            || l.suns
+                .iter()
+                .any(|s| !radiance_ok(s.irradiance) || !s.travel.is_finite())
+            || l.points
+                .iter()
+                .any(|p| !radiance_ok(p.intensity) || !p.position.is_finite())
+        {
+            return Err(RenderError::Setting(
+                "light and background radiances must be finite and not negative".into(),
+            ));
+        }
+        if crate::frame::world_diagonal(vol).is_none() {
+            return Err(RenderError::Setting(
+                "the volume's extent is too large for f32 world coordinates".into(),
+            ));
+        }
+        let medium = match &settings.medium {
+            MediumSpec::Density { scale, albedo } => {
+                AnyMedium::Density(DensityMedium::new(*scale, vol.meta.sample_type, *albedo)?)
+            }
+            MediumSpec::Table(tf) => {
+                let range = if vol.meta.range.is_empty() {
+                    (0.0, 0.0)
+                } else {
+                    (vol.meta.range.min as f32, vol.meta.range.max as f32)
+                };
+                let (lo, hi) = tf.domain.unwrap_or(range);
+                AnyMedium::Table(TableMedium::new(tf, lo, hi))
+            }
+        };
+        let (grid, max_albedo) = match &medium {
+            AnyMedium::Density(m) => (m.majorants(index, GRID_LEVEL)?, m.max_albedo()),
+            AnyMedium::Table(m) => (m.majorants(index, GRID_LEVEL)?, m.max_albedo()),
+        };
+        Ok(PathTracer {
+            vol,
+            index,
+            camera,
+            settings,
+            medium,
+            grid,
+            scatters: max_albedo > 0.0,
+        })
+    }
+
+    /// The fraction of majorant-grid cells that are empty (majorant 0).
+    pub fn empty_fraction(&self) -> f64 {
+        self.grid.empty_fraction()
+    }
+
+    /// Whether the medium scatters (an albedo above 0 somewhere).
+    pub fn scatters(&self) -> bool {
+        self.scatters
+    }
+
+    /// A key naming everything the samples depend on (the volume's shape,
+    /// type and range, `volume_id` for its contents, the camera and the
+    /// settings), for state files: a state saved under another key is
+    /// refused.
+    pub fn key(&self, volume_id: u64) -> u64 {
+        let m = &self.vol.meta;
+        let text = format!(
+            "{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{volume_id}",
+            m.dims, m.sample_type, m.spacing, m.range, self.camera, self.settings
+        );
+        // FNV-1a, then a SplitMix finaliser.
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        for b in text.bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+        h ^= h >> 31;
+        h = h.wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        h ^ (h >> 29)
+    }
+
+    /// Add `spp` samples to every pixel of `acc` (one pass, all threads).
+    pub fn pass(&self, acc: &mut Accumulator, spp: u64) -> Result<PathCounters, RenderError> {
+        if (acc.width(), acc.height()) != (self.camera.width(), self.camera.height()) {
+            return Err(RenderError::Setting(format!(
+                "the accumulated image is {}x{}, the camera's {}x{}",
+                acc.width(),
+                acc.height(),
+                self.camera.width(),
+                self.camera.height()
+            )));
+        }
+        let counters = match &self.medium {
+            AnyMedium::Density(m) => self.pass_with(m, acc, spp),
+            AnyMedium::Table(m) => self.pass_with(m, acc, spp),
+        };
+        acc.finish_pass(spp);
+        Ok(counters)
+    }
+
+    fn pass_with<M: Medium>(&self, medium: &M, acc: &mut Accumulator, spp: u64) -> PathCounters {
+        let s = self.vol.meta.spacing;
+        let d = self.vol.dims().as_array();
+        let est = Estimator {
+            tracker: Tracker {
+                medium,
+                grid: &self.grid,
+                level: self.index.level(GRID_LEVEL),
+                hi: d.map(|n| n.saturating_sub(1) as f32),
+                dims: self.vol.dims(),
+                mode: self.settings.majorant,
+            },
+            camera: self.camera,
+            inv_spacing: Vec3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2]),
+            extent: Vec3::from(self.vol.meta.world_extent()),
+            phase: HenyeyGreenstein::new(self.settings.g),
+            lights: &self.settings.lights,
+            seen: self.settings.background.unwrap_or(self.settings.lights.env),
+            bounces: self.settings.bounces,
+            scatters: self.scatters,
+            sampler: crate::sampler::HashSampler::new(self.settings.seed),
+        };
+        let width = acc.width() as usize;
+        let (rows, start) = acc.rows_mut();
+        self.vol.visit(Pass {
+            est: &est,
+            rows,
+            width,
+            start,
+            spp,
+        })
+    }
+
+    /// Render passes into `acc` until `budget` is spent, calling
+    /// `progress` after each pass.
+    pub fn render(
+        &self,
+        acc: &mut Accumulator,
+        budget: &Budget,
+        mut progress: impl FnMut(&Accumulator, &PathCounters),
+    ) -> Result<PathCounters, RenderError> {
+        if budget.spp.is_none() && budget.seconds.is_none() && budget.until_error.is_none() {
+            return Err(RenderError::Setting(
+                "give a sample count, a time budget or an error target".into(),
+            ));
+        }
+        let cap = budget.spp.unwrap_or(if budget.seconds.is_some() {
+            u64::MAX
+        } else {
+            MAX_SPP
+        });
+        let t = Instant::now();
+        let mut total = PathCounters::default();
+        let mut done = 0u64;
+        while done < cap {
+            let remaining = cap - done;
+            // Passes of a sixteenth of a fixed count; when time or error
+            // decide, passes that double from one sample, to a pass of at
+            // most a quarter of the time left.
+            let batch = if budget.seconds.is_none() && budget.until_error.is_none() {
+                remaining.min(cap.div_ceil(16).max(1))
+            } else {
+                let mut b = done.clamp(1, 64);
+                if let Some(limit) = budget.seconds {
+                    let per = t.elapsed().as_secs_f64() / done.max(1) as f64;
+                    let left = limit - t.elapsed().as_secs_f64();
+                    if done > 0 && per > 0.0 {
+                        b = b.min(((left * 0.25 / per) as u64).max(1));
+                    }
+                }
+                b.min(remaining)
+            };
+            total += self.pass(acc, batch)?;
+            done += batch;
+            progress(acc, &total);
+            if budget
+                .seconds
+                .is_some_and(|s| t.elapsed().as_secs_f64() >= s)
+            {
+                break;
+            }
+            if let Some(e) = budget.until_error {
+                if acc.relative_error().is_some_and(|r| r <= e) {
+                    break;
+                }
+            }
+        }
+        Ok(total)
+    }
+}
+
+/// One pass over every row, generic over the volume's source.
+struct Pass<'e, 'r, M: Medium> {
+    est: &'e Estimator<'e, M>,
+    rows: &'r mut [[f64; 4]],
+    width: usize,
+    start: u64,
+    spp: u64,
+}
+
+impl<M: Medium> VolumeVisitor for Pass<'_, '_, M> {
+    type Output = PathCounters;
+
+    fn visit<S: VoxelSource>(self, src: &S) -> PathCounters {
+        let (est, start, spp) = (self.est, self.start, self.spp);
+        self.rows
+            .par_chunks_mut(self.width.max(1))
+            .enumerate()
+            .map(|(y, row)| {
+                let mut cur = src.cursor();
+                let mut n = PathCounters::default();
+                for (x, px) in row.iter_mut().enumerate() {
+                    for i in start..start + spp {
+                        let l = est.radiance(&mut cur, x as u32, y as u32, i, &mut n);
+                        let (r, g, b) = (l.x as f64, l.y as f64, l.z as f64);
+                        let lum = accum::luminance(r, g, b);
+                        px[0] += r;
+                        px[1] += g;
+                        px[2] += b;
+                        px[3] += lum * lum;
+                    }
+                }
+                n
+            })
+            .reduce(PathCounters::default, |mut a, b| {
+                a += b;
+                a
+            })
+    }
+}

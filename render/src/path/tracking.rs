@@ -1,0 +1,227 @@
+//! Free-flight sampling (delta tracking) and transmittance (ratio
+//! tracking) over the majorant grid: the ray's stretch inside the volume
+//! is cut into the macrocells it crosses ([`crate::accel::dda`]), and each
+//! cell is tracked with its own majorant. A cell whose majorant is 0 is
+//! crossed without a single sample; crossing a cell boundary restarts the
+//! exponential step there (it is memoryless), so every cell's collisions
+//! follow its own majorant exactly. With [`MajorantMode::Global`] the
+//! whole stretch is one segment under the volume's largest majorant.
+//!
+//! Distances along the ray are f64 (a tiny step never stalls against a
+//! large `t`); every loop is bounded by [`MAX_COLLISIONS`].
+
+use super::medium::Medium;
+use super::PathCounters;
+use crate::accel::dda::segments;
+use crate::accel::majorant::MajorantGrid;
+use crate::accel::VoxelRay;
+use crate::sampler::PixelSampler;
+use volcore::Cursor;
+use volindex::Level;
+
+/// The most tentative collisions one tracking call takes. Past it the
+/// ray counts as absorbed (free flight) or opaque (transmittance) and the
+/// frame's `truncated` counter says so; no scene this renderer is meant
+/// for comes near it (it takes a majorant of 1e6 per unit across 100
+/// units of empty space).
+pub const MAX_COLLISIONS: u32 = 100_000_000;
+
+/// Ratio tracking plays Russian roulette once the transmittance estimate
+/// falls below this, killing the ray with probability
+/// [`ROULETTE_KILL`] and dividing survivors' estimate by the rest (the
+/// estimate stays unbiased).
+pub const ROULETTE_BELOW: f32 = 0.05;
+/// See [`ROULETTE_BELOW`].
+pub const ROULETTE_KILL: f32 = 0.75;
+
+/// How tracking bounds extinction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MajorantMode {
+    /// One majorant per macrocell of the index's finest level.
+    Grid,
+    /// The largest majorant for the whole volume (what the grid buys is
+    /// the difference).
+    Global,
+}
+
+/// The grid and the volume box tracking runs over.
+pub struct Tracker<'a, M: Medium> {
+    /// The medium.
+    pub medium: &'a M,
+    /// The majorant grid (its level is `level`).
+    pub grid: &'a MajorantGrid,
+    /// The index level the grid is for.
+    pub level: &'a Level,
+    /// The volume's voxel box, `dims − 1` per axis.
+    pub hi: [f32; 3],
+    /// The volume's dimensions.
+    pub dims: volcore::Dims,
+    /// Grid or global.
+    pub mode: MajorantMode,
+}
+
+/// Where a free flight ended.
+pub enum Flight {
+    /// A real collision at ray parameter `t`, in a sample of value `value`.
+    Collision {
+        /// Ray parameter of the collision.
+        t: f32,
+        /// The sample's value (for the albedo).
+        value: f32,
+    },
+    /// The ray left the volume.
+    Escaped,
+    /// The collision budget ran out: the path ends without light.
+    Truncated,
+}
+
+impl<M: Medium> Tracker<'_, M> {
+    /// Walk the segments of `ray` over `[t0, t1]`, calling `visit(m, a, b)`
+    /// for each stretch `[a, b]` with a nonzero majorant `m`, until it
+    /// returns `Some`.
+    #[inline(always)]
+    fn walk<R>(
+        &self,
+        ray: &VoxelRay,
+        t0: f32,
+        t1: f32,
+        n: &mut PathCounters,
+        mut visit: impl FnMut(f32, f64, f64, &mut PathCounters) -> Option<R>,
+    ) -> Option<R> {
+        match self.mode {
+            MajorantMode::Global => {
+                let m = self.grid.global();
+                if m > 0.0 && t0 <= t1 {
+                    n.majorant_cells += 1;
+                    return visit(m, t0 as f64, t1 as f64, n);
+                }
+                None
+            }
+            MajorantMode::Grid => {
+                for seg in segments(self.level, self.hi, ray, t0, t1) {
+                    let m = self.grid.get(seg.index);
+                    if m <= 0.0 {
+                        n.empty_cells += 1;
+                        continue;
+                    }
+                    n.majorant_cells += 1;
+                    if let Some(r) = visit(m, seg.t0 as f64, seg.t1 as f64, n) {
+                        return Some(r);
+                    }
+                }
+                None
+            }
+        }
+    }
+
+    /// The extinction at ray parameter `t`, with the sample's value.
+    ///
+    /// Debug builds check that the majorant bounds it (as pbrt does): the
+    /// segment's, or, for a point that rounding put a hair across the
+    /// segment's face, the cell the sampler reads it from. Such a point
+    /// can exceed the segment's majorant by a rounding-sized amount; the
+    /// trackers clamp the ratio to 1.
+    #[inline(always)]
+    fn sigma_at<C: Cursor>(&self, cur: &mut C, ray: &VoxelRay, t: f64, m: f32) -> (f32, f32) {
+        let p = ray.at(t as f32);
+        let v = cur.trilinear(p.to_array());
+        let s = self.medium.sigma_t(v);
+        #[cfg(debug_assertions)]
+        {
+            let c = self.level.cell_of(p.to_array(), self.dims);
+            let own = self.grid.get(self.level.index(c[0], c[1], c[2]));
+            debug_assert!(
+                s <= m.max(own) * (1.0 + 1e-5) + 1e-30,
+                "extinction {s} above the majorants {m} and {own} at {p}"
+            );
+        }
+        (s, v)
+    }
+
+    /// Delta tracking along `ray` over `[t0, t1]`: the first real
+    /// collision, or escape.
+    pub fn free_flight<C: Cursor>(
+        &self,
+        cur: &mut C,
+        ray: &VoxelRay,
+        t0: f32,
+        t1: f32,
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+    ) -> Flight {
+        let mut budget = MAX_COLLISIONS;
+        let hit = self.walk(ray, t0, t1, n, |m, a, b, n| {
+            let inv_m = 1.0 / m as f64;
+            let mut t = a;
+            loop {
+                let u = rng.next_1d();
+                t += -(-(u as f64)).ln_1p() * inv_m;
+                if t >= b {
+                    return None;
+                }
+                if budget == 0 {
+                    n.truncated += 1;
+                    return Some(Flight::Truncated);
+                }
+                budget -= 1;
+                n.density_lookups += 1;
+                let (s, v) = self.sigma_at(cur, ray, t, m);
+                if rng.next_1d() * m < s {
+                    n.real_collisions += 1;
+                    return Some(Flight::Collision {
+                        t: t as f32,
+                        value: v,
+                    });
+                }
+                n.null_collisions += 1;
+            }
+        });
+        hit.unwrap_or(Flight::Escaped)
+    }
+
+    /// Ratio tracking along `ray` over `[t0, t1]`: an unbiased estimate of
+    /// the transmittance, in `[0, 1 / (1 − ROULETTE_KILL)]`, with Russian
+    /// roulette below [`ROULETTE_BELOW`].
+    pub fn transmittance<C: Cursor>(
+        &self,
+        cur: &mut C,
+        ray: &VoxelRay,
+        t0: f32,
+        t1: f32,
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+    ) -> f32 {
+        let mut tr = 1.0f32;
+        let mut budget = MAX_COLLISIONS;
+        let stop = self.walk(ray, t0, t1, n, |m, a, b, n| {
+            let inv_m = 1.0 / m as f64;
+            let mut t = a;
+            loop {
+                let u = rng.next_1d();
+                t += -(-(u as f64)).ln_1p() * inv_m;
+                if t >= b {
+                    return None;
+                }
+                if budget == 0 {
+                    n.truncated += 1;
+                    return Some(());
+                }
+                budget -= 1;
+                n.density_lookups += 1;
+                let (s, _) = self.sigma_at(cur, ray, t, m);
+                tr *= (1.0 - s / m).max(0.0);
+                if tr < ROULETTE_BELOW {
+                    if tr <= 0.0 || rng.next_1d() < ROULETTE_KILL {
+                        return Some(());
+                    }
+                    tr /= 1.0 - ROULETTE_KILL;
+                }
+            }
+        });
+        if stop.is_some() {
+            0.0
+        } else {
+            tr
+        }
+    }
+}

@@ -1,0 +1,355 @@
+//! The path tracer against closed forms, and its hard cases: a white
+//! furnace, pure absorption in a homogeneous box, empty and extreme media,
+//! NaN voxels, extreme anisotropy, a camera inside the volume; bit
+//! identity across thread counts and resumed renders; the majorant grid
+//! against one global majorant.
+
+use glam::Vec3;
+use volcore::region::pack_sliced;
+use volcore::scene::{SceneSource, ShapesScene};
+use volcore::{Dims, Volume};
+use volindex::{BuildOptions, MajorantIndex};
+use volrender::path::{
+    Accumulator, Budget, MajorantMode, MediumSpec, PathCounters, PathLights, PathSettings,
+    PathTracer, Sun,
+};
+use volrender::{Camera, Projection};
+
+fn index(v: &Volume) -> MajorantIndex {
+    MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
+}
+
+fn settings(scale: f32, albedo: f32, lights: PathLights) -> PathSettings {
+    PathSettings {
+        medium: MediumSpec::Density {
+            scale,
+            albedo: Vec3::splat(albedo),
+        },
+        bounces: 8,
+        g: 0.0,
+        majorant: MajorantMode::Grid,
+        lights,
+        background: None,
+        seed: 1,
+    }
+}
+
+fn env(l: f32) -> PathLights {
+    PathLights {
+        env: Vec3::splat(l),
+        ..Default::default()
+    }
+}
+
+fn sun_and_env() -> PathLights {
+    PathLights {
+        suns: vec![Sun {
+            travel: Vec3::new(-1.0, -1.2, 0.4).normalize(),
+            irradiance: Vec3::splat(4.0),
+        }],
+        points: vec![],
+        env: Vec3::splat(0.1),
+    }
+}
+
+/// `spp` samples per pixel in one pass.
+fn render(
+    v: &Volume,
+    ix: &MajorantIndex,
+    cam: &Camera,
+    s: &PathSettings,
+    spp: u64,
+) -> (Accumulator, PathCounters) {
+    let pt = PathTracer::new(v, ix, cam, s).unwrap();
+    let mut acc = Accumulator::new(cam.width(), cam.height(), pt.key(0));
+    let n = pt.pass(&mut acc, spp).unwrap();
+    (acc, n)
+}
+
+/// The image mean and its standard error (pixels independent).
+fn image_mean(acc: &Accumulator) -> (f64, f64) {
+    let rgb = acc.mean_rgb();
+    let n = (rgb.len() / 3) as f64;
+    let mean = rgb
+        .chunks(3)
+        .map(|c| volrender::path::accum::luminance(c[0] as f64, c[1] as f64, c[2] as f64))
+        .sum::<f64>()
+        / n;
+    let se2: f64 = acc
+        .standard_errors()
+        .iter()
+        .map(|&e| (e as f64).powi(2))
+        .sum();
+    (mean, se2.sqrt() / n)
+}
+
+fn constant(dims: Dims, value: u8) -> Volume {
+    Volume::from_samples(dims, vec![value; dims.count() as usize]).unwrap()
+}
+
+fn shapes(d: u64) -> Volume {
+    let dims = Dims::new(d, d, d).unwrap();
+    let scene = ShapesScene::new(dims, 3, 10, d / 4, 200.0);
+    Volume::from_samples(dims, pack_sliced(&SceneSource::<u8>::new(&scene))).unwrap()
+}
+
+fn outside(d: f32, w: u32) -> Camera {
+    Camera::look_at(
+        Vec3::new(2.2 * d, 1.6 * d, 2.6 * d),
+        Vec3::splat(d * 0.5),
+        Vec3::Y,
+        Projection::Perspective(40.0),
+        w,
+        w,
+    )
+    .unwrap()
+}
+
+/// Albedo 1 under a constant environment of 1: every path carries
+/// exactly the environment back, whatever the density and the phase.
+#[test]
+fn white_furnace_returns_the_environment() {
+    let v = shapes(40);
+    let ix = index(&v);
+    let cam = outside(40.0, 24);
+    for g in [0.0, 0.8, -0.999, 0.999] {
+        let mut s = settings(2.0, 1.0, env(1.0));
+        s.g = g;
+        s.bounces = 10_000;
+        let (acc, n) = render(&v, &ix, &cam, &s, 8);
+        assert!(n.scatter_events > 1000, "g {g}: {n:?}");
+        for c in acc.mean_rgb() {
+            assert!((c - 1.0).abs() < 1e-6, "g {g}: pixel {c}");
+        }
+        assert_eq!(n.non_finite + n.truncated, 0);
+    }
+}
+
+/// Albedo 0 in a homogeneous box seen along an axis by an orthographic
+/// camera: every ray crosses the same length L, every pixel's expectation
+/// is exp(−σL). Ratio tracking, with the grid and the global majorant.
+#[test]
+fn absorption_matches_beer_lambert() {
+    let dims = Dims::new(24, 20, 32).unwrap();
+    let v = constant(dims, 255);
+    let ix = index(&v);
+    let cam = Camera::look_at(
+        Vec3::new(11.5, 9.5, 100.0),
+        Vec3::new(11.5, 9.5, 0.0),
+        Vec3::Y,
+        Projection::Orthographic(15.0),
+        16,
+        16,
+    )
+    .unwrap();
+    let expect = (-0.05f64 * 31.0).exp();
+    for mode in [MajorantMode::Grid, MajorantMode::Global] {
+        let mut s = settings(0.05, 0.0, env(1.0));
+        s.majorant = mode;
+        let (acc, n) = render(&v, &ix, &cam, &s, 64);
+        let (mean, se) = image_mean(&acc);
+        assert!(
+            (mean - expect).abs() < 4.0 * se + 1e-9,
+            "{mode:?}: {mean} vs {expect} (se {se})"
+        );
+        assert!(se < 0.02 * expect, "{mode:?}: se {se}");
+        // No scattering code ran.
+        assert_eq!((n.scatter_events, n.bounce_rays), (0, 0), "{n:?}");
+    }
+}
+
+/// Nothing to scatter or absorb: every pixel is the background exactly,
+/// no density is looked up and no shadow ray cast.
+#[test]
+fn an_empty_medium_shows_the_background_exactly() {
+    let v = constant(Dims::new(20, 20, 20).unwrap(), 0);
+    let ix = index(&v);
+    let cam = outside(20.0, 12);
+    let (acc, n) = render(&v, &ix, &cam, &settings(1.0, 0.8, sun_and_env()), 4);
+    assert!(acc.mean_rgb().iter().all(|&c| c == 0.1f32));
+    assert_eq!(
+        (n.density_lookups, n.shadow_rays, n.majorant_cells),
+        (0, 0, 0)
+    );
+    assert!(n.empty_cells > 0);
+    let mut s = settings(1.0, 0.8, sun_and_env());
+    s.background = Some(Vec3::new(0.0, 0.5, 1.0));
+    let (acc, _) = render(&v, &ix, &cam, &s, 2);
+    assert!(acc.mean_rgb().chunks(3).all(|c| c == [0.0, 0.5, 1.0]));
+}
+
+/// The same image, bit for bit, on 1, 2 and 7 threads; and 5 + 3 samples
+/// resumed through a state file equal 8 at once.
+#[test]
+fn images_are_bit_identical_across_threads_and_resumes() {
+    let v = shapes(40);
+    let ix = index(&v);
+    let cam = outside(40.0, 20);
+    let s = settings(0.5, 0.8, sun_and_env());
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| render(&v, &ix, &cam, &s, 8))
+    };
+    let (one, n1) = run(1);
+    for t in [2, 7] {
+        let (other, n) = run(t);
+        assert_eq!(other, one, "{t} threads");
+        assert_eq!(n, n1);
+    }
+    let pt = PathTracer::new(&v, &ix, &cam, &s).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let state = dir.path().join("s.state");
+    let mut a = Accumulator::new(20, 20, pt.key(0));
+    pt.render(
+        &mut a,
+        &Budget {
+            spp: Some(5),
+            ..Default::default()
+        },
+        |_, _| {},
+    )
+    .unwrap();
+    a.save(&state).unwrap();
+    let mut b = Accumulator::load(&state, 20, 20, pt.key(0)).unwrap();
+    pt.pass(&mut b, 3).unwrap();
+    assert_eq!(b, one);
+    // Another scene's key is refused.
+    let other = settings(0.6, 0.8, sun_and_env());
+    let key = PathTracer::new(&v, &ix, &cam, &other).unwrap().key(0);
+    assert_ne!(key, pt.key(0));
+    assert!(Accumulator::load(&state, 20, 20, key).is_err());
+}
+
+/// The majorant grid changes the cost, not the expectation: the image
+/// means under the grid and under one global majorant agree within their
+/// standard errors, and on a sparse volume the grid looks up far fewer
+/// densities.
+#[test]
+fn grid_and_global_majorants_agree() {
+    let v = shapes(48);
+    let ix = index(&v);
+    let cam = outside(48.0, 24);
+    let mut s = settings(2.0, 0.8, sun_and_env());
+    s.bounces = 4;
+    let (grid, ng) = render(&v, &ix, &cam, &s, 64);
+    s.majorant = MajorantMode::Global;
+    s.seed = 2;
+    let (global, nl) = render(&v, &ix, &cam, &s, 64);
+    let (mg, sg) = image_mean(&grid);
+    let (ml, sl) = image_mean(&global);
+    assert!(
+        (mg - ml).abs() < 4.0 * (sg * sg + sl * sl).sqrt(),
+        "grid {mg} ± {sg}, global {ml} ± {sl}"
+    );
+    assert!(mg > 0.01, "{mg}");
+    assert!(ng.empty_cells > 0 && nl.empty_cells == 0);
+    assert!(
+        ng.density_lookups * 2 < nl.density_lookups,
+        "{} vs {}",
+        ng.density_lookups,
+        nl.density_lookups
+    );
+}
+
+/// Hard cases stay finite and terminate: a huge extinction, a sun along
+/// the view direction, a camera inside the volume, NaN voxels.
+#[test]
+fn hard_cases_stay_finite() {
+    let v = shapes(32);
+    let ix = index(&v);
+    let cam = outside(32.0, 8);
+    // 1e6 per voxel at the top value.
+    let (acc, n) = render(&v, &ix, &cam, &settings(1e6, 0.8, sun_and_env()), 2);
+    assert!(acc.mean_rgb().iter().all(|c| c.is_finite()));
+    assert_eq!(n.non_finite, 0);
+    // The sun travelling along the view direction, and straight at it.
+    for sign in [1.0, -1.0] {
+        let mut l = sun_and_env();
+        l.suns[0].travel = cam.forward() * sign;
+        let (acc, n) = render(&v, &ix, &cam, &settings(0.5, 0.8, l), 4);
+        assert!(acc.mean_rgb().iter().all(|c| c.is_finite() && *c >= 0.0));
+        assert!(n.shadow_rays > 0);
+    }
+    // The eye inside the volume.
+    let inside = Camera::look_at(
+        Vec3::splat(16.0),
+        Vec3::new(31.0, 16.0, 16.0),
+        Vec3::Y,
+        Projection::Perspective(90.0),
+        8,
+        8,
+    )
+    .unwrap();
+    let (acc, n) = render(&v, &ix, &inside, &settings(0.5, 0.8, sun_and_env()), 4);
+    assert!(acc.mean_rgb().iter().all(|c| c.is_finite()));
+    assert!(n.real_collisions > 0);
+    // NaN voxels count as empty space.
+    let dims = Dims::new(16, 16, 16).unwrap();
+    let mut vals: Vec<f32> = (0..dims.count()).map(|i| (i % 7) as f32 * 0.1).collect();
+    for i in (0..vals.len()).step_by(5) {
+        vals[i] = f32::NAN;
+    }
+    let nan = Volume::from_samples(dims, vals).unwrap();
+    let nix = index(&nan);
+    let (acc, n) = render(
+        &nan,
+        &nix,
+        &outside(16.0, 8),
+        &settings(1.0, 0.9, sun_and_env()),
+        8,
+    );
+    assert!(acc.mean_rgb().iter().all(|c| c.is_finite()));
+    assert_eq!(n.non_finite, 0);
+}
+
+/// 100,000 samples per pixel of a constant estimate: the f64 sums keep
+/// the mean exact to 1e-9.
+#[test]
+fn long_accumulations_keep_the_mean() {
+    let v = constant(Dims::new(8, 8, 8).unwrap(), 0);
+    let ix = index(&v);
+    let cam = outside(8.0, 4);
+    let (acc, _) = render(&v, &ix, &cam, &settings(1.0, 0.5, env(0.3)), 100_000);
+    for c in acc.mean_rgb() {
+        assert!(((c as f64) / (0.3f32 as f64) - 1.0).abs() < 1e-9, "{c}");
+    }
+    assert_eq!(acc.spp(), 100_000);
+}
+
+/// A budget of time or error stops a render; none is refused.
+#[test]
+fn budgets_stop_renders() {
+    let v = shapes(24);
+    let ix = index(&v);
+    let cam = outside(24.0, 8);
+    let s = settings(0.5, 0.8, sun_and_env());
+    let pt = PathTracer::new(&v, &ix, &cam, &s).unwrap();
+    let mut acc = Accumulator::new(8, 8, pt.key(0));
+    assert!(pt.render(&mut acc, &Budget::default(), |_, _| {}).is_err());
+    let mut passes = 0;
+    pt.render(
+        &mut acc,
+        &Budget {
+            until_error: Some(0.05),
+            ..Default::default()
+        },
+        |_, _| passes += 1,
+    )
+    .unwrap();
+    assert!(acc.relative_error().unwrap() <= 0.05);
+    assert!(passes > 1 && acc.spp() > 4, "{} spp", acc.spp());
+    let before = acc.spp();
+    pt.render(
+        &mut acc,
+        &Budget {
+            seconds: Some(0.0),
+            ..Default::default()
+        },
+        |_, _| {},
+    )
+    .unwrap();
+    assert_eq!(acc.spp(), before + 1, "a zero time budget runs one pass");
+}

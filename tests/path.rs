@@ -1,0 +1,246 @@
+//! End to end: `vol-render --mode path` through files: its figures, a
+//! render continued from a state file equal to one run, refusals of a
+//! state from another scene and of options outside path mode, the scene
+//! file's path keys, and the outputs (PNG, PFM, EXR, noise map).
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+
+fn spheres(dir: &Path) -> PathBuf {
+    let p = dir.join("spheres.vvol");
+    ok(tool("vol-gen")
+        .args([
+            "spheres", "--dims", "48,48,48", "--count", "6", "--size", "10",
+        ])
+        .args(["--seed", "1", "-o"])
+        .arg(&p)
+        .arg("--quiet"));
+    p
+}
+
+const SCENE: &[&str] = &[
+    "--mode",
+    "path",
+    "--density-scale",
+    "0.5",
+    "--albedo",
+    "0.8",
+    "--sun=-1,-1.2,0.4:4",
+    "--env",
+    "0.1",
+    "--size",
+    "32x24",
+    "--bounces",
+    "4",
+];
+
+fn path_render(vol: &Path, out: &Path, extra: &[&str]) -> serde_json::Value {
+    json(&ok(tool("vol-render")
+        .arg(vol)
+        .arg("-o")
+        .arg(out)
+        .args(SCENE)
+        .arg("--json")
+        .args(extra)))
+}
+
+#[test]
+fn path_mode_reports_figures_and_writes_its_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = spheres(d);
+    let hdr = d.join("a.exr");
+    let var = d.join("noise.png");
+    let v = path_render(
+        &vol,
+        &d.join("a.png"),
+        &[
+            "--spp",
+            "16",
+            "--hdr",
+            hdr.to_str().unwrap(),
+            "--variance",
+            var.to_str().unwrap(),
+            "--tonemap",
+            "aces",
+        ],
+    );
+    assert_eq!(v["mode"], "path");
+    assert_eq!(v["spp"], 16);
+    assert_eq!(v["paths"], 32 * 24 * 16);
+    for key in [
+        "real_collisions",
+        "null_collisions",
+        "majorant_cells",
+        "density_lookups",
+        "shadow_rays",
+        "render_s",
+        "paths_per_s_per_core",
+        "lookups_per_path",
+        "relative_error",
+    ] {
+        assert!(v[key].is_number(), "missing {key}: {v}");
+    }
+    assert!(v["shadow_rays"].as_u64().unwrap() > 0);
+    assert_eq!(v["scene"]["mode"], "path");
+    assert_eq!(v["scene"]["bounces"], 4);
+    for p in [d.join("a.png"), hdr, var] {
+        assert!(
+            std::fs::metadata(&p).unwrap().len() > 100,
+            "{}",
+            p.display()
+        );
+    }
+    // The global majorant: the same scene, more lookups.
+    let g = path_render(
+        &vol,
+        &d.join("g.png"),
+        &["--spp", "4", "--majorant", "global"],
+    );
+    let l = path_render(&vol, &d.join("l.png"), &["--spp", "4"]);
+    assert!(
+        g["density_lookups"].as_u64().unwrap() > l["density_lookups"].as_u64().unwrap(),
+        "{g}\n{l}"
+    );
+}
+
+#[test]
+fn a_render_continued_from_its_state_equals_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = spheres(d);
+    let state = d.join("s.state");
+    let st = state.to_str().unwrap();
+    let (a, b) = (d.join("a.pfm"), d.join("b.pfm"));
+    path_render(
+        &vol,
+        &d.join("a.png"),
+        &["--spp", "6", "--hdr", a.to_str().unwrap()],
+    );
+    let first = path_render(&vol, &d.join("b.png"), &["--spp", "4", "--accumulate", st]);
+    assert_eq!(first["spp"], 4);
+    let second = path_render(
+        &vol,
+        &d.join("b.png"),
+        &[
+            "--spp",
+            "2",
+            "--accumulate",
+            st,
+            "--hdr",
+            b.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(
+        (second["spp"].as_u64(), second["spp_added"].as_u64()),
+        (Some(6), Some(2))
+    );
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+    // Another scene (another sun) refuses the state, and keeps it.
+    let before = std::fs::read(&state).unwrap();
+    let e = fails(
+        tool("vol-render")
+            .arg(&vol)
+            .arg("-o")
+            .arg(d.join("c.png"))
+            .args(SCENE)
+            .args(["--sun=1,0,0:2", "--spp", "2", "--accumulate", st]),
+        "another scene",
+    );
+    assert!(e.contains("s.state"), "{e}");
+    assert_eq!(std::fs::read(&state).unwrap(), before);
+    assert!(!d.join("c.png").exists());
+}
+
+#[test]
+fn path_options_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = spheres(d);
+    let out = d.join("x.png");
+    let cases: &[(&[&str], &str)] = &[
+        (&["--spp", "4"], "--spp needs --mode path"),
+        (&["--mode", "path", "--spp", "0"], "at least 1"),
+        (&["--mode", "path", "--sun=0,0,0:1"], "must not be zero"),
+        (&["--mode", "path", "--sun=1,0,0:-2"], "irradiance"),
+        (&["--mode", "path", "--bounces", "0"], "bounces 0"),
+        (&["--mode", "path", "--g", "1.5"], "g 1.5"),
+        (
+            &["--mode", "path", "--albedo", "0.5"],
+            "--albedo is for --density-scale",
+        ),
+        (
+            &["--mode", "path", "--density-scale", "1", "--albedo", "2"],
+            "albedo",
+        ),
+        (
+            &["--mode", "path", "--tf", "boundary"],
+            "1D transfer function",
+        ),
+        (
+            &["--mode", "path", "--shadows", "ray"],
+            "ray caster's effects",
+        ),
+        (&["--mode", "path", "--until-error", "0"], "above 0"),
+    ];
+    for (args, needle) in cases {
+        fails(
+            tool("vol-render").arg(&vol).arg("-o").arg(&out).args(*args),
+            needle,
+        );
+    }
+    assert!(!out.exists());
+}
+
+#[test]
+fn scene_files_hold_the_path_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = spheres(d);
+    let scene = d.join("pt.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "volume = {:?}\nmode = \"path\"\ndensity-scale = 0.5\nalbedo = [0.9, 0.8, 0.7]\n\
+             sun = [\"-1,-1.2,0.4:4\"]\nenv = 0.1\nspp = 3\nbounces = 2\ng = 0.5\n\
+             size = [16, 12]\nmajorant = \"global\"\n",
+            vol.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let printed = ok(tool("vol-render")
+        .arg("--scene")
+        .arg(&scene)
+        .arg("--print-scene"));
+    for key in [
+        "spp = 3",
+        "bounces = 2",
+        "g = 0.5",
+        "majorant = \"global\"",
+        "density-scale = 0.5",
+    ] {
+        assert!(printed.contains(key), "{key}:\n{printed}");
+    }
+    let v = json(&ok(tool("vol-render")
+        .arg("--scene")
+        .arg(&scene)
+        .arg("-o")
+        .arg(d.join("s.png"))
+        .args(["--json", "--spp", "2"])));
+    assert_eq!(
+        (v["spp"].as_u64(), v["width"].as_u64()),
+        (Some(2), Some(16))
+    );
+    assert_eq!(v["majorant"], "global");
+    std::fs::write(&scene, "mode = \"path\"\nmajorant = \"fine\"\n").unwrap();
+    fails(
+        tool("vol-render")
+            .arg(&vol)
+            .arg("--scene")
+            .arg(&scene)
+            .arg("-o")
+            .arg(d.join("t.png")),
+        "majorant `fine`",
+    );
+}
