@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # volkit's main job end to end on built-in data:
 #   generate the thesis test scene -> convert it (TIFF stack and back,
-#   zstd bricks) -> build its index -> render it -> compare renders.
+#   zstd bricks) -> build its index -> render it (ray cast, and path
+#   traced, continued from a saved state) -> compare renders.
 # Every step checks its result; outputs go to $OUT (default out/demo).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,6 +40,17 @@ $B/vol-render "$OUT/shapes-zstd.vvol" --tf shapes --shading phong --step 0.2 "${
     -o "$OUT/shapes-zstd.png" --hdr "$OUT/shapes-zstd.pfm" --quiet
 $B/vol-render "$OUT/shapes.vvol" --tf shapes --shading phong --step 0.8 "${CAM[@]}" \
     -o "$OUT/coarse.png" --hdr "$OUT/coarse.pfm" --quiet
+
+step "path trace: the scene as a medium under a sun, 8 spp, then 8 more continued from the saved state"
+PT=(--mode path --tf shapes --sun=-1,-1.5,-0.5:3 --env 0.2 --bounces 4 --size 256x256 --eye 352,352,352 --look-at 0,0,0 --fov 60)
+rm -f "$OUT/pt.state"
+$B/vol-render "$OUT/shapes.vvol" --index "$OUT/shapes.vvol.vidx" "${PT[@]}" --spp 8 \
+    --accumulate "$OUT/pt.state" -o "$OUT/pt.png" --quiet
+$B/vol-render "$OUT/shapes.vvol" --index "$OUT/shapes.vvol.vidx" "${PT[@]}" --spp 8 \
+    --accumulate "$OUT/pt.state" -o "$OUT/pt.png" --hdr "$OUT/pt-resumed.pfm"
+$B/vol-render "$OUT/shapes.vvol" --index "$OUT/shapes.vvol.vidx" "${PT[@]}" --spp 16 \
+    -o "$OUT/pt-once.png" --hdr "$OUT/pt-once.pfm" --quiet
+$B/vol-psnr "$OUT/pt-once.pfm" "$OUT/pt-resumed.pfm" --min-psnr inf
 
 step "compare: the zstd copy renders identically; a 4x coarser step costs accuracy"
 $B/vol-psnr "$OUT/shapes.pfm" "$OUT/shapes-zstd.pfm" --min-psnr inf

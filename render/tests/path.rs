@@ -353,3 +353,58 @@ fn budgets_stop_renders() {
     .unwrap();
     assert_eq!(acc.spp(), before + 1, "a zero time budget runs one pass");
 }
+
+/// Single scattering in a thin homogeneous slab under a sun, seen
+/// straight down by an orthographic camera: at depth z the camera sees
+/// σs·p(μ)·E·exp(−σt z)·exp(−σt z/μs) (the sun's path to depth z is
+/// z/μs long), so the pixel's radiance is
+/// σs·p(μ)·E·(1 − exp(−σt H k))/(σt k) with k = 1 + 1/μs. The grid and
+/// the global majorant both match it within their standard errors.
+#[test]
+fn single_scattering_in_a_slab_matches_the_closed_form() {
+    let dims = Dims::new(64, 64, 5).unwrap();
+    let v = constant(dims, 255);
+    let ix = index(&v);
+    let cam = Camera::look_at(
+        Vec3::new(31.5, 31.5, 100.0),
+        Vec3::new(31.5, 31.5, 0.0),
+        Vec3::Y,
+        Projection::Orthographic(10.0),
+        16,
+        16,
+    )
+    .unwrap();
+    let travel = Vec3::new(0.3, 0.0, -1.0).normalize();
+    let (sigma_t, albedo, e, g, h) = (0.1f64, 0.8f64, 4.0f64, 0.4f32, 4.0f64);
+    let mu_s = -travel.z as f64;
+    let phase = volrender::path::phase::HenyeyGreenstein::new(g).eval(travel.z) as f64;
+    let k = 1.0 + 1.0 / mu_s;
+    let expect = sigma_t * albedo * phase * e * (1.0 - (-sigma_t * h * k).exp()) / (sigma_t * k);
+    for (mode, seed) in [(MajorantMode::Grid, 3), (MajorantMode::Global, 4)] {
+        let mut s = settings(
+            0.1,
+            0.8,
+            PathLights {
+                suns: vec![Sun {
+                    travel,
+                    irradiance: Vec3::splat(4.0),
+                }],
+                ..Default::default()
+            },
+        );
+        s.bounces = 1;
+        s.g = g;
+        s.majorant = mode;
+        s.seed = seed;
+        let (acc, n) = render(&v, &ix, &cam, &s, 256);
+        let (mean, se) = image_mean(&acc);
+        assert!(
+            (mean - expect).abs() < 4.0 * se,
+            "{mode:?}: {mean} ± {se} vs {expect}"
+        );
+        assert!(se < 0.03 * expect, "{mode:?}: se {se} of {expect}");
+        // One bounce, no environment: no continuation ray.
+        assert_eq!(n.bounce_rays, 0);
+        assert_eq!(n.shadow_rays, n.scatter_events);
+    }
+}

@@ -28,7 +28,7 @@ fn main() -> ExitCode {
     };
     volkit_cli::run("vol-render", || {
         let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
-        cli.background_given = given("background");
+        cli.background_given = matches.value_source("background") == Some(ValueSource::CommandLine);
         if let Some(path) = cli.scene.clone() {
             let file = volkit_cli::scene::Scene::read(&path)?;
             let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();

@@ -138,6 +138,51 @@ impl<M: Medium> Tracker<'_, M> {
         (s, v)
     }
 
+    /// The tentative collisions along `ray` over `[t0, t1]`, in order:
+    /// an optical depth is drawn (exponential, mean 1) and spent across
+    /// the cells at their majorants; where it runs out, `at(t, m, rng, n)`
+    /// is asked whether to stop there (`Some`) or to go on with a fresh
+    /// depth. The walk is memoryless, so this is the same process as
+    /// restarting in every cell, at one random number and one logarithm
+    /// per collision instead of per cell. Past [`MAX_COLLISIONS`] it stops
+    /// with `truncated`.
+    #[inline(always)]
+    fn collisions<C: Cursor, R>(
+        &self,
+        cur: &mut C,
+        (ray, t0, t1): (&VoxelRay, f32, f32),
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+        truncated: R,
+        mut at: impl FnMut(&mut C, f64, f32, &mut PixelSampler, &mut PathCounters) -> Option<R>,
+    ) -> Option<R> {
+        let exp = |rng: &mut PixelSampler| -(-(rng.next_1d() as f64)).ln_1p();
+        let mut tau = exp(rng);
+        let mut budget = MAX_COLLISIONS;
+        let mut truncated = Some(truncated);
+        self.walk(ray, t0, t1, n, |m, a, b, n| {
+            let m64 = m as f64;
+            let mut t = a;
+            loop {
+                let need = tau / m64;
+                if t + need >= b {
+                    tau = (tau - (b - t) * m64).max(0.0);
+                    return None;
+                }
+                t += need;
+                if budget == 0 {
+                    n.truncated += 1;
+                    return truncated.take();
+                }
+                budget -= 1;
+                if let Some(r) = at(cur, t, m, rng, n) {
+                    return Some(r);
+                }
+                tau = exp(rng);
+            }
+        })
+    }
+
     /// Delta tracking along `ray` over `[t0, t1]`: the first real
     /// collision, or escape.
     pub fn free_flight<C: Cursor>(
@@ -149,34 +194,28 @@ impl<M: Medium> Tracker<'_, M> {
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> Flight {
-        let mut budget = MAX_COLLISIONS;
-        let hit = self.walk(ray, t0, t1, n, |m, a, b, n| {
-            let inv_m = 1.0 / m as f64;
-            let mut t = a;
-            loop {
-                let u = rng.next_1d();
-                t += -(-(u as f64)).ln_1p() * inv_m;
-                if t >= b {
-                    return None;
-                }
-                if budget == 0 {
-                    n.truncated += 1;
-                    return Some(Flight::Truncated);
-                }
-                budget -= 1;
+        self.collisions(
+            cur,
+            (ray, t0, t1),
+            rng,
+            n,
+            Flight::Truncated,
+            |cur, t, m, rng, n| {
                 n.density_lookups += 1;
                 let (s, v) = self.sigma_at(cur, ray, t, m);
                 if rng.next_1d() * m < s {
                     n.real_collisions += 1;
-                    return Some(Flight::Collision {
+                    Some(Flight::Collision {
                         t: t as f32,
                         value: v,
-                    });
+                    })
+                } else {
+                    n.null_collisions += 1;
+                    None
                 }
-                n.null_collisions += 1;
-            }
-        });
-        hit.unwrap_or(Flight::Escaped)
+            },
+        )
+        .unwrap_or(Flight::Escaped)
     }
 
     /// Ratio tracking along `ray` over `[t0, t1]`: an unbiased estimate of
@@ -192,31 +231,17 @@ impl<M: Medium> Tracker<'_, M> {
         n: &mut PathCounters,
     ) -> f32 {
         let mut tr = 1.0f32;
-        let mut budget = MAX_COLLISIONS;
-        let stop = self.walk(ray, t0, t1, n, |m, a, b, n| {
-            let inv_m = 1.0 / m as f64;
-            let mut t = a;
-            loop {
-                let u = rng.next_1d();
-                t += -(-(u as f64)).ln_1p() * inv_m;
-                if t >= b {
-                    return None;
-                }
-                if budget == 0 {
-                    n.truncated += 1;
+        let stop = self.collisions(cur, (ray, t0, t1), rng, n, (), |cur, t, m, rng, n| {
+            n.density_lookups += 1;
+            let (s, _) = self.sigma_at(cur, ray, t, m);
+            tr *= (1.0 - s / m).max(0.0);
+            if tr < ROULETTE_BELOW {
+                if tr <= 0.0 || rng.next_1d() < ROULETTE_KILL {
                     return Some(());
                 }
-                budget -= 1;
-                n.density_lookups += 1;
-                let (s, _) = self.sigma_at(cur, ray, t, m);
-                tr *= (1.0 - s / m).max(0.0);
-                if tr < ROULETTE_BELOW {
-                    if tr <= 0.0 || rng.next_1d() < ROULETTE_KILL {
-                        return Some(());
-                    }
-                    tr /= 1.0 - ROULETTE_KILL;
-                }
+                tr /= 1.0 - ROULETTE_KILL;
             }
+            None
         });
         if stop.is_some() {
             0.0
