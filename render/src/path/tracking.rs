@@ -126,6 +126,9 @@ impl<M: Medium> Tracker<'_, M> {
         let p = ray.at(t as f32);
         let v = cur.trilinear(p.to_array());
         let s = self.medium.sigma_t(v);
+        // The majorant is read by the debug checks alone.
+        #[cfg(not(debug_assertions))]
+        let _ = m;
         #[cfg(debug_assertions)]
         {
             let c = self.level.cell_of(p.to_array(), self.dims);
