@@ -407,4 +407,27 @@ fn single_scattering_in_a_slab_matches_the_closed_form() {
         assert_eq!(n.bounce_rays, 0);
         assert_eq!(n.shadow_rays, n.scatter_events);
     }
+    // A point light far along the sun's direction, with the intensity
+    // that gives the same irradiance at the slab, lights it the same.
+    let far = 1e4f32;
+    let mut s = settings(
+        0.1,
+        0.8,
+        PathLights {
+            points: vec![volrender::path::PointLight {
+                position: Vec3::new(31.5, 31.5, 2.0) - travel * far,
+                intensity: Vec3::splat(4.0 * far * far),
+            }],
+            ..Default::default()
+        },
+    );
+    s.bounces = 1;
+    s.g = g;
+    s.seed = 5;
+    let (acc, _) = render(&v, &ix, &cam, &s, 256);
+    let (mean, se) = image_mean(&acc);
+    assert!(
+        (mean - expect).abs() < 4.0 * se + 2e-3 * expect,
+        "point light: {mean} ± {se} vs {expect}"
+    );
 }
