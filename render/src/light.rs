@@ -42,7 +42,7 @@ pub struct Incident {
 
 /// Point lights closer than this (world units, squared) light as if they
 /// were this far: radiance stays finite at the light itself.
-const MIN_DISTANCE2: f32 = 1e-12;
+pub(crate) const MIN_DISTANCE2: f32 = 1e-12;
 
 impl Light {
     /// The default light: a white headlight.

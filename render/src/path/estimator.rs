@@ -18,6 +18,7 @@ use super::tracking::{Flight, Tracker};
 use super::{PathCounters, PathLights};
 use crate::accel::VoxelRay;
 use crate::camera::Camera;
+use crate::light::MIN_DISTANCE2;
 use crate::ray::{intersect_box, Ray};
 use crate::sampler::{HashSampler, PixelSampler};
 use glam::Vec3;
@@ -26,10 +27,6 @@ use volcore::Cursor;
 /// Scattering events after which Russian roulette on the throughput
 /// starts.
 pub const ROULETTE_DEPTH: u32 = 3;
-
-/// Point lights closer than this (world units, squared) light as if
-/// they were this far.
-const MIN_DISTANCE2: f32 = 1e-12;
 
 /// Everything a sample needs that is fixed for the frame.
 pub struct Estimator<'a, M: Medium> {

@@ -283,14 +283,12 @@ impl<'a> PathTracer<'a> {
             "{:?}|{:?}|{:?}|{:?}|{:?}|{:?}|{volume_id}",
             m.dims, m.sample_type, m.spacing, m.range, self.camera, self.settings
         );
-        // FNV-1a, then a SplitMix finaliser.
+        // FNV-1a, then the sampler's finaliser.
         let mut h = 0xcbf2_9ce4_8422_2325u64;
         for b in text.bytes() {
             h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
         }
-        h ^= h >> 31;
-        h = h.wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        h ^ (h >> 29)
+        crate::sampler::mix(h)
     }
 
     /// Add `spp` samples to every pixel of `acc` (one pass, all threads).
