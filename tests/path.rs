@@ -244,3 +244,113 @@ fn scene_files_hold_the_path_keys() {
         "majorant `fine`",
     );
 }
+
+#[test]
+fn environment_maps_light_the_scene_and_bad_ones_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = spheres(d);
+    let (w, h) = (16u32, 8u32);
+    let mut sky = Vec::new();
+    for r in 0..h {
+        for c in 0..w {
+            let v = if (r, c) == (2, 5) {
+                300.0
+            } else if r < h / 2 {
+                0.6
+            } else {
+                0.05
+            };
+            sky.extend([v * 0.9, v, v * 1.2]);
+        }
+    }
+    let map = d.join("sky.pfm");
+    volformats::image::write_pfm(&map, w, h, &sky).unwrap();
+    let base = [
+        "--mode",
+        "path",
+        "--density-scale",
+        "0.5",
+        "--size",
+        "16x12",
+        "--spp",
+        "4",
+        "--bounces",
+        "3",
+    ];
+    let v = json(&ok(tool("vol-render")
+        .arg(&vol)
+        .args(base)
+        .arg("--env-map")
+        .arg(&map)
+        .arg("-o")
+        .arg(d.join("m.png"))
+        .arg("--json")));
+    assert!(v["shadow_rays"].as_u64().unwrap() > 0, "{v}");
+    assert_eq!(v["non_finite"].as_u64(), Some(0));
+    // The printed scene names the map (and no constant environment), and
+    // renders the same image again.
+    let printed = ok(tool("vol-render")
+        .arg(&vol)
+        .args(base)
+        .arg("--env-map")
+        .arg(&map)
+        .arg("--print-scene"));
+    assert!(printed.contains("env-map = "), "{printed}");
+    // No constant environment, no background hiding the map, no
+    // headlight.
+    for key in ["\nenv = ", "\nbackground = ", "headlight"] {
+        assert!(!printed.contains(key), "{key}: {printed}");
+    }
+    let scene = d.join("sky.toml");
+    std::fs::write(&scene, &printed).unwrap();
+    ok(tool("vol-render")
+        .arg("--scene")
+        .arg(&scene)
+        .arg("-o")
+        .arg(d.join("n.png")));
+    assert_eq!(
+        std::fs::read(d.join("m.png")).unwrap(),
+        std::fs::read(d.join("n.png")).unwrap()
+    );
+
+    let mut bad = sky.clone();
+    bad[3 * 7 + 1] = f32::NAN;
+    let nan_map = d.join("nan.pfm");
+    volformats::image::write_pfm(&nan_map, w, h, &bad).unwrap();
+    let png_map = d.join("sky.png");
+    std::fs::write(&png_map, b"not really").unwrap();
+    let out = d.join("x.png");
+    let cases: Vec<(Vec<&str>, PathBuf, &str)> = vec![
+        (
+            base.to_vec(),
+            nan_map.clone(),
+            "nan.pfm: environment map texel (7, 0)",
+        ),
+        (base.to_vec(), png_map, "must be a linear .pfm or .exr"),
+        (base.to_vec(), d.join("none.exr"), "none.exr: cannot read"),
+        (
+            [&base[..], &["--env", "0.2"]].concat(),
+            map.clone(),
+            "not both",
+        ),
+        (
+            vec!["--tf", "shapes"],
+            map.clone(),
+            "--env-map needs --mode path",
+        ),
+    ];
+    for (args, m, needle) in cases {
+        fails(
+            tool("vol-render")
+                .arg(&vol)
+                .args(&args)
+                .arg("--env-map")
+                .arg(&m)
+                .arg("-o")
+                .arg(&out),
+            needle,
+        );
+    }
+    assert!(!out.exists());
+}

@@ -202,6 +202,9 @@ pub struct Scene {
     /// Path tracing: constant environment radiance.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub env: Option<Colour>,
+    /// Path tracing: an equirectangular environment map (.pfm or .exr).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub env_map: Option<PathBuf>,
     /// Path tracing: `grid` or `global`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub majorant: Option<String>,

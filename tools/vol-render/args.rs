@@ -238,6 +238,13 @@ pub struct Cli {
     /// behind the volume unless --background is given.
     #[arg(long, value_parser = parse_colour, help_heading = "Path tracing (--mode path)")]
     pub env: Option<Vec3>,
+    /// Path tracing: an environment map instead of --env: an
+    /// equirectangular linear image (.pfm or .exr), row 0 at the zenith
+    /// (+y), the left edge toward +x, then +z a quarter across. Sampled in
+    /// proportion to its luminance at every scattering event, weighted
+    /// against the phase function (multiple importance sampling).
+    #[arg(long, value_name = "FILE", help_heading = "Path tracing (--mode path)")]
+    pub env_map: Option<PathBuf>,
     /// Path tracing: majorants for delta and ratio tracking: `grid` (per
     /// macrocell of the index) or `global` (one for the volume).
     #[arg(long, default_value = "grid", value_parser = ["grid", "global"],
@@ -310,6 +317,7 @@ const EXAMPLES: &str = "Examples:
       --env 0.1 --spp 64 --bounces 8 --hdr spheres.exr -o spheres.png --json
   vol-render shapes.vvol --mode path --tf shapes --env 1 --time 30 --tonemap aces -o pt.png
   vol-render ct.vvol --mode path --tf ct --until-error 0.01 --variance noise.png -o ct-pt.png
+  vol-render ct.vvol --mode path --tf ct --env-map sky.exr --bounces 4 -o ct-sky.png
   vol-render big.vvol --mode path --density-scale 2 --spp 64 --accumulate big.state -o a.png
 
 Scene files (TOML) take every option above by the same name, and lights:

@@ -15,7 +15,7 @@ use volindex::{BuildOptions, MajorantIndex};
 use volkit_cli::{noteln, outln};
 use volrender::classify::srgb_to_linear;
 use volrender::path::{
-    Accumulator, Budget, MajorantMode, MediumSpec, PathCounters, PathLights, PathSettings,
+    Accumulator, Budget, EnvMap, MajorantMode, MediumSpec, PathCounters, PathLights, PathSettings,
     PathTracer, PointLight, Sun,
 };
 use volrender::tf::Tf;
@@ -39,6 +39,7 @@ pub fn refuse_path_options(cli: &Cli) -> Result<()> {
         ("--albedo", cli.albedo.is_some()),
         ("--sun", !cli.sun.is_empty()),
         ("--env", cli.env.is_some()),
+        ("--env-map", cli.env_map.is_some()),
         ("--accumulate", cli.accumulate.is_some()),
         ("--variance", cli.variance.is_some()),
     ];
@@ -107,11 +108,22 @@ pub fn settings(
             }
         }
     }
-    let env = cli.env.unwrap_or(if suns.is_empty() && points.is_empty() {
-        Vec3::ONE
-    } else {
-        Vec3::ZERO
-    });
+    let env_map = match &cli.env_map {
+        Some(p) => {
+            if cli.env.is_some() {
+                bail!("give --env or --env-map, not both");
+            }
+            Some(std::sync::Arc::new(load_env_map(p)?))
+        }
+        None => None,
+    };
+    let env = cli.env.unwrap_or(
+        if suns.is_empty() && points.is_empty() && env_map.is_none() {
+            Vec3::ONE
+        } else {
+            Vec3::ZERO
+        },
+    );
     let majorant = match cli.majorant.as_str() {
         "grid" => MajorantMode::Grid,
         "global" => MajorantMode::Global,
@@ -148,7 +160,12 @@ pub fn settings(
         bounces: cli.bounces,
         g: cli.g,
         majorant,
-        lights: PathLights { suns, points, env },
+        lights: PathLights {
+            suns,
+            points,
+            env,
+            env_map,
+        },
         background: cli.background_given.then(|| {
             (cli.background / 255.0)
                 .to_array()
@@ -158,6 +175,27 @@ pub fn settings(
         seed: cli.seed,
     };
     Ok((settings, budget))
+}
+
+/// Read an equirectangular environment map: a linear float image (PFM or
+/// OpenEXR; grey maps are spread over RGB, alpha is ignored).
+fn load_env_map(p: &Path) -> Result<EnvMap> {
+    let name = p.display();
+    match volcompare::image::image_extension(p) {
+        Some("pfm" | "exr") => {}
+        _ => bail!("{name}: an environment map must be a linear .pfm or .exr image"),
+    }
+    let img = volcompare::image::Image::load(p).with_context(|| format!("{name}: cannot read"))?;
+    let ch = img.channels();
+    let rgb: Vec<f32> = img
+        .samples
+        .chunks_exact(ch)
+        .flat_map(|s| match img.color {
+            1 => [s[0]; 3],
+            _ => [s[0], s[1], s[2]],
+        })
+        .collect();
+    EnvMap::new(img.width, img.height, &rgb).map_err(|e| anyhow::anyhow!("{name}: {e}"))
 }
 
 /// Where the figures of a render come from.

@@ -75,6 +75,7 @@ pub fn apply(this: Scene, dir: &Path, cli: &mut Cli, on_command_line: impl Fn(&s
     set!(albedo, "albedo", |a: Colour| Some(a.rgb()));
     set!(sun, "sun", |v| v);
     set!(env, "env", |c: Colour| Some(c.rgb()));
+    set!(env_map, "env_map", |p| Some(path(p)));
     set!(majorant, "majorant", |m| m);
     set!(seed, "seed", |s| s);
     set!(exposure, "exposure", |e| e);
@@ -120,6 +121,7 @@ pub fn effective(cli: &Cli, resolved: &Resolved) -> Scene {
             None,
         ),
     };
+    let path = cli.mode == volkit_cli::scene::ModeArg::Path;
     Scene {
         volume: cli.volume.as_deref().map(absolute),
         index: cli.index.as_deref().map(absolute),
@@ -142,13 +144,17 @@ pub fn effective(cli: &Cli, resolved: &Resolved) -> Scene {
         shading: Some(cli.shading),
         gradient: Some(cli.gradient),
         ambient: Some(Colour::Rgb(resolved.ambient.to_array())),
-        lights: Some(resolved.lights.iter().map(LightSpec::of).collect()),
+        // A path-traced scene has no headlight: its lights are the ones
+        // asked for.
+        lights: (!path || cli.light.is_some() || cli.lights.is_some())
+            .then(|| resolved.lights.iter().map(LightSpec::of).collect()),
         shadows: cli.shadows.clone(),
         shadow_step: cli.shadow_step,
         ao: cli.ao.clone(),
         ao_field: cli.ao_field.clone(),
         ao_field_cell: cli.ao_field_cell,
-        background: Some(cli.background.to_array()),
+        // In path mode the environment shows unless a background is given.
+        background: (!path || cli.background_given).then(|| cli.background.to_array()),
         alpha: Some(cli.alpha),
         output: cli.output.as_deref().map(absolute),
         hdr: cli.hdr.as_deref().map(absolute),
@@ -174,7 +180,9 @@ fn path_keys(cli: &Cli, resolved: &Resolved) -> Scene {
             .density_scale
             .map(|_| rgb(cli.albedo.unwrap_or(Vec3::splat(0.8)))),
         sun: Some(cli.sun.clone()),
-        env: resolved.env.map(rgb),
+        // A map replaces the constant environment (both are refused).
+        env: resolved.env.filter(|_| cli.env_map.is_none()).map(rgb),
+        env_map: cli.env_map.as_deref().map(absolute),
         majorant: Some(cli.majorant.clone()),
         seed: Some(cli.seed),
         exposure: Some(cli.exposure),

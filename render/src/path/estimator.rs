@@ -4,6 +4,14 @@
 //! tracking), continuation by sampling the phase function, and the
 //! environment where a path leaves the volume.
 //!
+//! An environment map is also sampled at every event (in proportion to
+//! its luminance) and met where paths escape; the two estimates are
+//! combined by multiple importance sampling (the power heuristic between
+//! the map's density and the phase function's), so neither a small bright
+//! sun in the map nor a peaked phase function leaves fireflies. A
+//! constant environment is met by escaping paths alone (a direction drawn
+//! from the phase function is already its perfect sample).
+//!
 //! Bounces count scattering events: with `bounces = D` a path scatters at
 //! most D times; after the D-th event only the environment can still be
 //! reached (the continuation ray is traced for it, and stops at its first
@@ -12,6 +20,7 @@
 //! scatters: its pixels are the background's radiance times the camera
 //! ray's transmittance, by ratio tracking, and no scattering code runs.
 
+use super::envmap::EnvMap;
 use super::medium::Medium;
 use super::phase::HenyeyGreenstein;
 use super::tracking::{Flight, Tracker};
@@ -43,8 +52,10 @@ pub struct Estimator<'a, M: Medium> {
     /// The lights.
     pub lights: &'a PathLights,
     /// Radiance a camera ray sees where it leaves the volume unscattered
-    /// (the environment, or the background when one is given).
-    pub seen: Vec3,
+    /// (`None`: the environment).
+    pub background: Option<Vec3>,
+    /// The environment map, when the scene has one that is not black.
+    pub env_map: Option<&'a EnvMap>,
     /// Scattering events allowed.
     pub bounces: u32,
     /// Whether the medium can scatter at all.
@@ -88,6 +99,51 @@ impl<M: Medium> Estimator<'_, M> {
             Some(s) => self.tracker.transmittance(cur, &s.ray, s.t0, s.t1, rng, n),
             None => 1.0,
         }
+    }
+
+    /// Radiance arriving from the environment along unit `dir` (toward
+    /// it).
+    #[inline(always)]
+    fn sky(&self, dir: Vec3) -> Vec3 {
+        match self.env_map {
+            Some(m) => m.radiance(dir),
+            None => self.lights.env,
+        }
+    }
+
+    /// What a camera ray along `dir` sees where it leaves the volume
+    /// unscattered.
+    #[inline(always)]
+    fn seen(&self, dir: Vec3) -> Vec3 {
+        self.background.unwrap_or_else(|| self.sky(dir))
+    }
+
+    /// Light from the environment map scattered at `p` toward the eye of
+    /// a ray travelling along `d`: one direction drawn from the map,
+    /// weighted against the phase function's density.
+    #[inline]
+    fn direct_env<C: Cursor>(
+        &self,
+        map: &EnvMap,
+        cur: &mut C,
+        p: Vec3,
+        d: Vec3,
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+    ) -> Vec3 {
+        let (u, v) = rng.next_2d();
+        let Some(e) = map.sample(u, v) else {
+            return Vec3::ZERO;
+        };
+        let f = self.phase.eval(e.dir.dot(d));
+        if f <= 0.0 || e.radiance == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let tr = self.transmittance(cur, p, e.dir, f32::INFINITY, rng, n);
+        if tr <= 0.0 {
+            return Vec3::ZERO;
+        }
+        e.radiance * (tr * f * power_heuristic(e.pdf, f) / e.pdf)
     }
 
     /// Light from the suns and point lights scattered at `p` toward the
@@ -159,12 +215,13 @@ impl<M: Medium> Estimator<'_, M> {
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> Vec3 {
-        if self.seen == Vec3::ZERO {
+        let seen = self.seen(ray.dir);
+        if seen == Vec3::ZERO {
             return Vec3::ZERO;
         }
         match self.inside(&ray, f32::INFINITY) {
-            Some(s) => self.seen * self.tracker.transmittance(cur, &s.ray, s.t0, s.t1, rng, n),
-            None => self.seen,
+            Some(s) => seen * self.tracker.transmittance(cur, &s.ray, s.t0, s.t1, rng, n),
+            None => seen,
         }
     }
 
@@ -176,21 +233,33 @@ impl<M: Medium> Estimator<'_, M> {
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> Vec3 {
-        let env = self.lights.env;
+        let has_sky = self.env_map.is_some() || self.lights.env != Vec3::ZERO;
         let mut beta = Vec3::ONE;
         let mut l = Vec3::ZERO;
         let mut depth = 0u32;
+        // The phase density of the last continuation (for the map's
+        // multiple importance weights).
+        let mut phase_pdf = 0.0f32;
         loop {
             // Where the path leaves the volume it meets the environment
             // (the camera ray sees the background instead, when given).
-            let escape = if depth == 0 { self.seen } else { env };
+            let escape = |ray: &Ray| {
+                if depth == 0 {
+                    self.seen(ray.dir)
+                } else {
+                    match self.env_map {
+                        Some(m) => m.radiance(ray.dir) * power_heuristic(phase_pdf, m.pdf(ray.dir)),
+                        None => self.lights.env,
+                    }
+                }
+            };
             let Some(s) = self.inside(&ray, f32::INFINITY) else {
-                l += beta * escape;
+                l += beta * escape(&ray);
                 break;
             };
             let (t, value) = match self.tracker.free_flight(cur, &s.ray, s.t0, s.t1, rng, n) {
                 Flight::Escaped => {
-                    l += beta * escape;
+                    l += beta * escape(&ray);
                     break;
                 }
                 Flight::Truncated => break,
@@ -209,7 +278,10 @@ impl<M: Medium> Estimator<'_, M> {
             }
             let p = ray.origin + ray.dir * t;
             l += beta * self.direct(cur, p, ray.dir, rng, n);
-            if depth == self.bounces && env == Vec3::ZERO {
+            if let Some(m) = self.env_map {
+                l += beta * self.direct_env(m, cur, p, ray.dir, rng, n);
+            }
+            if depth == self.bounces && !has_sky {
                 break;
             }
             if depth > ROULETTE_DEPTH {
@@ -220,12 +292,49 @@ impl<M: Medium> Estimator<'_, M> {
                 beta /= q;
             }
             let (u, v) = rng.next_2d();
-            ray = Ray {
-                origin: p,
-                dir: self.phase.sample(ray.dir, u, v),
-            };
+            let dir = self.phase.sample(ray.dir, u, v);
+            if self.env_map.is_some() {
+                phase_pdf = self.phase.eval(dir.dot(ray.dir));
+            }
+            ray = Ray { origin: p, dir };
             n.bounce_rays += 1;
         }
         l
+    }
+}
+
+/// The power-heuristic weight (β = 2) of a sample drawn with density `a`
+/// against a second strategy of density `b`: `a² / (a² + b²)`, 1 where
+/// only the first could have drawn it, 0 where neither (no division by 0,
+/// no overflow for densities up to f32's range).
+#[inline(always)]
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
+    if a.is_nan() || a <= 0.0 {
+        return 0.0;
+    }
+    let r = b as f64 / a as f64;
+    (1.0 / (1.0 + r * r)) as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::power_heuristic;
+
+    #[test]
+    fn power_heuristic_weights_sum_to_one_and_survive_extremes() {
+        for (a, b) in [
+            (1.0f32, 1.0f32),
+            (0.3, 7.0),
+            (1e-30, 1e30),
+            (3e38, 2e-38),
+            (5.0, 0.0),
+        ] {
+            let w = power_heuristic(a, b) + power_heuristic(b, a);
+            assert!((w - 1.0).abs() < 1e-6, "{a} {b}: {w}");
+        }
+        assert_eq!(power_heuristic(0.0, 1.0), 0.0);
+        assert_eq!(power_heuristic(0.0, 0.0), 0.0);
+        assert_eq!(power_heuristic(f32::NAN, 1.0), 0.0);
+        assert_eq!(power_heuristic(2.0, 0.0), 1.0);
     }
 }

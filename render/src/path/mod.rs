@@ -6,7 +6,8 @@
 //! tracking for transmittance, both over the DDA segments of the majorant
 //! grid), the Henyey-Greenstein [`phase`] function, the per-sample
 //! [`estimator`] (next-event estimation toward suns and point lights,
-//! environment light where paths escape, Russian roulette), and the
+//! environment light where paths escape, Russian roulette), the
+//! importance-sampled [`envmap`], and the
 //! progressive [`accum`]ulator (per-pixel f64 sums, resumable from a
 //! state file).
 //!
@@ -21,12 +22,14 @@
 //! code. The counters ([`PathCounters`]) show it.
 
 pub mod accum;
+pub mod envmap;
 pub mod estimator;
 pub mod medium;
 pub mod phase;
 pub mod tracking;
 
 pub use accum::Accumulator;
+pub use envmap::EnvMap;
 pub use medium::{DensityMedium, Medium, TableMedium};
 pub use tracking::MajorantMode;
 
@@ -38,6 +41,7 @@ use estimator::Estimator;
 use glam::Vec3;
 use phase::HenyeyGreenstein;
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
 use tracking::Tracker;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
@@ -70,6 +74,9 @@ pub struct PathLights {
     pub points: Vec<PointLight>,
     /// Constant environment radiance, linear RGB (zero: none).
     pub env: Vec3,
+    /// An environment map (instead of the constant radiance), sampled at
+    /// every scattering event.
+    pub env_map: Option<Arc<EnvMap>>,
 }
 
 /// What the medium is made of.
@@ -229,6 +236,11 @@ impl<'a> PathTracer<'a> {
                 "light and background radiances must be finite and not negative".into(),
             ));
         }
+        if l.env_map.is_some() && l.env != Vec3::ZERO {
+            return Err(RenderError::Setting(
+                "give a constant environment or an environment map, not both".into(),
+            ));
+        }
         if crate::frame::world_diagonal(vol).is_none() {
             return Err(RenderError::Setting(
                 "the volume's extent is too large for f32 world coordinates".into(),
@@ -327,7 +339,13 @@ impl<'a> PathTracer<'a> {
             extent: Vec3::from(self.vol.meta.world_extent()),
             phase: HenyeyGreenstein::new(self.settings.g),
             lights: &self.settings.lights,
-            seen: self.settings.background.unwrap_or(self.settings.lights.env),
+            background: self.settings.background,
+            env_map: self
+                .settings
+                .lights
+                .env_map
+                .as_deref()
+                .filter(|m| !m.is_black()),
             bounces: self.settings.bounces,
             scatters: self.scatters,
             sampler: crate::sampler::HashSampler::new(self.settings.seed),
