@@ -188,3 +188,74 @@ fn completions_and_man_page_come_from_the_command_line_definition() {
     fails(&mut c, "--repeat");
     assert_eq!(c.status().unwrap().code(), Some(2));
 }
+
+/// The path tracer's quick study: every step of every run is in the CSV,
+/// the error falls as samples accumulate, and the grid and the global
+/// majorant (same estimator, other random draws) end at about the same
+/// PSNR.
+#[test]
+fn quick_path_study_converges() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("pt");
+    ok(tool("vol-accuracy")
+        .args(["--path", "--quick", "--out"])
+        .arg(&out));
+    let text = std::fs::read_to_string(out.join("path.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("scene,bounces,majorant,spp,seconds,psnr_db,relative_error,lookups_per_path")
+    );
+    // (scene, bounces, majorant) -> [(spp, seconds, psnr)]
+    let mut runs: HashMap<(String, String, String), Vec<(u64, f64, f64)>> = HashMap::new();
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f.len(), 8, "bad row: {line}");
+        runs.entry((f[0].into(), f[1].into(), f[2].into()))
+            .or_default()
+            .push((
+                f[3].parse().unwrap(),
+                f[4].parse().unwrap(),
+                f[5].parse().unwrap(),
+            ));
+    }
+    assert_eq!(runs.len(), 2 * 2 * 2, "{text}");
+    for (key, steps) in &runs {
+        let spp: Vec<u64> = steps.iter().map(|s| s.0).collect();
+        assert_eq!(spp, [1, 2, 4, 8, 16, 32], "{key:?}");
+        // Time only grows; 32 spp beat 1 spp by far (10 dB per decade
+        // would be 15 dB).
+        assert!(steps.windows(2).all(|w| w[1].1 >= w[0].1), "{key:?}");
+        let (first, last) = (steps[0].2, steps[5].2);
+        assert!(
+            first.is_finite() && last > first + 8.0,
+            "{key:?}: {first} -> {last}"
+        );
+    }
+    for scene in ["dense", "sparse"] {
+        for d in ["1", "8"] {
+            let end = |m: &str| runs[&(scene.into(), d.into(), m.into())][5].2;
+            let (grid, global) = (end("grid"), end("global"));
+            assert!(
+                (grid - global).abs() < 3.0,
+                "{scene} D={d}: {grid} vs {global}"
+            );
+        }
+    }
+    let md = std::fs::read_to_string(out.join("path.md")).unwrap();
+    assert!(
+        md.contains("spp to 30 dB") && md.lines().count() == 2 + 8,
+        "{md}"
+    );
+    if std::path::Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").exists() {
+        for f in ["path-dense.png", "path-sparse.svg"] {
+            let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
+            assert!(len > 1000, "{f} missing or empty");
+        }
+    }
+    // The study picks its own scenes and times each step once.
+    fails(
+        tool("vol-accuracy").args(["--path", "--scene", "ct"]),
+        "cannot be used with",
+    );
+}

@@ -354,3 +354,39 @@ fn environment_maps_light_the_scene_and_bad_ones_are_refused() {
     }
     assert!(!out.exists());
 }
+
+#[test]
+fn hybrid_scattering_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = spheres(d);
+    let v = path_render(&vol, &d.join("h.png"), &["--spp", "8", "--hybrid", "40"]);
+    let (events, surface) = (
+        v["scatter_events"].as_u64().unwrap(),
+        v["surface_events"].as_u64().unwrap(),
+    );
+    assert!(surface > 0 && surface < events, "{v}");
+    let v = path_render(&vol, &d.join("o.png"), &["--spp", "8", "--hybrid", "off"]);
+    assert_eq!(v["surface_events"].as_u64(), Some(0));
+    for (args, needle) in [
+        (&["--hybrid", "-2"][..], "--hybrid `-2`"),
+        (&["--hybrid", "soft"][..], "--hybrid `soft`"),
+    ] {
+        fails(
+            tool("vol-render")
+                .arg(&vol)
+                .args(SCENE)
+                .args(args)
+                .arg("-o")
+                .arg(d.join("x.png")),
+            needle,
+        );
+    }
+    fails(
+        tool("vol-render")
+            .arg(&vol)
+            .args(["--hybrid", "5", "-o"])
+            .arg(d.join("y.png")),
+        "--hybrid needs --mode path",
+    );
+}

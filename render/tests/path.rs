@@ -27,6 +27,7 @@ fn settings(scale: f32, albedo: f32, lights: PathLights) -> PathSettings {
         },
         bounces: 8,
         g: 0.0,
+        hybrid: None,
         majorant: MajorantMode::Grid,
         lights,
         background: None,
@@ -539,4 +540,60 @@ fn maps_are_checked_and_black_ones_cost_nothing() {
     let (acc, n) = render(&v, &ix, &cam, &s, 4);
     assert_eq!(n.shadow_rays, 0);
     assert!(acc.mean_rgb().iter().all(|&c| c == 0.0));
+}
+
+/// Hybrid scattering: in a constant medium the gradient is zero, so no
+/// event reflects off a surface and the image keeps its expectation; in
+/// a volume of sharp spheres events do, and the surface (whose BRDF
+/// conserves energy) never makes a white furnace brighter than its
+/// environment.
+#[test]
+fn hybrid_scattering_follows_the_gradient_and_conserves_energy() {
+    let v = constant(Dims::new(20, 20, 20).unwrap(), 200);
+    let ix = index(&v);
+    let cam = outside(20.0, 12);
+    let mut off = settings(0.3, 0.8, sun_and_env());
+    off.bounces = 4;
+    let mut on = off.clone();
+    on.hybrid = Some(1000.0);
+    on.seed = 9;
+    let (a, na) = render(&v, &ix, &cam, &off, 256);
+    let (b, nb) = render(&v, &ix, &cam, &on, 256);
+    assert_eq!(nb.surface_events, 0, "{nb:?}");
+    assert_eq!(na.surface_events, 0);
+    let ((ma, sa), (mb, sb)) = (image_mean(&a), image_mean(&b));
+    assert!(
+        (ma - mb).abs() < 4.0 * (sa * sa + sb * sb).sqrt(),
+        "{ma} ± {sa} vs {mb} ± {sb}"
+    );
+
+    let v = shapes(40);
+    let ix = index(&v);
+    let cam = outside(40.0, 24);
+    let mut s = settings(2.0, 1.0, env(1.0));
+    s.bounces = 64;
+    s.hybrid = Some(50.0);
+    let (acc, n) = render(&v, &ix, &cam, &s, 32);
+    assert!(
+        n.surface_events > n.scatter_events / 20 && n.surface_events < n.scatter_events,
+        "{n:?}"
+    );
+    assert_eq!(n.non_finite + n.truncated, 0);
+    let (mean, se) = image_mean(&acc);
+    assert!(mean <= 1.0 + 4.0 * se && mean > 0.7, "{mean} ± {se}");
+    for c in acc.mean_rgb() {
+        assert!(c.is_finite() && c >= 0.0);
+    }
+    // Bit for bit the same on another thread count.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(3)
+        .build()
+        .unwrap();
+    let (again, _) = pool.install(|| render(&v, &ix, &cam, &s, 32));
+    assert_eq!(acc.mean_rgb(), again.mean_rgb());
+    // A scale that is not a number above 0 is refused.
+    for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+        s.hybrid = Some(bad);
+        assert!(PathTracer::new(&v, &ix, &cam, &s).is_err(), "{bad}");
+    }
 }

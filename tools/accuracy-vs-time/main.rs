@@ -9,8 +9,15 @@
 //! the spread of the runs as bars) as PNG and SVG. The reference itself is
 //! the first row of each scene (PSNR inf).
 //!
+//! With `--path` it runs the path tracer's study instead
+//! ([`path_study`]): PSNR against a long reference by samples per pixel
+//! and by time, for the grid and global majorants, single scattering and
+//! eight bounces.
+//!
 //! It drives the other tools (`vol-gen`, `vol-render`, `vol-psnr`), which it
 //! looks for next to its own executable unless `--bin-dir` says otherwise.
+
+mod path_study;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Parser;
@@ -35,6 +42,13 @@ struct Cli {
     /// CI-sized study: tiny volumes, 64x64 images, one run, few values.
     #[arg(long)]
     quick: bool,
+    /// Run the path tracer's study instead: the dense and sparse spheres
+    /// of scripts/bench-path.sh, a 4096-spp reference each (single
+    /// scattering and 8 bounces), then 1, 2, 4, ... 1024 spp continued
+    /// from a state file with the grid and the global majorant: PSNR by
+    /// spp and by time (path.csv, path.md, path-SCENE.png and .svg).
+    #[arg(long, conflicts_with_all = ["scene", "repeat"])]
+    path: bool,
     /// Directory for the volumes, images, CSV and plots.
     #[arg(long, value_name = "DIR", default_value = "out/accuracy")]
     out: PathBuf,
@@ -60,10 +74,13 @@ const AFTER_HELP: &str = "Examples:
   vol-accuracy                      # default study, out/accuracy/
   vol-accuracy --quick --out /tmp/acc
   vol-accuracy --scene noise --repeat 5
+  vol-accuracy --path                 # the path tracer's convergence study
 
 Outputs: accuracy.csv (scene, knob, value, median_s, min_s, max_s, samples,
 psnr_db; psnr_db is inf when the image equals the reference) and, per scene,
-accuracy-SCENE.png and accuracy-SCENE.svg.";
+accuracy-SCENE.png and accuracy-SCENE.svg. With --path: path.csv (scene,
+bounces, majorant, spp, seconds, psnr_db, relative_error, lookups_per_path),
+path.md (a summary table) and path-SCENE.png and .svg.";
 
 /// One scene of a study: how to make the volume and how to look at it.
 struct Scene {
@@ -164,6 +181,16 @@ fn run(cli: &Cli) -> Result<()> {
     std::fs::create_dir_all(&cli.out)
         .with_context(|| format!("{}: cannot create directory", cli.out.display()))?;
     let repeat = cli.repeat.unwrap_or(if cli.quick { 1 } else { 3 });
+    if cli.path {
+        let font = load_font(cli.font.as_deref())?;
+        let ctx = Ctx {
+            bin: bin_dir,
+            out: cli.out.clone(),
+            repeat,
+            ref_step: REF_STEP,
+        };
+        return path_study::run(&ctx, cli.quick, font);
+    }
     let (scenes, sweep) = study(cli.quick);
     let scenes: Vec<Scene> = match &cli.scene {
         None => scenes,

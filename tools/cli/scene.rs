@@ -190,6 +190,9 @@ pub struct Scene {
     /// Path tracing: Henyey-Greenstein asymmetry.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub g: Option<f32>,
+    /// Path tracing: hybrid scattering, `off` or a gradient scale.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hybrid: Option<String>,
     /// Path tracing: extinction per world unit at normalised value 1.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub density_scale: Option<f32>,

@@ -216,6 +216,18 @@ pub struct Cli {
         help_heading = "Path tracing (--mode path)"
     )]
     pub g: f32,
+    /// Path tracing: hybrid scattering (Kroes et al. 2012): where the
+    /// extinction changes sharply, an event reflects off a surface BRDF
+    /// (Lambertian in the albedo plus a white glossy lobe) around the
+    /// gradient with probability 1 - exp(-SCALE x |gradient| / max
+    /// extinction), per voxel; `off` (the default): the phase function
+    /// everywhere. Try 5 to 50.
+    #[arg(
+        long,
+        value_name = "off|SCALE",
+        help_heading = "Path tracing (--mode path)"
+    )]
+    pub hybrid: Option<String>,
     /// Path tracing: extinction per world unit = S x the normalised value
     /// (value/255 for u8, /65535 for u16, /32767 for i16, the value for
     /// f32; negative and NaN values are 0), with --albedo. Without it the

@@ -40,6 +40,7 @@ pub fn refuse_path_options(cli: &Cli) -> Result<()> {
         ("--sun", !cli.sun.is_empty()),
         ("--env", cli.env.is_some()),
         ("--env-map", cli.env_map.is_some()),
+        ("--hybrid", cli.hybrid.is_some()),
         ("--accumulate", cli.accumulate.is_some()),
         ("--variance", cli.variance.is_some()),
     ];
@@ -155,10 +156,21 @@ pub fn settings(
         seconds: cli.time,
         until_error: cli.until_error,
     };
+    let hybrid = match cli.hybrid.as_deref() {
+        None | Some("off") => None,
+        Some(text) => match text.parse::<f32>() {
+            Ok(s) if s.is_finite() && s > 0.0 => Some(s),
+            _ => bail!(
+                "--hybrid `{}`: expected off or a gradient scale above 0",
+                volcore::text::clip(&volcore::text::escape(text), 40)
+            ),
+        },
+    };
     let settings = PathSettings {
         medium,
         bounces: cli.bounces,
         g: cli.g,
+        hybrid,
         majorant,
         lights: PathLights {
             suns,
@@ -366,6 +378,7 @@ fn report(
             "density_lookups": n.density_lookups,
             "shadow_rays": n.shadow_rays,
             "scatter_events": n.scatter_events,
+            "surface_events": n.surface_events,
             "bounce_rays": n.bounce_rays,
             "truncated": n.truncated,
             "non_finite": n.non_finite,

@@ -71,6 +71,7 @@ pub fn apply(this: Scene, dir: &Path, cli: &mut Cli, on_command_line: impl Fn(&s
     set!(until_error, "until_error", Some);
     set!(bounces, "bounces", |b| b);
     set!(g, "g", |g| g);
+    set!(hybrid, "hybrid", Some);
     set!(density_scale, "density_scale", Some);
     set!(albedo, "albedo", |a: Colour| Some(a.rgb()));
     set!(sun, "sun", |v| v);
@@ -175,6 +176,7 @@ fn path_keys(cli: &Cli, resolved: &Resolved) -> Scene {
         until_error: cli.until_error,
         bounces: Some(cli.bounces),
         g: Some(cli.g),
+        hybrid: Some(cli.hybrid.clone().unwrap_or_else(|| "off".into())),
         density_scale: cli.density_scale,
         albedo: cli
             .density_scale

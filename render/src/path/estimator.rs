@@ -12,6 +12,12 @@
 //! constant environment is met by escaping paths alone (a direction drawn
 //! from the phase function is already its perfect sample).
 //!
+//! With hybrid scattering on, each event first reads the extinction's
+//! gradient and, with a probability that rises with its magnitude,
+//! reflects off a [`Surface`] BRDF around it instead of the phase
+//! function (lights, map and continuation all use that BRDF). Off, no
+//! gradient is read.
+//!
 //! Bounces count scattering events: with `bounces = D` a path scatters at
 //! most D times; after the D-th event only the environment can still be
 //! reached (the continuation ray is traced for it, and stops at its first
@@ -23,6 +29,7 @@
 use super::envmap::EnvMap;
 use super::medium::Medium;
 use super::phase::HenyeyGreenstein;
+use super::surface::{surface_probability, Surface};
 use super::tracking::{Flight, Tracker};
 use super::{PathCounters, PathLights};
 use crate::accel::VoxelRay;
@@ -58,10 +65,20 @@ pub struct Estimator<'a, M: Medium> {
     pub env_map: Option<&'a EnvMap>,
     /// Scattering events allowed.
     pub bounces: u32,
+    /// Hybrid scattering's gradient scale (`None`: off).
+    pub hybrid: Option<f32>,
     /// Whether the medium can scatter at all.
     pub scatters: bool,
     /// The frame's random numbers.
     pub sampler: HashSampler,
+}
+
+/// How light scatters at an event: the medium's phase function, or a
+/// surface.
+#[derive(Clone, Copy)]
+enum Lobe {
+    Phase,
+    Surface(Surface),
 }
 
 /// A world ray's stretch inside the box, and its voxel-space twin.
@@ -122,9 +139,11 @@ impl<M: Medium> Estimator<'_, M> {
     /// a ray travelling along `d`: one direction drawn from the map,
     /// weighted against the phase function's density.
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     fn direct_env<C: Cursor>(
         &self,
         map: &EnvMap,
+        lobe: &Lobe,
         cur: &mut C,
         p: Vec3,
         d: Vec3,
@@ -135,15 +154,21 @@ impl<M: Medium> Estimator<'_, M> {
         let Some(e) = map.sample(u, v) else {
             return Vec3::ZERO;
         };
-        let f = self.phase.eval(e.dir.dot(d));
-        if f <= 0.0 || e.radiance == Vec3::ZERO {
+        let (f, pdf) = match lobe {
+            Lobe::Phase => {
+                let f = self.phase.eval(e.dir.dot(d));
+                (Vec3::splat(f), f)
+            }
+            Lobe::Surface(s) => (s.eval(d, e.dir), s.pdf(d, e.dir)),
+        };
+        if f.max_element() <= 0.0 || e.radiance == Vec3::ZERO {
             return Vec3::ZERO;
         }
         let tr = self.transmittance(cur, p, e.dir, f32::INFINITY, rng, n);
         if tr <= 0.0 {
             return Vec3::ZERO;
         }
-        e.radiance * (tr * f * power_heuristic(e.pdf, f) / e.pdf)
+        e.radiance * f * (tr * power_heuristic(e.pdf, pdf) / e.pdf)
     }
 
     /// Light from the suns and point lights scattered at `p` toward the
@@ -151,6 +176,7 @@ impl<M: Medium> Estimator<'_, M> {
     #[inline]
     fn direct<C: Cursor>(
         &self,
+        lobe: &Lobe,
         cur: &mut C,
         p: Vec3,
         d: Vec3,
@@ -159,9 +185,16 @@ impl<M: Medium> Estimator<'_, M> {
     ) -> Vec3 {
         let mut l = Vec3::ZERO;
         for sun in &self.lights.suns {
+            let f = match lobe {
+                Lobe::Phase => Vec3::splat(self.phase.eval(sun.travel.dot(-d))),
+                Lobe::Surface(s) => s.eval(d, -sun.travel),
+            };
+            if f.max_element() <= 0.0 {
+                continue;
+            }
             let tr = self.transmittance(cur, p, -sun.travel, f32::INFINITY, rng, n);
             if tr > 0.0 {
-                l += sun.irradiance * (tr * self.phase.eval(sun.travel.dot(-d)));
+                l += sun.irradiance * (f * tr);
             }
         }
         for pl in &self.lights.points {
@@ -171,9 +204,16 @@ impl<M: Medium> Estimator<'_, M> {
             let Some(wi) = crate::ray::unit(to) else {
                 continue;
             };
+            let f = match lobe {
+                Lobe::Phase => Vec3::splat(self.phase.eval(wi.dot(d))),
+                Lobe::Surface(s) => s.eval(d, wi),
+            };
+            if f.max_element() <= 0.0 {
+                continue;
+            }
             let tr = self.transmittance(cur, p, wi, dist, rng, n);
             if tr > 0.0 {
-                l += pl.intensity * (tr * self.phase.eval(wi.dot(d)) / d2);
+                l += pl.intensity * (f * tr / d2);
             }
         }
         l
@@ -225,6 +265,37 @@ impl<M: Medium> Estimator<'_, M> {
         }
     }
 
+    /// The surface an event at world point `p` (reached travelling along
+    /// `d`, in a sample of value `value`) reflects off, drawn with the
+    /// hybrid probability; `None`: the phase function scatters.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn surface_at<C: Cursor>(
+        &self,
+        scale: f32,
+        cur: &mut C,
+        p: Vec3,
+        d: Vec3,
+        value: f32,
+        rng: &mut PixelSampler,
+        n: &mut PathCounters,
+    ) -> Option<Surface> {
+        let u = rng.next_1d();
+        let grad = self.tracker.gradient(cur, p * self.inv_spacing);
+        n.density_lookups += 6;
+        let top = self.tracker.grid.global();
+        let relative = if top > 0.0 { grad.length() / top } else { 0.0 };
+        if u >= surface_probability(scale, relative) {
+            return None;
+        }
+        // Per world unit: the voxel gradient through the spacing.
+        Surface::new(
+            grad * self.inv_spacing,
+            d,
+            self.tracker.medium.albedo(value),
+        )
+    }
+
     /// A scattering path.
     fn path<C: Cursor>(
         &self,
@@ -237,7 +308,7 @@ impl<M: Medium> Estimator<'_, M> {
         let mut beta = Vec3::ONE;
         let mut l = Vec3::ZERO;
         let mut depth = 0u32;
-        // The phase density of the last continuation (for the map's
+        // The density of the last continuation's direction (for the map's
         // multiple importance weights).
         let mut phase_pdf = 0.0f32;
         loop {
@@ -272,14 +343,25 @@ impl<M: Medium> Estimator<'_, M> {
             }
             depth += 1;
             n.scatter_events += 1;
-            beta *= self.tracker.medium.albedo(value);
+            let p = ray.origin + ray.dir * t;
+            let lobe = match self.hybrid {
+                Some(scale) => match self.surface_at(scale, cur, p, ray.dir, value, rng, n) {
+                    Some(s) => Lobe::Surface(s),
+                    None => Lobe::Phase,
+                },
+                None => Lobe::Phase,
+            };
+            match lobe {
+                // The surface's albedo is in its BRDF.
+                Lobe::Surface(_) => n.surface_events += 1,
+                Lobe::Phase => beta *= self.tracker.medium.albedo(value),
+            }
             if beta.max_element() <= 0.0 {
                 break;
             }
-            let p = ray.origin + ray.dir * t;
-            l += beta * self.direct(cur, p, ray.dir, rng, n);
+            l += beta * self.direct(&lobe, cur, p, ray.dir, rng, n);
             if let Some(m) = self.env_map {
-                l += beta * self.direct_env(m, cur, p, ray.dir, rng, n);
+                l += beta * self.direct_env(m, &lobe, cur, p, ray.dir, rng, n);
             }
             if depth == self.bounces && !has_sky {
                 break;
@@ -292,10 +374,23 @@ impl<M: Medium> Estimator<'_, M> {
                 beta /= q;
             }
             let (u, v) = rng.next_2d();
-            let dir = self.phase.sample(ray.dir, u, v);
-            if self.env_map.is_some() {
-                phase_pdf = self.phase.eval(dir.dot(ray.dir));
-            }
+            let dir = match lobe {
+                Lobe::Phase => {
+                    let dir = self.phase.sample(ray.dir, u, v);
+                    if self.env_map.is_some() {
+                        phase_pdf = self.phase.eval(dir.dot(ray.dir));
+                    }
+                    dir
+                }
+                Lobe::Surface(s) => {
+                    let Some(e) = s.sample(ray.dir, u, v) else {
+                        break;
+                    };
+                    beta *= e.weight;
+                    phase_pdf = e.pdf;
+                    e.dir
+                }
+            };
             ray = Ray { origin: p, dir };
             n.bounce_rays += 1;
         }

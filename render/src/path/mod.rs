@@ -26,6 +26,7 @@ pub mod envmap;
 pub mod estimator;
 pub mod medium;
 pub mod phase;
+pub mod surface;
 pub mod tracking;
 
 pub use accum::Accumulator;
@@ -102,6 +103,11 @@ pub struct PathSettings {
     pub bounces: u32,
     /// Henyey-Greenstein asymmetry.
     pub g: f32,
+    /// Hybrid scattering: where the extinction's gradient is steep, an
+    /// event reflects off a surface BRDF with probability
+    /// `1 − exp(−scale × |∇σt| / max σt)` (per voxel); `None`: the phase
+    /// function everywhere.
+    pub hybrid: Option<f32>,
     /// Majorant grid or one global majorant.
     pub majorant: MajorantMode,
     /// The lights.
@@ -137,6 +143,8 @@ pub struct PathCounters {
     pub shadow_rays: u64,
     /// Scattering events.
     pub scatter_events: u64,
+    /// Of those, events that reflected off a surface (hybrid scattering).
+    pub surface_events: u64,
     /// Continuation rays after a scattering event.
     pub bounce_rays: u64,
     /// Tracking calls cut at [`tracking::MAX_COLLISIONS`].
@@ -155,6 +163,7 @@ impl std::ops::AddAssign for PathCounters {
         self.density_lookups += o.density_lookups;
         self.shadow_rays += o.shadow_rays;
         self.scatter_events += o.scatter_events;
+        self.surface_events += o.surface_events;
         self.bounce_rays += o.bounce_rays;
         self.truncated += o.truncated;
         self.non_finite += o.non_finite;
@@ -234,6 +243,11 @@ impl<'a> PathTracer<'a> {
         {
             return Err(RenderError::Setting(
                 "light and background radiances must be finite and not negative".into(),
+            ));
+        }
+        if settings.hybrid.is_some_and(|h| !(h.is_finite() && h > 0.0)) {
+            return Err(RenderError::Setting(
+                "the hybrid gradient scale must be a finite number above 0".into(),
             ));
         }
         if l.env_map.is_some() && l.env != Vec3::ZERO {
@@ -347,6 +361,7 @@ impl<'a> PathTracer<'a> {
                 .as_deref()
                 .filter(|m| !m.is_black()),
             bounces: self.settings.bounces,
+            hybrid: self.settings.hybrid,
             scatters: self.scatters,
             sampler: crate::sampler::HashSampler::new(self.settings.seed),
         };

@@ -141,6 +141,24 @@ impl<M: Medium> Tracker<'_, M> {
         (s, v)
     }
 
+    /// The gradient of the extinction at voxel position `p`, per voxel
+    /// (central differences one voxel apart, clamped into the volume):
+    /// six lookups.
+    #[inline]
+    pub fn gradient<C: Cursor>(&self, cur: &mut C, p: glam::Vec3) -> glam::Vec3 {
+        let hi = glam::Vec3::from(self.hi);
+        let mut s = |q: glam::Vec3| {
+            let q = q.clamp(glam::Vec3::ZERO, hi);
+            self.medium.sigma_t(cur.trilinear(q.to_array()))
+        };
+        let (x, y, z) = (glam::Vec3::X, glam::Vec3::Y, glam::Vec3::Z);
+        glam::Vec3::new(
+            s(p + x) - s(p - x),
+            s(p + y) - s(p - y),
+            s(p + z) - s(p - z),
+        ) * 0.5
+    }
+
     /// The tentative collisions along `ray` over `[t0, t1]`, in order:
     /// an optical depth is drawn (exponential, mean 1) and spent across
     /// the cells at their majorants; where it runs out, `at(t, m, rng, n)`
