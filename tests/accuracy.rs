@@ -206,8 +206,9 @@ fn quick_path_study_converges() {
         lines.next(),
         Some("scene,bounces,majorant,spp,seconds,psnr_db,relative_error,lookups_per_path")
     );
-    // (scene, bounces, majorant) -> [(spp, seconds, psnr)]
-    let mut runs: HashMap<(String, String, String), Vec<(u64, f64, f64)>> = HashMap::new();
+    /// (scene, bounces, majorant) -> [(spp, seconds, psnr)]
+    type Runs = HashMap<(String, String, String), Vec<(u64, f64, f64)>>;
+    let mut runs = Runs::new();
     for line in lines {
         let f: Vec<&str> = line.split(',').collect();
         assert_eq!(f.len(), 8, "bad row: {line}");

@@ -225,6 +225,7 @@ pub struct Cli {
     #[arg(
         long,
         value_name = "off|SCALE",
+        allow_hyphen_values = true,
         help_heading = "Path tracing (--mode path)"
     )]
     pub hybrid: Option<String>,
