@@ -154,12 +154,10 @@ impl<M: Medium> Estimator<'_, M> {
         let Some(e) = map.sample(u, v) else {
             return Vec3::ZERO;
         };
-        let (f, pdf) = match lobe {
-            Lobe::Phase => {
-                let f = self.phase.eval(e.dir.dot(d));
-                (Vec3::splat(f), f)
-            }
-            Lobe::Surface(s) => (s.eval(d, e.dir), s.pdf(d, e.dir)),
+        let f = self.lobe_f(lobe, d, e.dir);
+        let pdf = match lobe {
+            Lobe::Phase => f.x,
+            Lobe::Surface(s) => s.pdf(d, e.dir),
         };
         if f.max_element() <= 0.0 || e.radiance == Vec3::ZERO {
             return Vec3::ZERO;
@@ -169,6 +167,17 @@ impl<M: Medium> Estimator<'_, M> {
             return Vec3::ZERO;
         }
         e.radiance * f * (tr * power_heuristic(e.pdf, pdf) / e.pdf)
+    }
+
+    /// What `lobe` scatters from unit direction `wi` (toward the light)
+    /// into the eye of a path travelling along `d`: the phase function's
+    /// value, or the BRDF times the cosine.
+    #[inline(always)]
+    fn lobe_f(&self, lobe: &Lobe, d: Vec3, wi: Vec3) -> Vec3 {
+        match lobe {
+            Lobe::Phase => Vec3::splat(self.phase.eval(wi.dot(d))),
+            Lobe::Surface(s) => s.eval(d, wi),
+        }
     }
 
     /// Light from the suns and point lights scattered at `p` toward the
@@ -185,10 +194,7 @@ impl<M: Medium> Estimator<'_, M> {
     ) -> Vec3 {
         let mut l = Vec3::ZERO;
         for sun in &self.lights.suns {
-            let f = match lobe {
-                Lobe::Phase => Vec3::splat(self.phase.eval(sun.travel.dot(-d))),
-                Lobe::Surface(s) => s.eval(d, -sun.travel),
-            };
+            let f = self.lobe_f(lobe, d, -sun.travel);
             if f.max_element() <= 0.0 {
                 continue;
             }
@@ -204,10 +210,7 @@ impl<M: Medium> Estimator<'_, M> {
             let Some(wi) = crate::ray::unit(to) else {
                 continue;
             };
-            let f = match lobe {
-                Lobe::Phase => Vec3::splat(self.phase.eval(wi.dot(d))),
-                Lobe::Surface(s) => s.eval(d, wi),
-            };
+            let f = self.lobe_f(lobe, d, wi);
             if f.max_element() <= 0.0 {
                 continue;
             }
