@@ -183,6 +183,10 @@ fn path_options_are_checked() {
             "ray caster's effects",
         ),
         (&["--mode", "path", "--until-error", "0"], "above 0"),
+        (
+            &["--mode", "path", "--repeat", "3"],
+            "--repeat times the ray caster",
+        ),
     ];
     for (args, needle) in cases {
         fails(

@@ -146,6 +146,12 @@ pub fn settings(
     if cli.spp == Some(0) {
         bail!("--spp must be at least 1");
     }
+    if cli.repeat > 1 {
+        bail!(
+            "--repeat times the ray caster's frames; a path-traced render is timed by its budget \
+             (--spp, --time or --until-error; render_s in --json)"
+        );
+    }
     if !(cli.exposure.is_finite() && cli.exposure >= 0.0) {
         bail!("--exposure {} must be a finite number >= 0", cli.exposure);
     }
