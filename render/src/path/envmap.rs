@@ -189,12 +189,20 @@ impl EnvMap {
     /// `dir` (0 where the map is black or at the poles).
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {
-        if self.total <= 0.0 {
-            return 0.0;
-        }
+        self.radiance_pdf(dir).1
+    }
+
+    /// [`EnvMap::radiance`] and [`EnvMap::pdf`] of `dir` from one texel
+    /// lookup.
+    #[inline]
+    pub fn radiance_pdf(&self, dir: Vec3) -> (Vec3, f32) {
         let (c, r) = self.texel_of(dir);
+        let radiance = self.texels[r * self.width as usize + c];
+        if self.total <= 0.0 {
+            return (radiance, 0.0);
+        }
         let sin = (1.0 - (dir.y as f64).clamp(-1.0, 1.0).powi(2)).sqrt();
-        self.density(c, r, sin)
+        (radiance, self.density(c, r, sin))
     }
 
     /// Density per steradian inside texel (c, r) at polar sine `sin`.
@@ -235,15 +243,11 @@ impl EnvMap {
             cos as f32,
             (sin * phi.sin()) as f32,
         );
-        let pdf = self.pdf(dir);
+        let (radiance, pdf) = self.radiance_pdf(dir);
         if pdf <= 0.0 || !pdf.is_finite() {
             return None;
         }
-        Some(EnvSample {
-            dir,
-            radiance: self.radiance(dir),
-            pdf,
-        })
+        Some(EnvSample { dir, radiance, pdf })
     }
 
     /// `∫ luminance dω` over the sphere, exactly for the piecewise

@@ -322,7 +322,10 @@ impl<M: Medium> Estimator<'_, M> {
                     self.seen(ray.dir)
                 } else {
                     match self.env_map {
-                        Some(m) => m.radiance(ray.dir) * power_heuristic(phase_pdf, m.pdf(ray.dir)),
+                        Some(m) => {
+                            let (radiance, pdf) = m.radiance_pdf(ray.dir);
+                            radiance * power_heuristic(phase_pdf, pdf)
+                        }
                         None => self.lights.env,
                     }
                 }
