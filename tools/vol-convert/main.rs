@@ -7,10 +7,12 @@ use clap::Parser;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
-use volcore::{Compression, Dims, SampleType};
+use volcore::{Compression, Dims, SampleType, Shard};
 use volformats::convert::{self, Plan, Target, ValueMap, Window};
+use volformats::output::AtomicFile;
 use volformats::thesis::ThesisLayout;
 use volformats::tiff::ChannelSel;
+use volformats::vvol::part;
 use volformats::{open_input, ReadOptions};
 use volkit_cli::args::{self, LayoutArg};
 use volkit_cli::{json, noteln, usage, RawSpec};
@@ -53,7 +55,8 @@ use volkit_cli::{json, noteln, usage, RawSpec};
 #[command(name = "vol-convert", version, after_help = EXAMPLES)]
 struct Cli {
     /// Input file, directory of slices, glob, list file, or -.
-    input: PathBuf,
+    #[arg(required_unless_present = "merge")]
+    input: Option<PathBuf>,
     /// Output path (.vvol, .vol, .raw, .tif, .nii[.gz], .nrrd, .mha, DIR/, or -).
     #[arg(short, long)]
     output: PathBuf,
@@ -105,6 +108,21 @@ struct Cli {
     /// DICOM: the SeriesInstanceUID to read when the input holds several.
     #[arg(long, value_name = "UID")]
     series: Option<String>,
+    /// Convert only shard K of N (K from 0) into a part file (-o
+    /// NAME.vpart): its share of the brick layers (bricked) or slices
+    /// (sliced), reading only the input slices those need. Run the N shards
+    /// anywhere (a Slurm array, GNU parallel), then --merge the parts.
+    #[arg(long, value_name = "K/N", value_parser = shard_arg)]
+    shard: Option<Shard>,
+    /// Assemble the N part files of a sharded conversion (any order) into
+    /// one .vvol (-o OUT.vvol): byte for byte what the unsharded conversion
+    /// writes. Compressed bricks are copied, not recompressed; every
+    /// brick's checksum is checked on the way.
+    #[arg(long, value_name = "PART", num_args = 1.., conflicts_with_all = [
+        "input", "shard", "layout", "compress", "sample_type", "window", "spacing", "crop",
+        "flip", "channel", "luma", "pyramid", "downsample", "ngff", "time", "series",
+    ])]
+    merge: Vec<PathBuf>,
     #[command(flatten)]
     raw: RawSpec,
     /// Print one JSON object with what was done (to stderr when -o -).
@@ -124,7 +142,11 @@ const EXAMPLES: &str = "Examples:
   vol-convert scan.vvol -o slices/
   vol-convert ct.nii.gz --pyramid 4 -o ct.ome.zarr            # NGFF 0.4, Zarr v2
   vol-convert ct.nii.gz --pyramid 4 --ngff 0.5 -o ct.ome.zarr # NGFF 0.5, Zarr v3
-  vol-gen shapes --dims 256,256,256 -o - | vol-convert - --layout bricked:32 -o out.vvol";
+  vol-gen shapes --dims 256,256,256 -o - | vol-convert - --layout bricked:32 -o out.vvol
+
+Sharded (each shard reads only the slices its brick layers need):
+  for k in 0 1 2 3; do vol-convert scan/ --layout bricked:32 --shard $k/4 -o scan.$k.vpart; done
+  vol-convert --merge scan.*.vpart -o scan.vvol          # identical to the unsharded scan.vvol";
 
 /// Keep freed buffers in the process. Slices and write chunks of a few
 /// hundred KiB to a few MiB are allocated and freed for every unit, and
@@ -185,7 +207,77 @@ fn main() -> ExitCode {
         Ok(c) => c,
         Err(code) => return code,
     };
-    volkit_cli::run("vol-convert", || convert_cmd(&cli))
+    volkit_cli::run("vol-convert", || {
+        if cli.merge.is_empty() {
+            convert_cmd(&cli)
+        } else {
+            merge_cmd(&cli)
+        }
+    })
+}
+
+fn shard_arg(s: &str) -> Result<Shard, String> {
+    s.parse()
+}
+
+/// `--merge`: assemble part files into one `.vvol`.
+fn merge_cmd(cli: &Cli) -> Result<()> {
+    let start = Instant::now();
+    let out = &cli.output;
+    let is_vvol = out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("vvol"));
+    if !is_vvol {
+        return Err(usage_at(
+            out,
+            "--merge writes a .vvol file: name it OUT.vvol",
+        ));
+    }
+    let mut parts = part::open_parts(&cli.merge)?;
+    let data: u64 = parts.iter().map(|p| p.header.data_len).sum();
+    volformats::output::check_space(out, data).map_err(|e| at(out, e))?;
+    let bar = volkit_cli::progress::bytes_bar(data, "vol-convert", cli.quiet);
+    let mut file = AtomicFile::create(out).map_err(|e| at(out, e))?;
+    let stats = part::merge(&mut parts, file.file(), out, &|n| bar.set_position(n))?;
+    file.commit().map_err(|e| at(out, e))?;
+    bar.finish_and_clear();
+    let seconds = start.elapsed().as_secs_f64();
+    let m = &stats.meta;
+    if cli.json {
+        let (min, max) = if stats.range.is_empty() {
+            (None, None)
+        } else {
+            (Some(stats.range.min), Some(stats.range.max))
+        };
+        let d = m.dims;
+        let v = serde_json::json!({
+            "tool": "vol-convert",
+            "mode": "merge",
+            "parts": parts.len(),
+            "output": out.display().to_string(),
+            "dims": [d.x, d.y, d.z],
+            "type": m.sample_type.name(),
+            "spacing": m.spacing,
+            "layout": match m.layout { volcore::Layout::Sliced => "sliced".to_string(), volcore::Layout::Bricked(g) => format!("bricked:{}", g.brick()) },
+            "compression": match m.compression { Compression::None => "none".to_string(), Compression::Zstd(l) => format!("zstd:{l}") },
+            "bytes": stats.bytes,
+            "min": min,
+            "max": max,
+            "seconds": seconds,
+        });
+        json::emit(&v, false)?;
+    } else if !cli.quiet {
+        noteln!(
+            "vol-convert: merged {} parts into {} ({} {}, {} bytes) in {:.2} s",
+            parts.len(),
+            out.display(),
+            m.dims,
+            m.sample_type,
+            stats.bytes,
+            seconds
+        );
+    }
+    Ok(())
 }
 
 /// An error about `path`, as `path: message`.
@@ -236,6 +328,49 @@ impl CompressArg {
 fn target(cli: &Cli) -> Result<Target> {
     let out = &cli.output;
     let text = out.to_string_lossy();
+    let ext = out
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    if let Some(shard) = cli.shard {
+        if ext != part::EXTENSION {
+            return Err(usage_at(
+                out,
+                "with --shard the output is one part of a .vvol: name it NAME.vpart (then vol-convert --merge the parts -o NAME.vvol)",
+            ));
+        }
+        let compression = match cli.compress {
+            CompressArg::Vvol(c) => c,
+            CompressArg::Gzip => {
+                return Err(usage_at(
+                    out,
+                    "--compress gzip does not apply to .vvol parts",
+                ))
+            }
+        };
+        let brick = match cli.layout {
+            LayoutArg::Sliced if compression != Compression::None => {
+                return Err(usage_at(
+                    out,
+                    "--compress needs --layout bricked:B (compression is per brick)",
+                ))
+            }
+            LayoutArg::Sliced => None,
+            LayoutArg::Bricked(b) => Some(b),
+        };
+        return Ok(Target::VvolPart {
+            path: out.clone(),
+            brick,
+            compression,
+            shard,
+        });
+    }
+    if ext == part::EXTENSION {
+        return Err(usage_at(
+            out,
+            ".vpart files are the parts of a sharded conversion: add --shard K/N",
+        ));
+    }
     let zarr_out = volformats::omezarr::is_zarr(out) && !out.is_file();
     if !zarr_out {
         if cli.pyramid > 1 {
@@ -321,10 +456,6 @@ fn target(cli: &Cli) -> Result<Target> {
         no_compress("TIFF")?;
         return Ok(Target::TiffDir { path: out.clone() });
     }
-    let ext = out
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
     match ext.as_str() {
         "vvol" => {
             let brick = match cli.layout {
@@ -394,29 +525,26 @@ fn read_options(cli: &Cli) -> ReadOptions {
 
 fn convert_cmd(cli: &Cli) -> Result<()> {
     let start = Instant::now();
+    let Some(input) = &cli.input else {
+        return Err(usage("no INPUT given (or --merge PARTS...)"));
+    };
     let window: Option<Window> = match &cli.window {
-        Some(w) => Some(
-            w.parse()
-                .map_err(|e| at(&cli.input, format!("--window {e}")))?,
-        ),
+        Some(w) => Some(w.parse().map_err(|e| at(input, format!("--window {e}")))?),
         None => None,
     };
     if window.is_some() && cli.sample_type.is_none() {
-        return Err(at(
-            &cli.input,
-            "--window needs --type (the output sample type)",
-        ));
+        return Err(at(input, "--window needs --type (the output sample type)"));
     }
     // Check the output first: a bad output name should not cost a scan.
     let target = target(cli)?;
     target.preflight().map_err(anyhow::Error::new)?;
     let opts = read_options(cli);
-    let reader = open_input(&cli.input, &opts)?;
+    let reader = open_input(input, &opts)?;
     let info = reader.info().clone();
     let crop = match &cli.crop {
         Some(s) => {
-            let parsed = convert::parse_crop(s).map_err(|e| at(&cli.input, e))?;
-            Some(convert::resolve_crop(&parsed, info.dims).map_err(|e| at(&cli.input, e))?)
+            let parsed = convert::parse_crop(s).map_err(|e| at(input, e))?;
+            Some(convert::resolve_crop(&parsed, info.dims).map_err(|e| at(input, e))?)
         }
         None => None,
     };
@@ -431,7 +559,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             c[1].end - c[1].start,
             c[2].end - c[2].start,
         )
-        .map_err(|e| at(&cli.input, e))?,
+        .map_err(|e| at(input, e))?,
         None => info.dims,
     };
     let plan = Plan {
@@ -442,7 +570,17 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         spacing: cli.spacing,
         temp_dir: None,
     };
-    let total = out_dims.count().saturating_mul(out_type.size() as u64);
+    let mut total = out_dims.count().saturating_mul(out_type.size() as u64);
+    if let Some(shard) = cli.shard {
+        // The shard's share of the units (slices or brick layers).
+        let units = match cli.layout {
+            LayoutArg::Sliced => out_dims.z,
+            LayoutArg::Bricked(b) => out_dims.z.div_ceil(u64::from(b.max(1))),
+        };
+        let mine = shard.units(units);
+        total = (u128::from(total) * u128::from(mine.end - mine.start) / u128::from(units.max(1)))
+            as u64;
+    }
     // The samples alone must fit where the output goes (bricks add their
     // aprons; compressed bricks may take less, so they are not checked).
     if cli.output.as_os_str() != "-" && matches!(cli.compress, CompressArg::Vvol(Compression::None))
@@ -476,7 +614,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         let g = &report.geometry;
         let v = serde_json::json!({
             "tool": "vol-convert",
-            "input": cli.input.display().to_string(),
+            "input": input.display().to_string(),
             "format": report.input_format,
             "input_type": report.input_type.name(),
             "output": cli.output.display().to_string(),
@@ -494,6 +632,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             "min": min,
             "max": max,
             "spooled": report.spooled,
+            "shard": cli.shard.map(|s| s.to_string()),
             "seconds": seconds,
             "threads": rayon::current_num_threads(),
         });

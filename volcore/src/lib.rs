@@ -21,6 +21,7 @@ pub mod meta;
 pub mod region;
 pub mod sample;
 pub mod scene;
+pub mod shard;
 pub mod storage;
 pub mod text;
 pub mod volume;
@@ -32,5 +33,6 @@ pub use grid::{BrickedGrid, CompressedGrid, Cursor, SliceOrder, SlicedGrid, Voxe
 pub use meta::{Compression, Geometry, Layout, ValueRange, VolumeMeta};
 pub use region::RegionSource;
 pub use sample::{Sample, SampleType};
+pub use shard::Shard;
 pub use storage::Data;
 pub use volume::{Volume, VolumeData, VolumeVisitor};

@@ -15,7 +15,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use volcore::{
-    BrickGeometry, Compression, Dims, Geometry, Layout, RegionSource, Sample, SampleType,
+    BrickGeometry, Compression, Dims, Geometry, Layout, RegionSource, Sample, SampleType, Shard,
     ValueRange, Volume, VolumeMeta,
 };
 
@@ -29,6 +29,18 @@ pub enum Target {
         brick: Option<u32>,
         /// Per-brick compression (bricked only).
         compression: Compression,
+    },
+    /// One shard's part of a `.vvol` file (see [`crate::vvol::part`]):
+    /// its slices (sliced) or brick layers (bricked), to be merged.
+    VvolPart {
+        /// Output part file.
+        path: PathBuf,
+        /// Brick edge, or `None` for sliced.
+        brick: Option<u32>,
+        /// Per-brick compression (bricked only).
+        compression: Compression,
+        /// Which shard.
+        shard: Shard,
     },
     /// A sliced `.vvol` stream (standard output).
     VvolStream(Box<dyn Write + Send>),
@@ -190,6 +202,7 @@ impl Target {
     pub fn path(&self) -> &Path {
         match self {
             Target::Vvol { path, .. }
+            | Target::VvolPart { path, .. }
             | Target::Thesis { path, .. }
             | Target::Raw { path }
             | Target::Tiff { path }
@@ -272,6 +285,27 @@ pub(crate) fn run_target<T: SliceSample>(
                 let mut sink = VvolSink {
                     w: Some(
                         VvolWriter::new(Sink::File(file.file()), meta, spec.progress).at(&path)?,
+                    ),
+                    path: &path,
+                };
+                drive(&mut sink)?;
+                sink.finish()?
+            };
+            file.commit().at(&path)?;
+            Ok((stats.bytes, Some(stats.range)))
+        }
+        Target::VvolPart {
+            brick,
+            compression,
+            shard,
+            ..
+        } => {
+            let meta = vvol_meta::<T>(spec, brick, compression).at(&path)?;
+            let mut file = AtomicFile::create(&path).at(&path)?;
+            let stats = {
+                let mut sink = VvolSink {
+                    w: Some(
+                        VvolWriter::new_part(file.file(), meta, shard, spec.progress).at(&path)?,
                     ),
                     path: &path,
                 };

@@ -2,6 +2,7 @@
 //! the header and trailer codecs here, writing in [`write`], reading in
 //! [`read`].
 
+pub mod part;
 mod read;
 mod slices;
 mod write;

@@ -1,6 +1,6 @@
 //! Writing `.vvol` files and streams, all at once or unit by unit.
 
-use super::{encode_table, Header, Trailer, ENTRY_LEN, HEADER_LEN, TRAILER_LEN};
+use super::{encode_table, part, Header, Trailer, ENTRY_LEN, HEADER_LEN, TRAILER_LEN};
 use crate::error::{Error, Result};
 use crate::output::Sink;
 use crate::pipeline::{ordered, write_rows, ITEM_BYTES};
@@ -8,7 +8,7 @@ use std::io::{Seek, SeekFrom, Write};
 use std::ops::Range;
 use volcore::grid::BrickEntry;
 use volcore::region::{fill_brick, RegionSource};
-use volcore::{BrickGeometry, Compression, Layout, Sample, ValueRange, VolumeMeta};
+use volcore::{BrickGeometry, Compression, Layout, Sample, Shard, ValueRange, VolumeMeta};
 
 /// What a writer did.
 #[derive(Clone, Copy, Debug)]
@@ -61,6 +61,11 @@ pub struct VvolWriter<'a> {
     sink: Sink<'a>,
     header: Header,
     state: State,
+    /// The units (slices when sliced, brick layers when bricked) this
+    /// writer writes: all of them, or one shard's.
+    units: Range<u64>,
+    /// Writing one shard's part file rather than a whole `.vvol`.
+    part: Option<Shard>,
     range: ValueRange,
     done_bytes: u64,
     progress: &'a (dyn Fn(u64) + Sync),
@@ -76,17 +81,43 @@ impl<'a> VvolWriter<'a> {
     /// Start a file or stream for `meta` (its range is ignored): writes
     /// the header and, for bricked files, room for the brick table.
     pub fn new(
+        sink: Sink<'a>,
+        meta: VolumeMeta,
+        progress: &'a (dyn Fn(u64) + Sync),
+    ) -> Result<VvolWriter<'a>> {
+        VvolWriter::start(sink, meta, None, progress)
+    }
+
+    /// Start the part file of `shard` of the `.vvol` that `meta` describes
+    /// (see [`super::part`]): it holds that shard's slices (sliced) or brick
+    /// layers (bricked) and is assembled with the others by
+    /// [`super::part::merge`]. Parts are files: the header is written last.
+    pub fn new_part(
+        file: &'a mut std::fs::File,
+        meta: VolumeMeta,
+        shard: Shard,
+        progress: &'a (dyn Fn(u64) + Sync),
+    ) -> Result<VvolWriter<'a>> {
+        VvolWriter::start(Sink::File(file), meta, Some(shard), progress)
+    }
+
+    fn start(
         mut sink: Sink<'a>,
         meta: VolumeMeta,
+        part: Option<Shard>,
         progress: &'a (dyn Fn(u64) + Sync),
     ) -> Result<VvolWriter<'a>> {
         let mut meta = meta;
         meta.range = ValueRange::EMPTY;
         let header = Header::for_meta(meta)?;
+        let units = match part {
+            Some(shard) => shard.units(part::unit_count(&meta)),
+            None => 0..part::unit_count(&meta),
+        };
         let state = match meta.layout {
             Layout::Sliced => State::Sliced {
                 crc: crc32fast::Hasher::new(),
-                next_z: 0,
+                next_z: units.start,
             },
             Layout::Bricked(geom) => {
                 if matches!(sink, Sink::Stream(_)) {
@@ -96,25 +127,34 @@ impl<'a> VvolWriter<'a> {
                 }
                 State::Bricked {
                     geom,
-                    entries: Vec::with_capacity(geom.brick_count() as usize),
-                    offset: header.data_offset,
+                    entries: Vec::new(),
+                    offset: match part {
+                        Some(_) => part::DATA_OFFSET,
+                        None => header.data_offset,
+                    },
                     level: match meta.compression {
                         Compression::Zstd(l) => Some(l),
                         Compression::None => None,
                     },
-                    next_layer: 0,
+                    next_layer: units.start,
                 }
             }
         };
         let out = sink_writer(&mut sink);
-        out.write_all(&header.encode())?;
-        if let State::Bricked { .. } = state {
-            write_zeros(out, header.data_offset - header.header_len)?;
+        if part.is_some() {
+            write_zeros(out, part::DATA_OFFSET)?;
+        } else {
+            out.write_all(&header.encode())?;
+            if let State::Bricked { .. } = state {
+                write_zeros(out, header.data_offset - header.header_len)?;
+            }
         }
         Ok(VvolWriter {
             sink,
             header,
             state,
+            units,
+            part,
             range: ValueRange::EMPTY,
             done_bytes: 0,
             progress,
@@ -127,12 +167,12 @@ impl<'a> VvolWriter<'a> {
         let d = self.header.meta.dims;
         match &self.state {
             State::Sliced { next_z, .. } => {
-                *next_z..(*next_z + slab_slices(&self.header.meta)).min(d.z)
+                *next_z..(*next_z + slab_slices(&self.header.meta)).min(self.units.end)
             }
             State::Bricked {
                 geom, next_layer, ..
             } => {
-                if *next_layer >= geom.counts()[2] {
+                if *next_layer >= self.units.end {
                     return d.z..d.z;
                 }
                 let b = geom.brick() as u64;
@@ -234,6 +274,9 @@ impl<'a> VvolWriter<'a> {
                 "writer finished before all samples were written",
             ));
         }
+        if let Some(shard) = self.part {
+            return self.finish_part(shard);
+        }
         let mut h = self.header.clone();
         h.meta.range = self.range;
         let (crc32, table) = match &self.state {
@@ -264,6 +307,45 @@ impl<'a> VvolWriter<'a> {
         sink_writer(&mut self.sink).flush()?;
         Ok(WriteStats {
             bytes: h.file_len().unwrap_or(0).max(HEADER_LEN + TRAILER_LEN),
+            range: self.range,
+        })
+    }
+}
+
+impl VvolWriter<'_> {
+    /// [`VvolWriter::finish`] for a part file: the brick table (bricked)
+    /// after the data, then the part header in front.
+    fn finish_part(mut self, shard: Shard) -> Result<WriteStats> {
+        let (data_len, crc32, table) = match &self.state {
+            State::Sliced { crc, .. } => (self.done_bytes, crc.clone().finalize(), Vec::new()),
+            State::Bricked {
+                entries, offset, ..
+            } => {
+                let table = encode_table(entries);
+                (*offset - part::DATA_OFFSET, crc32fast::hash(&table), table)
+            }
+        };
+        let mut meta = self.header.meta;
+        meta.range = self.range;
+        let head = part::PartHeader {
+            shard,
+            units: self.units.clone(),
+            data_len,
+            crc32,
+            volume: Header::for_meta(meta)?,
+        };
+        let Sink::File(f) = &mut self.sink else {
+            return Err(Error::invalid(
+                "a part is written to a file (internal error)",
+            ));
+        };
+        f.write_all(&table)?;
+        f.seek(SeekFrom::Start(0))?;
+        f.write_all(&head.encode())?;
+        f.seek(SeekFrom::End(0))?;
+        f.flush()?;
+        Ok(WriteStats {
+            bytes: part::DATA_OFFSET + data_len + table.len() as u64,
             range: self.range,
         })
     }
