@@ -270,7 +270,49 @@ fn build_walk_with<T: ScanSample>(
 ) -> Result<MajorantIndex, IndexError> {
     let dims = walk.dims();
     let shapes = level_shapes(dims, opts.cell_edge);
-    let cells = shapes[0];
+    let Scanned {
+        cells,
+        min,
+        max,
+        counts,
+    } = scan_walk(walk, opts, avx2)?;
+    let edge = u64::from(opts.cell_edge);
+    let mut levels = vec![Level::from_parts(cells, edge, min, max)?];
+    while levels.len() < shapes.len() {
+        let next = levels[levels.len() - 1].coarsen()?;
+        levels.push(next);
+    }
+    let top = &levels[levels.len() - 1];
+    let range = (top.min()[0], top.max()[0]);
+    let hist = if T::EXACT_VALUES > 0 {
+        Histogram::from_exact(T::TYPE_MIN, &counts.per_value(), opts.histogram_bins)
+    } else {
+        float_histogram(walk, range, opts.histogram_bins)?
+    };
+    MajorantIndex::from_parts(dims, T::TYPE, fingerprint, range, hist, levels)
+}
+
+/// The level-0 cell ranges of a walk and its exact value counts.
+pub(crate) struct Scanned {
+    /// Level-0 cells per axis.
+    pub cells: [u64; 3],
+    /// Per-cell minima, x fastest.
+    pub min: Vec<f32>,
+    /// Per-cell maxima.
+    pub max: Vec<f32>,
+    /// Per-value counts (integer sample types).
+    pub counts: ExactCounts,
+}
+
+/// One parallel pass over `walk`: the level-0 cell ranges and the exact
+/// value counts, on AVX2 when `avx2` is given.
+pub(crate) fn scan_walk<T: ScanSample>(
+    walk: &dyn Walk<T>,
+    opts: &BuildOptions,
+    avx2: Option<Avx2>,
+) -> Result<Scanned, IndexError> {
+    let dims = walk.dims();
+    let cells = level_shapes(dims, opts.cell_edge)[0];
     let total = cell_count(cells)?;
     usize::try_from(dims.x)
         .map_err(|_| IndexError::TooLarge(format!("rows of {} voxels", dims.x)))?;
@@ -294,20 +336,12 @@ fn build_walk_with<T: ScanSample>(
         layers.finish();
         counts
     };
-
-    let mut levels = vec![Level::from_parts(cells, edge, min, max)?];
-    while levels.len() < shapes.len() {
-        let next = levels[levels.len() - 1].coarsen()?;
-        levels.push(next);
-    }
-    let top = &levels[levels.len() - 1];
-    let range = (top.min()[0], top.max()[0]);
-    let hist = if T::EXACT_VALUES > 0 {
-        Histogram::from_exact(T::TYPE_MIN, &counts.per_value(), opts.histogram_bins)
-    } else {
-        float_histogram(walk, range, opts.histogram_bins)?
-    };
-    MajorantIndex::from_parts(dims, T::TYPE, fingerprint, range, hist, levels)
+    Ok(Scanned {
+        cells,
+        min,
+        max,
+        counts,
+    })
 }
 
 /// The cells whose footprints meet the voxels of `r`, per axis.
@@ -461,7 +495,7 @@ const TASK_ACC: u64 = 1 << 16;
 /// The `f32` histogram: a second pass binning every sample over the range
 /// of the finite samples (found with a third pass only when the global
 /// range itself is infinite).
-fn float_histogram<T: ScanSample>(
+pub(crate) fn float_histogram<T: ScanSample>(
     walk: &dyn Walk<T>,
     range: (f32, f32),
     bins: u32,
@@ -531,7 +565,7 @@ fn finite_range<T: ScanSample>(walk: &dyn Walk<T>) -> Result<(f32, f32), IndexEr
 }
 
 /// Call `f` with every row (of some block) of task `task`.
-fn for_each_row<T: ScanSample>(
+pub(crate) fn for_each_row<T: ScanSample>(
     walk: &dyn Walk<T>,
     task: u64,
     mut f: impl FnMut(&[T]),

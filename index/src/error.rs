@@ -61,6 +61,9 @@ pub enum IndexError {
     /// The file is inconsistent (bad field, checksum, or contents).
     #[error("corrupt index file: {0}")]
     Corrupt(String),
+    /// Shards that cannot be built or joined (missing, doubled, mixed).
+    #[error("{0}")]
+    Shard(String),
     /// An I/O failure other than a short read.
     #[error("I/O error: {0}")]
     Io(#[from] std::io::Error),

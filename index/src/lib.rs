@@ -38,6 +38,7 @@ pub mod level;
 mod piece;
 pub mod rangemax;
 mod scan;
+pub mod shard;
 pub mod vidx;
 mod walk;
 

@@ -106,6 +106,22 @@ impl<'a, T> Block<'a, T> {
         Block { region, ..*self }
     }
 
+    /// The same samples with every z coordinate lowered by `dz` (at most
+    /// the region's first z).
+    pub fn shifted_z(&self, dz: u64) -> Block<'a, T> {
+        let (data, row, plane) = self.samples();
+        let mut region = self.region;
+        region.lo[2] -= dz;
+        region.hi[2] -= dz;
+        Block {
+            region,
+            data,
+            origin: region.lo,
+            row,
+            plane,
+        }
+    }
+
     /// Call `f(y, z, row)` for every row of the block, z outer, y inner.
     #[inline]
     pub fn for_each_row(&self, mut f: impl FnMut(u64, u64, &'a [T])) {
@@ -144,6 +160,78 @@ fn slab(dims: Dims, edge: u64, k: u64) -> Region {
     Region {
         lo: [0, 0, k * edge],
         hi: [dims.x, dims.y, (k * edge + edge).min(dims.z)],
+    }
+}
+
+/// The slices `zs` of another walk's volume, as a volume of their own
+/// (slice `zs.start` becomes slice 0): its tasks are the other walk's
+/// tasks that meet those slices, their blocks cut to them, so only the
+/// storage those slices live in is read.
+pub(crate) struct ZClip<'w, T> {
+    inner: &'w dyn Walk<T>,
+    zs: Range<u64>,
+    tasks: Vec<u64>,
+}
+
+impl<'w, T> ZClip<'w, T> {
+    /// Slices `zs` (within the volume, not empty) of `inner`.
+    pub fn new(inner: &'w dyn Walk<T>, zs: Range<u64>) -> Self {
+        let tasks = (0..inner.tasks())
+            .filter(|&t| {
+                let r = inner.task_region(t);
+                r.lo[2] < zs.end && r.hi[2] > zs.start
+            })
+            .collect();
+        ZClip { inner, zs, tasks }
+    }
+
+    fn clip(&self, r: Region) -> Option<Region> {
+        let lo = r.lo[2].max(self.zs.start);
+        let hi = r.hi[2].min(self.zs.end);
+        (lo < hi).then(|| {
+            let mut c = r;
+            c.lo[2] = lo - self.zs.start;
+            c.hi[2] = hi - self.zs.start;
+            c
+        })
+    }
+}
+
+impl<T: Sync> Walk<T> for ZClip<'_, T> {
+    fn dims(&self) -> Dims {
+        let d = self.inner.dims();
+        Dims {
+            z: self.zs.end - self.zs.start,
+            ..d
+        }
+    }
+
+    fn tasks(&self) -> u64 {
+        self.tasks.len() as u64
+    }
+
+    fn task_region(&self, task: u64) -> Region {
+        let r = self.inner.task_region(self.tasks[task as usize]);
+        self.clip(r).unwrap_or(Region {
+            lo: [0; 3],
+            hi: [0; 3],
+        })
+    }
+
+    fn blocks(&self, task: u64, f: &mut dyn FnMut(Block<'_, T>)) -> Result<(), IndexError> {
+        let z0 = self.zs.start;
+        let (lo, hi) = (self.zs.start, self.zs.end);
+        self.inner
+            .blocks(self.tasks[task as usize], &mut |b: Block<'_, T>| {
+                let r = b.region;
+                let (a, e) = (r.lo[2].max(lo), r.hi[2].min(hi));
+                if a < e {
+                    let mut cut = r;
+                    cut.lo[2] = a;
+                    cut.hi[2] = e;
+                    f(b.sub(cut).shifted_z(z0));
+                }
+            })
     }
 }
 

@@ -9,11 +9,12 @@ use std::io::{BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
-use volcore::{Dims, SampleType};
+use volcore::{Dims, SampleType, Shard};
 use volformats::output::AtomicFile;
 use volformats::{thesis, FileKind, ReadOptions};
 use volindex::build::DEFAULT_CELL_EDGE;
 use volindex::histogram::DEFAULT_BINS;
+use volindex::shard::{IndexPart, PART_EXTENSION};
 use volindex::{BuildOptions, Histogram, IndexError, MajorantIndex};
 use volkit_cli::{noteln, outln, usage, RawSpec};
 
@@ -28,7 +29,8 @@ use volkit_cli::{noteln, outln, usage, RawSpec};
 #[command(name = "vol-index", version, after_help = EXAMPLES)]
 struct Cli {
     /// The volume file (.vvol, .vol, .raw, NRRD, NIfTI, ...).
-    volume: PathBuf,
+    #[arg(required_unless_present = "merge")]
+    volume: Option<PathBuf>,
     /// Output index file (default: the volume's path with .vidx appended).
     #[arg(short, long, value_name = "FILE.vidx", conflicts_with = "check")]
     output: Option<PathBuf>,
@@ -53,8 +55,23 @@ struct Cli {
     /// Print nothing on success unless --stats or --json asks for it.
     #[arg(short, long)]
     quiet: bool,
+    /// Build only shard K of N (K from 0) into a part file (-o
+    /// NAME.vidxpart): the macrocell layers it owns, reading only the
+    /// bricks or slices those cover. Run the N shards anywhere, then
+    /// --merge the parts. f32 volumes need their value range recorded (a
+    /// .vvol has it).
+    #[arg(long, value_name = "K/N", value_parser = shard_arg, conflicts_with = "check")]
+    shard: Option<Shard>,
+    /// Join the N part files of a sharded build (any order) into one index
+    /// (-o OUT.vidx): bit for bit the unsharded build's.
+    #[arg(long, value_name = "PART", num_args = 1.., conflicts_with_all = ["volume", "shard", "check", "cell", "bins", "stats"])]
+    merge: Vec<PathBuf>,
     #[command(flatten)]
     raw: RawSpec,
+}
+
+fn shard_arg(s: &str) -> Result<Shard, String> {
+    s.parse()
 }
 
 const EXAMPLES: &str = "Examples:
@@ -63,6 +80,10 @@ const EXAMPLES: &str = "Examples:
   vol-index noise.vvol --cell 16 -o noise-16.vidx --json
   vol-index --check shapes.vvol.vidx shapes.vvol && echo fresh
   vol-index --raw-dims 256,256,256 --raw-type u16 scan.raw
+
+Sharded (each shard reads only the bricks of its macrocell layers):
+  for k in 0 1 2 3; do vol-index scan.vvol --shard $k/4 -o scan.$k.vidxpart; done
+  vol-index --merge scan.*.vidxpart -o scan.vvol.vidx     # identical to the unsharded index
 
 The fingerprint of a .vvol covers its header and its checksummed trailer, so
 any change to the samples makes the index stale. .vol and .raw files carry no
@@ -88,9 +109,18 @@ fn main() -> ExitCode {
         Ok(c) => c,
         Err(code) => return code,
     };
-    volkit_cli::run("vol-index", || match &cli.check {
-        Some(index) => check(&cli, index),
-        None => build(&cli),
+    volkit_cli::run("vol-index", || {
+        if !cli.merge.is_empty() {
+            return merge(&cli);
+        }
+        let Some(volume) = &cli.volume else {
+            return Err(usage("no VOLUME given (or --merge PARTS...)"));
+        };
+        match (&cli.check, cli.shard) {
+            (Some(index), _) => check(&cli, volume, index),
+            (None, Some(shard)) => build_shard(&cli, volume, shard),
+            (None, None) => build(&cli, volume),
+        }
     })
 }
 
@@ -139,24 +169,26 @@ struct Timing {
     bytes: u64,
 }
 
-fn build(cli: &Cli) -> Result<()> {
+fn build(cli: &Cli, volume: &Path) -> Result<()> {
     let start = Instant::now();
     let opts = BuildOptions {
         cell_edge: cli.cell,
         histogram_bins: cli.bins,
     };
     opts.validate().map_err(|e| anyhow!("{e}"))?;
-    refuse_stream(&cli.volume)?;
-    let vname = name(&cli.volume);
-    let output = cli
-        .output
-        .clone()
-        .unwrap_or_else(|| default_output(&cli.volume));
+    refuse_stream(volume)?;
+    let vname = name(volume);
+    let output = cli.output.clone().unwrap_or_else(|| default_output(volume));
     let oname = name(&output);
     if output.as_os_str() == "-" {
         return Err(usage(
             "-: the index is written to a file, not to stdout: use -o FILE.vidx",
         ));
+    }
+    if output.extension().is_some_and(|e| e == PART_EXTENSION) {
+        return Err(usage(format!(
+            "{oname}: .{PART_EXTENSION} files are the parts of a sharded build: add --shard K/N"
+        )));
     }
     if FileKind::of(&output).is_some() {
         return Err(usage(format!(
@@ -168,8 +200,8 @@ fn build(cli: &Cli) -> Result<()> {
     // Fingerprint first: if the file is replaced before it is opened, the
     // index holds the new samples under the old fingerprint and is rejected
     // as stale, never accepted for the wrong samples.
-    let fp = volformats::fingerprint(&cli.volume).map_err(at(&vname))?;
-    let vol = volformats::open(&cli.volume, &read).map_err(|e| anyhow!("{e}"))?;
+    let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
+    let vol = volformats::open(volume, &read).map_err(|e| anyhow!("{e}"))?;
     let load_s = start.elapsed().as_secs_f64();
 
     let t = Instant::now();
@@ -179,7 +211,7 @@ fn build(cli: &Cli) -> Result<()> {
     }
     let build_s = t.elapsed().as_secs_f64();
     // Changed in place while we read it (same name, new contents)?
-    let after = volformats::fingerprint(&cli.volume).map_err(at(&vname))?;
+    let after = volformats::fingerprint(volume).map_err(at(&vname))?;
     if after != fp {
         bail!("{vname}: the volume changed while it was being indexed: run vol-index again");
     }
@@ -197,7 +229,7 @@ fn build(cli: &Cli) -> Result<()> {
     };
 
     if cli.json {
-        let mut v = summary(&ix, &cli.volume, &output);
+        let mut v = summary(&ix, volume, &output);
         v["mode"] = json!("build");
         v["output"] = json!(oname);
         v["bytes"] = json!(timing.bytes);
@@ -210,7 +242,7 @@ fn build(cli: &Cli) -> Result<()> {
         return Ok(());
     }
     if cli.stats {
-        print_stats(&ix, &cli.volume)?;
+        print_stats(&ix, volume)?;
     }
     if !cli.quiet {
         let s = ix.stats();
@@ -230,16 +262,130 @@ fn build(cli: &Cli) -> Result<()> {
     Ok(())
 }
 
-/// Write `ix` to `path` through a temporary file; the bytes written.
-fn write_index(ix: &MajorantIndex, path: &Path) -> Result<u64, IndexError> {
+/// `--shard K/N`: build one shard's part of the index.
+fn build_shard(cli: &Cli, volume: &Path, shard: Shard) -> Result<()> {
+    let start = Instant::now();
+    let opts = BuildOptions {
+        cell_edge: cli.cell,
+        histogram_bins: cli.bins,
+    };
+    opts.validate().map_err(|e| anyhow!("{e}"))?;
+    refuse_stream(volume)?;
+    let vname = name(volume);
+    let Some(output) = &cli.output else {
+        return Err(usage(format!(
+            "{vname}: --shard writes a part file: give -o NAME.{PART_EXTENSION}"
+        )));
+    };
+    let oname = name(output);
+    if output.extension().is_none_or(|e| e != PART_EXTENSION) {
+        return Err(usage(format!(
+            "{oname}: with --shard the output is one part of an index: name it NAME.{PART_EXTENSION} (then vol-index --merge the parts -o NAME.vidx)"
+        )));
+    }
+    let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
+    let vol = volformats::open(volume, &read_options(cli)).map_err(|e| anyhow!("{e}"))?;
+    let part = volindex::shard::build_shard(&vol, &opts, fp, shard).map_err(at(&vname))?;
+    if let Some(e) = vol.error() {
+        bail!("{vname}: {e}");
+    }
+    let after = volformats::fingerprint(volume).map_err(at(&vname))?;
+    if after != fp {
+        bail!("{vname}: the volume changed while it was being indexed: run vol-index again");
+    }
+    let bytes = write_atomic(output, |w| part.write_to(w)).map_err(at(&oname))?;
+    let seconds = start.elapsed().as_secs_f64();
+    if cli.json {
+        let v = json!({
+            "tool": "vol-index",
+            "mode": "shard",
+            "input": vname,
+            "output": oname,
+            "shard": shard.to_string(),
+            "layers": [part.layers.start, part.layers.end],
+            "cell": part.cell_edge,
+            "bytes": bytes,
+            "seconds": seconds,
+            "threads": rayon::current_num_threads(),
+        });
+        outln!("{v}")?;
+    } else if !cli.quiet {
+        noteln!(
+            "vol-index: wrote {oname} (shard {shard}: cell layers {}..{}, {bytes} bytes) in {seconds:.3} s",
+            part.layers.start,
+            part.layers.end
+        );
+    }
+    Ok(())
+}
+
+/// `--merge`: join part files into one index.
+fn merge(cli: &Cli) -> Result<()> {
+    let start = Instant::now();
+    let Some(output) = &cli.output else {
+        return Err(usage("--merge writes an index: give -o OUT.vidx"));
+    };
+    let oname = name(output);
+    if output
+        .extension()
+        .is_none_or(|e| e != volindex::vidx::EXTENSION)
+    {
+        return Err(usage(format!(
+            "{oname}: --merge writes an index: name it OUT.vidx"
+        )));
+    }
+    let mut parts = Vec::with_capacity(cli.merge.len());
+    for p in &cli.merge {
+        let pname = name(p);
+        let file = std::fs::File::open(p).map_err(at(&pname))?;
+        let len = file.metadata().map_err(at(&pname))?.len();
+        let part = IndexPart::read_from(&mut BufReader::with_capacity(1 << 20, file), len)
+            .map_err(|e| match e {
+                IndexError::Io(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+                    anyhow!("{pname}: the part file is truncated")
+                }
+                other => at(&pname)(other),
+            })?;
+        parts.push(part);
+    }
+    let n = parts.len();
+    let ix = volindex::shard::merge_parts(parts).map_err(|e| anyhow!("{oname}: {e}"))?;
+    let bytes = write_index(&ix, output).map_err(at(&oname))?;
+    let seconds = start.elapsed().as_secs_f64();
+    if cli.json {
+        let mut v = summary(&ix, Path::new(""), output);
+        v["mode"] = json!("merge");
+        v["parts"] = json!(n);
+        v["input"] = Value::Null;
+        v["output"] = json!(oname);
+        v["bytes"] = json!(bytes);
+        v["seconds"] = json!(seconds);
+        outln!("{v}")?;
+    } else if !cli.quiet {
+        noteln!("vol-index: merged {n} parts into {oname} ({bytes} bytes) in {seconds:.3} s");
+    }
+    Ok(())
+}
+
+/// Write through `put` into a temporary file renamed to `path`; the bytes
+/// written.
+fn write_atomic(
+    path: &Path,
+    put: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> Result<(), IndexError>,
+) -> Result<u64, IndexError> {
     let mut file = AtomicFile::create(path)?;
     let mut w = BufWriter::with_capacity(1 << 20, file.file());
-    ix.write_to(&mut w)?;
+    put(&mut w)?;
     w.flush()?;
     drop(w);
     let bytes = file.file().metadata()?.len();
     file.commit()?;
     Ok(bytes)
+}
+
+/// Write `ix` to `path` through a temporary file; the bytes written.
+fn write_index(ix: &MajorantIndex, path: &Path) -> Result<u64, IndexError> {
+    write_atomic(path, |w| ix.write_to(w))
 }
 
 /// Dimensions and sample type of a volume, without reading its samples.
@@ -253,14 +399,14 @@ fn volume_shape(path: &Path, opts: &ReadOptions) -> Result<(Dims, SampleType)> {
     Ok((vol.meta.dims, vol.meta.sample_type))
 }
 
-fn check(cli: &Cli, index: &Path) -> Result<()> {
+fn check(cli: &Cli, volume: &Path, index: &Path) -> Result<()> {
     let start = Instant::now();
-    refuse_stream(&cli.volume)?;
-    let vname = name(&cli.volume);
+    refuse_stream(volume)?;
+    let vname = name(volume);
     let iname = name(index);
     let opts = read_options(cli);
-    let fp = volformats::fingerprint(&cli.volume).map_err(at(&vname))?;
-    let (dims, sample_type) = volume_shape(&cli.volume, &opts)?;
+    let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
+    let (dims, sample_type) = volume_shape(volume, &opts)?;
     let file = std::fs::File::open(index).map_err(at(&iname))?;
     let ix = MajorantIndex::read_from(&mut BufReader::with_capacity(1 << 20, file), Some(fp))
         .and_then(|ix| ix.check_volume(dims, sample_type).map(|()| ix))
@@ -272,7 +418,7 @@ fn check(cli: &Cli, index: &Path) -> Result<()> {
         })?;
     let seconds = start.elapsed().as_secs_f64();
     if cli.json {
-        let mut v = summary(&ix, &cli.volume, index);
+        let mut v = summary(&ix, volume, index);
         v["mode"] = json!("check");
         v["ok"] = json!(true);
         v["bytes"] = json!(std::fs::metadata(index).map(|m| m.len()).ok());
@@ -281,7 +427,7 @@ fn check(cli: &Cli, index: &Path) -> Result<()> {
         return Ok(());
     }
     if cli.stats {
-        print_stats(&ix, &cli.volume)?;
+        print_stats(&ix, volume)?;
     }
     if !cli.quiet {
         outln!(
