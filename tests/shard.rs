@@ -375,3 +375,90 @@ fn sharded_indexing_refuses_what_it_cannot_do_exactly() {
     );
     assert!(leftovers(d).is_empty());
 }
+
+/// Every file under `root` (relative path, bytes), sorted.
+fn tree(root: &Path) -> Vec<(String, Vec<u8>)> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, Vec<u8>)>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(root, &p, out);
+            } else {
+                let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+                out.push((rel, std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(root, root, &mut out);
+    out.sort();
+    out
+}
+
+#[test]
+fn sharded_ome_zarr_stores_are_identical_and_appear_only_when_complete() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let stack = tiff_stack(d, "u16", "40,30,300");
+    for (pyramid, ngff) in [("1", "0.4"), ("2", "0.5"), ("3", "0.4")] {
+        let args = ["--pyramid", pyramid, "--ngff", ngff];
+        // The same store name (the multiscale's name) in other directories.
+        let whole = d.join(format!("whole{pyramid}")).join("v.ome.zarr");
+        std::fs::create_dir(whole.parent().unwrap()).unwrap();
+        ok(tool("vol-convert")
+            .arg(&stack)
+            .args(args)
+            .arg("-q")
+            .arg("-o")
+            .arg(&whole));
+        let want = tree(&whole);
+        for n in [1, 2, 3, 7] {
+            let out = d.join(format!("sharded{pyramid}-{n}")).join("v.ome.zarr");
+            for k in (0..n).rev() {
+                // Until the last shard is in, the store is no OME-Zarr.
+                if k + 1 < n {
+                    assert!(!out.join(".zattrs").exists() && !out.join("zarr.json").exists());
+                }
+                ok(tool("vol-convert")
+                    .arg(&stack)
+                    .args(args)
+                    .args(["--shard", &format!("{k}/{n}"), "-q", "-o"])
+                    .arg(&out));
+                if k > 0 {
+                    fails(
+                        tool("vol-convert")
+                            .arg(&out)
+                            .arg("-o")
+                            .arg(d.join("x.vvol")),
+                        "zarr",
+                    );
+                }
+            }
+            assert!(
+                tree(&out) == want,
+                "pyramid {pyramid} NGFF {ngff} in {n} shards"
+            );
+        }
+    }
+    // A shard refuses a store that is complete or another write's.
+    let whole = d.join("whole1").join("v.ome.zarr");
+    fails(
+        tool("vol-convert")
+            .arg(&stack)
+            .args(["--shard", "0/2", "-o"])
+            .arg(&whole),
+        "not empty",
+    );
+    let other = d.join("other.ome.zarr");
+    ok(tool("vol-convert")
+        .arg(&stack)
+        .args(["--shard", "0/3", "-q", "-o"])
+        .arg(&other));
+    fails(
+        tool("vol-convert")
+            .arg(&stack)
+            .args(["--shard", "1/2", "-o"])
+            .arg(&other),
+        "another conversion",
+    );
+}

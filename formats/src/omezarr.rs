@@ -21,7 +21,7 @@ use serde_json::{json, Value};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
-use volcore::{Dims, Geometry, Sample, SampleType};
+use volcore::{Dims, Geometry, Sample, SampleType, Shard};
 use zarrs::array::Array;
 use zarrs::filesystem::FilesystemStore;
 
@@ -479,15 +479,41 @@ struct Level<T> {
     first_z: u64,
     /// A slice waiting for its partner to make a slice of the next level.
     carry: Option<Vec<T>>,
+    /// One past the last slice pushed.
     seen: u64,
+    /// One past the last slice this writer writes.
+    end_z: u64,
 }
 
 /// Writes an OME-Zarr (NGFF 0.4 on Zarr v2, or 0.5 on Zarr v3) slice by
-/// slice.
+/// slice, whole or one shard of it.
 pub struct ZarrWriter<T: SliceSample> {
     levels: Vec<Level<T>>,
     down: Downsample,
     path: PathBuf,
+    shard: Option<Shard>,
+    attrs: Value,
+    ngff: Ngff,
+    store: Arc<FilesystemStore>,
+    /// What the write makes, for shards to check they share a store.
+    job: String,
+}
+
+/// What an OME-Zarr store holds.
+#[derive(Clone, Copy, Debug)]
+pub struct StoreSpec<'a> {
+    /// The full-resolution volume's dims.
+    pub dims: Dims,
+    /// Its voxel spacing.
+    pub spacing: [f32; 3],
+    /// Its origin and axis directions.
+    pub geometry: &'a Geometry,
+    /// Pyramid levels asked for.
+    pub levels: u32,
+    /// How each level is made.
+    pub down: Downsample,
+    /// NGFF version.
+    pub ngff: Ngff,
 }
 
 fn data_type(t: SampleType) -> zarrs::array::DataType {
@@ -644,8 +670,57 @@ fn create_array(
             .map_err(zerr)?
         }
     };
-    array.store_metadata().map_err(zerr)?;
     Ok(array)
+}
+
+/// Where the shards of a sharded write keep their bookkeeping, inside the
+/// store (removed when the last shard completes the store).
+pub const SHARDS_DIR: &str = ".volkit-shards";
+
+/// Slices of the full-resolution volume per shard unit with `levels`
+/// pyramid levels: one chunk layer of the coarsest level, so that every
+/// level's chunk layers fall wholly inside one unit.
+fn unit_slices(dims: Dims, levels: usize) -> u64 {
+    CHUNK.min(dims.z.max(1)) << (levels.max(1) - 1)
+}
+
+/// The pyramid levels a writer asked for `levels` makes of `dims` (fewer
+/// when the volume runs out of voxels).
+fn level_dims(dims: Dims, levels: u32) -> crate::Result<Vec<Dims>> {
+    let mut dl = Vec::new();
+    let mut d = dims;
+    for l in 0..levels.max(1) {
+        if l > 0 && d.x.max(d.y).max(d.z) <= 1 {
+            break;
+        }
+        dl.push(d);
+        d = Dims::new(d.x.div_ceil(2), d.y.div_ceil(2), d.z.div_ceil(2))?;
+    }
+    Ok(dl)
+}
+
+/// The full-resolution slices shard `shard` of a write of `dims` with
+/// `levels` levels converts: its share of the units (see [`unit_slices`]).
+pub fn shard_slices(dims: Dims, levels: u32, shard: Shard) -> crate::Result<Range<u64>> {
+    let n = level_dims(dims, levels)?.len();
+    let unit = unit_slices(dims, n);
+    let units = shard.units(dims.z.div_ceil(unit));
+    Ok((units.start * unit).min(dims.z)..(units.end * unit).min(dims.z))
+}
+
+/// The last component of `path` (the store's name).
+fn file_name(path: &Path) -> String {
+    path.components()
+        .next_back()
+        .map(|n| n.as_os_str().to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// Write `bytes` to `path` through a temporary file and a rename.
+fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path)
 }
 
 impl<T: SliceSample> ZarrWriter<T> {
@@ -660,23 +735,63 @@ impl<T: SliceSample> ZarrWriter<T> {
         down: Downsample,
         ngff: Ngff,
     ) -> crate::Result<ZarrWriter<T>> {
+        let spec = StoreSpec {
+            dims,
+            spacing,
+            geometry,
+            levels,
+            down,
+            ngff,
+        };
+        Self::start(path, &spec, None, &file_name(path))
+    }
+
+    /// [`ZarrWriter::create`] into `path` (a temporary directory) of the
+    /// store that will be named `name` (the multiscale's name).
+    pub fn create_as(
+        path: &Path,
+        spec: &StoreSpec<'_>,
+        name: &str,
+    ) -> crate::Result<ZarrWriter<T>> {
+        Self::start(path, spec, None, name)
+    }
+
+    /// Start shard `shard` of a sharded write into the store at `path`
+    /// (created if missing, else holding only other shards of the same
+    /// write): it writes the chunks of its slices ([`shard_slices`])
+    /// straight into the store. The store's metadata is written by the
+    /// shard that completes it last, so a store missing any shard's chunks
+    /// is not an OME-Zarr to any reader.
+    pub fn create_shard(
+        path: &Path,
+        spec: &StoreSpec<'_>,
+        shard: Shard,
+    ) -> crate::Result<ZarrWriter<T>> {
+        Self::start(path, spec, Some(shard), &file_name(path))
+    }
+
+    fn start(
+        path: &Path,
+        spec: &StoreSpec<'_>,
+        shard: Option<Shard>,
+        name: &str,
+    ) -> crate::Result<ZarrWriter<T>> {
+        let &StoreSpec {
+            dims,
+            spacing,
+            geometry,
+            levels,
+            down,
+            ngff,
+        } = spec;
         std::fs::create_dir_all(path)?;
         let store = Arc::new(FilesystemStore::new(path).map_err(zerr)?);
-        let mut dl = Vec::new();
-        let mut d = dims;
-        for l in 0..levels.max(1) {
-            if l > 0 && d.x.max(d.y).max(d.z) <= 1 {
-                break;
-            }
-            dl.push(d);
-            d = Dims::new(d.x.div_ceil(2), d.y.div_ceil(2), d.z.div_ceil(2))?;
-        }
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let attrs = multiscales(&name, dl.len(), spacing, geometry, down, ngff);
-        create_group(&store, attrs, ngff)?;
+        let dl = level_dims(dims, levels)?;
+        let attrs = multiscales(name, dl.len(), spacing, geometry, down, ngff);
+        let zs = match shard {
+            Some(s) => shard_slices(dims, levels, s)?,
+            None => 0..dims.z,
+        };
         let mut out = Vec::new();
         for (l, d) in dl.iter().enumerate() {
             let chunk = [d.x.min(CHUNK), d.y.min(CHUNK), d.z.min(CHUNK)];
@@ -688,21 +803,89 @@ impl<T: SliceSample> ZarrWriter<T> {
                 T::TYPE,
                 ngff,
             )?;
+            // The level's slices of the shard's units (units hold whole
+            // chunk layers of every level).
+            let first = zs.start >> l;
+            let end = if zs.end == dims.z { d.z } else { zs.end >> l };
             out.push(Level {
                 array,
                 dims: *d,
                 chunk,
                 pending: Vec::new(),
-                first_z: 0,
+                first_z: first,
                 carry: None,
-                seen: 0,
+                seen: first,
+                end_z: end,
             });
         }
-        Ok(ZarrWriter {
+        let job = json!({
+            "dims": dims.as_array(),
+            "type": T::TYPE.name(),
+            "attrs": attrs,
+            "ngff": ngff.version(),
+            "shards": shard.map(|s| s.count),
+        })
+        .to_string();
+        let w = ZarrWriter {
             levels: out,
             down,
             path: path.to_path_buf(),
-        })
+            shard,
+            attrs,
+            ngff,
+            store,
+            job,
+        };
+        match shard {
+            None => w.store_metadata()?,
+            Some(_) => w.claim_store()?,
+        }
+        Ok(w)
+    }
+
+    /// Write the group's and every level's metadata.
+    fn store_metadata(&self) -> crate::Result<()> {
+        create_group(&self.store, self.attrs.clone(), self.ngff)?;
+        for lv in &self.levels {
+            lv.array.store_metadata().map_err(zerr)?;
+        }
+        Ok(())
+    }
+
+    /// A shard's check that the store is new or another shard's of the
+    /// same write, recording the write's description for the others.
+    fn claim_store(&self) -> crate::Result<()> {
+        let dir = self.path.join(SHARDS_DIR);
+        std::fs::create_dir_all(&dir)?;
+        let job = dir.join("job.json");
+        match std::fs::read_to_string(&job) {
+            Ok(found) if found == self.job => Ok(()),
+            Ok(_) => Err(Error::invalid(
+                "holds the shards of another conversion (other dims, type, levels, shard count or geometry): remove it or write elsewhere",
+            )),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                Ok(write_atomic(&job, self.job.as_bytes())?)
+            }
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// A shard's end: mark it done, and if every shard is done, write the
+    /// metadata that makes the store an OME-Zarr and remove the marks.
+    fn complete_shard(&self, shard: Shard) -> crate::Result<()> {
+        let dir = self.path.join(SHARDS_DIR);
+        write_atomic(&dir.join(format!("done-{}", shard.index)), b"")?;
+        let done = (0..shard.count)
+            .filter(|k| dir.join(format!("done-{k}")).exists())
+            .count();
+        if done == shard.count as usize {
+            self.store_metadata()?;
+            match std::fs::remove_dir_all(&dir) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e.into()),
+                _ => {}
+            }
+        }
+        Ok(())
     }
 
     /// Add the next z slice of the full-resolution volume.
@@ -718,7 +901,7 @@ impl<T: SliceSample> ZarrWriter<T> {
         {
             let lv = &mut self.levels[l];
             lv.seen += 1;
-            last_z = lv.seen == lv.dims.z;
+            last_z = lv.seen == lv.end_z;
             if more {
                 match lv.carry.take() {
                     Some(a) => down = Some(downsample(&a, Some(&slice), lv.dims, how)),
@@ -741,19 +924,23 @@ impl<T: SliceSample> ZarrWriter<T> {
         self.levels.len()
     }
 
-    /// Check every level is complete.
+    /// Check every level is complete (a shard: its slices of every
+    /// level), and complete a sharded store when this is its last shard.
     pub fn finish(self) -> crate::Result<()> {
         for (l, lv) in self.levels.iter().enumerate() {
-            if lv.seen != lv.dims.z || !lv.pending.is_empty() {
+            if lv.seen != lv.end_z || !lv.pending.is_empty() {
                 return Err(Error::invalid(format!(
-                    "{}: level {l} got {} of {} slices (internal error)",
+                    "{}: level {l} got slices up to {} of {} (internal error)",
                     self.path.display(),
                     lv.seen,
-                    lv.dims.z
+                    lv.end_z
                 )));
             }
         }
-        Ok(())
+        match self.shard {
+            Some(s) => self.complete_shard(s),
+            None => Ok(()),
+        }
     }
 }
 

@@ -111,7 +111,10 @@ struct Cli {
     /// Convert only shard K of N (K from 0) into a part file (-o
     /// NAME.vpart): its share of the brick layers (bricked) or slices
     /// (sliced), reading only the input slices those need. Run the N shards
-    /// anywhere (a Slurm array, GNU parallel), then --merge the parts.
+    /// anywhere (a Slurm array, GNU parallel), then --merge the parts. For
+    /// OME-Zarr output (-o NAME.ome.zarr) every shard writes its chunk
+    /// layers straight into the store, and the last to finish writes the
+    /// metadata: no merge.
     #[arg(long, value_name = "K/N", value_parser = shard_arg)]
     shard: Option<Shard>,
     /// Assemble the N part files of a sharded conversion (any order) into
@@ -332,7 +335,8 @@ fn target(cli: &Cli) -> Result<Target> {
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    if let Some(shard) = cli.shard {
+    let zarr_out = volformats::omezarr::is_zarr(out) && !out.is_file();
+    if let Some(shard) = cli.shard.filter(|_| !zarr_out) {
         if ext != part::EXTENSION {
             return Err(usage_at(
                 out,
@@ -371,7 +375,6 @@ fn target(cli: &Cli) -> Result<Target> {
             ".vpart files are the parts of a sharded conversion: add --shard K/N",
         ));
     }
-    let zarr_out = volformats::omezarr::is_zarr(out) && !out.is_file();
     if !zarr_out {
         if cli.pyramid > 1 {
             return Err(usage_at(
@@ -444,6 +447,7 @@ fn target(cli: &Cli) -> Result<Target> {
                 Some("0.5") => volformats::omezarr::Ngff::V05,
                 _ => volformats::omezarr::Ngff::V04,
             },
+            shard: cli.shard,
         });
     }
     if text == "-" {
@@ -647,7 +651,8 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             seconds
         );
     }
-    if report.bytes_out == 0 {
+    // A shard past the last unit has nothing to write, by design.
+    if report.bytes_out == 0 && cli.shard.is_none() {
         bail!("{}: nothing was written", cli.output.display());
     }
     raw_note(cli, &report);

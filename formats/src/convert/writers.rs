@@ -80,6 +80,8 @@ pub enum Target {
         downsample: crate::omezarr::Downsample,
         /// NGFF version, and with it the Zarr format.
         ngff: crate::omezarr::Ngff,
+        /// Write only this shard's chunks, straight into the store.
+        shard: Option<Shard>,
     },
     /// A header format with its samples (NIfTI, NRRD, MetaImage): in the
     /// header's file or a detached one, raw or compressed.
@@ -216,10 +218,15 @@ impl Target {
     /// Check what can be checked before any work: a directory target
     /// must not exist or be empty.
     pub fn preflight(&self) -> CResult<()> {
-        if let Target::TiffDir { path } | Target::OmeZarr { path, .. } = self {
-            check_dir_target(path)?;
+        match self {
+            Target::OmeZarr {
+                path,
+                shard: Some(_),
+                ..
+            } => check_shard_store(path),
+            Target::TiffDir { path } | Target::OmeZarr { path, .. } => check_dir_target(path),
+            _ => Ok(()),
         }
-        Ok(())
     }
 
     /// Where temporary files go by default: beside the output.
@@ -413,22 +420,61 @@ pub(crate) fn run_target<T: SliceSample>(
             levels,
             downsample,
             ngff,
+            shard: Some(shard),
+            ..
+        } => {
+            check_shard_store(&path)?;
+            let store = crate::omezarr::StoreSpec {
+                dims,
+                spacing: spec.spacing,
+                geometry: &spec.geometry,
+                levels,
+                down: downsample,
+                ngff,
+            };
+            let w =
+                crate::omezarr::ZarrWriter::<T>::create_shard(&path, &store, shard).at(&path)?;
+            let zs = crate::omezarr::shard_slices(dims, levels, shard).at(&path)?;
+            let mut sink = ZarrSink {
+                w: Some(w),
+                end: zs.end,
+                next_z: zs.start,
+                slab: crate::omezarr::CHUNK.min(dims.z),
+                done: 0,
+                progress: spec.progress,
+                path: &path,
+            };
+            drive(&mut sink)?;
+            if let Some(w) = sink.w.take() {
+                w.finish().at(&path)?;
+            }
+            Ok((sink.done, None))
+        }
+        Target::OmeZarr {
+            levels,
+            downsample,
+            ngff,
             ..
         } => {
             let dir = PartialDir::create(&path)?;
-            let w = crate::omezarr::ZarrWriter::<T>::create(
-                dir.temp.path(),
+            let store = crate::omezarr::StoreSpec {
                 dims,
-                spec.spacing,
-                &spec.geometry,
+                spacing: spec.spacing,
+                geometry: &spec.geometry,
                 levels,
-                downsample,
+                down: downsample,
                 ngff,
-            )
-            .at(&path)?;
+            };
+            let name = path
+                .components()
+                .next_back()
+                .map(|n| n.as_os_str().to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let w = crate::omezarr::ZarrWriter::<T>::create_as(dir.temp.path(), &store, &name)
+                .at(&path)?;
             let mut sink = ZarrSink {
                 w: Some(w),
-                dims,
+                end: dims.z,
                 next_z: 0,
                 slab: crate::omezarr::CHUNK.min(dims.z),
                 done: 0,
@@ -646,7 +692,8 @@ fn stream_samples<T: SliceSample>(
 
 struct ZarrSink<'a, T: SliceSample> {
     w: Option<crate::omezarr::ZarrWriter<T>>,
-    dims: Dims,
+    /// One past the last slice to write.
+    end: u64,
     next_z: u64,
     slab: u64,
     done: u64,
@@ -656,7 +703,7 @@ struct ZarrSink<'a, T: SliceSample> {
 
 impl<T: SliceSample> SlabSink<T> for ZarrSink<'_, T> {
     fn next_slices(&self) -> Range<u64> {
-        self.next_z..(self.next_z + self.slab).min(self.dims.z)
+        self.next_z..(self.next_z + self.slab).min(self.end)
     }
     fn write_next(&mut self, win: &SliceWindow<T>) -> CResult<()> {
         let zs = <Self as SlabSink<T>>::next_slices(self);
@@ -896,6 +943,16 @@ fn check_dir_target(target: &Path) -> CResult<()> {
         ));
     }
     Ok(())
+}
+
+/// A shard's OME-Zarr store must be new, or hold only other shards of an
+/// unfinished sharded write (their bookkeeping directory is there).
+fn check_shard_store(target: &Path) -> CResult<()> {
+    let unfinished = target.join(crate::omezarr::SHARDS_DIR).is_dir();
+    if unfinished {
+        return Ok(());
+    }
+    check_dir_target(target)
 }
 
 /// A directory written under a temporary name beside the target and
