@@ -18,7 +18,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png scene"
+TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png scene vpart vidxpart"
 OUT=${FUZZ_OUT:-target/fuzz-out}
 BIN=target/fuzz/release/volkit-fuzz
 # Corpus files kept per target, and their largest size.
@@ -149,7 +149,7 @@ seeds() {
     work=$(mktemp -d)
     trap 'rm -rf "$work"' RETURN
     local c=fuzz/corpus
-    mkdir -p "$c"/{vvol,thesis,raw,nrrd,mhd,tiff,vidx,tf,pfm,png,scene}
+    mkdir -p "$c"/{vvol,thesis,raw,nrrd,mhd,tiff,vidx,tf,pfm,png,scene,vpart,vidxpart}
     local g="$tools/vol-gen" cv="$tools/vol-convert"
     # .vvol: every type and layout, tiny.
     "$g" solid --dims 3,2,2 --value 7 -o "$work/a.vvol" -q && cp "$work/a.vvol" "$c/vvol/u8-sliced"
@@ -189,6 +189,12 @@ seeds() {
     # Index sidecars.
     "$tools/vol-index" "$work/t-u8.vvol" --cell 2 -o "$work/a.vidx" -q && cp "$work/a.vidx" "$c/vidx/u8"
     "$tools/vol-index" "$work/c.vvol" --cell 2 --bins 8 -o "$work/b.vidx" -q && cp "$work/b.vidx" "$c/vidx/f32"
+    # Parts of sharded conversions and index builds (one-shard jobs merge).
+    "$cv" "$work/b.vvol" --layout bricked:2 --shard 0/1 -o "$work/a.vpart" -q && cp "$work/a.vpart" "$c/vpart/bricked-1"
+    "$cv" "$work/c.vvol" --layout bricked:2 --compress zstd --shard 1/2 -o "$work/b.vpart" -q && cp "$work/b.vpart" "$c/vpart/zstd-1of2"
+    "$cv" "$work/a.vvol" --shard 0/1 -o "$work/c.vpart" -q && cp "$work/c.vpart" "$c/vpart/sliced-1"
+    "$tools/vol-index" "$work/t-u8.vvol" --cell 2 --shard 0/1 -o "$work/a.vidxpart" -q && cp "$work/a.vidxpart" "$c/vidxpart/u8-1"
+    "$tools/vol-index" "$work/c.vvol" --cell 2 --bins 8 --shard 0/2 -o "$work/b.vidxpart" -q && cp "$work/b.vidxpart" "$c/vidxpart/f32-0of2"
     # Transfer functions: the README's example and the noise study's.
     printf 'domain 0 255\nstep 1\nrange 85 95 255 0 0 0.02\npoint 100 0 255 0 0.6\n' >"$c/tf/readme"
     printf '# comment\npoint 0 0 0 0 0\npoint 255 255 255 255 1 # end\n' >"$c/tf/points"

@@ -50,11 +50,17 @@ pub enum Target {
     /// vol-render scene files (TOML): a scene that reads must print and
     /// read back the same.
     Scene,
+    /// `.vpart` parts of a sharded conversion: opened and checked, and a
+    /// part of a one-shard job merged.
+    Vpart,
+    /// `.vidxpart` parts of a sharded index build: read, and a part of a
+    /// one-shard build merged.
+    Vidxpart,
 }
 
 impl Target {
     /// Every target, in the order the README lists them.
-    pub const ALL: [Target; 11] = [
+    pub const ALL: [Target; 13] = [
         Target::Vvol,
         Target::Thesis,
         Target::Raw,
@@ -66,6 +72,8 @@ impl Target {
         Target::Pfm,
         Target::Png,
         Target::Scene,
+        Target::Vpart,
+        Target::Vidxpart,
     ];
 
     /// The target's name (its corpus directory, and the driver's argument).
@@ -82,6 +90,8 @@ impl Target {
             Target::Pfm => "pfm",
             Target::Png => "png",
             Target::Scene => "scene",
+            Target::Vpart => "vpart",
+            Target::Vidxpart => "vidxpart",
         }
     }
 
@@ -106,6 +116,8 @@ pub fn run(target: Target, data: &[u8], scratch: &Path) {
         Target::Pfm => pfm(data),
         Target::Png => png(data, scratch),
         Target::Scene => scene(data),
+        Target::Vpart => vpart(data, scratch),
+        Target::Vidxpart => vidxpart(data),
     }
 }
 
@@ -243,6 +255,30 @@ fn tiff(data: &[u8], scratch: &Path) {
 
 fn vidx(data: &[u8]) {
     let _ = volindex::MajorantIndex::read_from(&mut Cursor::new(data), None);
+}
+
+fn vpart(data: &[u8], scratch: &Path) {
+    use volformats::vvol::part;
+    let Some(p) = file(scratch, "fuzz.vpart", data) else {
+        return;
+    };
+    let Ok(mut parts) = part::open_parts(&[p]) else {
+        return;
+    };
+    if parts[0].header.data_len > MAX_SAMPLES * 4 {
+        return;
+    }
+    let out = scratch.join("merged.vvol");
+    if let Ok(mut f) = std::fs::File::create(&out) {
+        let _ = part::merge(&mut parts, &mut f, &out, &|_| {});
+    }
+}
+
+fn vidxpart(data: &[u8]) {
+    use volindex::shard::{merge_parts, IndexPart};
+    if let Ok(p) = IndexPart::read_from(&mut Cursor::new(data), data.len() as u64) {
+        let _ = merge_parts(vec![p]);
+    }
 }
 
 fn tf(data: &[u8]) {
