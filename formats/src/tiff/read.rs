@@ -400,7 +400,9 @@ pub struct TiffStackReader {
     page_bytes: u64,
     chan: ChannelSel,
     pages: Pages,
-    bytes_in: u64,
+    /// Input bytes: the file's length for one file; for a stack of
+    /// files, the bytes of the slice files read so far.
+    bytes_in: std::sync::atomic::AtomicU64,
 }
 
 /// A decoder of the file at `path`, with limits from its length and, once
@@ -525,17 +527,8 @@ pub fn open_files(
             len,
         )
     } else {
-        let total: u64 = files
-            .iter()
-            .map(|f| std::fs::metadata(f).map(|m| m.len()).unwrap_or(0))
-            .sum();
         let z = files.len() as u64;
-        (
-            z,
-            Pages::Files(files),
-            format!("tiff stack ({z} files)"),
-            total,
-        )
+        (z, Pages::Files(files), format!("tiff stack ({z} files)"), 0)
     };
     let dims = Dims::new(page.width as u64, page.height as u64, z).at(&first)?;
     Ok(TiffStackReader {
@@ -551,7 +544,7 @@ pub fn open_files(
         page_bytes,
         chan,
         pages,
-        bytes_in,
+        bytes_in: std::sync::atomic::AtomicU64::new(bytes_in),
     })
 }
 
@@ -617,6 +610,8 @@ impl SliceReader for TiffStackReader {
                         .and_then(|mut f| f.read_to_end(&mut bytes))
                         .at(path)?;
                     let len = bytes.len() as u64;
+                    self.bytes_in
+                        .fetch_add(len, std::sync::atomic::Ordering::Relaxed);
                     let mut d =
                         open_decoder(Cursor::new(bytes.as_slice()), len, Some(self.page_bytes))
                             .at(path)?;
@@ -631,7 +626,7 @@ impl SliceReader for TiffStackReader {
         }
     }
     fn bytes_in(&self) -> u64 {
-        self.bytes_in
+        self.bytes_in.load(std::sync::atomic::Ordering::Relaxed)
     }
 }
 
