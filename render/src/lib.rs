@@ -28,6 +28,7 @@ pub mod accel;
 pub mod camera;
 pub mod classify;
 pub mod dispatch;
+pub mod distributed;
 pub mod effects;
 pub mod error;
 pub mod film;
