@@ -294,12 +294,15 @@ pub fn merge_parts(mut parts: Vec<IndexPart>) -> Result<MajorantIndex, IndexErro
     let (dims, edge) = (p0.dims, p0.cell_edge);
     let shape = cells(dims, edge);
     let total = (shape[0] * shape[1] * shape[2]) as usize;
+    // Each part's cells are freed once copied: the merge holds the whole
+    // level 0 and one part's cells at most, not two copies of everything.
     let mut min = Vec::with_capacity(total);
     let mut max = Vec::with_capacity(total);
-    for p in &parts {
-        min.extend_from_slice(&p.min);
-        max.extend_from_slice(&p.max);
+    for p in &mut parts {
+        min.extend_from_slice(&std::mem::take(&mut p.min));
+        max.extend_from_slice(&std::mem::take(&mut p.max));
     }
+    let p0 = &parts[0];
     if min.len() != total || max.len() != total {
         return Err(IndexError::Corrupt(
             "the parts' cells do not fill the volume".into(),

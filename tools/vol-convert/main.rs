@@ -576,14 +576,21 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     };
     let mut total = out_dims.count().saturating_mul(out_type.size() as u64);
     if let Some(shard) = cli.shard {
-        // The shard's share of the units (slices or brick layers).
-        let units = match cli.layout {
-            LayoutArg::Sliced => out_dims.z,
-            LayoutArg::Bricked(b) => out_dims.z.div_ceil(u64::from(b.max(1))),
+        // The shard's share of the units (slices, brick layers, or chunk
+        // layers of an OME-Zarr pyramid's coarsest level).
+        let (mine, units) = if volformats::omezarr::is_zarr(&cli.output) {
+            let zs = volformats::omezarr::shard_slices(out_dims, cli.pyramid, shard)
+                .map_err(|e| at(&cli.output, e))?;
+            (zs.end - zs.start, out_dims.z)
+        } else {
+            let units = match cli.layout {
+                LayoutArg::Sliced => out_dims.z,
+                LayoutArg::Bricked(b) => out_dims.z.div_ceil(u64::from(b.max(1))),
+            };
+            let r = shard.units(units);
+            (r.end - r.start, units)
         };
-        let mine = shard.units(units);
-        total = (u128::from(total) * u128::from(mine.end - mine.start) / u128::from(units.max(1)))
-            as u64;
+        total = (u128::from(total) * u128::from(mine) / u128::from(units.max(1))) as u64;
     }
     // The samples alone must fit where the output goes (bricks add their
     // aprons; compressed bricks may take less, so they are not checked).

@@ -127,7 +127,9 @@ impl<'a> VvolWriter<'a> {
                 }
                 State::Bricked {
                     geom,
-                    entries: Vec::new(),
+                    entries: Vec::with_capacity(
+                        ((units.end - units.start) * geom.counts()[0] * geom.counts()[1]) as usize,
+                    ),
                     offset: match part {
                         Some(_) => part::DATA_OFFSET,
                         None => header.data_offset,
