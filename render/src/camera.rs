@@ -193,6 +193,11 @@ impl Camera {
         self.eye
     }
 
+    /// The projection.
+    pub fn projection(&self) -> Projection {
+        self.projection
+    }
+
     /// The unit view direction.
     pub fn forward(&self) -> Vec3 {
         self.forward

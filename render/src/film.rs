@@ -49,6 +49,22 @@ pub enum Display {
     GreyToLargest,
 }
 
+/// How the films of consecutive shares of the same rays combine, front to
+/// back ([`Film::composite`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Composite {
+    /// Premultiplied colour, front over back (DVR).
+    Over,
+    /// The front-most share that hit (iso-surfaces).
+    FirstHit,
+    /// The largest value, the front-most on ties (MIP).
+    Max,
+    /// The smallest value, the front-most on ties (MinIP).
+    Min,
+    /// The sum of the values (X-ray).
+    Sum,
+}
+
 /// Per-pixel sums (see the module docs).
 #[derive(Clone, Debug)]
 pub struct Film {
@@ -107,6 +123,70 @@ impl Film {
         self.stats.effects.shadow_samples += r.effects.shadow_samples;
         self.stats.effects.ao_rays += r.effects.ao_rays as u64;
         self.stats.effects.ao_samples += r.effects.ao_samples;
+    }
+
+    /// The film of whole rays from the films of their consecutive shares
+    /// (see [`crate::distributed`]), given front to back, combined per
+    /// pixel by `how`. Totals add up; the render time is the slowest
+    /// share's.
+    pub fn composite(front_to_back: &[&Film], how: Composite) -> Film {
+        let Some(first) = front_to_back.first() else {
+            return Film::new(0, 0);
+        };
+        let mut out = Film::new(first.width, first.height);
+        for f in front_to_back {
+            let s = &mut out.stats;
+            s.rays += f.stats.rays;
+            s.samples += f.stats.samples;
+            s.skips += f.stats.skips;
+            s.culled_blocks += f.stats.culled_blocks;
+            s.render_s = s.render_s.max(f.stats.render_s);
+        }
+        for p in 0..out.rgba.len() {
+            let mut rgba = [0.0f64; 4];
+            let mut value = f64::NAN;
+            let mut depth = f32::NAN;
+            let mut count = 0;
+            for f in front_to_back {
+                count = count.max(f.count[p]);
+                out.samples[p] += f.samples[p];
+                let n = f.count[p].max(1) as f64;
+                let c = f.rgba[p].map(|c| c / n);
+                let v = f.value[p];
+                match how {
+                    Composite::Over => {
+                        let keep = 1.0 - rgba[3];
+                        for (a, b) in rgba.iter_mut().zip(c) {
+                            *a += keep * b;
+                        }
+                    }
+                    Composite::FirstHit => {
+                        if value.is_nan() && !v.is_nan() {
+                            (rgba, value, depth) = (c, v, f.depth[p]);
+                        }
+                    }
+                    Composite::Max | Composite::Min => {
+                        let beats = match how {
+                            Composite::Max => v > value,
+                            _ => v < value,
+                        };
+                        if !v.is_nan() && (value.is_nan() || beats) {
+                            (value, depth) = (v, f.depth[p]);
+                        }
+                    }
+                    Composite::Sum => {
+                        if !v.is_nan() {
+                            value = if value.is_nan() { v } else { value + v };
+                        }
+                    }
+                }
+            }
+            out.rgba[p] = rgba;
+            out.value[p] = value;
+            out.depth[p] = depth;
+            out.count[p] = count;
+        }
+        out
     }
 
     /// The totals so far.

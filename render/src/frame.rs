@@ -8,12 +8,13 @@ use crate::dispatch::{
     self, ClassifierRef, DvrEffects, DvrPlan, IntegratorVisitor, IsoPlan, IsoShadows, MipPlan,
     XrayPlan,
 };
+use crate::distributed::ShareBox;
 use crate::effects::{self, Ao, AoMethod, EffectStats, ShadowMethod, Shadows};
 use crate::error::RenderError;
 use crate::film::{Display, Film, Frame};
 use crate::integrator::dvr::PhongShading;
 use crate::integrator::xray::XrayOutput;
-use crate::integrator::{FrameGeometry, Integrator, RayResult};
+use crate::integrator::{FrameGeometry, Integrator, RayResult, Span};
 use crate::ray::intersect_box;
 use crate::settings::{Mode, RenderSettings};
 use crate::tf::{Tf, TransferFunction};
@@ -231,6 +232,22 @@ pub fn render_tf(
     camera: &Camera,
     settings: &RenderSettings,
 ) -> Result<Frame, RenderError> {
+    let (film, display) = render_film(vol, index, tf, camera, settings, None)?;
+    let bg = Vec3::from(settings.background.map(srgb_to_linear));
+    Ok(film.resolve(display, bg))
+}
+
+/// [`render_tf`] up to the film, before it is resolved to an image: with
+/// `share`, only the samples of each ray inside the share's box are taken
+/// (a rank's part of a data-parallel frame, see [`crate::distributed`]).
+pub fn render_film(
+    vol: &Volume,
+    index: Option<&MajorantIndex>,
+    tf: Option<&Tf>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    share: Option<&ShareBox>,
+) -> Result<(Film, Display), RenderError> {
     check(settings, vol, camera)?;
     if let Some(ix) = index {
         if ix.dims() != vol.dims() {
@@ -261,6 +278,8 @@ pub fn render_tf(
         tile: settings.tile.min(camera.width().max(camera.height())),
         hi: Vec3::from(vol.meta.world_extent()),
         busy: None,
+        share,
+        step: settings.step,
     };
     let (film, display) = match settings.mode {
         Mode::Dvr => {
@@ -368,8 +387,7 @@ pub fn render_tf(
             (film, Display::Colour)
         }
     };
-    let bg = Vec3::from(settings.background.map(srgb_to_linear));
-    Ok(film.resolve(display, bg))
+    Ok((film, display))
 }
 
 /// A DVR frame: the classifier's table for the frame's step, its
@@ -584,6 +602,10 @@ struct Tiles<'a> {
     /// Which pixels' rays may take samples; the others are left empty,
     /// untraced.
     busy: Option<&'a cull::BlockMask>,
+    /// Take only the samples inside this box.
+    share: Option<&'a ShareBox>,
+    /// The frame's step (to find a share's samples).
+    step: f32,
 }
 
 impl IntegratorVisitor for Tiles<'_> {
@@ -612,6 +634,8 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
             tile,
             hi,
             busy,
+            share,
+            step,
             ..
         } = self.tiles;
         let (w, h) = (camera.width(), camera.height());
@@ -632,7 +656,22 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
                         let ray = camera.ray(x, y);
                         out.push(match intersect_box(&ray, Vec3::ZERO, hi) {
                             None => RayResult::empty(),
-                            Some((t0, t1)) => self.integrator.trace(&mut cur, &ray, [x, y], t0, t1),
+                            Some((t0, t1)) => {
+                                let span = Span::whole(t0, t1);
+                                match share.map(|b| b.samples(&ray, span, step)) {
+                                    None => self.integrator.trace(&mut cur, &ray, [x, y], span),
+                                    Some(None) => RayResult::empty(),
+                                    Some(Some(k)) => self.integrator.trace(
+                                        &mut cur,
+                                        &ray,
+                                        [x, y],
+                                        Span {
+                                            share: Some(k),
+                                            ..span
+                                        },
+                                    ),
+                                }
+                            }
                         });
                     }
                 }

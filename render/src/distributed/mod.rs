@@ -1,8 +1,11 @@
 //! Data-parallel rendering across processes (ranks), sort-last: the
 //! volume is split into convex boxes, one per rank ([`partition`]), each
-//! rank renders the ray segments inside its box, and the segments are
-//! composited in the visibility order the split gives.
+//! rank takes the samples of every ray inside its box ([`share`], through
+//! [`crate::frame::render_film`]), and the ranks' films are composited in
+//! the visibility order the split gives ([`crate::film::Film::composite`]).
 
 pub mod partition;
+pub mod share;
 
 pub use partition::{KdTree, Leaf, Viewer};
+pub use share::ShareBox;

@@ -2,7 +2,7 @@
 
 use super::march::{march, Flow, RayMarch, RaySteps};
 use super::reconstruct::{Gradient, Reconstruct};
-use super::{FrameGeometry, Integrator, RayResult};
+use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::Accel;
 use crate::classify::Classifier;
 use crate::effects::RayEffects;
@@ -234,15 +234,8 @@ where
     T: Termination,
     A: Accel<()>,
 {
-    fn trace<C: Cursor>(
-        &self,
-        cur: &mut C,
-        ray: &Ray,
-        pixel: [u32; 2],
-        t0: f32,
-        t1: f32,
-    ) -> RayResult {
-        let steps = RaySteps::new(&self.geom, ray, t0, t1);
+    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, pixel: [u32; 2], span: Span) -> RayResult {
+        let steps = RaySteps::for_span(&self.geom, ray, span);
         let mut st = DvrRay {
             dvr: self,
             loc: self.geom.locator,

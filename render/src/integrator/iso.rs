@@ -2,7 +2,7 @@
 
 use super::march::{march, Flow, RayMarch, RaySteps};
 use super::reconstruct::{Gradient, Reconstruct};
-use super::{FrameGeometry, Integrator, RayResult};
+use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::skip::{ISO_ABOVE, ISO_BELOW};
 use crate::accel::{Accel, IsoSides};
 use crate::effects::{AoSource, IsoInside, ShadowCaster};
@@ -66,24 +66,23 @@ impl<'a, R, G, A> Iso<'a, R, G, A> {
 }
 
 impl<R: Reconstruct, G: Gradient, A: Accel<bool>> Integrator for Iso<'_, R, G, A> {
-    fn trace<C: Cursor>(
-        &self,
-        cur: &mut C,
-        ray: &Ray,
-        pixel: [u32; 2],
-        t0: f32,
-        t1: f32,
-    ) -> RayResult {
-        let steps = RaySteps::new(&self.geom, ray, t0, t1);
+    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, pixel: [u32; 2], span: Span) -> RayResult {
+        let steps = RaySteps::for_span(&self.geom, ray, span);
         let mut st = IsoRay {
             iso: self,
             steps: &steps,
             ray,
             pixel,
-            t0,
+            t0: span.t0,
             prev: false,
             out: RayResult::empty(),
         };
+        // A share of the ray starts, like the whole ray, below the level:
+        // the whole trace stops at its first crossing, so it is still below
+        // wherever a later share's samples begin, and a crossing between
+        // the last sample of one share and the first of the next is found
+        // by the next (its bisection starts at the sample before, `k0`
+        // being the whole ray's).
         let skips = march(&mut st, &self.accel, cur, &steps);
         RayResult { skips, ..st.out }
     }

@@ -21,8 +21,11 @@ use volcore::Cursor;
 pub struct RaySteps {
     /// The ray in voxel coordinates.
     pub ray: VoxelRay,
-    /// First sample.
+    /// First sample of the ray (inside the volume).
     pub k0: i64,
+    /// First sample this trace takes: `k0`, or later for a share of the
+    /// ray (see [`super::Span`]).
+    pub start: i64,
     /// Last sample.
     pub k1: i64,
     /// Distance between samples.
@@ -43,14 +46,27 @@ impl RaySteps {
     /// The samples of a ray already in voxel coordinates (origin `o`,
     /// direction `d`) over `[t0, t1]`, `step` apart.
     pub fn voxel_space(o: Vec3, d: Vec3, t0: f32, t1: f32, step: f64, loc: Locator) -> RaySteps {
+        let k0 = (t0 as f64 / step).ceil() as i64;
         RaySteps {
             ray: VoxelRay::new(o, d),
-            k0: (t0 as f64 / step).ceil() as i64,
+            k0,
+            start: k0,
             k1: (t1 as f64 / step).floor() as i64,
             step,
             inv_step: 1.0 / step,
             loc,
         }
+    }
+
+    /// The samples of `span` of world-space `ray` in a frame: those of
+    /// `[t0, t1]`, cut to the span's share when it has one.
+    pub fn for_span(geom: &FrameGeometry, ray: &Ray, span: super::Span) -> RaySteps {
+        let mut s = RaySteps::new(geom, ray, span.t0, span.t1);
+        if let Some((lo, hi)) = span.share {
+            s.start = s.k0.max(lo);
+            s.k1 = s.k1.min(hi);
+        }
+        s
     }
 
     /// Ray parameter of sample `k` (always this expression, so a sample
@@ -139,7 +155,7 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     s: &RaySteps,
 ) -> u32 {
     let mut skips = 0;
-    let mut k = s.k0;
+    let mut k = s.start;
     // With CACHE_BUSY, samples up to `busy_until` lie in (or just past) a
     // level-0 cell found not skippable: they need no further check (its
     // flags are fixed for the frame, and taking a sample is never wrong).

@@ -34,16 +34,36 @@ use volcore::Cursor;
 /// One ray's integral through the volume, specialised for a frame.
 pub trait Integrator: Sync {
     /// Integrate `ray` (through pixel `pixel`, which keys any random
-    /// numbers the ray takes) over the parameter range `[t0, t1]` (the
-    /// part inside the volume's box), reading samples through `cur`.
-    fn trace<C: Cursor>(
-        &self,
-        cur: &mut C,
-        ray: &Ray,
-        pixel: [u32; 2],
-        t0: f32,
-        t1: f32,
-    ) -> RayResult;
+    /// numbers the ray takes) over `span` (the part inside the volume's
+    /// box, or a share of it), reading samples through `cur`.
+    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, pixel: [u32; 2], span: Span) -> RayResult;
+}
+
+/// The samples a trace takes: those of the ray's parameter range
+/// `[t0, t1]` inside the volume's box (samples `k0 ..= k1` at
+/// `t = k·step`), or only samples `lo ..= hi` of them, a share of the ray
+/// that other traces (other ranks' boxes) take the rest of. A share's
+/// trace takes exactly those samples, at the places the whole trace
+/// takes them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    /// Where the ray enters the volume's box.
+    pub t0: f32,
+    /// Where it leaves.
+    pub t1: f32,
+    /// The share of the samples, `(lo, hi)` inclusive; `None` for all.
+    pub share: Option<(i64, i64)>,
+}
+
+impl Span {
+    /// All the samples over `[t0, t1]`.
+    pub fn whole(t0: f32, t1: f32) -> Span {
+        Span {
+            t0,
+            t1,
+            share: None,
+        }
+    }
 }
 
 /// What is the same for every ray of a frame: where samples go and how

@@ -2,7 +2,7 @@
 
 use super::march::{march, Flow, RayMarch, RaySteps};
 use super::reconstruct::Reconstruct;
-use super::{FrameGeometry, Integrator, RayResult};
+use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::Accel;
 use crate::ray::Ray;
 use glam::Vec3;
@@ -41,15 +41,8 @@ impl<R, A> Xray<R, A> {
 }
 
 impl<R: Reconstruct, A: Accel<()>> Integrator for Xray<R, A> {
-    fn trace<C: Cursor>(
-        &self,
-        cur: &mut C,
-        ray: &Ray,
-        _pixel: [u32; 2],
-        t0: f32,
-        t1: f32,
-    ) -> RayResult {
-        let steps = RaySteps::new(&self.geom, ray, t0, t1);
+    fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, _pixel: [u32; 2], span: Span) -> RayResult {
+        let steps = RaySteps::for_span(&self.geom, ray, span);
         let mut st = XrayRay::<R, A> {
             xray: self,
             sum: 0.0,
