@@ -1999,3 +1999,26 @@ fn vol_accuracy_with_a_closed_stderr_does_not_panic() {
         .unwrap();
     assert_eq!(code(&out), 1, "{out:?}");
 }
+
+/// Dimensions whose bricked bytes pass u64 (found by the unwrap audit: the
+/// header's data length multiplied unchecked) are refused with one line.
+#[test]
+fn a_bricked_volume_whose_bytes_pass_u64_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.vvol");
+    fails(
+        tool("vol-gen")
+            .args([
+                "solid",
+                "--dims",
+                "16777216,16777216,16383",
+                "--type",
+                "f32",
+            ])
+            .args(["--layout", "bricked:1024", "-o"])
+            .arg(&out),
+        "overflows",
+    );
+    assert!(!out.exists());
+    assert!(leftovers(dir.path()).is_empty());
+}

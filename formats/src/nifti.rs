@@ -463,10 +463,15 @@ pub fn open(path: &Path, time: Option<u64>) -> Result<DataSpec> {
         v as u64
     };
     let compressed = gz(&img);
+    let first = base.checked_add(skip).ok_or_else(|| {
+        Error::invalid(format!(
+            "the time point asked for starts past any file (offset {base} + {skip} bytes)"
+        ))
+    })?;
     let (start, skip_after_decode) = if compressed {
-        (DataStart::At(0), base + skip)
+        (DataStart::At(0), first)
     } else {
-        (DataStart::At(base + skip), 0)
+        (DataStart::At(first), 0)
     };
     Ok(DataSpec {
         dims,

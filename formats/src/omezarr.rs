@@ -240,8 +240,11 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
                 return Err(ConvertError::new(
                     root,
                     Error::invalid(format!(
-                        "{flag} {i} asked for, but axis {name} has 0..{}",
-                        shape[a] - 1
+                        "{flag} {i} asked for, but axis {name} has {}",
+                        match shape[a] {
+                            0 => "no points".to_string(),
+                            n => format!("0..{}", n - 1),
+                        }
                     )),
                 ))
             }

@@ -60,9 +60,9 @@ impl Axes {
             let t = imagej_value(desc, "frames").unwrap_or(1).max(1);
             let images = imagej_value(desc, "images").unwrap_or(1);
             let z = imagej_value(desc, "slices")
-                .unwrap_or((images / (c * t).max(1)).max(1))
+                .unwrap_or((images / c.saturating_mul(t)).max(1))
                 .max(1);
-            if c == 1 && t == 1 {
+            if c == 1 && t == 1 || planes(z, c, t).is_none() {
                 return None;
             }
             let mut names = String::new();
@@ -96,6 +96,12 @@ impl Axes {
         };
         let (z, c, t) = (size("SizeZ"), size("SizeC"), size("SizeT"));
         let order = attr(tag, "DimensionOrder").unwrap_or("XYZCT");
+        // XY, then each of Z, C and T once; and a plane count a file can hold.
+        let mut rest: Vec<char> = order.chars().skip(2).collect();
+        rest.sort_unstable();
+        if !order.starts_with("XY") || rest != ['C', 'T', 'Z'] || planes(z, c, t).is_none() {
+            return None;
+        }
         let mut strides = [0u64; 3];
         let mut s = 1u64;
         for ch in order.chars().skip(2) {
@@ -209,9 +215,40 @@ impl Axes {
     }
 }
 
+/// The most image planes (pages) a hyperstack's axes may describe: far
+/// more than any TIFF holds, small enough that every index product fits.
+const MAX_PLANES: u64 = 1 << 40;
+
+/// `z · c · t` when at most [`MAX_PLANES`].
+fn planes(z: u64, c: u64, t: u64) -> Option<u64> {
+    z.checked_mul(c)?
+        .checked_mul(t)
+        .filter(|&n| n <= MAX_PLANES)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Damaged or hostile axes: a repeated letter, or plane counts past
+    /// what any file holds (whose index products would overflow).
+    #[test]
+    fn impossible_axes_are_no_axes() {
+        let ome = |order: &str, z: &str, c: &str, t: &str| {
+            format!(
+                r#"<OME><Image><Pixels DimensionOrder="{order}" SizeZ="{z}" SizeC="{c}" SizeT="{t}" /></Image></OME>"#
+            )
+        };
+        assert!(Axes::parse(&ome("XYZCT", "2", "3", "4")).is_some());
+        assert!(Axes::parse(&ome("XYZCTZ", "2", "1", "1")).is_none());
+        assert!(Axes::parse(&ome("XYZZT", "2", "3", "1")).is_none());
+        assert!(Axes::parse(&ome("XYCZT", "4294967296", "4294967296", "1")).is_none());
+        assert!(Axes::parse(&ome("XYZCT", "4294967296", "1", "4294967296")).is_none());
+        let ij = |body: &str| format!("ImageJ=1.54f\n{body}");
+        assert!(Axes::parse(&ij("channels=4294967296\nframes=4294967296\n")).is_none());
+        assert!(Axes::parse(&ij("channels=4\nslices=4611686018427387904\n")).is_none());
+        assert!(Axes::parse(&ij("channels=2\nslices=3\n")).is_some());
+    }
 
     #[test]
     fn imagej_hyperstacks_pick_one_stack() {

@@ -100,7 +100,10 @@ impl Header {
                 let (stride, data_len) = match meta.compression {
                     Compression::None => {
                         let stride = align_up(g.stored_len() as u64 * size);
-                        (stride, stride * n)
+                        let len = stride
+                            .checked_mul(n)
+                            .ok_or_else(|| Error::invalid("data length overflows"))?;
+                        (stride, len)
                     }
                     Compression::Zstd(_) => (0, 0), // known after writing
                 };
