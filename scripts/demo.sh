@@ -25,6 +25,15 @@ $B/vol-psnr "$OUT/shapes.vvol" "$OUT/from-tiff.vvol" --min-psnr inf
 $B/vol-convert "$OUT/shapes.vvol" -o "$OUT/shapes-zstd.vvol" --layout bricked:32 --compress zstd --quiet
 $B/vol-info --verify "$OUT/shapes-zstd.vvol"
 
+step "sharded: the same zstd conversion as 3 independent jobs from the TIFF slices, merged (byte for byte the same file)"
+rm -f "$OUT"/shapes.*.vpart
+for k in 0 1 2; do
+    $B/vol-convert "$OUT/slices" --spacing 1,1,1 --layout bricked:32 --compress zstd --shard "$k/3" -o "$OUT/shapes.$k.vpart" --quiet
+done
+$B/vol-convert --merge "$OUT"/shapes.*.vpart -o "$OUT/shapes-merged.vvol"
+cmp "$OUT/shapes-zstd.vvol" "$OUT/shapes-merged.vvol" && echo "merged shards: identical to the unsharded conversion"
+rm -f "$OUT"/shapes.*.vpart
+
 step "through a pipe: generate to stdout, convert from stdin"
 $B/vol-gen noise --dims 128,128,128 --period 32 -o - | $B/vol-convert - -o "$OUT/noise.vvol" --layout bricked:32 --quiet
 $B/vol-info "$OUT/noise.vvol"
