@@ -169,14 +169,20 @@ struct Timing {
     bytes: u64,
 }
 
-fn build(cli: &Cli, volume: &Path) -> Result<()> {
-    let start = Instant::now();
+/// The build options the flags ask for, checked, for a volume file.
+fn build_options(cli: &Cli, volume: &Path) -> Result<BuildOptions> {
     let opts = BuildOptions {
         cell_edge: cli.cell,
         histogram_bins: cli.bins,
     };
     opts.validate().map_err(|e| anyhow!("{e}"))?;
     refuse_stream(volume)?;
+    Ok(opts)
+}
+
+fn build(cli: &Cli, volume: &Path) -> Result<()> {
+    let start = Instant::now();
+    let opts = build_options(cli, volume)?;
     let vname = name(volume);
     let output = cli.output.clone().unwrap_or_else(|| default_output(volume));
     let oname = name(&output);
@@ -265,12 +271,7 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
 /// `--shard K/N`: build one shard's part of the index.
 fn build_shard(cli: &Cli, volume: &Path, shard: Shard) -> Result<()> {
     let start = Instant::now();
-    let opts = BuildOptions {
-        cell_edge: cli.cell,
-        histogram_bins: cli.bins,
-    };
-    opts.validate().map_err(|e| anyhow!("{e}"))?;
-    refuse_stream(volume)?;
+    let opts = build_options(cli, volume)?;
     let vname = name(volume);
     let Some(output) = &cli.output else {
         return Err(usage(format!(
