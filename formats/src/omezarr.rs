@@ -712,7 +712,7 @@ pub fn shard_slices(dims: Dims, levels: u32, shard: Shard) -> crate::Result<Rang
 }
 
 /// The last component of `path` (the store's name).
-fn file_name(path: &Path) -> String {
+pub(crate) fn file_name(path: &Path) -> String {
     path.components()
         .next_back()
         .map(|n| n.as_os_str().to_string_lossy().into_owned())

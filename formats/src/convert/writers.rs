@@ -420,10 +420,9 @@ pub(crate) fn run_target<T: SliceSample>(
             levels,
             downsample,
             ngff,
-            shard: Some(shard),
+            shard,
             ..
         } => {
-            check_shard_store(&path)?;
             let store = crate::omezarr::StoreSpec {
                 dims,
                 spacing: spec.spacing,
@@ -432,9 +431,25 @@ pub(crate) fn run_target<T: SliceSample>(
                 down: downsample,
                 ngff,
             };
-            let w =
-                crate::omezarr::ZarrWriter::<T>::create_shard(&path, &store, shard).at(&path)?;
-            let zs = crate::omezarr::shard_slices(dims, levels, shard).at(&path)?;
+            // A shard writes its slices straight into the shared store; a
+            // whole write goes to a temporary directory renamed when done.
+            let (w, zs, dir) = match shard {
+                Some(shard) => {
+                    check_shard_store(&path)?;
+                    let w = crate::omezarr::ZarrWriter::<T>::create_shard(&path, &store, shard)
+                        .at(&path)?;
+                    let zs = crate::omezarr::shard_slices(dims, levels, shard).at(&path)?;
+                    (w, zs, None)
+                }
+                None => {
+                    let dir = PartialDir::create(&path)?;
+                    let name = crate::omezarr::file_name(&path);
+                    let w =
+                        crate::omezarr::ZarrWriter::<T>::create_as(dir.temp.path(), &store, &name)
+                            .at(&path)?;
+                    (w, 0..dims.z, Some(dir))
+                }
+            };
             let mut sink = ZarrSink {
                 w: Some(w),
                 end: zs.end,
@@ -448,46 +463,10 @@ pub(crate) fn run_target<T: SliceSample>(
             if let Some(w) = sink.w.take() {
                 w.finish().at(&path)?;
             }
-            Ok((sink.done, None))
-        }
-        Target::OmeZarr {
-            levels,
-            downsample,
-            ngff,
-            ..
-        } => {
-            let dir = PartialDir::create(&path)?;
-            let store = crate::omezarr::StoreSpec {
-                dims,
-                spacing: spec.spacing,
-                geometry: &spec.geometry,
-                levels,
-                down: downsample,
-                ngff,
-            };
-            let name = path
-                .components()
-                .next_back()
-                .map(|n| n.as_os_str().to_string_lossy().into_owned())
-                .unwrap_or_default();
-            let w = crate::omezarr::ZarrWriter::<T>::create_as(dir.temp.path(), &store, &name)
-                .at(&path)?;
-            let mut sink = ZarrSink {
-                w: Some(w),
-                end: dims.z,
-                next_z: 0,
-                slab: crate::omezarr::CHUNK.min(dims.z),
-                done: 0,
-                progress: spec.progress,
-                path: &path,
-            };
-            drive(&mut sink)?;
-            if let Some(w) = sink.w.take() {
-                w.finish().at(&path)?;
+            if let Some(dir) = dir {
+                dir.commit()?;
             }
-            let bytes = sink.done;
-            dir.commit()?;
-            Ok((bytes, None))
+            Ok((sink.done, None))
         }
         Target::Memory(slot) => {
             let n = dims.checked_count().ok_or_else(|| {
