@@ -10,6 +10,12 @@
 
 use crate::integrator::RayResult;
 use glam::Vec3;
+use std::ops::Range;
+
+/// Bytes per pixel of a film's rows as [`Film::encode_rows`] writes them:
+/// premultiplied colour (4 × f64), ray count (u32), value (f64), depth
+/// (f32) and sample count (u32).
+pub const ENCODED_PIXEL_BYTES: usize = 52;
 
 /// Counts and times for one frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -63,6 +69,19 @@ pub enum Composite {
     Min,
     /// The sum of the values (X-ray).
     Sum,
+}
+
+/// Little-endian f64s from bytes (a multiple of 8 long).
+fn le_f64s(b: &[u8]) -> impl Iterator<Item = f64> + '_ {
+    b.chunks_exact(8)
+        .map(|c| f64::from_le_bytes(std::array::from_fn(|i| c[i])))
+}
+
+/// Little-endian u32s from bytes (a multiple of 4 long).
+fn le_u32s(b: &[u8]) -> Vec<u32> {
+    b.chunks_exact(4)
+        .map(|c| u32::from_le_bytes(std::array::from_fn(|i| c[i])))
+        .collect()
 }
 
 /// Per-pixel sums (see the module docs).
@@ -187,6 +206,85 @@ impl Film {
             out.count[p] = count;
         }
         out
+    }
+
+    /// Append the pixels of rows `rows` to `out`, little-endian, field by
+    /// field ([`ENCODED_PIXEL_BYTES`] per pixel; the totals are not
+    /// included): how a share's film travels between processes.
+    pub fn encode_rows(&self, rows: Range<u32>, out: &mut Vec<u8>) {
+        let w = self.width as usize;
+        let px = (rows.start as usize * w).min(self.count.len())
+            ..(rows.end as usize * w).min(self.count.len());
+        out.reserve(px.len() * ENCODED_PIXEL_BYTES);
+        for c in &self.rgba[px.clone()] {
+            c.iter()
+                .for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+        }
+        for v in &self.count[px.clone()] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in &self.value[px.clone()] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in &self.depth[px.clone()] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in &self.samples[px] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+
+    /// The film of `width × rows` pixels that [`Film::encode_rows`] wrote
+    /// as `bytes`, or `None` when the length is not that of such a film.
+    pub fn decode_rows(width: u32, rows: u32, bytes: &[u8]) -> Option<Film> {
+        let n = (width as usize).checked_mul(rows as usize)?;
+        if bytes.len() != n.checked_mul(ENCODED_PIXEL_BYTES)? {
+            return None;
+        }
+        let mut film = Film::new(width, rows);
+        let (rgba, rest) = bytes.split_at(n * 32);
+        let (count, rest) = rest.split_at(n * 4);
+        let (value, rest) = rest.split_at(n * 8);
+        let (depth, samples) = rest.split_at(n * 4);
+        for (p, c) in film.rgba.iter_mut().zip(rgba.chunks_exact(32)) {
+            for (v, x) in p.iter_mut().zip(le_f64s(c)) {
+                *v = x;
+            }
+        }
+
+        film.count = le_u32s(count);
+        film.value = le_f64s(value).collect();
+        film.depth = le_u32s(depth).into_iter().map(f32::from_bits).collect();
+        film.samples = le_u32s(samples);
+        Some(film)
+    }
+
+    /// The film made of the rows of `strips`, top to bottom (films of one
+    /// width); its totals are the strips' summed.
+    pub fn stack(strips: &[Film]) -> Film {
+        let width = strips.first().map_or(0, |f| f.width);
+        let height = strips.iter().map(|f| f.height).sum();
+        let mut out = Film::new(width, 0);
+        out.height = height;
+        for f in strips {
+            out.rgba.extend_from_slice(&f.rgba);
+            out.count.extend_from_slice(&f.count);
+            out.value.extend_from_slice(&f.value);
+            out.depth.extend_from_slice(&f.depth);
+            out.samples.extend_from_slice(&f.samples);
+            let s = &mut out.stats;
+            s.rays += f.stats.rays;
+            s.samples += f.stats.samples;
+            s.skips += f.stats.skips;
+            s.culled_blocks += f.stats.culled_blocks;
+            s.render_s = s.render_s.max(f.stats.render_s);
+        }
+        out
+    }
+
+    /// Replace the totals (a data-parallel frame's are the ranks').
+    pub fn set_stats(&mut self, stats: FrameStats) {
+        self.stats = stats;
     }
 
     /// The totals so far.
@@ -433,5 +531,55 @@ mod tests {
         assert_eq!(fr.rgba[1][0], 0.5);
         assert_eq!(fr.samples, vec![1, 1000]);
         assert_eq!(fr.stats.rays, 1001);
+    }
+
+    #[test]
+    fn rows_travel_as_bytes_and_stack_back_into_the_film() {
+        let (w, h) = (7u32, 5u32);
+        let mut f = Film::new(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                if (x + y) % 3 == 0 {
+                    continue; // some pixels stay empty (NaN value and depth)
+                }
+                let v = (x * 10 + y) as f32 * 0.37;
+                f.add(
+                    x,
+                    y,
+                    &RayResult {
+                        rgba: [v, v * 0.5, 0.1, 0.9],
+                        value: f64::from(v) * 1e-3,
+                        depth: v + 1.0,
+                        samples: x + y,
+                        ..RayResult::empty()
+                    },
+                );
+            }
+        }
+        let strips: Vec<Film> = [0..2, 2..2, 2..5]
+            .into_iter()
+            .map(|rows| {
+                let mut bytes = Vec::new();
+                f.encode_rows(rows.clone(), &mut bytes);
+                assert_eq!(
+                    bytes.len(),
+                    (rows.len() as u32 * w) as usize * ENCODED_PIXEL_BYTES
+                );
+                assert!(Film::decode_rows(w, rows.len() as u32 + 1, &bytes).is_none());
+                Film::decode_rows(w, rows.len() as u32, &bytes).unwrap()
+            })
+            .collect();
+        let back = Film::stack(&strips);
+        let bits = |f: &Film| -> Vec<u64> {
+            f.rgba
+                .iter()
+                .flat_map(|p| p.map(f64::to_bits))
+                .chain(f.value.iter().map(|v| v.to_bits()))
+                .chain(f.depth.iter().map(|d| u64::from(d.to_bits())))
+                .chain(f.count.iter().chain(&f.samples).map(|&c| u64::from(c)))
+                .collect()
+        };
+        assert_eq!((back.width, back.height), (w, h));
+        assert_eq!(bits(&back), bits(&f));
     }
 }

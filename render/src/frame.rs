@@ -401,14 +401,11 @@ fn dvr_frame(
     settings: &RenderSettings,
     tiles: Tiles<'_>,
 ) -> Result<Film, RenderError> {
-    let (lo, hi) = tf.domain().unwrap_or(range);
-    let hi = if hi > lo { hi } else { lo + 1.0 };
-    let bins = TfTable::default_bins(lo, hi);
     // Effects apply to shaded samples only (checked before); their depth
     // table is made for the shadow step.
     let effects_on = settings.shading && (settings.shadows.is_some() || settings.ao.is_some());
-    let shadow_geom =
-        effects_on.then(|| effects::setup::shadow_geometry(&geom, settings.shadows.as_ref()));
+    let shadow_step =
+        effects_on.then(|| effects::setup::shadow_geometry(&geom, settings.shadows.as_ref()).step);
     let frame = DvrFrame {
         vol,
         skip_index,
@@ -417,13 +414,43 @@ fn dvr_frame(
         settings,
         tiles,
     };
+    with_tables(vol, tf, range, settings.step, shadow_step, frame)
+}
+
+/// Work that needs a DVR frame's classifier table, of whichever kind the
+/// transfer function makes ([`with_tables`]).
+trait TableUser {
+    /// What the work gives.
+    type Output;
+    /// Do the work with `table` (as `as_ref` names its kind) and, when a
+    /// shadow step was asked for, the same classifier at that step.
+    fn run<K: Classifier>(
+        self,
+        table: &K,
+        shadow: Option<&K>,
+        as_ref: for<'x> fn(&'x K) -> ClassifierRef<'x>,
+    ) -> Self::Output;
+}
+
+/// Build the classifier table of `tf` for `step` (and `shadow_step`) over
+/// the transfer function's domain, or the volume's `range`, and hand it to
+/// `user`.
+fn with_tables<U: TableUser>(
+    vol: &Volume,
+    tf: &Tf,
+    range: (f32, f32),
+    step: f32,
+    shadow_step: Option<f32>,
+    user: U,
+) -> U::Output {
+    let (lo, hi) = tf.domain().unwrap_or(range);
+    let hi = if hi > lo { hi } else { lo + 1.0 };
+    let bins = TfTable::default_bins(lo, hi);
     match tf {
         Tf::OneD(t) => {
             let table = |step| TfTable::new(t, lo, hi, bins, step);
-            let shadow = shadow_geom.map(|g| table(g.step));
-            frame.run(&table(settings.step), shadow.as_ref(), |t| {
-                ClassifierRef::OneD(t)
-            })
+            let shadow = shadow_step.map(table);
+            user.run(&table(step), shadow.as_ref(), |t| ClassifierRef::OneD(t))
         }
         Tf::TwoD(t) => {
             let glimit = (hi - lo) / vol.meta.min_spacing();
@@ -439,12 +466,81 @@ fn dvr_frame(
                     step,
                 )
             };
-            let shadow = shadow_geom.map(|g| table(g.step));
-            frame.run(&table(settings.step), shadow.as_ref(), |t| {
-                ClassifierRef::TwoD(t)
-            })
+            let shadow = shadow_step.map(table);
+            user.run(&table(step), shadow.as_ref(), |t| ClassifierRef::TwoD(t))
         }
     }
+}
+
+/// The finest-level cells of `index` that a DVR frame with `settings`
+/// may take a visible sample in: those its transfer function does not
+/// make transparent ([`with_tables`]).
+struct DvrBusyCells<'a> {
+    index: &'a MajorantIndex,
+    gradients: GradientBound,
+}
+
+impl TableUser for DvrBusyCells<'_> {
+    type Output = Result<Vec<bool>, RenderError>;
+    fn run<K: Classifier>(
+        self,
+        table: &K,
+        _shadow: Option<&K>,
+        _as_ref: for<'x> fn(&'x K) -> ClassifierRef<'x>,
+    ) -> Self::Output {
+        let mut levels = table.transparent_cells(self.index, &self.gradients)?;
+        let finest = if levels.is_empty() {
+            Vec::new()
+        } else {
+            levels.swap_remove(0)
+        };
+        Ok(finest.into_iter().map(|clear| !clear).collect())
+    }
+}
+
+/// Per finest-level cell of `index` (x fastest): whether a frame of `vol`
+/// with `settings` (and `tf` for DVR) can take a sample there that shows:
+/// under DVR the cells the transfer function does not make transparent,
+/// for iso-surfaces the cells reaching the iso value, for X-ray the cells
+/// holding a non-zero value, for MIP and MinIP every cell. A data-parallel
+/// split balances ranks by these counts ([`crate::distributed`]).
+pub fn busy_cells(
+    vol: &Volume,
+    index: &MajorantIndex,
+    tf: Option<&Tf>,
+    settings: &RenderSettings,
+) -> Result<Vec<bool>, RenderError> {
+    let level = index.level(0);
+    let by_range = |f: &dyn Fn(f32, f32) -> bool| -> Vec<bool> {
+        level
+            .min()
+            .iter()
+            .zip(level.max())
+            .map(|(&lo, &hi)| f(lo, hi))
+            .collect()
+    };
+    Ok(match settings.mode {
+        Mode::Dvr => {
+            let tf =
+                tf.ok_or_else(|| RenderError::Setting("DVR needs a transfer function".into()))?;
+            let range = if vol.meta.range.is_empty() {
+                (0.0, 0.0)
+            } else {
+                (vol.meta.range.min as f32, vol.meta.range.max as f32)
+            };
+            let s = vol.meta.spacing;
+            let gradients = GradientBound {
+                method: settings.gradient,
+                inv_spacing: Vec3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2]),
+            };
+            let user = DvrBusyCells { index, gradients };
+            with_tables(vol, tf, range, settings.step, None, user)?
+        }
+        // NaN counts as below the level (as the iso rule has it).
+        Mode::Iso(l) => by_range(&|_, hi| hi >= l),
+        Mode::XraySum | Mode::XrayMean => by_range(&|lo, hi| !(lo == 0.0 && hi == 0.0)),
+        Mode::Mip | Mode::Minip => vec![true; level.len()],
+    })
 }
 
 /// What a DVR frame has before its classifier is built.
@@ -457,9 +553,10 @@ struct DvrFrame<'a> {
     tiles: Tiles<'a>,
 }
 
-impl DvrFrame<'_> {
-    /// Render with classifier `table` (as `as_ref` names its kind); with
-    /// effects, `shadow` is the same classifier at the shadow step.
+/// Render with classifier `table` (as `as_ref` names its kind); with
+/// effects, `shadow` is the same classifier at the shadow step.
+impl TableUser for DvrFrame<'_> {
+    type Output = Result<Film, RenderError>;
     fn run<K: Classifier>(
         self,
         table: &K,

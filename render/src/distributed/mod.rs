@@ -1,11 +1,15 @@
 //! Data-parallel rendering across processes (ranks), sort-last: the
-//! volume is split into convex boxes, one per rank ([`partition`]), each
-//! rank takes the samples of every ray inside its box ([`share`], through
+//! volume is split into convex boxes, one per rank ([`partition`],
+//! weighted by the cells the frame can see: [`layout`]), each rank takes
+//! the samples of every ray inside its box ([`share`], through
 //! [`crate::frame::render_film`]), and the ranks' films are composited in
-//! the visibility order the split gives ([`crate::film::Film::composite`]).
+//! the visibility order the split gives ([`crate::film::Film::composite`];
+//! films travel between processes as rows, [`crate::film::Film::encode_rows`]).
 
+pub mod layout;
 pub mod partition;
 pub mod share;
 
+pub use layout::{composite_for, strip_rows, Layout};
 pub use partition::{KdTree, Leaf, Viewer};
 pub use share::ShareBox;
