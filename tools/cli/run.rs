@@ -5,6 +5,22 @@ use clap::{Arg, ArgAction, CommandFactory, FromArgMatches};
 use std::fmt;
 use std::io::{self, Write};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set when another process of the same job speaks for this one.
+static SILENT: AtomicBool = AtomicBool::new(false);
+
+/// Print no error message, help or completion script from this process:
+/// another process of the same job speaks for it (rank 0 of an MPI job
+/// for the other ranks, which parse the same command line). Exit codes
+/// are unchanged.
+pub fn silence() {
+    SILENT.store(true, Ordering::Relaxed);
+}
+
+fn silenced() -> bool {
+    SILENT.load(Ordering::Relaxed)
+}
 
 /// Exit status for bad input or a failed operation.
 pub const EXIT_FAILURE: u8 = 1;
@@ -118,6 +134,9 @@ pub fn parse_matches<C: CommandFactory + FromArgMatches>(
 /// Write `bytes` to standard output: success, a quiet 141 on a closed
 /// pipe, or the error.
 fn print_bytes(tool: &str, bytes: &[u8]) -> ExitCode {
+    if silenced() {
+        return ExitCode::SUCCESS;
+    }
     let mut out = io::stdout().lock();
     match out.write_all(bytes).and_then(|()| out.flush()) {
         Ok(()) => ExitCode::SUCCESS,
@@ -138,7 +157,9 @@ fn clap_exit(tool: &str, e: clap::Error) -> ExitCode {
             | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
     ) {
         // A closed pipe is ignored here: the help has nothing after it.
-        let _ = e.print();
+        if !silenced() {
+            let _ = e.print();
+        }
         return ExitCode::from(if e.use_stderr() { EXIT_USAGE } else { 0 });
     }
     // clap's message up to its usage block, on one line.
@@ -160,6 +181,9 @@ fn clap_exit(tool: &str, e: clap::Error) -> ExitCode {
 /// after [`MAX_MESSAGE_CHARS`]. This is the last line of defence: the
 /// readers already quote untrusted text through `volcore::text`.
 pub fn report_error(tool: &str, message: &str) {
+    if silenced() {
+        return;
+    }
     let msg = message.replace(['\n', '\r'], " ");
     let msg = volcore::text::clip(&msg, MAX_MESSAGE_CHARS);
     // Nowhere left to report a failure to write to stderr.

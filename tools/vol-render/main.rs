@@ -5,13 +5,15 @@
 mod args;
 mod path;
 mod plan;
+#[cfg(feature = "mpi")]
+mod ranks;
 mod scene;
 
 use anyhow::{bail, Context, Result};
 use args::Cli;
 use clap::parser::ValueSource;
 use plan::Plan;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::Volume;
@@ -22,31 +24,44 @@ use volkit_cli::{noteln, outln};
 use volrender::{render_tf, Frame};
 
 fn main() -> ExitCode {
+    #[cfg(feature = "mpi")]
+    if ranks::launched() {
+        return ranks::main();
+    }
     let (mut cli, matches) = match volkit_cli::run::parse_matches::<Cli>("vol-render") {
         Ok(parsed) => parsed,
         Err(code) => return code,
     };
     volkit_cli::run("vol-render", || {
-        let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
-        cli.background_given = matches.value_source("background") == Some(ValueSource::CommandLine);
-        if let Some(path) = cli.scene.clone() {
-            let file = volkit_cli::scene::Scene::read(&path)?;
-            let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-            scene::apply(file, &dir, &mut cli, given);
-        }
-        let volume = cli.volume.clone().ok_or_else(|| {
-            volkit_cli::usage("no volume: give its path, or `volume` in the --scene file")
-        })?;
-        if cli.output.is_none() && !cli.print_scene {
-            return Err(volkit_cli::usage(
-                "no output: give -o FILE.png, or `output` in the --scene file",
-            ));
-        }
+        let volume = resolve_cli(&mut cli, &matches)?;
         run(&cli, &volume)
     })
 }
 
-fn run(cli: &Cli, volume: &Path) -> Result<()> {
+/// Fill `cli` from its `--scene` file (options given on the command line
+/// win) and check that there is a volume and an output: the volume's path.
+fn resolve_cli(cli: &mut Cli, matches: &clap::ArgMatches) -> Result<PathBuf> {
+    let given = |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
+    cli.background_given = matches.value_source("background") == Some(ValueSource::CommandLine);
+    if let Some(path) = cli.scene.clone() {
+        let file = volkit_cli::scene::Scene::read(&path)?;
+        let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+        scene::apply(file, &dir, cli, given);
+    }
+    let volume = cli.volume.clone().ok_or_else(|| {
+        volkit_cli::usage("no volume: give its path, or `volume` in the --scene file")
+    })?;
+    if cli.output.is_none() && !cli.print_scene {
+        return Err(volkit_cli::usage(
+            "no output: give -o FILE.png, or `output` in the --scene file",
+        ));
+    }
+    Ok(volume)
+}
+
+/// Start the worker pool with `--threads` workers (rayon's default, one
+/// per core, without it).
+fn start_threads(cli: &Cli) -> Result<()> {
     if let Some(n) = cli.threads {
         if n == 0 {
             bail!("--threads must be at least 1");
@@ -56,6 +71,11 @@ fn run(cli: &Cli, volume: &Path) -> Result<()> {
             .build_global()
             .context("cannot start the worker threads")?;
     }
+    Ok(())
+}
+
+fn run(cli: &Cli, volume: &Path) -> Result<()> {
+    start_threads(cli)?;
     let name = volume.display().to_string();
     let t = Instant::now();
     let opts = vvol::OpenOptions {
@@ -126,7 +146,7 @@ fn run(cli: &Cli, volume: &Path) -> Result<()> {
         render_s,
         runs: &times,
     };
-    report(cli, volume, output, &frame, &times, scene)?;
+    report(cli, volume, output, &frame, &times, scene, None)?;
     Ok(())
 }
 
@@ -188,6 +208,16 @@ struct Times<'a> {
     runs: &'a [f64],
 }
 
+/// What a data-parallel frame adds to the report: keys for `--json` and a
+/// line for people.
+#[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+struct RankReport {
+    /// A JSON object whose keys join the report's.
+    json: serde_json::Value,
+    /// One line (without the tool's name).
+    line: String,
+}
+
 fn report(
     cli: &Cli,
     volume: &Path,
@@ -195,6 +225,7 @@ fn report(
     frame: &Frame,
     t: &Times,
     scene: serde_json::Value,
+    ranks: Option<&RankReport>,
 ) -> Result<()> {
     let s = &frame.stats;
     let (load_s, index_s, render_s) = (t.load_s, t.index_s, t.render_s);
@@ -222,6 +253,11 @@ fn report(
             "peak_rss_mb": peak_rss_mb(),
             "scene": scene,
         });
+        if let (Some(r), Some(obj)) = (ranks, v.as_object_mut()) {
+            if let Some(extra) = r.json.as_object() {
+                obj.extend(extra.clone());
+            }
+        }
         // Each effect's counters, only when it is on.
         if cli.shadows.is_some() {
             let e = &s.effects;
@@ -265,6 +301,9 @@ fn report(
             load_s,
             index_s
         );
+        if let Some(r) = ranks {
+            noteln!("vol-render: {}", r.line);
+        }
         if cli.shadows.is_some() {
             let e = &s.effects;
             noteln!(

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The whole test suite: every crate's tests, then the data-parallel
+# renderer's tests under mpirun (cargo feature `mpi`) when Open MPI is
+# installed. Without it those are skipped with a note; with
+# VOLKIT_REQUIRE_MPI=1 (CI) a missing MPI is an error instead.
+#
+#   bash scripts/test.sh            # all tests
+#   VOLKIT_REQUIRE_MPI=1 bash scripts/test.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+cargo test --workspace
+
+have_mpi() {
+    command -v mpirun >/dev/null 2>&1 &&
+        command -v pkg-config >/dev/null 2>&1 &&
+        pkg-config --exists ompi 2>/dev/null
+}
+
+if have_mpi; then
+    echo "== MPI: cargo test -p volkit --features mpi --test mpi"
+    cargo test -p volkit --features mpi --test mpi
+elif [ "${VOLKIT_REQUIRE_MPI:-0}" = 1 ]; then
+    echo "test.sh: Open MPI not found (mpirun, pkg-config ompi); install libopenmpi-dev openmpi-bin libclang-dev pkg-config" >&2
+    exit 1
+else
+    echo "test.sh: skipped the MPI tests: Open MPI not installed (Debian: apt-get install libopenmpi-dev openmpi-bin libclang-dev pkg-config)" >&2
+fi
