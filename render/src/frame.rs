@@ -279,6 +279,7 @@ pub fn render_film(
         hi: Vec3::from(vol.meta.world_extent()),
         busy: None,
         share,
+        share_pixels: share.and_then(|b| b.pixels(camera, Vec3::from(vol.meta.world_extent()))),
         step: settings.step,
     };
     let (film, display) = match settings.mode {
@@ -701,6 +702,9 @@ struct Tiles<'a> {
     busy: Option<&'a cull::BlockMask>,
     /// Take only the samples inside this box.
     share: Option<&'a ShareBox>,
+    /// The only pixels whose rays can meet the share's box (columns,
+    /// rows); the others are left empty, untraced.
+    share_pixels: Option<crate::distributed::share::PixelRect>,
     /// The frame's step (to find a share's samples).
     step: f32,
 }
@@ -732,6 +736,7 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
             hi,
             busy,
             share,
+            share_pixels,
             step,
             ..
         } = self.tiles;
@@ -746,7 +751,9 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
                 let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        if busy.is_some_and(|b| !b.may_see(x, y)) {
+                        if busy.is_some_and(|b| !b.may_see(x, y))
+                            || share_pixels.is_some_and(|r| !r.contains(x, y))
+                        {
                             out.push(RayResult::empty());
                             continue;
                         }

@@ -1,7 +1,26 @@
 //! A rank's share of every ray: the samples inside its box.
 
+use crate::camera::Camera;
 use crate::integrator::Span;
 use crate::ray::Ray;
+use glam::Vec3;
+
+/// A rectangle of pixels: columns `x[0]..x[1]`, rows `y[0]..y[1]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelRect {
+    /// Columns, half-open.
+    pub x: [u32; 2],
+    /// Rows, half-open.
+    pub y: [u32; 2],
+}
+
+impl PixelRect {
+    /// Whether pixel `(x, y)` is in the rectangle.
+    #[inline]
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        (self.x[0]..self.x[1]).contains(&x) && (self.y[0]..self.y[1]).contains(&y)
+    }
+}
 
 /// A rank's box in world coordinates, half-open: a point is inside when
 /// `lo <= p < hi` on every axis; a missing plane is no bound (the boxes at
@@ -58,12 +77,46 @@ impl ShareBox {
         }
         (lo_k <= hi_k).then_some((lo_k, hi_k))
     }
+
+    /// The pixels whose rays can take a sample in the box (none when the
+    /// box is off the image), for the box
+    /// clipped to the volume's `[0, hi]`; `None` when that cannot be told
+    /// from the corners (a corner not in front of a perspective eye: the
+    /// eye is in or beside the box). Conservative by a pixel.
+    pub fn pixels(&self, camera: &Camera, hi: Vec3) -> Option<PixelRect> {
+        let lo = Vec3::from(std::array::from_fn(|a| self.lo[a].unwrap_or(0.0).max(0.0)));
+        let up = Vec3::from(std::array::from_fn(|a| {
+            self.hi[a].unwrap_or(hi[a]).min(hi[a])
+        }));
+        let mut x = (f32::INFINITY, f32::NEG_INFINITY);
+        let mut y = (f32::INFINITY, f32::NEG_INFINITY);
+        for k in 0..8 {
+            let p = Vec3::new(
+                if k & 1 == 0 { lo.x } else { up.x },
+                if k & 2 == 0 { lo.y } else { up.y },
+                if k & 4 == 0 { lo.z } else { up.z },
+            );
+            let [px, py] = camera.project(p)?;
+            x = (x.0.min(px), x.1.max(px));
+            y = (y.0.min(py), y.1.max(py));
+        }
+        // Pixel centres within the corners' hull, widened by a pixel.
+        let range = |(a, b): (f32, f32), n: u32| {
+            let first = (a - 1.0).ceil().clamp(0.0, n as f32) as u32;
+            let end = ((b + 1.0).floor() + 1.0).clamp(0.0, n as f32) as u32;
+            (first, end.max(first))
+        };
+        let (x, y) = (range(x, camera.width()), range(y, camera.height()));
+        Some(PixelRect {
+            x: [x.0, x.1],
+            y: [y.0, y.1],
+        })
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
     /// Boxes split at x = 1.3 and, above it, y = 0.7: every sample of
     /// random rays goes to exactly one box, the one that holds it (up to
@@ -117,6 +170,62 @@ mod tests {
             }
             assert!(seen.iter().all(|&n| n == 1), "case {case}: {seen:?}");
         }
+    }
+
+    /// Every pixel whose ray takes a sample in a box is in the box's
+    /// pixel rectangle, and the rectangle leaves pixels out.
+    #[test]
+    fn pixel_rectangles_hold_every_ray_that_meets_the_box() {
+        use crate::camera::Projection;
+        use crate::ray::intersect_box;
+        let hi = Vec3::new(40.0, 30.0, 50.0);
+        let boxes = [
+            ShareBox {
+                hi: [Some(20.0), None, None],
+                ..Default::default()
+            },
+            ShareBox {
+                lo: [Some(20.0), Some(10.0), None],
+                hi: [None, None, Some(25.0)],
+            },
+        ];
+        let cams = [
+            Projection::Perspective(50.0),
+            Projection::Orthographic(80.0),
+        ];
+        for p in cams {
+            let cam = Camera::look_at(Vec3::new(90.0, 60.0, 120.0), hi * 0.5, Vec3::Y, p, 64, 48)
+                .unwrap();
+            for b in &boxes {
+                let r = b.pixels(&cam, hi).unwrap();
+                let mut met = 0;
+                for y in 0..48 {
+                    for x in 0..64 {
+                        let ray = cam.ray(x, y);
+                        let Some((t0, t1)) = intersect_box(&ray, Vec3::ZERO, hi) else {
+                            continue;
+                        };
+                        if b.samples(&ray, Span::whole(t0, t1), 0.25).is_some() {
+                            met += 1;
+                            assert!(r.contains(x, y), "{p:?} {b:?}: ({x}, {y}) not in {r:?}");
+                        }
+                    }
+                }
+                let area = (r.x[1] - r.x[0]) * (r.y[1] - r.y[0]);
+                assert!(met > 0 && area < 64 * 48, "{p:?} {b:?}: {met} rays, {r:?}");
+            }
+        }
+        // An eye inside a box: no rectangle.
+        let inside = Camera::look_at(
+            Vec3::new(5.0, 5.0, 5.0),
+            hi,
+            Vec3::Y,
+            Projection::Perspective(60.0),
+            8,
+            8,
+        )
+        .unwrap();
+        assert!(boxes[0].pixels(&inside, hi).is_none());
     }
 
     fn span_k(span: Span, step: f32) -> (i64, i64) {
