@@ -287,12 +287,17 @@ pub fn open(path: &Path) -> Result<DataSpec> {
     let mut r = std::io::BufReader::new(f);
     // Read lines up to ElementDataFile (binary data may follow in .mha).
     let mut text = String::new();
+    // The header's length in the file's bytes: the text's own length
+    // counts each byte that is not UTF-8 (a Latin-1 `µ` in a comment) as
+    // the three of U+FFFD, which would shift an .mha's data.
+    let mut file_len = 0u64;
     loop {
         let mut l = Vec::new();
         let n = r.take_line(&mut l)?;
         if n == 0 {
             break;
         }
+        file_len += n as u64;
         let s = String::from_utf8_lossy(&l).into_owned();
         let last = s.trim_start().starts_with("ElementDataFile");
         text.push_str(&s);
@@ -300,7 +305,13 @@ pub fn open(path: &Path) -> Result<DataSpec> {
             break;
         }
     }
-    let (h, header_len) = parse(&text)?;
+    let (h, text_len) = parse(&text)?;
+    // parse() counts through the ElementDataFile line, the last line read.
+    let header_len = if text_len == text.len() as u64 {
+        file_len
+    } else {
+        text_len
+    };
     let local = h.data_file == "LOCAL";
     let (data_file, base) = if local {
         (path.to_path_buf(), header_len)
@@ -371,6 +382,18 @@ mod tests {
         assert!(h.compressed);
         assert_eq!(h.dims.z, 1);
         assert_eq!(len, mha.find('\x00').unwrap() as u64);
+    }
+
+    #[test]
+    fn mha_data_starts_after_the_header_bytes_even_when_not_utf8() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("latin1.mha");
+        let mut bytes = b"ObjectType = Image\n# acquired at 20 \xb5m (Latin-1)\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n".to_vec();
+        let header = bytes.len() as u64;
+        bytes.extend(0u8..8);
+        std::fs::write(&p, &bytes).unwrap();
+        let spec = open(&p).unwrap();
+        assert_eq!(spec.start, DataStart::At(header));
     }
 
     #[test]

@@ -212,8 +212,10 @@ impl ValueMap {
             },
         };
         // A constant volume gives an empty automatic window: widen it so the
-        // constant maps to the bottom of the output range.
-        let hi = if hi > lo { hi } else { lo + 1.0 };
+        // constant maps to the bottom of the output range (by at least 1,
+        // and by |lo| where 1 is below lo's precision: past 2^53, lo + 1
+        // is lo, and the map would divide by zero).
+        let hi = if hi > lo { hi } else { lo + lo.abs().max(1.0) };
         Ok(ValueMap::Linear { lo, hi })
     }
 
@@ -577,6 +579,23 @@ mod tests {
         let mut rev = [0u8; 3];
         mapper.map_indexed(&src, [2usize, 1, 0].into_iter(), &mut rev);
         assert_eq!(rev, [128, 0, 0]);
+    }
+
+    #[test]
+    fn a_constant_volume_maps_to_the_bottom_whatever_its_value() {
+        for v in [0.0f64, 7.0, -3.0, 1e20, -1e20, 3e300] {
+            let mut h = Histogram::new(SliceType::F64);
+            h.add(&SliceData::F64(vec![v; 5]));
+            for w in [Window::Auto(0.5), Window::Full] {
+                let m = ValueMap::plan(SliceType::F64, SampleType::U8, Some(w), Some(&h)).unwrap();
+                let ValueMap::Linear { lo, hi } = m else {
+                    panic!("{v}: {m:?}")
+                };
+                assert!(hi > lo, "{v}: window {lo}..{hi}");
+                assert_eq!(m.apply::<u8>(v), 0, "{v}");
+                assert_eq!(m.apply::<f32>(v), 0.0, "{v}");
+            }
+        }
     }
 
     #[test]
