@@ -74,13 +74,13 @@ pub enum Composite {
 /// Little-endian f64s from bytes (a multiple of 8 long).
 fn le_f64s(b: &[u8]) -> impl Iterator<Item = f64> + '_ {
     b.chunks_exact(8)
-        .map(|c| f64::from_le_bytes(std::array::from_fn(|i| c[i])))
+        .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
 }
 
 /// Little-endian u32s from bytes (a multiple of 4 long).
 fn le_u32s(b: &[u8]) -> Vec<u32> {
     b.chunks_exact(4)
-        .map(|c| u32::from_le_bytes(std::array::from_fn(|i| c[i])))
+        .map(|c| u32::from_le_bytes(c.try_into().unwrap_or([0; 4])))
         .collect()
 }
 
@@ -215,22 +215,29 @@ impl Film {
         let w = self.width as usize;
         let px = (rows.start as usize * w).min(self.count.len())
             ..(rows.end as usize * w).min(self.count.len());
-        out.reserve(px.len() * ENCODED_PIXEL_BYTES);
-        for c in &self.rgba[px.clone()] {
-            c.iter()
-                .for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+        let n = px.len();
+        let start = out.len();
+        out.resize(start + n * ENCODED_PIXEL_BYTES, 0);
+        let buf = &mut out[start..];
+        let (rgba, rest) = buf.split_at_mut(n * 32);
+        let (count, rest) = rest.split_at_mut(n * 4);
+        let (value, rest) = rest.split_at_mut(n * 8);
+        let (depth, samples) = rest.split_at_mut(n * 4);
+        let colour = self.rgba[px.clone()].iter().flatten();
+        for (d, v) in rgba.chunks_exact_mut(8).zip(colour) {
+            d.copy_from_slice(&v.to_le_bytes());
         }
-        for v in &self.count[px.clone()] {
-            out.extend_from_slice(&v.to_le_bytes());
+        for (d, v) in count.chunks_exact_mut(4).zip(&self.count[px.clone()]) {
+            d.copy_from_slice(&v.to_le_bytes());
         }
-        for v in &self.value[px.clone()] {
-            out.extend_from_slice(&v.to_le_bytes());
+        for (d, v) in value.chunks_exact_mut(8).zip(&self.value[px.clone()]) {
+            d.copy_from_slice(&v.to_le_bytes());
         }
-        for v in &self.depth[px.clone()] {
-            out.extend_from_slice(&v.to_le_bytes());
+        for (d, v) in depth.chunks_exact_mut(4).zip(&self.depth[px.clone()]) {
+            d.copy_from_slice(&v.to_le_bytes());
         }
-        for v in &self.samples[px] {
-            out.extend_from_slice(&v.to_le_bytes());
+        for (d, v) in samples.chunks_exact_mut(4).zip(&self.samples[px]) {
+            d.copy_from_slice(&v.to_le_bytes());
         }
     }
 
@@ -241,22 +248,24 @@ impl Film {
         if bytes.len() != n.checked_mul(ENCODED_PIXEL_BYTES)? {
             return None;
         }
-        let mut film = Film::new(width, rows);
         let (rgba, rest) = bytes.split_at(n * 32);
         let (count, rest) = rest.split_at(n * 4);
         let (value, rest) = rest.split_at(n * 8);
         let (depth, samples) = rest.split_at(n * 4);
-        for (p, c) in film.rgba.iter_mut().zip(rgba.chunks_exact(32)) {
-            for (v, x) in p.iter_mut().zip(le_f64s(c)) {
-                *v = x;
-            }
-        }
-
-        film.count = le_u32s(count);
-        film.value = le_f64s(value).collect();
-        film.depth = le_u32s(depth).into_iter().map(f32::from_bits).collect();
-        film.samples = le_u32s(samples);
-        Some(film)
+        let f64s: Vec<f64> = le_f64s(rgba).collect();
+        Some(Film {
+            width,
+            height: rows,
+            rgba: f64s
+                .chunks_exact(4)
+                .map(|c| [c[0], c[1], c[2], c[3]])
+                .collect(),
+            count: le_u32s(count),
+            value: le_f64s(value).collect(),
+            depth: le_u32s(depth).into_iter().map(f32::from_bits).collect(),
+            samples: le_u32s(samples),
+            stats: FrameStats::default(),
+        })
     }
 
     /// The film made of the rows of `strips`, top to bottom (films of one

@@ -74,7 +74,14 @@ fn data_parallel(
 ) -> Frame {
     let busy = busy_cells(v, ix, Some(tf), s).unwrap();
     let cell = u64::from(ix.cell_edge());
-    let layout = Layout::new(v.dims(), v.meta.spacing, BLOCK, Some((&busy, cell)), ranks);
+    let layout = Layout::new(
+        v.dims(),
+        v.meta.spacing,
+        BLOCK,
+        Some((&busy, cell)),
+        ranks,
+        Some(cam),
+    );
     let mut display = None;
     let films: Vec<Film> = (0..ranks)
         .map(|r| match layout.share(r) {

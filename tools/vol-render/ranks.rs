@@ -410,6 +410,7 @@ fn split(
         BLOCK,
         busy,
         ranks,
+        Some(&plan.camera),
     ))
 }
 

@@ -24,19 +24,25 @@ impl Layout {
     /// voxels a side among `ranks` ranks. `busy` flags the cells of edge
     /// `cell` (x fastest, as [`crate::frame::busy_cells`] gives them): a
     /// block weighs the number of busy cells whose first voxel is in it;
-    /// without flags every block weighs one.
+    /// without flags every block weighs one. With a `camera`, a block's
+    /// weight is scaled by the density of the camera's rays there (for a
+    /// perspective camera the inverse square of the distance to the eye:
+    /// a block near the eye is crossed by more rays, so its samples are
+    /// more), and blocks off the image weigh nothing: the weights then
+    /// estimate each box's samples, which is what balances the ranks.
     pub fn new(
         dims: Dims,
         spacing: [f32; 3],
         block: u64,
         busy: Option<(&[bool], u64)>,
         ranks: usize,
+        camera: Option<&Camera>,
     ) -> Layout {
         let block = block.max(1);
         let dims = dims.as_array();
         let shape = dims.map(|n| n.div_ceil(block));
         let blocks = shape.iter().product::<u64>() as usize;
-        let weights = match busy {
+        let mut weights = match busy {
             None => vec![1u64; blocks],
             Some((flags, cell)) => {
                 let cell = cell.max(1);
@@ -57,6 +63,26 @@ impl Layout {
                 w
             }
         };
+        if let Some(cam) = camera {
+            let mut i = 0;
+            for z in 0..shape[2] {
+                for y in 0..shape[1] {
+                    for x in 0..shape[0] {
+                        let lo = [x, y, z];
+                        let w = &mut weights[i];
+                        i += 1;
+                        if *w == 0 {
+                            continue;
+                        }
+                        let corner = |k: usize, a: usize| {
+                            let v = (lo[a] + ((k >> a) & 1) as u64) * block;
+                            v.min(dims[a]) as f32 * spacing[a]
+                        };
+                        *w = ray_density(cam, corner, *w);
+                    }
+                }
+            }
+        }
         Layout {
             tree: KdTree::split(&weights, shape, ranks.max(1)),
             dims,
@@ -122,6 +148,47 @@ impl Layout {
     }
 }
 
+/// Weight `w` of a box with world corners `corner(k, axis)` (`k` in
+/// 0..8) scaled by how densely `camera`'s rays cross it: 0 when every
+/// corner lands beyond one edge of the image; for a perspective camera
+/// the inverse square of the distance from the eye to the box's centre
+/// (at least half the box's diagonal), relative to the box's own size,
+/// in fixed point. Orthographic rays are equally dense everywhere.
+fn ray_density(camera: &Camera, corner: impl Fn(usize, usize) -> f32, w: u64) -> u64 {
+    let (cw, ch) = (camera.width() as f32, camera.height() as f32);
+    let mut off = [true; 4];
+    let mut seen = true;
+    for k in 0..8 {
+        let p = glam::Vec3::new(corner(k, 0), corner(k, 1), corner(k, 2));
+        match camera.project(p) {
+            Some([x, y]) => {
+                off[0] &= x < -1.0;
+                off[1] &= x > cw;
+                off[2] &= y < -1.0;
+                off[3] &= y > ch;
+            }
+            None => seen = false,
+        }
+    }
+    if seen && off.iter().any(|&o| o) {
+        return 0;
+    }
+    match camera.projection() {
+        Projection::Orthographic(_) => w,
+        Projection::Perspective(_) => {
+            let lo = glam::Vec3::new(corner(0, 0), corner(0, 1), corner(0, 2));
+            let hi = glam::Vec3::new(corner(7, 0), corner(7, 1), corner(7, 2));
+            let size = (hi - lo).length().max(f32::MIN_POSITIVE);
+            let d = ((lo + hi) * 0.5 - camera.eye()).length().max(size * 0.5);
+            let scale = f64::from(size / d).powi(2);
+            // 2^16 per unit: a block's own size away weighs w·2^16.
+            ((w as f64) * scale * 65536.0)
+                .ceil()
+                .min(u64::MAX as f64 / 2.0) as u64
+        }
+    }
+}
+
 /// How the shares of a ray combine in `mode`, or `None` for a mode whose
 /// shares cannot be combined from their films (the X-ray mean divides by
 /// each share's own sample count, which the film does not keep).
@@ -156,7 +223,7 @@ mod tests {
         let dims = Dims::new(64, 64, 64).unwrap();
         let cells = 8u64 * 8 * 8;
         let flags: Vec<bool> = (0..cells).map(|i| i % 8 < 2).collect();
-        let l = Layout::new(dims, [1.0; 3], 16, Some((&flags, 8)), 2);
+        let l = Layout::new(dims, [1.0; 3], 16, Some((&flags, 8)), 2, None);
         let w: Vec<u64> = l.tree().leaves().iter().map(|f| f.weight).collect();
         assert_eq!(
             w.iter().sum::<u64>(),
@@ -164,14 +231,73 @@ mod tests {
         );
         assert_eq!(w[0], w[1], "balanced: {w:?}");
         // Without flags: every block weighs one.
-        let u = Layout::new(dims, [1.0; 3], 16, None, 3);
+        let u = Layout::new(dims, [1.0; 3], 16, None, 3, None);
         assert_eq!(u.tree().leaves().iter().map(|f| f.weight).sum::<u64>(), 64);
+    }
+
+    #[test]
+    fn near_blocks_weigh_more_and_blocks_off_the_image_nothing() {
+        let dims = Dims::new(64, 64, 64).unwrap();
+        let cam = |p| {
+            Camera::look_at(
+                glam::Vec3::new(200.0, 32.0, 32.0),
+                glam::Vec3::new(32.0, 32.0, 32.0),
+                glam::Vec3::Y,
+                p,
+                40,
+                40,
+            )
+            .unwrap()
+        };
+        // Looking down -x from x = 200: the near half (x >= 32) is
+        // closer, so a split by ray density gives it fewer blocks.
+        let near = Layout::new(
+            dims,
+            [1.0; 3],
+            16,
+            None,
+            2,
+            Some(&cam(Projection::Perspective(30.0))),
+        );
+        let v = |l: &Layout, r| l.voxels(r)[0].clone();
+        let (a, b) = (v(&near, 0), v(&near, 1));
+        let far_x = if a.start == 0 { &a } else { &b };
+        assert!(far_x.end > 32, "{a:?} {b:?}");
+        // Orthographic: every block alike, the even split.
+        let flat = Layout::new(
+            dims,
+            [1.0; 3],
+            16,
+            None,
+            2,
+            Some(&cam(Projection::Orthographic(80.0))),
+        );
+        let w: Vec<u64> = flat.tree().leaves().iter().map(|f| f.weight).collect();
+        assert_eq!(w, vec![32, 32]);
+        // A narrow view of the middle: the corner blocks are off the image.
+        let narrow = Layout::new(
+            dims,
+            [1.0; 3],
+            16,
+            None,
+            1,
+            Some(&cam(Projection::Perspective(5.0))),
+        );
+        let all = Layout::new(
+            dims,
+            [1.0; 3],
+            16,
+            None,
+            1,
+            Some(&cam(Projection::Perspective(60.0))),
+        );
+        assert!(narrow.tree().leaves()[0].weight < all.tree().leaves()[0].weight);
     }
 
     #[test]
     fn boxes_cover_the_volume_once_and_empty_ranks_get_no_share() {
         let dims = Dims::new(40, 33, 17).unwrap();
-        let l = Layout::new(dims, [0.5, 1.0, 2.0], 16, None, 20);
+        let l = Layout::new(dims, [0.5, 1.0, 2.0], 16, None, 20, None);
         let mut voxels = 0u64;
         let mut empty = 0;
         for r in 0..l.ranks() {
