@@ -12,10 +12,50 @@ use crate::integrator::RayResult;
 use glam::Vec3;
 use std::ops::Range;
 
-/// Bytes per pixel of a film's rows as [`Film::encode_rows`] writes them:
-/// premultiplied colour (4 × f64), ray count (u32), value (f64), depth
-/// (f32) and sample count (u32).
-pub const ENCODED_PIXEL_BYTES: usize = 52;
+/// Which per-pixel fields of a film travel between processes
+/// ([`Film::encode_rows`]): the ray count and sample count always, the
+/// others when the composite rule reads them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fields {
+    /// Premultiplied colour, as 4 × f32: exact for films of at most one
+    /// ray per pixel (the ray caster's: each channel is one f32 added to
+    /// zero); a path tracer's sums would be rounded.
+    pub colour: bool,
+    /// The mode's value (f64: an X-ray sum can pass f32's range).
+    pub value: bool,
+    /// The depth (f32).
+    pub depth: bool,
+}
+
+impl Fields {
+    /// Every field.
+    pub const ALL: Fields = Fields {
+        colour: true,
+        value: true,
+        depth: true,
+    };
+
+    /// The fields `how` reads (the others stay empty after compositing).
+    pub fn for_composite(how: Composite) -> Fields {
+        let (colour, value, depth) = match how {
+            Composite::Over => (true, false, false),
+            Composite::FirstHit => (true, true, true),
+            Composite::Max | Composite::Min => (false, true, true),
+            Composite::Sum => (false, true, false),
+        };
+        Fields {
+            colour,
+            value,
+            depth,
+        }
+    }
+
+    /// Bytes per pixel: ray count and sample count (u32 each), and the
+    /// chosen fields.
+    pub fn pixel_bytes(self) -> usize {
+        8 + 16 * self.colour as usize + 8 * self.value as usize + 4 * self.depth as usize
+    }
+}
 
 /// Counts and times for one frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -209,61 +249,87 @@ impl Film {
     }
 
     /// Append the pixels of rows `rows` to `out`, little-endian, field by
-    /// field ([`ENCODED_PIXEL_BYTES`] per pixel; the totals are not
+    /// field ([`Fields::pixel_bytes`] per pixel; the totals are not
     /// included): how a share's film travels between processes.
-    pub fn encode_rows(&self, rows: Range<u32>, out: &mut Vec<u8>) {
+    pub fn encode_rows(&self, rows: Range<u32>, fields: Fields, out: &mut Vec<u8>) {
         let w = self.width as usize;
         let px = (rows.start as usize * w).min(self.count.len())
             ..(rows.end as usize * w).min(self.count.len());
         let n = px.len();
         let start = out.len();
-        out.resize(start + n * ENCODED_PIXEL_BYTES, 0);
-        let buf = &mut out[start..];
-        let (rgba, rest) = buf.split_at_mut(n * 32);
-        let (count, rest) = rest.split_at_mut(n * 4);
-        let (value, rest) = rest.split_at_mut(n * 8);
-        let (depth, samples) = rest.split_at_mut(n * 4);
-        let colour = self.rgba[px.clone()].iter().flatten();
-        for (d, v) in rgba.chunks_exact_mut(8).zip(colour) {
+        out.resize(start + n * fields.pixel_bytes(), 0);
+        let mut buf = &mut out[start..];
+        let mut put = |bytes: usize| {
+            let (head, rest) = std::mem::take(&mut buf).split_at_mut(n * bytes);
+            buf = rest;
+            head
+        };
+        for (d, v) in put(4).chunks_exact_mut(4).zip(&self.count[px.clone()]) {
             d.copy_from_slice(&v.to_le_bytes());
         }
-        for (d, v) in count.chunks_exact_mut(4).zip(&self.count[px.clone()]) {
+        for (d, v) in put(4).chunks_exact_mut(4).zip(&self.samples[px.clone()]) {
             d.copy_from_slice(&v.to_le_bytes());
         }
-        for (d, v) in value.chunks_exact_mut(8).zip(&self.value[px.clone()]) {
-            d.copy_from_slice(&v.to_le_bytes());
+        if fields.colour {
+            let colour = self.rgba[px.clone()].iter().flatten();
+            for (d, &v) in put(16).chunks_exact_mut(4).zip(colour) {
+                d.copy_from_slice(&(v as f32).to_le_bytes());
+            }
         }
-        for (d, v) in depth.chunks_exact_mut(4).zip(&self.depth[px.clone()]) {
-            d.copy_from_slice(&v.to_le_bytes());
+        if fields.value {
+            for (d, v) in put(8).chunks_exact_mut(8).zip(&self.value[px.clone()]) {
+                d.copy_from_slice(&v.to_le_bytes());
+            }
         }
-        for (d, v) in samples.chunks_exact_mut(4).zip(&self.samples[px]) {
-            d.copy_from_slice(&v.to_le_bytes());
+        if fields.depth {
+            for (d, v) in put(4).chunks_exact_mut(4).zip(&self.depth[px]) {
+                d.copy_from_slice(&v.to_le_bytes());
+            }
         }
     }
 
     /// The film of `width × rows` pixels that [`Film::encode_rows`] wrote
-    /// as `bytes`, or `None` when the length is not that of such a film.
-    pub fn decode_rows(width: u32, rows: u32, bytes: &[u8]) -> Option<Film> {
+    /// as `bytes` with `fields` (the fields left out are empty), or `None`
+    /// when the length is not that of such a film.
+    pub fn decode_rows(width: u32, rows: u32, fields: Fields, bytes: &[u8]) -> Option<Film> {
         let n = (width as usize).checked_mul(rows as usize)?;
-        if bytes.len() != n.checked_mul(ENCODED_PIXEL_BYTES)? {
+        if bytes.len() != n.checked_mul(fields.pixel_bytes())? {
             return None;
         }
-        let (rgba, rest) = bytes.split_at(n * 32);
-        let (count, rest) = rest.split_at(n * 4);
-        let (value, rest) = rest.split_at(n * 8);
-        let (depth, samples) = rest.split_at(n * 4);
-        let f64s: Vec<f64> = le_f64s(rgba).collect();
+        let mut rest = bytes;
+        let mut take = |b: usize| {
+            let (head, tail) = rest.split_at(n * b);
+            rest = tail;
+            head
+        };
+        let count = le_u32s(take(4));
+        let samples = le_u32s(take(4));
+        let rgba = if fields.colour {
+            let c: Vec<f32> = le_u32s(take(16)).into_iter().map(f32::from_bits).collect();
+            c.chunks_exact(4)
+                .map(|c| std::array::from_fn(|i| f64::from(c[i])))
+                .collect()
+        } else {
+            vec![[0.0; 4]; n]
+        };
+        let value = if fields.value {
+            le_f64s(take(8)).collect()
+        } else {
+            vec![f64::NAN; n]
+        };
+        let depth = if fields.depth {
+            le_u32s(take(4)).into_iter().map(f32::from_bits).collect()
+        } else {
+            vec![f32::NAN; n]
+        };
         Some(Film {
             width,
             height: rows,
-            rgba: f64s
-                .chunks_exact(4)
-                .map(|c| [c[0], c[1], c[2], c[3]])
-                .collect(),
-            count: le_u32s(count),
-            value: le_f64s(value).collect(),
-            depth: le_u32s(depth).into_iter().map(f32::from_bits).collect(),
-            samples: le_u32s(samples),
+            rgba,
+            count,
+            value,
+            depth,
+            samples,
             stats: FrameStats::default(),
         })
     }
@@ -569,13 +635,12 @@ mod tests {
             .into_iter()
             .map(|rows| {
                 let mut bytes = Vec::new();
-                f.encode_rows(rows.clone(), &mut bytes);
-                assert_eq!(
-                    bytes.len(),
-                    (rows.len() as u32 * w) as usize * ENCODED_PIXEL_BYTES
-                );
-                assert!(Film::decode_rows(w, rows.len() as u32 + 1, &bytes).is_none());
-                Film::decode_rows(w, rows.len() as u32, &bytes).unwrap()
+                let fields = Fields::ALL;
+                f.encode_rows(rows.clone(), fields, &mut bytes);
+                let n = (rows.len() as u32 * w) as usize;
+                assert_eq!(bytes.len(), n * fields.pixel_bytes());
+                assert!(Film::decode_rows(w, rows.len() as u32 + 1, fields, &bytes).is_none());
+                Film::decode_rows(w, rows.len() as u32, fields, &bytes).unwrap()
             })
             .collect();
         let back = Film::stack(&strips);
@@ -590,5 +655,22 @@ mod tests {
         };
         assert_eq!((back.width, back.height), (w, h));
         assert_eq!(bits(&back), bits(&f));
+        // Only what a composite reads: the rest comes back empty, and the
+        // composite of the decoded film is the composite of the film.
+        for how in [
+            Composite::Over,
+            Composite::FirstHit,
+            Composite::Max,
+            Composite::Min,
+            Composite::Sum,
+        ] {
+            let fields = Fields::for_composite(how);
+            let mut bytes = Vec::new();
+            f.encode_rows(0..h, fields, &mut bytes);
+            assert_eq!(bytes.len(), (w * h) as usize * fields.pixel_bytes());
+            let g = Film::decode_rows(w, h, fields, &bytes).unwrap();
+            let (a, b) = (Film::composite(&[&f], how), Film::composite(&[&g], how));
+            assert_eq!(bits(&a), bits(&b), "{how:?}");
+        }
     }
 }

@@ -14,7 +14,7 @@ use volcore::scene::{SceneSource, ShapesScene};
 use volcore::{Dims, Volume};
 use volindex::{BuildOptions, MajorantIndex};
 use volrender::distributed::{composite_for, strip_rows, Layout};
-use volrender::film::Film;
+use volrender::film::{Fields, Film};
 use volrender::frame::{busy_cells, render_film};
 use volrender::tf::{Tf, TransferFunction};
 use volrender::{render_tf, Camera, Frame, Mode, Projection, RenderSettings};
@@ -95,6 +95,7 @@ fn data_parallel(
         .collect();
     let order = layout.front_to_back(cam);
     let how = composite_for(s.mode).unwrap();
+    let fields = Fields::for_composite(how);
     let h = cam.height();
     let strips: Vec<Film> = (0..ranks)
         .map(|j| {
@@ -103,8 +104,8 @@ fn data_parallel(
                 .iter()
                 .map(|f| {
                     let mut bytes = Vec::new();
-                    f.encode_rows(rows.clone(), &mut bytes);
-                    Film::decode_rows(cam.width(), rows.len() as u32, &bytes).unwrap()
+                    f.encode_rows(rows.clone(), fields, &mut bytes);
+                    Film::decode_rows(cam.width(), rows.len() as u32, fields, &bytes).unwrap()
                 })
                 .collect();
             let ordered: Vec<&Film> = order.iter().map(|&r| &parts[r]).collect();

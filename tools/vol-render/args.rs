@@ -333,6 +333,9 @@ const EXAMPLES: &str = "Examples:
   vol-render ct.vvol --mode path --tf ct --env-map sky.exr --bounces 4 -o ct-sky.png
   vol-render big.vvol --mode path --density-scale 2 --spp 64 --accumulate big.state -o a.png
 
+  # Data-parallel on 4 ranks (built with --features mpi; see docs/SCALE.md)
+  mpirun -q -np 4 vol-render scan.vvol --index scan.vidx --tf ct --shading phong -o scan.png --json
+
 Scene files (TOML) take every option above by the same name, and lights:
   volume = \"shapes.vvol\"            # relative paths: from the scene file's folder
   tf = \"shapes\"                     # or tf-text = \"\"\"...\"\"\" (the format below)

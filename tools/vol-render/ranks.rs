@@ -31,7 +31,7 @@ use volkit_cli::scene::ModeArg;
 use volkit_cli::{noteln, outln};
 use volrender::classify::srgb_to_linear;
 use volrender::distributed::{composite_for, strip_rows, Layout};
-use volrender::film::{Composite, Display, Film, FrameStats, ENCODED_PIXEL_BYTES};
+use volrender::film::{Composite, Display, Fields, Film, FrameStats};
 use volrender::frame::{busy_cells, render_film};
 use volrender::Mode;
 
@@ -273,7 +273,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
         let film = agree(world, film)?;
         let c = Instant::now();
         let (strip, traffic) = direct_send(world, &film, &order, how);
-        let whole = gather_strips(world, &strip, w, h);
+        let whole = gather_strips(world, &strip, how, w, h);
         let composite_s = c.elapsed().as_secs_f64();
         frames.push(start.elapsed().as_secs_f64());
         last = Some((film.stats(), whole, render_s, composite_s, traffic));
@@ -391,11 +391,11 @@ fn split(
 ) -> Result<Layout> {
     // Messages count in i32 elements (bytes here): every rank's whole
     // film must fit one.
-    let film_bytes = (w as u64) * (h as u64) * ENCODED_PIXEL_BYTES as u64;
-    if film_bytes > Count::MAX as u64 {
+    let px_bytes = Fields::ALL.pixel_bytes() as u64;
+    if (w as u64) * (h as u64) * px_bytes > Count::MAX as u64 {
         bail!(
             "an image of {w}x{h} is too large to composite across ranks (at most {} M pixels)",
-            Count::MAX as u64 / ENCODED_PIXEL_BYTES as u64 / 1_000_000
+            Count::MAX as u64 / px_bytes / 1_000_000
         );
     }
     let busy = index
@@ -425,15 +425,16 @@ fn direct_send(
 ) -> (Film, (u64, u64)) {
     let (rank, size) = (world.rank() as usize, world.size() as usize);
     let (w, h) = (film.width(), film.height());
+    let fields = Fields::for_composite(how);
     let mut send = message_buffer(Vec::new());
     let mut counts = Vec::with_capacity(size);
     for j in 0..size {
         let start = send.len();
-        film.encode_rows(strip_rows(h, size, j), &mut send);
+        film.encode_rows(strip_rows(h, size, j), fields, &mut send);
         counts.push((send.len() - start) as Count);
     }
     let rows = strip_rows(h, size, rank);
-    let per = rows.len() * w as usize * ENCODED_PIXEL_BYTES;
+    let per = rows.len() * w as usize * fields.pixel_bytes();
     let mut recv = zeroed(per * size);
     let rcounts = vec![per as Count; size];
     let rdispls: Vec<Count> = (0..size).map(|i| (i * per) as Count).collect();
@@ -443,7 +444,7 @@ fn direct_send(
     );
     let parts: Vec<Film> = (0..size)
         .map(|i| {
-            Film::decode_rows(w, rows.len() as u32, &recv[i * per..][..per])
+            Film::decode_rows(w, rows.len() as u32, fields, &recv[i * per..][..per])
                 .unwrap_or_else(|| Film::new(w, rows.len() as u32))
         })
         .collect();
@@ -454,17 +455,24 @@ fn direct_send(
 }
 
 /// The composited strips, stacked on rank 0 (`None` elsewhere).
-fn gather_strips(world: &SimpleCommunicator, strip: &Film, w: u32, h: u32) -> Option<Film> {
+fn gather_strips(
+    world: &SimpleCommunicator,
+    strip: &Film,
+    how: Composite,
+    w: u32,
+    h: u32,
+) -> Option<Film> {
     let size = world.size() as usize;
+    let fields = Fields::for_composite(how);
     let mut bytes = message_buffer(Vec::new());
-    strip.encode_rows(0..strip.height(), &mut bytes);
+    strip.encode_rows(0..strip.height(), fields, &mut bytes);
     let root = world.process_at_rank(0);
     if world.rank() != 0 {
         root.gather_varcount_into(&bytes[..]);
         return None;
     }
     let lens: Vec<Count> = (0..size)
-        .map(|j| (strip_rows(h, size, j).len() * w as usize * ENCODED_PIXEL_BYTES) as Count)
+        .map(|j| (strip_rows(h, size, j).len() * w as usize * fields.pixel_bytes()) as Count)
         .collect();
     let displs = offsets(&lens);
     let mut all = zeroed(lens.iter().map(|&l| l as usize).sum());
@@ -475,8 +483,13 @@ fn gather_strips(world: &SimpleCommunicator, strip: &Film, w: u32, h: u32) -> Op
     let strips: Vec<Film> = (0..size)
         .map(|j| {
             let rows = strip_rows(h, size, j).len() as u32;
-            Film::decode_rows(w, rows, &all[displs[j] as usize..][..lens[j] as usize])
-                .unwrap_or_else(|| Film::new(w, rows))
+            Film::decode_rows(
+                w,
+                rows,
+                fields,
+                &all[displs[j] as usize..][..lens[j] as usize],
+            )
+            .unwrap_or_else(|| Film::new(w, rows))
         })
         .collect();
     Some(Film::stack(&strips))
