@@ -111,17 +111,112 @@ pub enum Composite {
     Sum,
 }
 
-/// Little-endian f64s from bytes (a multiple of 8 long).
-fn le_f64s(b: &[u8]) -> impl Iterator<Item = f64> + '_ {
-    b.chunks_exact(8)
-        .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+/// One pixel of a film.
+#[derive(Clone, Copy, Debug)]
+struct Px {
+    rgba: [f64; 4],
+    count: u32,
+    value: f64,
+    depth: f32,
+    samples: u32,
 }
 
-/// Little-endian u32s from bytes (a multiple of 4 long).
-fn le_u32s(b: &[u8]) -> Vec<u32> {
-    b.chunks_exact(4)
-        .map(|c| u32::from_le_bytes(c.try_into().unwrap_or([0; 4])))
-        .collect()
+impl Px {
+    /// Nothing yet: what front-to-back joining starts from.
+    const START: Px = Px {
+        rgba: [0.0; 4],
+        count: 0,
+        value: f64::NAN,
+        depth: f32::NAN,
+        samples: 0,
+    };
+
+    /// Join `f`, the share behind what was joined so far, by `how`.
+    #[inline]
+    fn join(&mut self, f: &Px, how: Composite) {
+        self.count = self.count.max(f.count);
+        self.samples += f.samples;
+        let n = f.count.max(1) as f64;
+        let c = f.rgba.map(|c| c / n);
+        let v = f.value;
+        match how {
+            Composite::Over => {
+                let keep = 1.0 - self.rgba[3];
+                for (a, b) in self.rgba.iter_mut().zip(c) {
+                    *a += keep * b;
+                }
+            }
+            Composite::FirstHit => {
+                if self.value.is_nan() && !v.is_nan() {
+                    (self.rgba, self.value, self.depth) = (c, v, f.depth);
+                }
+            }
+            Composite::Max | Composite::Min => {
+                let beats = match how {
+                    Composite::Max => v > self.value,
+                    _ => v < self.value,
+                };
+                if !v.is_nan() && (self.value.is_nan() || beats) {
+                    (self.value, self.depth) = (v, f.depth);
+                }
+            }
+            Composite::Sum => {
+                if !v.is_nan() {
+                    self.value = if self.value.is_nan() {
+                        v
+                    } else {
+                        self.value + v
+                    };
+                }
+            }
+        }
+    }
+
+    /// Write the record of `fields` (see [`Film::encode_rows`]).
+    #[inline]
+    fn write(&self, rec: &mut [u8], fields: Fields) {
+        rec[0..4].copy_from_slice(&self.count.to_le_bytes());
+        rec[4..8].copy_from_slice(&self.samples.to_le_bytes());
+        let mut at = 8;
+        if fields.colour {
+            for c in self.rgba {
+                rec[at..at + 4].copy_from_slice(&(c as f32).to_le_bytes());
+                at += 4;
+            }
+        }
+        if fields.value {
+            rec[at..at + 8].copy_from_slice(&self.value.to_le_bytes());
+            at += 8;
+        }
+        if fields.depth {
+            rec[at..at + 4].copy_from_slice(&self.depth.to_le_bytes());
+        }
+    }
+
+    /// Read a record of `fields`; the fields left out are empty.
+    #[inline]
+    fn read(rec: &[u8], fields: Fields) -> Px {
+        let u32_at =
+            |at: usize| u32::from_le_bytes([rec[at], rec[at + 1], rec[at + 2], rec[at + 3]]);
+        let mut px = Px {
+            count: u32_at(0),
+            samples: u32_at(4),
+            ..Px::START
+        };
+        let mut at = 8;
+        if fields.colour {
+            px.rgba = std::array::from_fn(|c| f64::from(f32::from_bits(u32_at(at + 4 * c))));
+            at += 16;
+        }
+        if fields.value {
+            px.value = f64::from_bits(u64::from(u32_at(at)) | u64::from(u32_at(at + 4)) << 32);
+            at += 8;
+        }
+        if fields.depth {
+            px.depth = f32::from_bits(u32_at(at));
+        }
+        px
+    }
 }
 
 /// Per-pixel sums (see the module docs).
@@ -202,89 +297,29 @@ impl Film {
             s.render_s = s.render_s.max(f.stats.render_s);
         }
         for p in 0..out.rgba.len() {
-            let mut rgba = [0.0f64; 4];
-            let mut value = f64::NAN;
-            let mut depth = f32::NAN;
-            let mut count = 0;
+            let mut acc = Px::START;
             for f in front_to_back {
-                count = count.max(f.count[p]);
-                out.samples[p] += f.samples[p];
-                let n = f.count[p].max(1) as f64;
-                let c = f.rgba[p].map(|c| c / n);
-                let v = f.value[p];
-                match how {
-                    Composite::Over => {
-                        let keep = 1.0 - rgba[3];
-                        for (a, b) in rgba.iter_mut().zip(c) {
-                            *a += keep * b;
-                        }
-                    }
-                    Composite::FirstHit => {
-                        if value.is_nan() && !v.is_nan() {
-                            (rgba, value, depth) = (c, v, f.depth[p]);
-                        }
-                    }
-                    Composite::Max | Composite::Min => {
-                        let beats = match how {
-                            Composite::Max => v > value,
-                            _ => v < value,
-                        };
-                        if !v.is_nan() && (value.is_nan() || beats) {
-                            (value, depth) = (v, f.depth[p]);
-                        }
-                    }
-                    Composite::Sum => {
-                        if !v.is_nan() {
-                            value = if value.is_nan() { v } else { value + v };
-                        }
-                    }
-                }
+                acc.join(&f.px(p), how);
             }
-            out.rgba[p] = rgba;
-            out.value[p] = value;
-            out.depth[p] = depth;
-            out.count[p] = count;
+            out.set(p, &acc);
         }
         out
     }
 
-    /// Append the pixels of rows `rows` to `out`, little-endian, field by
-    /// field ([`Fields::pixel_bytes`] per pixel; the totals are not
-    /// included): how a share's film travels between processes.
+    /// Append the pixels of rows `rows` to `out`, one record of
+    /// [`Fields::pixel_bytes`] little-endian bytes per pixel (ray count,
+    /// sample count, then the chosen fields; the totals are not
+    /// included): how a share's film travels between processes. Records
+    /// of consecutive rows concatenated are the records of those rows.
     pub fn encode_rows(&self, rows: Range<u32>, fields: Fields, out: &mut Vec<u8>) {
         let w = self.width as usize;
         let px = (rows.start as usize * w).min(self.count.len())
             ..(rows.end as usize * w).min(self.count.len());
-        let n = px.len();
+        let size = fields.pixel_bytes();
         let start = out.len();
-        out.resize(start + n * fields.pixel_bytes(), 0);
-        let mut buf = &mut out[start..];
-        let mut put = |bytes: usize| {
-            let (head, rest) = std::mem::take(&mut buf).split_at_mut(n * bytes);
-            buf = rest;
-            head
-        };
-        for (d, v) in put(4).chunks_exact_mut(4).zip(&self.count[px.clone()]) {
-            d.copy_from_slice(&v.to_le_bytes());
-        }
-        for (d, v) in put(4).chunks_exact_mut(4).zip(&self.samples[px.clone()]) {
-            d.copy_from_slice(&v.to_le_bytes());
-        }
-        if fields.colour {
-            let colour = self.rgba[px.clone()].iter().flatten();
-            for (d, &v) in put(16).chunks_exact_mut(4).zip(colour) {
-                d.copy_from_slice(&(v as f32).to_le_bytes());
-            }
-        }
-        if fields.value {
-            for (d, v) in put(8).chunks_exact_mut(8).zip(&self.value[px.clone()]) {
-                d.copy_from_slice(&v.to_le_bytes());
-            }
-        }
-        if fields.depth {
-            for (d, v) in put(4).chunks_exact_mut(4).zip(&self.depth[px]) {
-                d.copy_from_slice(&v.to_le_bytes());
-            }
+        out.resize(start + px.len() * size, 0);
+        for (rec, p) in out[start..].chunks_exact_mut(size).zip(px) {
+            self.px(p).write(rec, fields);
         }
     }
 
@@ -293,68 +328,65 @@ impl Film {
     /// when the length is not that of such a film.
     pub fn decode_rows(width: u32, rows: u32, fields: Fields, bytes: &[u8]) -> Option<Film> {
         let n = (width as usize).checked_mul(rows as usize)?;
-        if bytes.len() != n.checked_mul(fields.pixel_bytes())? {
+        let size = fields.pixel_bytes();
+        if bytes.len() != n.checked_mul(size)? {
             return None;
         }
-        let mut rest = bytes;
-        let mut take = |b: usize| {
-            let (head, tail) = rest.split_at(n * b);
-            rest = tail;
-            head
-        };
-        let count = le_u32s(take(4));
-        let samples = le_u32s(take(4));
-        let rgba = if fields.colour {
-            let c: Vec<f32> = le_u32s(take(16)).into_iter().map(f32::from_bits).collect();
-            c.chunks_exact(4)
-                .map(|c| std::array::from_fn(|i| f64::from(c[i])))
-                .collect()
-        } else {
-            vec![[0.0; 4]; n]
-        };
-        let value = if fields.value {
-            le_f64s(take(8)).collect()
-        } else {
-            vec![f64::NAN; n]
-        };
-        let depth = if fields.depth {
-            le_u32s(take(4)).into_iter().map(f32::from_bits).collect()
-        } else {
-            vec![f32::NAN; n]
-        };
-        Some(Film {
-            width,
-            height: rows,
-            rgba,
-            count,
-            value,
-            depth,
-            samples,
-            stats: FrameStats::default(),
-        })
+        let mut film = Film::new(width, rows);
+        for (p, rec) in bytes.chunks_exact(size).enumerate() {
+            film.set(p, &Px::read(rec, fields));
+        }
+        Some(film)
     }
 
-    /// The film made of the rows of `strips`, top to bottom (films of one
-    /// width); its totals are the strips' summed.
-    pub fn stack(strips: &[Film]) -> Film {
-        let width = strips.first().map_or(0, |f| f.width);
-        let height = strips.iter().map(|f| f.height).sum();
-        let mut out = Film::new(width, 0);
-        out.height = height;
-        for f in strips {
-            out.rgba.extend_from_slice(&f.rgba);
-            out.count.extend_from_slice(&f.count);
-            out.value.extend_from_slice(&f.value);
-            out.depth.extend_from_slice(&f.depth);
-            out.samples.extend_from_slice(&f.samples);
-            let s = &mut out.stats;
-            s.rays += f.stats.rays;
-            s.samples += f.stats.samples;
-            s.skips += f.stats.skips;
-            s.culled_blocks += f.stats.culled_blocks;
-            s.render_s = s.render_s.max(f.stats.render_s);
+    /// Composite the records of the same pixels from several films
+    /// ([`Film::encode_rows`] with `fields`), given front to back, into
+    /// records appended to `out`: [`Film::composite`] without the films
+    /// (no film is built for what only passes through). `None` when the
+    /// parts differ in length or are not whole records.
+    pub fn composite_records(
+        front_to_back: &[&[u8]],
+        fields: Fields,
+        how: Composite,
+        out: &mut Vec<u8>,
+    ) -> Option<()> {
+        let size = fields.pixel_bytes();
+        let len = front_to_back.first().map_or(0, |p| p.len());
+        if !len.is_multiple_of(size) || front_to_back.iter().any(|p| p.len() != len) {
+            return None;
         }
-        out
+        let start = out.len();
+        out.resize(start + len, 0);
+        for (i, rec) in out[start..].chunks_exact_mut(size).enumerate() {
+            let mut acc = Px::START;
+            for part in front_to_back {
+                acc.join(&Px::read(&part[i * size..][..size], fields), how);
+            }
+            acc.write(rec, fields);
+        }
+        Some(())
+    }
+
+    /// Pixel `p`'s fields.
+    #[inline]
+    fn px(&self, p: usize) -> Px {
+        Px {
+            rgba: self.rgba[p],
+            count: self.count[p],
+            value: self.value[p],
+            depth: self.depth[p],
+            samples: self.samples[p],
+        }
+    }
+
+    /// Set pixel `p`'s fields.
+    #[inline]
+    fn set(&mut self, p: usize, px: &Px) {
+        self.rgba[p] = px.rgba;
+        self.count[p] = px.count;
+        self.value[p] = px.value;
+        self.depth[p] = px.depth;
+        self.samples[p] = px.samples;
     }
 
     /// Replace the totals (a data-parallel frame's are the ranks').
@@ -609,7 +641,7 @@ mod tests {
     }
 
     #[test]
-    fn rows_travel_as_bytes_and_stack_back_into_the_film() {
+    fn rows_travel_as_bytes_and_come_back_bit_for_bit() {
         let (w, h) = (7u32, 5u32);
         let mut f = Film::new(w, h);
         for y in 0..h {
@@ -631,19 +663,17 @@ mod tests {
                 );
             }
         }
-        let strips: Vec<Film> = [0..2, 2..2, 2..5]
-            .into_iter()
-            .map(|rows| {
-                let mut bytes = Vec::new();
-                let fields = Fields::ALL;
-                f.encode_rows(rows.clone(), fields, &mut bytes);
-                let n = (rows.len() as u32 * w) as usize;
-                assert_eq!(bytes.len(), n * fields.pixel_bytes());
-                assert!(Film::decode_rows(w, rows.len() as u32 + 1, fields, &bytes).is_none());
-                Film::decode_rows(w, rows.len() as u32, fields, &bytes).unwrap()
-            })
-            .collect();
-        let back = Film::stack(&strips);
+        let fields = Fields::ALL;
+        let mut all = Vec::new();
+        for rows in [0..2, 2..2, 2..5] {
+            let mut bytes = Vec::new();
+            f.encode_rows(rows.clone(), fields, &mut bytes);
+            let n = (rows.len() as u32 * w) as usize;
+            assert_eq!(bytes.len(), n * fields.pixel_bytes());
+            assert!(Film::decode_rows(w, rows.len() as u32 + 1, fields, &bytes).is_none());
+            all.extend_from_slice(&bytes);
+        }
+        let back = Film::decode_rows(w, h, fields, &all).unwrap();
         let bits = |f: &Film| -> Vec<u64> {
             f.rgba
                 .iter()
@@ -671,6 +701,17 @@ mod tests {
             let g = Film::decode_rows(w, h, fields, &bytes).unwrap();
             let (a, b) = (Film::composite(&[&f], how), Film::composite(&[&g], how));
             assert_eq!(bits(&a), bits(&b), "{how:?}");
+            // Compositing records is compositing films: a film over itself.
+            let mut joined = Vec::new();
+            Film::composite_records(&[&bytes, &bytes], fields, how, &mut joined).unwrap();
+            let from_records = Film::decode_rows(w, h, fields, &joined).unwrap();
+            let mut again = Vec::new();
+            Film::composite(&[&g, &g], how).encode_rows(0..h, fields, &mut again);
+            let from_films = Film::decode_rows(w, h, fields, &again).unwrap();
+            assert_eq!(bits(&from_records), bits(&from_films), "{how:?}");
+            assert!(
+                Film::composite_records(&[&bytes, &bytes[1..]], fields, how, &mut joined).is_none()
+            );
         }
     }
 }

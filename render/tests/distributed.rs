@@ -63,7 +63,7 @@ fn cameras() -> Vec<(&'static str, Camera)> {
 /// The frame rendered as `ranks` shares composited front to back, as the
 /// MPI driver does it: the split weighted by the frame's busy cells, each
 /// rank's film cut into row strips that travel as bytes (direct send),
-/// each strip composited from every rank's, the strips stacked.
+/// each strip composited from every rank's, the strips gathered as bytes.
 fn data_parallel(
     v: &Volume,
     ix: &MajorantIndex,
@@ -97,22 +97,22 @@ fn data_parallel(
     let how = composite_for(s.mode).unwrap();
     let fields = Fields::for_composite(how);
     let h = cam.height();
-    let strips: Vec<Film> = (0..ranks)
-        .map(|j| {
-            let rows = strip_rows(h, ranks, j);
-            let parts: Vec<Film> = films
-                .iter()
-                .map(|f| {
-                    let mut bytes = Vec::new();
-                    f.encode_rows(rows.clone(), fields, &mut bytes);
-                    Film::decode_rows(cam.width(), rows.len() as u32, fields, &bytes).unwrap()
-                })
-                .collect();
-            let ordered: Vec<&Film> = order.iter().map(|&r| &parts[r]).collect();
-            Film::composite(&ordered, how)
-        })
-        .collect();
-    Film::stack(&strips).resolve(display.unwrap(), Vec3::ZERO)
+    let mut gathered = Vec::new();
+    for j in 0..ranks {
+        let rows = strip_rows(h, ranks, j);
+        let parts: Vec<Vec<u8>> = films
+            .iter()
+            .map(|f| {
+                let mut bytes = Vec::new();
+                f.encode_rows(rows.clone(), fields, &mut bytes);
+                bytes
+            })
+            .collect();
+        let ordered: Vec<&[u8]> = order.iter().map(|&r| &parts[r][..]).collect();
+        Film::composite_records(&ordered, fields, how, &mut gathered).unwrap();
+    }
+    let film = Film::decode_rows(cam.width(), h, fields, &gathered).unwrap();
+    film.resolve(display.unwrap(), Vec3::ZERO)
 }
 
 fn psnr(a: &Frame, b: &Frame) -> f64 {

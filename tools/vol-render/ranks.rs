@@ -273,7 +273,8 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
         let film = agree(world, film)?;
         let c = Instant::now();
         let (strip, traffic) = direct_send(world, &film, &order, how);
-        let whole = gather_strips(world, &strip, how, w, h);
+        let strip = agree(world, strip)?;
+        let whole = gather_strips(world, &strip, how, w, h)?;
         let composite_s = c.elapsed().as_secs_f64();
         frames.push(start.elapsed().as_secs_f64());
         last = Some((film.stats(), whole, render_s, composite_s, traffic));
@@ -415,14 +416,15 @@ fn split(
 }
 
 /// Direct send: rank `j` gets row strip `j` of every rank's film and
-/// composites it front to back in `order`. Returns the strip and the
-/// bytes this rank sent to and received from other ranks.
+/// composites it front to back in `order`. Returns the strip's records
+/// ([`Film::encode_rows`]) and the bytes this rank sent to and received
+/// from other ranks.
 fn direct_send(
     world: &SimpleCommunicator,
     film: &Film,
     order: &[usize],
     how: Composite,
-) -> (Film, (u64, u64)) {
+) -> (Result<Vec<u8>>, (u64, u64)) {
     let (rank, size) = (world.rank() as usize, world.size() as usize);
     let (w, h) = (film.width(), film.height());
     let fields = Fields::for_composite(how);
@@ -442,34 +444,34 @@ fn direct_send(
         &Partition::new(&send[..], &counts[..], &offsets(&counts)[..]),
         &mut PartitionMut::new(&mut recv[..], &rcounts[..], &rdispls[..]),
     );
-    let parts: Vec<Film> = (0..size)
-        .map(|i| {
-            Film::decode_rows(w, rows.len() as u32, fields, &recv[i * per..][..per])
-                .unwrap_or_else(|| Film::new(w, rows.len() as u32))
-        })
+    let ordered: Vec<&[u8]> = order
+        .iter()
+        .filter(|&&r| r < size)
+        .map(|&r| &recv[r * per..][..per])
         .collect();
-    let ordered: Vec<&Film> = order.iter().filter_map(|&r| parts.get(r)).collect();
-    let strip = Film::composite(&ordered, how);
+    let mut strip = message_buffer(Vec::new());
+    let strip = Film::composite_records(&ordered, fields, how, &mut strip)
+        .map(|()| strip)
+        .ok_or_else(|| anyhow!("a film strip from another rank has the wrong length"));
     let own = counts[rank] as u64;
     (strip, (send.len() as u64 - own, recv.len() as u64 - own))
 }
 
-/// The composited strips, stacked on rank 0 (`None` elsewhere).
+/// The composited strips (their records, [`Film::encode_rows`]),
+/// gathered into the image on rank 0 (`None` elsewhere).
 fn gather_strips(
     world: &SimpleCommunicator,
-    strip: &Film,
+    bytes: &[u8],
     how: Composite,
     w: u32,
     h: u32,
-) -> Option<Film> {
+) -> Result<Option<Film>> {
     let size = world.size() as usize;
     let fields = Fields::for_composite(how);
-    let mut bytes = message_buffer(Vec::new());
-    strip.encode_rows(0..strip.height(), fields, &mut bytes);
     let root = world.process_at_rank(0);
     if world.rank() != 0 {
-        root.gather_varcount_into(&bytes[..]);
-        return None;
+        root.gather_varcount_into(bytes);
+        return Ok(None);
     }
     let lens: Vec<Count> = (0..size)
         .map(|j| (strip_rows(h, size, j).len() * w as usize * fields.pixel_bytes()) as Count)
@@ -477,22 +479,13 @@ fn gather_strips(
     let displs = offsets(&lens);
     let mut all = zeroed(lens.iter().map(|&l| l as usize).sum());
     root.gather_varcount_into_root(
-        &bytes[..],
+        bytes,
         &mut PartitionMut::new(&mut all[..], &lens[..], &displs[..]),
     );
-    let strips: Vec<Film> = (0..size)
-        .map(|j| {
-            let rows = strip_rows(h, size, j).len() as u32;
-            Film::decode_rows(
-                w,
-                rows,
-                fields,
-                &all[displs[j] as usize..][..lens[j] as usize],
-            )
-            .unwrap_or_else(|| Film::new(w, rows))
-        })
-        .collect();
-    Some(Film::stack(&strips))
+    // Strips of consecutive rows, concatenated: the records of the image.
+    Film::decode_rows(w, h, fields, &all)
+        .map(Some)
+        .ok_or_else(|| anyhow!("the gathered strips are not a {w}x{h} image"))
 }
 
 /// One rank's figures for the report.

@@ -1,8 +1,9 @@
 //! Splitting a volume among `N` ranks for data-parallel rendering: a k-d
 //! tree over a grid of blocks (bricks, or groups of macrocells), each cut
-//! along the box's longest axis at the block plane that best balances the
-//! ranks' work, measured as the number of blocks the transfer function
-//! makes visible (all blocks when none is). Each rank owns one convex box
+//! at the block plane, on whichever axis, that best balances the ranks'
+//! work as the blocks' weights measure it (ties to the longest axis; the
+//! weights are the caller's: [`super::Layout`] counts the cells a frame
+//! can see, scaled by the camera's ray density). Each rank owns one convex box
 //! of whole blocks; the tree gives the order in which the boxes must be
 //! composited for any viewer, inside the volume or out.
 
