@@ -225,6 +225,26 @@ impl Camera {
         (x.is_finite() && y.is_finite()).then_some([x, y])
     }
 
+    /// The bounds `[(x_min, x_max), (y_min, y_max)]` of where the eight
+    /// corners of the box `lo..hi` land on the image ([`Camera::project`]),
+    /// or `None` when a corner does not: then the box's projection is not
+    /// the hull of its corners' (the eye is beside or in the box).
+    pub fn project_box(&self, lo: Vec3, hi: Vec3) -> Option<[(f32, f32); 2]> {
+        let mut x = (f32::INFINITY, f32::NEG_INFINITY);
+        let mut y = (f32::INFINITY, f32::NEG_INFINITY);
+        for k in 0..8 {
+            let p = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let [px, py] = self.project(p)?;
+            x = (x.0.min(px), x.1.max(px));
+            y = (y.0.min(py), y.1.max(py));
+        }
+        Some([x, y])
+    }
+
     /// The ray through the centre of pixel `(x, y)`, row 0 at the top.
     #[inline]
     pub fn ray(&self, x: u32, y: u32) -> Ray {

@@ -209,6 +209,21 @@ fn check_ao(settings: &RenderSettings, ao: &Ao) -> Result<(), RenderError> {
     Ok(())
 }
 
+/// The volume's recorded value range in f32 (0..0 when it has none).
+fn value_range(vol: &Volume) -> (f32, f32) {
+    if vol.meta.range.is_empty() {
+        (0.0, 0.0)
+    } else {
+        (vol.meta.range.min as f32, vol.meta.range.max as f32)
+    }
+}
+
+/// One over the voxel spacing, per axis.
+fn inv_spacing(vol: &Volume) -> Vec3 {
+    let s = vol.meta.spacing;
+    Vec3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2])
+}
+
 /// Render one frame of `vol` with a 1D transfer function (see
 /// [`render_tf`]).
 pub fn render(
@@ -258,15 +273,10 @@ pub fn render_film(
             )));
         }
     }
-    let range = if vol.meta.range.is_empty() {
-        (0.0, 0.0)
-    } else {
-        (vol.meta.range.min as f32, vol.meta.range.max as f32)
-    };
-    let s = vol.meta.spacing;
+    let range = value_range(vol);
     let geom = FrameGeometry {
         step: settings.step,
-        inv_spacing: Vec3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2]),
+        inv_spacing: inv_spacing(vol),
         locator: volcore::grid::Locator::new(vol.dims()),
     };
     let skip_index = if settings.ess { index } else { None };
@@ -524,18 +534,12 @@ pub fn busy_cells(
         Mode::Dvr => {
             let tf =
                 tf.ok_or_else(|| RenderError::Setting("DVR needs a transfer function".into()))?;
-            let range = if vol.meta.range.is_empty() {
-                (0.0, 0.0)
-            } else {
-                (vol.meta.range.min as f32, vol.meta.range.max as f32)
-            };
-            let s = vol.meta.spacing;
             let gradients = GradientBound {
                 method: settings.gradient,
-                inv_spacing: Vec3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2]),
+                inv_spacing: inv_spacing(vol),
             };
             let user = DvrBusyCells { index, gradients };
-            with_tables(vol, tf, range, settings.step, None, user)?
+            with_tables(vol, tf, value_range(vol), settings.step, None, user)?
         }
         // NaN counts as below the level (as the iso rule has it).
         Mode::Iso(l) => by_range(&|_, hi| hi >= l),

@@ -77,18 +77,7 @@ pub fn busy_blocks(
                 let hi: [f32; 3] =
                     std::array::from_fn(|a| (((c[a] + 1) * edge).min(d[a] - 1)) as f32 + 1.0);
                 let (lo, hi) = (Vec3::from(lo) * spacing, Vec3::from(hi) * spacing);
-                let mut x = (f32::INFINITY, f32::NEG_INFINITY);
-                let mut y = (f32::INFINITY, f32::NEG_INFINITY);
-                for k in 0..8 {
-                    let p = Vec3::new(
-                        if k & 1 == 0 { lo.x } else { hi.x },
-                        if k & 2 == 0 { lo.y } else { hi.y },
-                        if k & 4 == 0 { lo.z } else { hi.z },
-                    );
-                    let [px, py] = camera.project(p)?;
-                    x = (x.0.min(px), x.1.max(px));
-                    y = (y.0.min(py), y.1.max(py));
-                }
+                let [x, y] = camera.project_box(lo, hi)?;
                 // Pixels whose centres may lie in the projection, plus one.
                 let first = |v: f32| (v - 1.0).ceil().max(0.0);
                 let last = |v: f32, n: u32| (v + 1.0).floor().min(n as f32 - 1.0);

@@ -88,18 +88,7 @@ impl ShareBox {
         let up = Vec3::from(std::array::from_fn(|a| {
             self.hi[a].unwrap_or(hi[a]).min(hi[a])
         }));
-        let mut x = (f32::INFINITY, f32::NEG_INFINITY);
-        let mut y = (f32::INFINITY, f32::NEG_INFINITY);
-        for k in 0..8 {
-            let p = Vec3::new(
-                if k & 1 == 0 { lo.x } else { up.x },
-                if k & 2 == 0 { lo.y } else { up.y },
-                if k & 4 == 0 { lo.z } else { up.z },
-            );
-            let [px, py] = camera.project(p)?;
-            x = (x.0.min(px), x.1.max(px));
-            y = (y.0.min(py), y.1.max(py));
-        }
+        let [x, y] = camera.project_box(lo, up)?;
         // Pixel centres within the corners' hull, widened by a pixel.
         let range = |(a, b): (f32, f32), n: u32| {
             let first = (a - 1.0).ceil().clamp(0.0, n as f32) as u32;
