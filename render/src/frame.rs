@@ -218,6 +218,20 @@ fn value_range(vol: &Volume) -> (f32, f32) {
     }
 }
 
+/// How a frame of `vol` in `mode` shows its film ([`Film::resolve`]):
+/// colour for DVR and iso-surfaces, grey over the volume's value range for
+/// MIP and MinIP, grey up to the largest value for X-ray.
+pub fn display_for(vol: &Volume, mode: Mode) -> Display {
+    match mode {
+        Mode::Dvr | Mode::Iso(_) => Display::Colour,
+        Mode::Mip | Mode::Minip => {
+            let (lo, hi) = value_range(vol);
+            Display::Grey { lo, hi }
+        }
+        Mode::XraySum | Mode::XrayMean => Display::GreyToLargest,
+    }
+}
+
 /// One over the voxel spacing, per axis.
 fn inv_spacing(vol: &Volume) -> Vec3 {
     let s = vol.meta.spacing;
@@ -292,14 +306,11 @@ pub fn render_film(
         share_pixels: share.and_then(|b| b.pixels(camera, Vec3::from(vol.meta.world_extent()))),
         step: settings.step,
     };
-    let (film, display) = match settings.mode {
+    let film = match settings.mode {
         Mode::Dvr => {
             let tf =
                 tf.ok_or_else(|| RenderError::Setting("DVR needs a transfer function".into()))?;
-            (
-                dvr_frame(vol, skip_index, tf, geom, range, settings, tiles)?,
-                Display::Colour,
-            )
+            dvr_frame(vol, skip_index, tf, geom, range, settings, tiles)?
         }
         Mode::Mip | Mode::Minip => {
             let maximum = settings.mode == Mode::Mip;
@@ -311,13 +322,7 @@ pub fn render_film(
                 extreme: if maximum { range.1 } else { range.0 },
                 skip: skip_index,
             };
-            (
-                dispatch::mip(plan, tiles),
-                Display::Grey {
-                    lo: range.0,
-                    hi: range.1,
-                },
-            )
+            dispatch::mip(plan, tiles)
         }
         Mode::XraySum | Mode::XrayMean => {
             let zero = skip_index.map(FixedCells::zero);
@@ -331,7 +336,7 @@ pub fn render_film(
                 },
                 skip: zero.as_ref(),
             };
-            (dispatch::xray(plan, tiles), Display::GreyToLargest)
+            dispatch::xray(plan, tiles)
         }
         Mode::Iso(level) => {
             let sides = skip_index.map(|ix| IsoSides::new(ix, level));
@@ -395,10 +400,10 @@ pub fn render_film(
                 film.add_grid_stats(stats);
             }
             film.add_grid_stats(&ao_stats);
-            (film, Display::Colour)
+            film
         }
     };
-    Ok((film, display))
+    Ok((film, display_for(vol, settings.mode)))
 }
 
 /// A DVR frame: the classifier's table for the frame's step, its

@@ -31,9 +31,8 @@ use volkit_cli::scene::ModeArg;
 use volkit_cli::{noteln, outln};
 use volrender::classify::srgb_to_linear;
 use volrender::distributed::{composite_for, strip_rows, Layout};
-use volrender::film::{Composite, Display, Fields, Film, FrameStats};
-use volrender::frame::{busy_cells, render_film};
-use volrender::Mode;
+use volrender::film::{Composite, Fields, Film, FrameStats};
+use volrender::frame::{busy_cells, display_for, render_film};
 
 /// Edge of the blocks the volume is split by, in voxels (a multiple of
 /// the usual brick edges, so ranks rarely share a brick).
@@ -313,7 +312,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
     total.render_s = frame_s;
     film.set_stats(total);
     let bg = Vec3::from(settings.background.map(srgb_to_linear));
-    let frame = film.resolve(display(&vol, settings.mode), bg);
+    let frame = film.resolve(display_for(&vol, settings.mode), bg);
     write_outputs(cli, output, &frame)?;
     let times = Times {
         load_s,
@@ -552,20 +551,6 @@ fn gather_figures(world: &SimpleCommunicator, mine: &RankFigures) -> Option<Vec<
     let mut all = vec![0f64; FIGURES * world.size() as usize];
     root.gather_into_root(&v[..], &mut all[..]);
     Some(all.chunks(FIGURES).map(RankFigures::from_f64s).collect())
-}
-
-/// The display of a mode (as [`render_film`] gives it).
-fn display(vol: &Volume, mode: Mode) -> Display {
-    let range = &vol.meta.range;
-    match mode {
-        Mode::Dvr | Mode::Iso(_) => Display::Colour,
-        Mode::Mip | Mode::Minip if range.is_empty() => Display::Grey { lo: 0.0, hi: 0.0 },
-        Mode::Mip | Mode::Minip => Display::Grey {
-            lo: range.min as f32,
-            hi: range.max as f32,
-        },
-        Mode::XraySum | Mode::XrayMean => Display::GreyToLargest,
-    }
 }
 
 /// The per-rank part of the report.
