@@ -131,6 +131,17 @@ impl Px {
         samples: 0,
     };
 
+    /// Whether the pixel holds nothing a composite or a frame reads: no
+    /// samples, no colour, no value and no depth (what an untraced or
+    /// empty ray leaves, whatever its ray count).
+    #[inline]
+    fn carries_nothing(&self) -> bool {
+        self.samples == 0
+            && self.rgba.iter().all(|c| c.to_bits() == 0)
+            && self.value.is_nan()
+            && self.depth.is_nan()
+    }
+
     /// Join `f`, the share behind what was joined so far, by `how`.
     #[inline]
     fn join(&mut self, f: &Px, how: Composite) {
@@ -219,6 +230,51 @@ impl Px {
     }
 }
 
+/// A stream of pixel records ([`Film::encode_rows`]), checked.
+struct Stream<'a> {
+    /// One bit per pixel: whether it has a record.
+    bits: &'a [u8],
+    /// The records, in pixel order.
+    records: &'a [u8],
+    /// Bytes per record.
+    size: usize,
+}
+
+impl<'a> Stream<'a> {
+    /// `bytes` as a stream of `pixels` pixels of `fields`, or `None` when
+    /// its length is not that of the records its bitmap announces, or a
+    /// padding bit is set.
+    fn parse(bytes: &'a [u8], pixels: usize, fields: Fields) -> Option<Stream<'a>> {
+        let (bits, records) = bytes.split_at_checked(pixels.div_ceil(8))?;
+        let pad = pixels % 8;
+        if pad != 0 && bits.last().is_some_and(|&b| b >> pad != 0) {
+            return None;
+        }
+        let present: usize = bits.iter().map(|b| b.count_ones() as usize).sum();
+        let size = fields.pixel_bytes();
+        (present.checked_mul(size)? == records.len()).then_some(Stream {
+            bits,
+            records,
+            size,
+        })
+    }
+}
+
+/// The indices of the set bits of `bits` (least significant bit first),
+/// in order.
+fn ones(bits: &[u8]) -> impl Iterator<Item = usize> + '_ {
+    bits.iter().enumerate().flat_map(|(i, &byte)| {
+        let mut b = byte;
+        std::iter::from_fn(move || {
+            (b != 0).then(|| {
+                let bit = b.trailing_zeros() as usize;
+                b &= b - 1;
+                i * 8 + bit
+            })
+        })
+    })
+}
+
 /// Per-pixel sums (see the module docs).
 #[derive(Clone, Debug)]
 pub struct Film {
@@ -246,6 +302,26 @@ impl Film {
             samples: vec![0; n],
             stats: FrameStats::default(),
         }
+    }
+
+    /// A film of `width × height` pixels, each of which has had one ray
+    /// that met nothing (what [`Film::add`] of an empty result to every
+    /// pixel of a new film makes): a ray caster's film before the rays
+    /// that meet something are put in ([`Film::put_ray`]).
+    pub fn one_empty_ray_each(width: u32, height: u32) -> Film {
+        let mut film = Film::new(width, height);
+        film.count.fill(1);
+        film
+    }
+
+    /// Put the result of pixel `(x, y)`'s one ray into a film from
+    /// [`Film::one_empty_ray_each`]: the pixel becomes what [`Film::add`]
+    /// of `r` to a new film's pixel makes (the ray is not counted twice).
+    #[inline]
+    pub fn put_ray(&mut self, x: u32, y: u32, r: &RayResult) {
+        let p = (y * self.width + x) as usize;
+        self.count[p] = 0;
+        self.add(x, y, r);
     }
 
     /// Width in pixels.
@@ -306,63 +382,97 @@ impl Film {
         out
     }
 
-    /// Append the pixels of rows `rows` to `out`, one record of
-    /// [`Fields::pixel_bytes`] little-endian bytes per pixel (ray count,
-    /// sample count, then the chosen fields; the totals are not
-    /// included): how a share's film travels between processes. Records
-    /// of consecutive rows concatenated are the records of those rows.
+    /// Append the pixels of rows `rows` to `out` as one stream: how a
+    /// share's film travels between processes. The stream is a bitmap of
+    /// one bit per pixel (row order, least significant bit first, padded
+    /// to a byte) saying which pixels carry anything, then one record of
+    /// [`Fields::pixel_bytes`] little-endian bytes per such pixel (ray
+    /// count, sample count, then the chosen fields; the totals are not
+    /// included). A pixel that carries nothing (no samples, no colour, no
+    /// value, no depth) is only its bit: it comes back as a pixel no ray
+    /// reached, which resolves to the same frame and composites to the
+    /// same pixel. Most of a share's pixels are such, so the stream is
+    /// mostly the records of the pixels that matter.
     pub fn encode_rows(&self, rows: Range<u32>, fields: Fields, out: &mut Vec<u8>) {
         let w = self.width as usize;
         let px = (rows.start as usize * w).min(self.count.len())
             ..(rows.end as usize * w).min(self.count.len());
         let size = fields.pixel_bytes();
-        let start = out.len();
-        out.resize(start + px.len() * size, 0);
-        for (rec, p) in out[start..].chunks_exact_mut(size).zip(px) {
-            self.px(p).write(rec, fields);
+        let bits = out.len();
+        out.resize(bits + px.len().div_ceil(8), 0);
+        for (i, p) in px.enumerate() {
+            let px = self.px(p);
+            if px.carries_nothing() {
+                continue;
+            }
+            out[bits + i / 8] |= 1 << (i % 8);
+            let at = out.len();
+            out.resize(at + size, 0);
+            px.write(&mut out[at..], fields);
         }
     }
 
-    /// The film of `width × rows` pixels that [`Film::encode_rows`] wrote
-    /// as `bytes` with `fields` (the fields left out are empty), or `None`
-    /// when the length is not that of such a film.
-    pub fn decode_rows(width: u32, rows: u32, fields: Fields, bytes: &[u8]) -> Option<Film> {
-        let n = (width as usize).checked_mul(rows as usize)?;
-        let size = fields.pixel_bytes();
-        if bytes.len() != n.checked_mul(size)? {
+    /// Put the pixels of rows `rows` that a stream [`Film::encode_rows`]
+    /// wrote with `fields` carries into this film, whose rows `rows` are
+    /// still as [`Film::new`] made them (the pixels the stream leaves out
+    /// stay so; the fields left out come back empty). `None`, with the
+    /// film unchanged, when the rows are not the film's or the bytes are
+    /// not such a stream of that many pixels.
+    pub fn decode_rows(&mut self, rows: Range<u32>, fields: Fields, bytes: &[u8]) -> Option<()> {
+        if rows.start > rows.end || rows.end > self.height {
             return None;
         }
-        let mut film = Film::new(width, rows);
-        for (p, rec) in bytes.chunks_exact(size).enumerate() {
-            film.set(p, &Px::read(rec, fields));
+        let w = self.width as usize;
+        let first = rows.start as usize * w;
+        let stream = Stream::parse(bytes, rows.len() * w, fields)?;
+        for (i, rec) in ones(stream.bits).zip(stream.records.chunks_exact(stream.size)) {
+            debug_assert!(self.px(first + i).carries_nothing(), "rows not empty");
+            self.set(first + i, &Px::read(rec, fields));
         }
-        Some(film)
+        Some(())
     }
 
-    /// Composite the records of the same pixels from several films
-    /// ([`Film::encode_rows`] with `fields`), given front to back, into
-    /// records appended to `out`: [`Film::composite`] without the films
-    /// (no film is built for what only passes through). `None` when the
-    /// parts differ in length or are not whole records.
+    /// Composite the streams of the same `pixels` pixels from several
+    /// films ([`Film::encode_rows`] with `fields`), given front to back,
+    /// into one stream appended to `out`: [`Film::composite`] without the
+    /// films (no film is built for what only passes through). `None` when
+    /// a part is not such a stream.
     pub fn composite_records(
         front_to_back: &[&[u8]],
+        pixels: usize,
         fields: Fields,
         how: Composite,
         out: &mut Vec<u8>,
     ) -> Option<()> {
         let size = fields.pixel_bytes();
-        let len = front_to_back.first().map_or(0, |p| p.len());
-        if !len.is_multiple_of(size) || front_to_back.iter().any(|p| p.len() != len) {
-            return None;
-        }
-        let start = out.len();
-        out.resize(start + len, 0);
-        for (i, rec) in out[start..].chunks_exact_mut(size).enumerate() {
-            let mut acc = Px::START;
-            for part in front_to_back {
-                acc.join(&Px::read(&part[i * size..][..size], fields), how);
+        let streams = front_to_back
+            .iter()
+            .map(|b| Stream::parse(b, pixels, fields))
+            .collect::<Option<Vec<_>>>()?;
+        // Per part, the next record to read.
+        let mut next = vec![0usize; streams.len()];
+        let bits = out.len();
+        out.resize(bits + pixels.div_ceil(8), 0);
+        for byte in 0..pixels.div_ceil(8) {
+            let mut any = streams.iter().fold(0u8, |a, s| a | s.bits[byte]);
+            while any != 0 {
+                let bit = any.trailing_zeros();
+                any &= any - 1;
+                let mut acc = Px::START;
+                for (s, at) in streams.iter().zip(&mut next) {
+                    if s.bits[byte] >> bit & 1 == 1 {
+                        acc.join(&Px::read(&s.records[*at * size..][..size], fields), how);
+                        *at += 1;
+                    }
+                }
+                if acc.carries_nothing() {
+                    continue;
+                }
+                out[bits + byte] |= 1 << bit;
+                let at = out.len();
+                out.resize(at + size, 0);
+                acc.write(&mut out[at..], fields);
             }
-            acc.write(rec, fields);
         }
         Some(())
     }
@@ -664,16 +774,32 @@ mod tests {
             }
         }
         let fields = Fields::ALL;
-        let mut all = Vec::new();
+        let mut back = Film::new(w, h);
         for rows in [0..2, 2..2, 2..5] {
             let mut bytes = Vec::new();
             f.encode_rows(rows.clone(), fields, &mut bytes);
-            let n = (rows.len() as u32 * w) as usize;
-            assert_eq!(bytes.len(), n * fields.pixel_bytes());
-            assert!(Film::decode_rows(w, rows.len() as u32 + 1, fields, &bytes).is_none());
-            all.extend_from_slice(&bytes);
+            let n = rows.len() * w as usize;
+            let present = (rows.start..rows.end)
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
+                .filter(|&(x, y)| (x + y) % 3 != 0)
+                .count();
+            assert_eq!(bytes.len(), n.div_ceil(8) + present * fields.pixel_bytes());
+            // The wrong number of rows, a record short, a stray bit.
+            let mut g = Film::new(w, h);
+            let longer = rows.start..rows.end + 1;
+            assert!(g.decode_rows(longer, fields, &bytes).is_none());
+            if present > 0 {
+                let short = &bytes[..bytes.len() - 1];
+                assert!(g.decode_rows(rows.clone(), fields, short).is_none());
+            }
+            if n % 8 != 0 {
+                let mut stray = bytes.clone();
+                stray[n.div_ceil(8) - 1] |= 0x80;
+                assert!(g.decode_rows(rows.clone(), fields, &stray).is_none());
+            }
+            back.decode_rows(rows, fields, &bytes).unwrap();
         }
-        let back = Film::decode_rows(w, h, fields, &all).unwrap();
+        assert!(back.decode_rows(4..6, fields, &[]).is_none());
         let bits = |f: &Film| -> Vec<u64> {
             f.rgba
                 .iter()
@@ -695,23 +821,108 @@ mod tests {
             Composite::Sum,
         ] {
             let fields = Fields::for_composite(how);
+            let n = (w * h) as usize;
             let mut bytes = Vec::new();
             f.encode_rows(0..h, fields, &mut bytes);
-            assert_eq!(bytes.len(), (w * h) as usize * fields.pixel_bytes());
-            let g = Film::decode_rows(w, h, fields, &bytes).unwrap();
+            let mut g = Film::new(w, h);
+            g.decode_rows(0..h, fields, &bytes).unwrap();
             let (a, b) = (Film::composite(&[&f], how), Film::composite(&[&g], how));
             assert_eq!(bits(&a), bits(&b), "{how:?}");
             // Compositing records is compositing films: a film over itself.
             let mut joined = Vec::new();
-            Film::composite_records(&[&bytes, &bytes], fields, how, &mut joined).unwrap();
-            let from_records = Film::decode_rows(w, h, fields, &joined).unwrap();
+            Film::composite_records(&[&bytes, &bytes], n, fields, how, &mut joined).unwrap();
+            let mut from_records = Film::new(w, h);
+            from_records.decode_rows(0..h, fields, &joined).unwrap();
             let mut again = Vec::new();
             Film::composite(&[&g, &g], how).encode_rows(0..h, fields, &mut again);
-            let from_films = Film::decode_rows(w, h, fields, &again).unwrap();
-            assert_eq!(bits(&from_records), bits(&from_films), "{how:?}");
+            assert_eq!(joined, again, "{how:?}");
+            let cut = &bytes[..bytes.len() - 1];
+            assert!(Film::composite_records(&[&bytes, cut], n, fields, how, &mut joined).is_none());
             assert!(
-                Film::composite_records(&[&bytes, &bytes[1..]], fields, how, &mut joined).is_none()
+                Film::composite_records(&[&bytes, &bytes], n + 8, fields, how, &mut joined)
+                    .is_none()
             );
+        }
+    }
+
+    /// Putting the rays that met something into a film of empty rays is
+    /// adding every pixel's one ray to a new film.
+    #[test]
+    fn putting_rays_into_empty_rays_is_adding_every_ray() {
+        let r = |x: u32| RayResult {
+            rgba: [-0.0, 0.25 * x as f32, 0.5, 0.75],
+            value: f64::from(x),
+            depth: 2.0,
+            samples: 3 + x,
+            skips: 1,
+            ..RayResult::empty()
+        };
+        let (mut added, mut put) = (Film::new(5, 2), Film::one_empty_ray_each(5, 2));
+        for y in 0..2 {
+            for x in 0..5 {
+                let met = (x + y) % 2 == 0;
+                added.add(x, y, &if met { r(x) } else { RayResult::empty() });
+                if met {
+                    put.put_ray(x, y, &r(x));
+                }
+            }
+        }
+        let all = |f: &Film| {
+            let bits: Vec<u64> = f
+                .rgba
+                .iter()
+                .flat_map(|p| p.map(f64::to_bits))
+                .chain(f.value.iter().map(|v| v.to_bits()))
+                .chain(f.depth.iter().map(|d| u64::from(d.to_bits())))
+                .chain(f.count.iter().chain(&f.samples).map(|&c| u64::from(c)))
+                .collect();
+            (bits, f.stats)
+        };
+        assert_eq!(all(&put), all(&added));
+    }
+
+    /// A pixel whose ray brought nothing travels as its bit alone and
+    /// resolves, and composites, as it was.
+    #[test]
+    fn empty_rays_travel_as_bits() {
+        let mut f = Film::new(16, 2);
+        for y in 0..2 {
+            for x in 0..16 {
+                let r = if x == 5 && y == 1 {
+                    RayResult {
+                        rgba: [0.5, 0.25, 0.0, 0.75],
+                        value: 3.0,
+                        depth: 2.0,
+                        samples: 4,
+                        ..RayResult::empty()
+                    }
+                } else {
+                    RayResult::empty()
+                };
+                f.add(x, y, &r);
+            }
+        }
+        let fields = Fields::ALL;
+        let mut bytes = Vec::new();
+        f.encode_rows(0..2, fields, &mut bytes);
+        assert_eq!(bytes.len(), 4 + fields.pixel_bytes());
+        let mut g = Film::new(16, 2);
+        g.decode_rows(0..2, fields, &bytes).unwrap();
+        let frame = |f: &Film| {
+            let r = f.resolve(Display::Colour, Vec3::new(0.1, 0.2, 0.3));
+            (r.rgba, r.samples)
+        };
+        assert_eq!(frame(&g), frame(&f));
+        for how in [Composite::Over, Composite::Max, Composite::Sum] {
+            let (a, b) = (
+                Film::composite(&[&f, &f], how),
+                Film::composite(&[&g, &g], how),
+            );
+            let show = |x: &Film| {
+                x.resolve(Display::Grey { lo: 0.0, hi: 9.0 }, Vec3::ZERO)
+                    .rgba
+            };
+            assert_eq!(show(&a), show(&b), "{how:?}");
         }
     }
 }

@@ -602,6 +602,7 @@ impl TableUser for DvrFrame<'_> {
                 tiles.camera,
                 s.index(),
                 Vec3::from(vol.meta.spacing),
+                tiles.share.map(|b| b.clipped(tiles.hi)),
                 |level, cell| !s.skippable(level, cell),
             )
         });
@@ -751,53 +752,49 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
         } = self.tiles;
         let (w, h) = (camera.width(), camera.height());
         let (tx, ty) = (w.div_ceil(tile), h.div_ceil(tile));
-        let results: Vec<Vec<RayResult>> = (0..tx * ty)
+        // Per tile, the rays traced (pixel and result); the other pixels'
+        // rays met nothing, and the film starts that way.
+        let results: Vec<Vec<([u32; 2], RayResult)>> = (0..tx * ty)
             .into_par_iter()
             .map(|i| {
                 let (x0, y0) = ((i % tx) * tile, (i / tx) * tile);
                 let mut cur = src.cursor();
                 let (x1, y1) = ((x0 + tile).min(w), (y0 + tile).min(h));
-                let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                let mut out = Vec::new();
                 for y in y0..y1 {
                     for x in x0..x1 {
                         if busy.is_some_and(|b| !b.may_see(x, y))
                             || share_pixels.is_some_and(|r| !r.contains(x, y))
                         {
-                            out.push(RayResult::empty());
                             continue;
                         }
                         let ray = camera.ray(x, y);
-                        out.push(match intersect_box(&ray, Vec3::ZERO, hi) {
-                            None => RayResult::empty(),
-                            Some((t0, t1)) => {
-                                let span = Span::whole(t0, t1);
-                                match share.map(|b| b.samples(&ray, span, step)) {
-                                    None => self.integrator.trace(&mut cur, &ray, [x, y], span),
-                                    Some(None) => RayResult::empty(),
-                                    Some(Some(k)) => self.integrator.trace(
-                                        &mut cur,
-                                        &ray,
-                                        [x, y],
-                                        Span {
-                                            share: Some(k),
-                                            ..span
-                                        },
-                                    ),
-                                }
-                            }
-                        });
+                        let Some((t0, t1)) = intersect_box(&ray, Vec3::ZERO, hi) else {
+                            continue;
+                        };
+                        let span = Span::whole(t0, t1);
+                        let r = match share.map(|b| b.samples(&ray, span, step)) {
+                            None => self.integrator.trace(&mut cur, &ray, [x, y], span),
+                            Some(None) => continue,
+                            Some(Some(k)) => self.integrator.trace(
+                                &mut cur,
+                                &ray,
+                                [x, y],
+                                Span {
+                                    share: Some(k),
+                                    ..span
+                                },
+                            ),
+                        };
+                        out.push(([x, y], r));
                     }
                 }
                 out
             })
             .collect();
-        let mut film = Film::new(w, h);
-        for (i, tile_results) in results.iter().enumerate() {
-            let (x0, y0) = ((i as u32 % tx) * tile, (i as u32 / tx) * tile);
-            let tw = (x0 + tile).min(w) - x0;
-            for (j, r) in tile_results.iter().enumerate() {
-                film.add(x0 + j as u32 % tw, y0 + j as u32 / tw, r);
-            }
+        let mut film = Film::one_empty_ray_each(w, h);
+        for ([x, y], r) in results.iter().flatten() {
+            film.put_ray(*x, *y, r);
         }
         film
     }

@@ -97,7 +97,7 @@ fn data_parallel(
     let how = composite_for(s.mode).unwrap();
     let fields = Fields::for_composite(how);
     let h = cam.height();
-    let mut gathered = Vec::new();
+    let mut film = Film::new(cam.width(), h);
     for j in 0..ranks {
         let rows = strip_rows(h, ranks, j);
         let parts: Vec<Vec<u8>> = films
@@ -109,9 +109,11 @@ fn data_parallel(
             })
             .collect();
         let ordered: Vec<&[u8]> = order.iter().map(|&r| &parts[r][..]).collect();
-        Film::composite_records(&ordered, fields, how, &mut gathered).unwrap();
+        let pixels = rows.len() * cam.width() as usize;
+        let mut strip = Vec::new();
+        Film::composite_records(&ordered, pixels, fields, how, &mut strip).unwrap();
+        film.decode_rows(rows, fields, &strip).unwrap();
     }
-    let film = Film::decode_rows(cam.width(), h, fields, &gathered).unwrap();
     film.resolve(display.unwrap(), Vec3::ZERO)
 }
 

@@ -390,8 +390,8 @@ fn split(
     h: u32,
 ) -> Result<Layout> {
     // Messages count in i32 elements (bytes here): every rank's whole
-    // film must fit one.
-    let px_bytes = Fields::ALL.pixel_bytes() as u64;
+    // film must fit one (records and a bitmap byte per pixel at most).
+    let px_bytes = Fields::ALL.pixel_bytes() as u64 + 1;
     if (w as u64) * (h as u64) * px_bytes > Count::MAX as u64 {
         bail!(
             "an image of {w}x{h} is too large to composite across ranks (at most {} M pixels)",
@@ -415,7 +415,7 @@ fn split(
 }
 
 /// Direct send: rank `j` gets row strip `j` of every rank's film and
-/// composites it front to back in `order`. Returns the strip's records
+/// composites it front to back in `order`. Returns the strip's stream
 /// ([`Film::encode_rows`]) and the bytes this rank sent to and received
 /// from other ranks.
 fn direct_send(
@@ -434,11 +434,12 @@ fn direct_send(
         film.encode_rows(strip_rows(h, size, j), fields, &mut send);
         counts.push((send.len() - start) as Count);
     }
-    let rows = strip_rows(h, size, rank);
-    let per = rows.len() * w as usize * fields.pixel_bytes();
-    let mut recv = zeroed(per * size);
-    let rcounts = vec![per as Count; size];
-    let rdispls: Vec<Count> = (0..size).map(|i| (i * per) as Count).collect();
+    // Streams are as long as their pixels that carry anything: every rank
+    // first learns how much each other rank sends it.
+    let mut rcounts = vec![0 as Count; size];
+    world.all_to_all_into(&counts[..], &mut rcounts[..]);
+    let rdispls = offsets(&rcounts);
+    let mut recv = zeroed(rcounts.iter().map(|&c| c as usize).sum());
     world.all_to_all_varcount_into(
         &Partition::new(&send[..], &counts[..], &offsets(&counts)[..]),
         &mut PartitionMut::new(&mut recv[..], &rcounts[..], &rdispls[..]),
@@ -446,17 +447,18 @@ fn direct_send(
     let ordered: Vec<&[u8]> = order
         .iter()
         .filter(|&&r| r < size)
-        .map(|&r| &recv[r * per..][..per])
+        .map(|&r| &recv[rdispls[r] as usize..][..rcounts[r] as usize])
         .collect();
+    let pixels = strip_rows(h, size, rank).len() * w as usize;
     let mut strip = message_buffer(Vec::new());
-    let strip = Film::composite_records(&ordered, fields, how, &mut strip)
+    let strip = Film::composite_records(&ordered, pixels, fields, how, &mut strip)
         .map(|()| strip)
-        .ok_or_else(|| anyhow!("a film strip from another rank has the wrong length"));
+        .ok_or_else(|| anyhow!("a film strip from another rank is damaged"));
     let own = counts[rank] as u64;
     (strip, (send.len() as u64 - own, recv.len() as u64 - own))
 }
 
-/// The composited strips (their records, [`Film::encode_rows`]),
+/// The composited strips (their streams, [`Film::encode_rows`]),
 /// gathered into the image on rank 0 (`None` elsewhere).
 fn gather_strips(
     world: &SimpleCommunicator,
@@ -468,23 +470,27 @@ fn gather_strips(
     let size = world.size() as usize;
     let fields = Fields::for_composite(how);
     let root = world.process_at_rank(0);
+    let len = bytes.len() as Count;
     if world.rank() != 0 {
+        root.gather_into(&len);
         root.gather_varcount_into(bytes);
         return Ok(None);
     }
-    let lens: Vec<Count> = (0..size)
-        .map(|j| (strip_rows(h, size, j).len() * w as usize * fields.pixel_bytes()) as Count)
-        .collect();
+    let mut lens = vec![0 as Count; size];
+    root.gather_into_root(&len, &mut lens[..]);
     let displs = offsets(&lens);
     let mut all = zeroed(lens.iter().map(|&l| l as usize).sum());
     root.gather_varcount_into_root(
         bytes,
         &mut PartitionMut::new(&mut all[..], &lens[..], &displs[..]),
     );
-    // Strips of consecutive rows, concatenated: the records of the image.
-    Film::decode_rows(w, h, fields, &all)
-        .map(Some)
-        .ok_or_else(|| anyhow!("the gathered strips are not a {w}x{h} image"))
+    let mut film = Film::new(w, h);
+    for j in 0..size {
+        let strip = &all[displs[j] as usize..][..lens[j] as usize];
+        film.decode_rows(strip_rows(h, size, j), fields, strip)
+            .ok_or_else(|| anyhow!("rank {j}'s composited strip is damaged"))?;
+    }
+    Ok(Some(film))
 }
 
 /// One rank's figures for the report.

@@ -48,11 +48,15 @@ impl BlockMask {
 
 /// Which [`BLOCK`]-pixel blocks of `camera`'s image may see a cell of
 /// `index` that `busy(level, cell)` keeps; `None` when every block may
-/// (nothing can be culled). `spacing` is the voxel spacing.
+/// (nothing can be culled). `spacing` is the voxel spacing. With
+/// `within`, a world box (lower and upper corners), only the cells that
+/// reach into it count: the rays of a share that takes only the samples
+/// inside that box ([`crate::distributed::ShareBox`]).
 pub fn busy_blocks(
     camera: &Camera,
     index: &MajorantIndex,
     spacing: Vec3,
+    within: Option<(Vec3, Vec3)>,
     busy: impl Fn(usize, usize) -> bool,
 ) -> Option<BlockMask> {
     let levels = index.levels();
@@ -77,6 +81,9 @@ pub fn busy_blocks(
                 let hi: [f32; 3] =
                     std::array::from_fn(|a| (((c[a] + 1) * edge).min(d[a] - 1)) as f32 + 1.0);
                 let (lo, hi) = (Vec3::from(lo) * spacing, Vec3::from(hi) * spacing);
+                if within.is_some_and(|(a, b)| lo.cmpgt(b).any() || hi.cmplt(a).any()) {
+                    continue; // none of the share's samples read it
+                }
                 let [x, y] = camera.project_box(lo, hi)?;
                 // Pixels whose centres may lie in the projection, plus one.
                 let first = |v: f32| (v - 1.0).ceil().max(0.0);
@@ -137,7 +144,7 @@ mod tests {
             (Vec3::new(32.0, 32.0, 200.0), Projection::Orthographic(90.0)),
         ] {
             let cam = Camera::look_at(eye, Vec3::splat(32.0), Vec3::Y, proj, 90, 70).unwrap();
-            let mask = busy_blocks(&cam, &ix, Vec3::ONE, busy).unwrap();
+            let mask = busy_blocks(&cam, &ix, Vec3::ONE, None, busy).unwrap();
             let mut seen = 0;
             for y in 0..70 {
                 for x in 0..90 {
@@ -155,6 +162,30 @@ mod tests {
                 mask.culled()
             );
         }
+        // A share's box: only the cells that reach into it count. A box
+        // around the busy voxels keeps every pixel that sees them; a box
+        // well away from them culls every block.
+        let cam = Camera::look_at(
+            Vec3::new(150.0, 90.0, 170.0),
+            Vec3::splat(32.0),
+            Vec3::Y,
+            Projection::Perspective(40.0),
+            90,
+            70,
+        )
+        .unwrap();
+        let around = Some((Vec3::new(32.0, 0.0, 0.0), Vec3::splat(64.0)));
+        let mask = busy_blocks(&cam, &ix, Vec3::ONE, around, busy).unwrap();
+        for y in 0..70 {
+            for x in 0..90 {
+                if intersect_box(&cam.ray(x, y), lo, hi).is_some() {
+                    assert!(mask.may_see(x, y), "pixel {x},{y}");
+                }
+            }
+        }
+        let away = Some((Vec3::ZERO, Vec3::new(24.0, 64.0, 64.0)));
+        let mask = busy_blocks(&cam, &ix, Vec3::ONE, away, busy).unwrap();
+        assert_eq!(mask.culled(), 90usize.div_ceil(8) * 70usize.div_ceil(8));
         // The eye inside the volume, the block behind it: nothing culled.
         let cam = Camera::look_at(
             Vec3::new(44.0, 12.0, 40.0),
@@ -165,6 +196,6 @@ mod tests {
             32,
         )
         .unwrap();
-        assert!(busy_blocks(&cam, &ix, Vec3::ONE, busy).is_none());
+        assert!(busy_blocks(&cam, &ix, Vec3::ONE, None, busy).is_none());
     }
 }

@@ -78,16 +78,23 @@ impl ShareBox {
         (lo_k <= hi_k).then_some((lo_k, hi_k))
     }
 
+    /// The box clipped to the volume's `[0, hi]`: its lower and upper
+    /// corners.
+    pub fn clipped(&self, hi: Vec3) -> (Vec3, Vec3) {
+        let lo = Vec3::from(std::array::from_fn(|a| self.lo[a].unwrap_or(0.0).max(0.0)));
+        let up = Vec3::from(std::array::from_fn(|a| {
+            self.hi[a].unwrap_or(hi[a]).min(hi[a])
+        }));
+        (lo, up)
+    }
+
     /// The pixels whose rays can take a sample in the box (none when the
     /// box is off the image), for the box
     /// clipped to the volume's `[0, hi]`; `None` when that cannot be told
     /// from the corners (a corner not in front of a perspective eye: the
     /// eye is in or beside the box). Conservative by a pixel.
     pub fn pixels(&self, camera: &Camera, hi: Vec3) -> Option<PixelRect> {
-        let lo = Vec3::from(std::array::from_fn(|a| self.lo[a].unwrap_or(0.0).max(0.0)));
-        let up = Vec3::from(std::array::from_fn(|a| {
-            self.hi[a].unwrap_or(hi[a]).min(hi[a])
-        }));
+        let (lo, up) = self.clipped(hi);
         let [x, y] = camera.project_box(lo, up)?;
         // Pixel centres within the corners' hull, widened by a pixel.
         let range = |(a, b): (f32, f32), n: u32| {
