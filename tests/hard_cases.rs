@@ -368,6 +368,139 @@ fn vvol_brick_table_pointing_outside_is_refused() {
     fails(bin("vol-info").arg(&p), "outside the data");
 }
 
+/// CRC-32 (IEEE), as the .vvol trailer and brick table use.
+fn crc32(b: &[u8]) -> u32 {
+    let mut c = flate2::Crc::new();
+    c.update(b);
+    c.sum()
+}
+
+#[test]
+fn vvol_compressed_bricks_cannot_share_one_frame() {
+    // Every entry of the table points at brick 0's frame, with its CRC:
+    // each entry checks out alone, but the file would decode to far more
+    // than it holds. Compressed bricks lie back to back, so entry 1 must
+    // start where brick 0 ends.
+    let d = tmp();
+    let p = gen(
+        d.path(),
+        "shared.vvol",
+        &[
+            "solid",
+            "--dims",
+            "16,16,16",
+            "--layout",
+            "bricked:4",
+            "--compress",
+            "zstd",
+        ],
+    );
+    let mut b = std::fs::read(&p).unwrap();
+    let t = volformats::vvol::HEADER_LEN as usize;
+    let n = 64;
+    let first = b[t..t + 24].to_vec();
+    for i in 1..n {
+        b[t + 24 * i..t + 24 * (i + 1)].copy_from_slice(&first);
+    }
+    // The trailer's table CRC, so --verify judges only the layout.
+    let crc = crc32(&b[t..t + 24 * n]);
+    let end = b.len() - 32;
+    b[end + 8..end + 12].copy_from_slice(&crc.to_le_bytes());
+    std::fs::write(&p, &b).unwrap();
+    for verify in [false, true] {
+        let mut cmd = bin("vol-info");
+        if verify {
+            cmd.arg("--verify");
+        }
+        let line = fails(cmd.arg(&p), "shared.vvol");
+        assert!(
+            line.contains("entry 1") && line.contains("back to back"),
+            "{line}"
+        );
+    }
+}
+
+/// A zstd-bricked .vvol header claiming `dims` (brick edge 4, u8) with
+/// `data_len` bytes of data, in a sparse file of the length it implies:
+/// the brick table reads as zeros and costs no disk.
+fn huge_sparse_vvol(p: &Path, dims: [u64; 3], data_len: u64) {
+    let dims = volcore::Dims::new(dims[0], dims[1], dims[2]).unwrap();
+    let meta = volcore::VolumeMeta {
+        layout: volcore::Layout::Bricked(volcore::BrickGeometry::new(dims, 4).unwrap()),
+        compression: volcore::Compression::Zstd(3),
+        ..volcore::VolumeMeta::sliced(dims, volcore::SampleType::U8)
+    };
+    let mut h = volformats::vvol::Header::for_meta(meta).unwrap();
+    h.data_len = data_len;
+    let f = std::fs::File::create(p).unwrap();
+    (&f).write_all(&h.encode()).unwrap();
+    f.set_len(h.file_len().unwrap()).unwrap();
+    // The trailer's magic, at the very end.
+    use std::os::unix::fs::FileExt;
+    f.write_all_at(b"VVOLEND\0", h.file_len().unwrap() - 32)
+        .unwrap();
+}
+
+/// Run with the process's private memory capped at `bytes`
+/// (RLIMIT_DATA): an allocation the header asked for, and not the file,
+/// shows as an abort instead of as memory taken from the machine.
+fn with_memory_cap(cmd: &mut Command, bytes: u64) -> &mut Command {
+    use std::os::unix::process::CommandExt;
+    extern "C" {
+        fn setrlimit(resource: i32, rlim: *const [u64; 2]) -> i32;
+    }
+    // SAFETY: only an async-signal-safe call between fork and exec.
+    unsafe {
+        cmd.pre_exec(move || {
+            const RLIMIT_DATA: i32 = 2;
+            setrlimit(RLIMIT_DATA, &[bytes, bytes]);
+            Ok(())
+        });
+    }
+    cmd
+}
+
+#[test]
+fn vvol_huge_dims_in_a_small_or_sparse_file_are_refused_quickly() {
+    let d = tmp();
+    // 2048 x 2048 x 4096 in bricks of 4: 2^28 bricks, a 6 GiB table
+    // (sparse: zeros) that a reader must not hold before judging it.
+    let dims = [2048, 2048, 4096];
+    let cases = [
+        // 64 bytes of data cannot hold 2^28 compressed bricks.
+        ("few-bytes.vvol", 64, "bytes of compressed data"),
+        // Enough data bytes, but the zero table points outside it.
+        ("zero-table.vvol", 1 << 29, "outside the data"),
+    ];
+    for (name, data_len, needle) in cases {
+        let p = d.path().join(name);
+        huge_sparse_vvol(&p, dims, data_len);
+        for verify in [false, true] {
+            let mut cmd = bin("vol-info");
+            if verify {
+                cmd.arg("--verify");
+            }
+            with_memory_cap(cmd.arg(&p), 512 << 20);
+            let start = Instant::now();
+            let out = run_within(&mut cmd, Duration::from_secs(60));
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(!out.status.success(), "{name} opened: {err}");
+            let line = err.trim();
+            assert_eq!(line.lines().count(), 1, "{name}: {err}");
+            assert!(
+                line.starts_with("vol-info: ") && line.contains(name),
+                "{err}"
+            );
+            assert!(line.contains(needle), "{name}: expected '{needle}': {err}");
+            assert!(
+                start.elapsed() < Duration::from_secs(10),
+                "{name} took {:?}",
+                start.elapsed()
+            );
+        }
+    }
+}
+
 #[test]
 fn vvol_damaged_zstd_brick_is_an_error_not_garbage() {
     let d = tmp();

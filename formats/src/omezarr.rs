@@ -291,10 +291,16 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
     let geometry = Geometry::from_axes(origin, axes3)
         .map_err(|e| Error::invalid(format!("OME-Zarr geometry: {e}")))
         .at(root)?;
+    // What the metadata says one chunk holds, checked: every chunk read
+    // is held to it, so it must be a size a machine can hold.
+    let chunk = array.chunk_shape(&vec![0; n]).map_err(zerr).at(root)?;
+    chunk_bytes(&chunk, t.size()).at(root)?;
+    let plane = dims.slice_len().saturating_mul(t.size() as u64).max(1);
     let chunk_z = axis_z
-        .and_then(|z| array.chunk_shape(&vec![0; n]).ok().map(|c| c[z].get()))
+        .map(|z| chunk[z].get())
         .unwrap_or(1)
-        .clamp(1, 256);
+        .clamp(1, 256)
+        .min((MAX_SLAB_BYTES / plane).max(1));
     let bytes = dir_size(root);
     Ok(ZarrReader {
         info: InputInfo {
@@ -355,6 +361,150 @@ fn slice_type(name: &str) -> crate::Result<SliceType> {
     })
 }
 
+/// The most decoded bytes one chunk may take (metadata asking for more is
+/// refused: no reader holds such a chunk).
+pub const MAX_CHUNK_BYTES: u64 = 2 << 30;
+
+/// The most bytes of samples one slab read holds (a chunk layer of z is
+/// cut into fewer slices when larger).
+pub const MAX_SLAB_BYTES: u64 = 1 << 30;
+
+/// Bytes of one chunk of `shape` with samples of `size` bytes: the
+/// checked product, refused past [`MAX_CHUNK_BYTES`].
+fn chunk_bytes(shape: &[std::num::NonZeroU64], size: usize) -> crate::Result<u64> {
+    shape
+        .iter()
+        .try_fold(size as u64, |a, d| a.checked_mul(d.get()))
+        .filter(|&b| b <= MAX_CHUNK_BYTES)
+        .ok_or_else(|| {
+            let dims: Vec<u64> = shape.iter().map(|d| d.get()).collect();
+            Error::invalid(format!(
+                "chunks of {dims:?} samples of {size} bytes are larger than the {} GiB volkit decodes at once",
+                MAX_CHUNK_BYTES >> 30
+            ))
+        })
+}
+
+/// Whether `len` bytes agree with a representation: exactly a fixed size,
+/// at most a bounded one (an unbounded one admits nothing).
+fn fits(rep: &zarrs::array::BytesRepresentation, len: u64) -> bool {
+    use zarrs::array::BytesRepresentation as R;
+    match *rep {
+        R::FixedSize(n) => len == n,
+        R::BoundedSize(n) => len <= n,
+        R::UnboundedSize => false,
+    }
+}
+
+/// Undo one compressor stage, producing at most `limit` bytes (one more
+/// is read to tell a chunk that is too long). zstd and gzip stream through
+/// a reader cut at the limit; blosc, which sizes its output from its
+/// header, is refused when the header claims more; shuffle keeps lengths.
+/// Other compressors are refused: their output could not be bounded.
+fn bounded_decode(
+    codec: &dyn zarrs::array::codec::api::BytesToBytesCodecTraits,
+    bytes: Vec<u8>,
+    rep: &zarrs::array::BytesRepresentation,
+    limit: u64,
+    options: &zarrs::array::codec::api::CodecOptions,
+) -> Result<Vec<u8>, String> {
+    use std::io::Read;
+    use zarrs::array::codec::{BloscCodec, GzipCodec, ShuffleCodec, ZstdCodec};
+    let any = codec.as_any();
+    let cap = usize::try_from(limit).map_err(|e| e.to_string())?;
+    let read_bounded = |r: &mut dyn Read| -> Result<Vec<u8>, String> {
+        let mut out = Vec::with_capacity(cap);
+        r.take(limit + 1)
+            .read_to_end(&mut out)
+            .map_err(|e| e.to_string())?;
+        if out.len() as u64 > limit {
+            return Err(format!(
+                "decompresses to more than the {limit} bytes of one chunk"
+            ));
+        }
+        Ok(out)
+    };
+    if any.is::<ZstdCodec>() {
+        let mut d =
+            zstd::stream::read::Decoder::new(bytes.as_slice()).map_err(|e| e.to_string())?;
+        read_bounded(&mut d)
+    } else if any.is::<GzipCodec>() {
+        read_bounded(&mut flate2::read::GzDecoder::new(bytes.as_slice()))
+    } else if any.is::<BloscCodec>() || any.is::<ShuffleCodec>() {
+        if any.is::<BloscCodec>() {
+            // Blosc's header: bytes 4..8 hold the decompressed length.
+            let claimed = bytes
+                .get(4..8)
+                .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as u64)
+                .ok_or("blosc header is truncated")?;
+            if claimed > limit {
+                return Err(format!(
+                    "blosc header claims {claimed} bytes, more than the {limit} of one chunk"
+                ));
+            }
+        }
+        codec
+            .decode(std::borrow::Cow::Owned(bytes), rep, options)
+            .map(|b| b.into_owned())
+            .map_err(|e| e.to_string())
+    } else {
+        Err(format!(
+            "compressor {:?} is not supported (zstd, gzip, blosc, shuffle)",
+            codec
+        ))
+    }
+}
+
+/// Copy the part of a decoded chunk (C order, origin `start`, `shape`)
+/// that lies inside the block `ranges` into `out` (C order over the
+/// ranges' lengths), one run along the last axis at a time.
+fn copy_overlap<T: Copy>(
+    chunk: &[T],
+    start: &[u64],
+    shape: &[u64],
+    out: &mut [T],
+    ranges: &[Range<u64>],
+) {
+    let n = ranges.len();
+    if n == 0 || start.len() != n || shape.len() != n {
+        return;
+    }
+    let lo: Vec<u64> = (0..n).map(|a| ranges[a].start.max(start[a])).collect();
+    let hi: Vec<u64> = (0..n)
+        .map(|a| ranges[a].end.min(start[a].saturating_add(shape[a])))
+        .collect();
+    if (0..n).any(|a| lo[a] >= hi[a]) {
+        return;
+    }
+    let run = (hi[n - 1] - lo[n - 1]) as usize;
+    // The position being copied, over every axis but the last.
+    let mut pos = lo.clone();
+    loop {
+        let (mut src, mut dst) = (0usize, 0usize);
+        for a in 0..n {
+            let len = ranges[a].end - ranges[a].start;
+            src = src * shape[a] as usize + (pos[a] - start[a]) as usize;
+            dst = dst * len as usize + (pos[a] - ranges[a].start) as usize;
+        }
+        if let (Some(from), Some(to)) = (chunk.get(src..src + run), out.get_mut(dst..dst + run)) {
+            to.copy_from_slice(from);
+        }
+        // Next position: the odometer over axes n-2 .. 0.
+        let mut a = n - 1;
+        loop {
+            if a == 0 {
+                return;
+            }
+            a -= 1;
+            pos[a] += 1;
+            if pos[a] < hi[a] {
+                break;
+            }
+            pos[a] = lo[a];
+        }
+    }
+}
+
 impl ZarrReader {
     /// Slices `zs` (z order), decoded chunk layer by chunk layer.
     fn read_slab(&self, zs: Range<u64>) -> CResult<Vec<SliceData>> {
@@ -373,11 +523,7 @@ impl ZarrReader {
         let plane = (d.x * d.y) as usize;
         macro_rules! get {
             ($t:ty, $v:ident) => {{
-                let v: Vec<$t> = self
-                    .array
-                    .retrieve_array_subset::<Vec<$t>>(&ranges.as_slice())
-                    .map_err(zerr)
-                    .at(path)?;
+                let v: Vec<$t> = self.read_block(&ranges).at(path)?;
                 self.reorder(v, plane, zs.end - zs.start)
                     .into_iter()
                     .map(SliceData::$v)
@@ -396,6 +542,152 @@ impl ZarrReader {
         })
     }
 
+    /// The C-order block `ranges` (one range per array axis), assembled
+    /// from chunks decoded one by one with [`ZarrReader::chunk`], a few at
+    /// a time in parallel; missing chunks read as the fill value.
+    fn read_block<T: bytemuck::Pod + Send>(&self, ranges: &[Range<u64>]) -> crate::Result<Vec<T>> {
+        use rayon::prelude::*;
+        let size = std::mem::size_of::<T>();
+        let lens: Vec<u64> = ranges.iter().map(|r| r.end - r.start).collect();
+        let count = lens
+            .iter()
+            .try_fold(1u64, |a, &l| a.checked_mul(l))
+            .filter(|&c| c.saturating_mul(size as u64) <= MAX_SLAB_BYTES)
+            .and_then(|c| usize::try_from(c).ok())
+            .ok_or_else(|| {
+                Error::invalid(format!(
+                    "a read of {lens:?} samples is more than the {} GiB read at once",
+                    MAX_SLAB_BYTES >> 30
+                ))
+            })?;
+        let fill = self.array.fill_value().as_ne_bytes();
+        let fill: T = if fill.len() == size {
+            bytemuck::pod_read_unaligned(fill)
+        } else {
+            T::zeroed()
+        };
+        let mut out = vec![fill; count];
+        let subset = zarrs::array::ArraySubset::new_with_ranges(ranges);
+        let chunks = match self.array.chunks_in_array_subset(&subset).map_err(zerr)? {
+            Some(c) => c,
+            None => return Ok(out),
+        };
+        // Chunk indices are walked, not collected: a grid of tiny chunks
+        // has as many as the block has samples.
+        let mut all = chunks.indices().into_iter().map(|i| i.to_vec()).peekable();
+        // Decode in batches: at most one chunk per thread, and no more
+        // than MAX_SLAB_BYTES of decoded chunks at a time (one at least).
+        let threads = rayon::current_num_threads().max(1);
+        while all.peek().is_some() {
+            let mut batch = Vec::with_capacity(threads);
+            let mut bytes = 0u64;
+            while let Some(idx) = all.peek() {
+                let b = chunk_bytes(&self.array.chunk_shape(idx).map_err(zerr)?, size)?;
+                if batch.len() == threads || (!batch.is_empty() && bytes + b > MAX_SLAB_BYTES) {
+                    break;
+                }
+                bytes += b;
+                batch.extend(all.next());
+            }
+            let decoded = batch
+                .par_iter()
+                .map(|idx| self.chunk::<T>(idx).map(|c| (idx, c)))
+                .collect::<crate::Result<Vec<_>>>()?;
+            for (idx, chunk) in decoded {
+                let Some(chunk) = chunk else { continue };
+                let cs = self.array.chunk_subset(idx).map_err(zerr)?;
+                copy_overlap(&chunk, cs.start(), cs.shape(), &mut out, ranges);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Chunk `idx` decoded (`None`: not stored, so the fill value), held
+    /// to what the metadata says a chunk is at every step: the stored
+    /// bytes are sized before they are read and may not exceed what the
+    /// codecs can make of one chunk, each compressor decodes into at most
+    /// the size the next step expects (zstd and gzip through a bounded
+    /// reader, blosc by its header), and the result must be exactly one
+    /// chunk. A chunk that disagrees is an error, never a larger buffer.
+    fn chunk<T: bytemuck::Pod>(&self, idx: &[u64]) -> crate::Result<Option<Vec<T>>> {
+        use zarrs::array::codec::api::ArrayToBytesCodecTraits;
+        use zarrs::array::codec::api::CodecOptions;
+        use zarrs::array::codec::CodecChain;
+        use zarrs::storage::ReadableStorageTraits;
+        let size = std::mem::size_of::<T>();
+        let shape = self.array.chunk_shape(idx).map_err(zerr)?;
+        let want = chunk_bytes(&shape, size)?;
+        let at = || format!("chunk {idx:?}");
+        let codecs = self.array.codecs();
+        let (dt, fill) = (self.array.data_type(), self.array.fill_value());
+        let inner = CodecChain::new(
+            codecs.array_to_array_codecs().to_vec(),
+            codecs.array_to_bytes_codec().clone(),
+            Vec::new(),
+        );
+        // The bytes each compressor stage decodes to, innermost first.
+        let mut reps = vec![inner
+            .encoded_representation(&shape, dt, fill)
+            .map_err(zerr)?];
+        for c in codecs.bytes_to_bytes_codecs() {
+            let last = &reps[reps.len() - 1];
+            reps.push(c.encoded_representation(last));
+        }
+        let stored_most = reps[reps.len() - 1].size().ok_or_else(|| {
+            Error::invalid(format!(
+                "{}: the codecs give no bound on a chunk's size",
+                at()
+            ))
+        })?;
+        let key = self.array.chunk_key(idx);
+        match self.array.storage().size_key(&key).map_err(zerr)? {
+            None => return Ok(None),
+            Some(len) if !fits(&reps[reps.len() - 1], len) => {
+                return Err(Error::invalid(format!(
+                    "{} is stored in {len} bytes, but one chunk of {shape:?} takes at most {stored_most}",
+                    at()
+                )))
+            }
+            Some(_) => {}
+        }
+        let Some(stored) = self.array.retrieve_encoded_chunk(idx).map_err(zerr)? else {
+            return Ok(None);
+        };
+        if !fits(&reps[reps.len() - 1], stored.len() as u64) {
+            return Err(Error::invalid(format!(
+                "{} changed size while it was read ({} bytes)",
+                at(),
+                stored.len()
+            )));
+        }
+        let options = CodecOptions::default();
+        let mut bytes = stored;
+        for (c, rep) in codecs.bytes_to_bytes_codecs().iter().zip(&reps).rev() {
+            let limit = rep.size().unwrap_or(0);
+            bytes = bounded_decode(c.as_ref(), bytes, rep, limit, &options)
+                .map_err(|e| Error::invalid(format!("{}: {e}", at())))?;
+            if !fits(rep, bytes.len() as u64) {
+                return Err(Error::invalid(format!(
+                    "{} decompresses to {} bytes, but one chunk of {shape:?} takes {limit}",
+                    at(),
+                    bytes.len()
+                )));
+            }
+        }
+        let decoded = inner
+            .decode(std::borrow::Cow::Owned(bytes), &shape, dt, fill, &options)
+            .map_err(zerr)?
+            .into_fixed()
+            .map_err(zerr)?;
+        if decoded.len() as u64 != want {
+            return Err(Error::invalid(format!(
+                "{} decodes to {} bytes, not the {want} of one chunk of {shape:?}",
+                at(),
+                decoded.len()
+            )));
+        }
+        Ok(Some(bytemuck::pod_collect_to_vec(&decoded)))
+    }
     /// Split a C-order block into x-fastest z slices (transposing when the
     /// array stores x before y).
     fn reorder<T: Copy>(&self, v: Vec<T>, plane: usize, nz: u64) -> Vec<Vec<T>> {
@@ -1072,6 +1364,88 @@ mod tests {
             .retrieve_array_subset::<Vec<u16>>(&[0..1, 0..1, 0..1])
             .unwrap();
         assert_eq!(v[0], (0.5f64 + 50.0 + 500.0).round() as u16);
+    }
+
+    /// The error reading slice 0 of the store at `p` gives.
+    fn first_slice_error(p: &Path) -> String {
+        let r = open(p, None, None).unwrap();
+        match r.read_slice(0) {
+            Ok(_) => panic!("a bad chunk read as data"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn chunk_decompressing_past_one_chunk_is_refused_for_both_versions() {
+        for ngff in [Ngff::V04, Ngff::V05] {
+            let dir = tempfile::tempdir().unwrap();
+            let p = dir.path().join("v.ome.zarr");
+            write_pyramid(&p, ngff);
+            // Level 0's chunks are 64x5x64 u16 (40960 bytes); this zstd
+            // frame of 16 MiB of zeros takes a few hundred bytes.
+            let bomb = zstd::bulk::compress(&vec![0u8; 16 << 20], 3).unwrap();
+            let chunk = match ngff {
+                Ngff::V04 => p.join("0/0/0/0"),
+                Ngff::V05 => p.join("0/c/0/0/0"),
+            };
+            assert!(chunk.is_file(), "{}", chunk.display());
+            std::fs::write(&chunk, &bomb).unwrap();
+            let e = first_slice_error(&p);
+            assert!(e.contains("v.ome.zarr"), "{e}");
+            assert!(
+                e.contains("chunk [0, 0, 0]") && e.contains("more than the 40960 bytes"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn chunk_stored_in_more_bytes_than_its_codecs_make_is_refused_unread() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("v.ome.zarr");
+        write_pyramid(&p, Ngff::V04);
+        std::fs::write(p.join("0/0/0/0"), vec![7u8; 1 << 20]).unwrap();
+        let e = first_slice_error(&p);
+        assert!(
+            e.contains("chunk [0, 0, 0] is stored in 1048576 bytes"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn chunk_shape_larger_than_a_reader_holds_is_refused_at_open() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("v.ome.zarr");
+        write_pyramid(&p, Ngff::V04);
+        let meta = p.join("0/.zarray");
+        let mut z: Value = serde_json::from_slice(&std::fs::read(&meta).unwrap()).unwrap();
+        // 2^40 x 2^40 x 2^40 samples: the product overflows 64 bits.
+        z["chunks"] = json!([1u64 << 40, 1u64 << 40, 1u64 << 40]);
+        std::fs::write(&meta, z.to_string()).unwrap();
+        let e = match open(&p, None, None) {
+            Ok(_) => panic!("opened a store of impossible chunks"),
+            Err(e) => e.to_string(),
+        };
+        assert!(
+            e.contains("v.ome.zarr") && e.contains("larger than the 2 GiB"),
+            "{e}"
+        );
+        // Large but not overflowing: 2^20 x 2^10 x 2^10 u16 is 2 TiB.
+        z["chunks"] = json!([1u64 << 20, 1u64 << 10, 1u64 << 10]);
+        std::fs::write(&meta, z.to_string()).unwrap();
+        assert!(open(&p, None, None).is_err());
+    }
+
+    #[test]
+    fn copy_overlap_places_a_chunk_part_in_a_block() {
+        // A 2x3 chunk at (1, 2) into the block rows 0..3, columns 3..5.
+        let chunk = [1, 2, 3, 4, 5, 6];
+        let mut out = [0; 6];
+        copy_overlap(&chunk, &[1, 2], &[2, 3], &mut out, &[0..3, 3..5]);
+        assert_eq!(out, [0, 0, 2, 3, 5, 6]);
+        // No overlap: nothing changes.
+        copy_overlap(&chunk, &[9, 9], &[2, 3], &mut out, &[0..3, 3..5]);
+        assert_eq!(out, [0, 0, 2, 3, 5, 6]);
     }
 
     #[test]

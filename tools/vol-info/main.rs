@@ -6,7 +6,7 @@ use serde_json::json;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use volcore::{Layout, Volume};
+use volcore::{Dims, Layout, SampleType, Volume};
 use volformats::open::{input_kind, InputKind};
 use volformats::{vvol, ReadOptions};
 use volkit_cli::json;
@@ -132,11 +132,13 @@ fn report(
     }
     outln!("{}: {} ({format})", cli.input.display(), m)?;
     if let Some(b) = file_bytes {
-        let samples = m.dims.count() * m.sample_type.size() as u64;
-        outln!(
-            "  {b} bytes on disk, {samples} bytes of samples ({:.3}x)",
-            b as f64 / samples.max(1) as f64
-        )?;
+        match sample_bytes(m.dims, m.sample_type) {
+            Some(samples) => outln!(
+                "  {b} bytes on disk, {samples} bytes of samples ({:.3}x)",
+                b as f64 / samples.max(1) as f64
+            )?,
+            None => outln!("  {b} bytes on disk, more than 2^64 bytes of samples")?,
+        }
     }
     if let Some(n) = bricks {
         outln!("  {n} bricks")?;
@@ -166,4 +168,27 @@ fn report(
         outln!("  verified in {seconds:.2} s")?;
     }
     Ok(())
+}
+
+/// Bytes the samples of `dims` take as `t`, or `None` past 2^64: a
+/// header's dims need not fit in the file (compressed bricks), so the
+/// product is checked, not trusted.
+fn sample_bytes(dims: Dims, t: SampleType) -> Option<u64> {
+    dims.checked_count()?.checked_mul(t.size() as u64)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_bytes_of_huge_dims_is_none_not_an_overflow() {
+        // 2^24 * 2^24 * 2^15 = 2^63 voxels: the count fits, the bytes do not.
+        let d = Dims::new(1 << 24, 1 << 24, 1 << 15).unwrap();
+        assert_eq!(sample_bytes(d, SampleType::U8), Some(1 << 63));
+        assert_eq!(sample_bytes(d, SampleType::U16), None);
+        assert_eq!(sample_bytes(d, SampleType::F32), None);
+        let small = Dims::new(3, 4, 5).unwrap();
+        assert_eq!(sample_bytes(small, SampleType::F32), Some(240));
+    }
 }

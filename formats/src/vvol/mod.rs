@@ -93,10 +93,11 @@ impl Header {
             }
             Layout::Bricked(g) => {
                 let n = g.brick_count();
-                let table = n
+                let data_offset = n
                     .checked_mul(ENTRY_LEN)
+                    .and_then(|table| table.checked_add(header_len))
+                    .and_then(|end| end.checked_next_multiple_of(ALIGN))
                     .ok_or_else(|| Error::invalid("brick table size overflows"))?;
-                let data_offset = align_up(header_len + table);
                 let (stride, data_len) = match meta.compression {
                     Compression::None => {
                         let stride = align_up(g.stored_len() as u64 * size);
@@ -348,10 +349,26 @@ pub(crate) fn encode_table(entries: &[BrickEntry]) -> Vec<u8> {
 
 pub(crate) fn decode_table(b: &[u8]) -> Vec<BrickEntry> {
     b.chunks_exact(ENTRY_LEN as usize)
-        .map(|c| BrickEntry {
-            offset: u64::from_le_bytes(c[0..8].try_into().unwrap_or_default()),
-            length: u64::from_le_bytes(c[8..16].try_into().unwrap_or_default()),
-            crc32: u32::from_le_bytes(c[16..20].try_into().unwrap_or_default()),
-        })
+        .map(decode_entry)
         .collect()
+}
+
+/// One brick table entry from its 24 bytes.
+pub(crate) fn decode_entry(c: &[u8]) -> BrickEntry {
+    let u64_at = |o: usize| {
+        u64::from_le_bytes(
+            c.get(o..o + 8)
+                .and_then(|b| b.try_into().ok())
+                .unwrap_or_default(),
+        )
+    };
+    BrickEntry {
+        offset: u64_at(0),
+        length: u64_at(8),
+        crc32: u32::from_le_bytes(
+            c.get(16..20)
+                .and_then(|b| b.try_into().ok())
+                .unwrap_or_default(),
+        ),
+    }
 }

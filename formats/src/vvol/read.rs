@@ -1,6 +1,6 @@
 //! Opening `.vvol` files and streams.
 
-use super::{decode_table, Header, Trailer, BASE_HEADER_LEN, ENTRY_LEN, HEADER_LEN, TRAILER_LEN};
+use super::{decode_entry, Header, Trailer, BASE_HEADER_LEN, ENTRY_LEN, HEADER_LEN, TRAILER_LEN};
 use crate::error::{truncated, Error, Result};
 use memmap2::Mmap;
 use rayon::prelude::*;
@@ -11,8 +11,8 @@ use std::sync::Arc;
 use volcore::grid::BrickEntry;
 use volcore::volume::{IntoVolumeData, TypedGrid};
 use volcore::{
-    BrickedGrid, CompressedGrid, Compression, Data, Dims, Layout, Sample, SampleType, SlicedGrid,
-    Volume,
+    BrickGeometry, BrickedGrid, CompressedGrid, Compression, Data, Dims, Layout, Sample,
+    SampleType, SlicedGrid, Volume,
 };
 
 /// How to open a `.vvol` file.
@@ -95,13 +95,15 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
     }
     let table = match meta.layout {
         Layout::Sliced => Vec::new(),
-        Layout::Bricked(_) => {
-            let end = (h.header_len + h.brick_count * ENTRY_LEN) as usize;
-            let raw = &source.map[h.header_len as usize..end];
+        Layout::Bricked(g) => {
+            let raw = table_bytes(&h, &source.map)?;
+            // Its layout first: a hostile table fails at its first bad
+            // entry, without a pass over all of it.
+            let table = read_table(&h, g, raw)?;
             if opts.verify && crc32fast::hash(raw) != t.crc32 {
                 return Err(Error::Checksum("brick table is damaged".into()));
             }
-            decode_table(raw)
+            table
         }
     };
     let data = match meta.sample_type {
@@ -111,6 +113,106 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
         SampleType::F32 => build::<f32>(&h, &t, source, table, opts)?,
     };
     Ok(Volume { meta, data })
+}
+
+/// The brick table's bytes in `map`: `brick_count` entries right after
+/// the header, which must lie inside the file (the header was checked
+/// against the file length, so this only guards that check).
+fn table_bytes<'a>(h: &Header, map: &'a [u8]) -> Result<&'a [u8]> {
+    let len = h.brick_count.checked_mul(ENTRY_LEN);
+    let end = len.and_then(|l| l.checked_add(h.header_len));
+    end.and_then(|end| map.get(h.header_len as usize..usize::try_from(end).ok()?))
+        .ok_or_else(|| {
+            Error::invalid(format!(
+                "brick table of {} entries does not fit in the {}-byte file",
+                h.brick_count,
+                map.len()
+            ))
+        })
+}
+
+/// Decode and check a brick table as it is read, so a damaged or hostile
+/// table fails at its first bad entry, before the whole of it is held.
+///
+/// Every entry must lie inside the data section. Uncompressed bricks sit
+/// at their fixed places; zstd bricks lie back to back in brick order from
+/// the data offset to the end of the data section (as FORMAT.md says and
+/// the writers write), each no longer than zstd makes of one brick. So
+/// every brick has bytes of its own: the brick count the dims imply is
+/// tied to the data actually in the file, and a small file cannot make
+/// many entries share one frame to decode to far more than it holds.
+fn read_table(h: &Header, g: BrickGeometry, raw: &[u8]) -> Result<Vec<BrickEntry>> {
+    let meta = &h.meta;
+    let n = g.brick_count();
+    if n != h.brick_count || raw.len() as u64 != n.saturating_mul(ENTRY_LEN) {
+        return Err(Error::invalid(format!(
+            "brick table has {} bytes but {} makes {n} bricks",
+            raw.len(),
+            meta.dims
+        )));
+    }
+    let brick_bytes = (g.stored_len() as u64)
+        .checked_mul(meta.sample_type.size() as u64)
+        .ok_or_else(|| Error::invalid("one brick's size overflows"))?;
+    let compressed = meta.compression != Compression::None;
+    // The longest a brick can be stored: zstd's bound for one brick.
+    let most = if compressed {
+        let b = usize::try_from(brick_bytes)
+            .map_err(|_| Error::invalid("one brick's size overflows"))?;
+        zstd::zstd_safe::compress_bound(b) as u64
+    } else {
+        brick_bytes
+    };
+    let data_end = h
+        .data_offset
+        .checked_add(h.data_len)
+        .ok_or_else(|| Error::invalid("data length overflows"))?;
+    // Each compressed brick takes at least one byte of data: more bricks
+    // than data bytes cannot be right, whatever the table says.
+    if compressed && n > h.data_len {
+        return Err(Error::invalid(format!(
+            "{} makes {n} bricks, more than the {} bytes of compressed data can hold",
+            meta.dims, h.data_len
+        )));
+    }
+    // Grown as entries pass, not reserved for what the header claims.
+    let mut entries: Vec<BrickEntry> = Vec::new();
+    let mut at = h.data_offset;
+    for (i, c) in raw.chunks_exact(ENTRY_LEN as usize).enumerate() {
+        let e = decode_entry(c);
+        let end = e.offset.checked_add(e.length);
+        if e.offset < h.data_offset || end.is_none_or(|end| end > data_end) {
+            return Err(Error::invalid(format!(
+                "brick table entry {i} points outside the data ({} bytes at offset {})",
+                e.length, e.offset
+            )));
+        }
+        if !compressed {
+            if e.offset != h.data_offset + i as u64 * h.brick_stride || e.length != brick_bytes {
+                return Err(Error::invalid(format!(
+                    "brick table entry {i} does not match the uncompressed layout"
+                )));
+            }
+        } else if e.offset != at || e.length == 0 || e.length > most {
+            return Err(Error::invalid(format!(
+                "brick table entry {i} ({} bytes at offset {}) is not the next brick: zstd bricks lie back to back from offset {}, 1 to {most} bytes each",
+                e.length, e.offset, h.data_offset
+            )));
+        }
+        at = e.offset + e.length;
+        entries.try_reserve(1).map_err(|_| {
+            Error::invalid(format!(
+                "a brick table of {n} entries does not fit in memory"
+            ))
+        })?;
+        entries.push(e);
+    }
+    if compressed && at != data_end {
+        return Err(Error::invalid(format!(
+            "the bricks end at offset {at} but the data section ends at {data_end}"
+        )));
+    }
+    Ok(entries)
 }
 
 /// The whole file in anonymous memory advised for transparent huge pages.
@@ -168,55 +270,34 @@ fn build<T: IntoVolumeData>(
             let data = source.data(h.data_offset, meta.dims.count() as usize)?;
             TypedGrid::Sliced(SlicedGrid::new(meta.dims, data)?)
         }
-        Layout::Bricked(g) => {
-            for (i, e) in table.iter().enumerate() {
-                let inside = e.offset >= h.data_offset
-                    && e.offset
-                        .checked_add(e.length)
-                        .is_some_and(|end| end <= data_end);
-                if !inside {
-                    return Err(Error::invalid(format!(
-                        "brick table entry {i} points outside the data ({} bytes at offset {})",
-                        e.length, e.offset
-                    )));
+        // The table was checked against the data section as it was read
+        // (read_table).
+        Layout::Bricked(g) => match meta.compression {
+            Compression::None => {
+                if opts.verify {
+                    verify_bricks(map, &table)?;
                 }
+                let len = (h.data_len / size) as usize;
+                let data = source.data(h.data_offset, len)?;
+                let stride = (h.brick_stride / size) as usize;
+                TypedGrid::Bricked(BrickedGrid::new(g, stride, data)?)
             }
-            match meta.compression {
-                Compression::None => {
-                    let raw = g.stored_len() as u64 * size;
-                    for (i, e) in table.iter().enumerate() {
-                        if e.offset != h.data_offset + i as u64 * h.brick_stride || e.length != raw
-                        {
-                            return Err(Error::invalid(format!(
-                                "brick table entry {i} does not match the uncompressed layout"
-                            )));
-                        }
-                    }
-                    if opts.verify {
-                        verify_bricks(map, &table)?;
-                    }
-                    let len = (h.data_len / size) as usize;
-                    let data = source.data(h.data_offset, len)?;
-                    let stride = (h.brick_stride / size) as usize;
-                    TypedGrid::Bricked(BrickedGrid::new(g, stride, data)?)
+            Compression::Zstd(_) => {
+                if opts.verify {
+                    verify_bricks(map, &table)?;
                 }
-                Compression::Zstd(_) => {
-                    if opts.verify {
-                        verify_bricks(map, &table)?;
-                    }
-                    let len = map.len();
-                    let source = source.data::<u8>(0, len)?;
-                    let grid = CompressedGrid::<T>::new(g, source, table, opts.cache_bytes)?;
-                    if opts.verify {
-                        (0..g.brick_count())
-                            .into_par_iter()
-                            .try_for_each(|i| grid.decode(i).map(|_| ()))
-                            .map_err(Error::Invalid)?;
-                    }
-                    TypedGrid::Compressed(grid)
+                let len = map.len();
+                let source = source.data::<u8>(0, len)?;
+                let grid = CompressedGrid::<T>::new(g, source, table, opts.cache_bytes)?;
+                if opts.verify {
+                    (0..g.brick_count())
+                        .into_par_iter()
+                        .try_for_each(|i| grid.decode(i).map(|_| ()))
+                        .map_err(Error::Invalid)?;
                 }
+                TypedGrid::Compressed(grid)
             }
-        }
+        },
     };
     Ok(T::into_data(grid))
 }
