@@ -71,7 +71,9 @@ pub struct FrameStats {
     pub samples: u64,
     /// Jumps over empty cells.
     pub skips: u64,
-    /// Seconds spent rendering.
+    /// Wall seconds of the frame: its set-up (classifier tables, skipping
+    /// flags, culling, light and occlusion grids) and its rays; not the
+    /// AO field, built once per transfer function (its own figure).
     pub render_s: f64,
     /// What the effects did (zero when they are off).
     pub effects: crate::effects::EffectStats,
@@ -510,11 +512,10 @@ impl Film {
     }
 
     /// Add what building the frame's light grids and occlusion grid cost
-    /// (their build time counts as render time: it is spent once per
-    /// frame); and the AO field's, which is reported beside the frame's
-    /// time (it is built once per transfer function).
+    /// (their build time is part of the frame's wall time: they are built
+    /// once per frame); and the AO field's, which is reported beside the
+    /// frame's time (it is built once per transfer function).
     pub fn add_grid_stats(&mut self, s: &crate::effects::EffectStats) {
-        self.stats.render_s += s.shadow_grid_s + s.ao_grid_s;
         let e = &mut self.stats.effects;
         e.shadow_grids += s.shadow_grids;
         e.shadow_grid_s += s.shadow_grid_s;

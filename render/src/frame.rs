@@ -277,6 +277,7 @@ pub fn render_film(
     settings: &RenderSettings,
     share: Option<&ShareBox>,
 ) -> Result<(Film, Display), RenderError> {
+    let start = Instant::now();
     check(settings, vol, camera)?;
     if let Some(ix) = index {
         if ix.dims() != vol.dims() {
@@ -306,7 +307,7 @@ pub fn render_film(
         share_pixels: share.and_then(|b| b.pixels(camera, Vec3::from(vol.meta.world_extent()))),
         step: settings.step,
     };
-    let film = match settings.mode {
+    let mut film = match settings.mode {
         Mode::Dvr => {
             let tf =
                 tf.ok_or_else(|| RenderError::Setting("DVR needs a transfer function".into()))?;
@@ -403,6 +404,11 @@ pub fn render_film(
             film
         }
     };
+    // The frame's time is its wall time, set-up included (classifier
+    // tables, skipping flags, culling, light and occlusion grids), but for
+    // the AO field, built once per transfer function and reported beside.
+    let wall = start.elapsed().as_secs_f64();
+    film.set_render_seconds((wall - film.stats().effects.ao_field_s).max(0.0));
     Ok((film, display_for(vol, settings.mode)))
 }
 
@@ -594,9 +600,7 @@ impl TableUser for DvrFrame<'_> {
         };
         let skip = transparent_cells(skip_index, table, &gradients)?;
         // Pixel blocks whose rays meet no cell the rule keeps are not
-        // traced (their pixels are empty either way); finding them counts
-        // in the frame's time.
-        let cull_start = Instant::now();
+        // traced (their pixels are empty either way).
         let busy = skip.as_ref().and_then(|s| {
             cull::busy_blocks(
                 tiles.camera,
@@ -606,7 +610,6 @@ impl TableUser for DvrFrame<'_> {
                 |level, cell| !s.skippable(level, cell),
             )
         });
-        let cull_s = cull_start.elapsed().as_secs_f64();
         let tiles = Tiles {
             busy: busy.as_ref(),
             ..tiles
@@ -675,7 +678,6 @@ impl TableUser for DvrFrame<'_> {
             effects,
         };
         let mut film = dispatch::dvr(plan, tiles);
-        film.set_render_seconds(film.stats().render_s + cull_s);
         film.set_culled_blocks(busy.as_ref().map_or(0, |b| b.culled()) as u64);
         if let Some((.., stats, _)) = &effect_parts {
             film.add_grid_stats(stats);
@@ -722,13 +724,10 @@ struct Tiles<'a> {
 impl IntegratorVisitor for Tiles<'_> {
     type Output = Film;
     fn visit<I: Integrator>(self, integrator: I) -> Film {
-        let start = Instant::now();
-        let mut film = self.vol.visit(Trace {
+        self.vol.visit(Trace {
             tiles: self,
             integrator: &integrator,
-        });
-        film.set_render_seconds(start.elapsed().as_secs_f64());
-        film
+        })
     }
 }
 
