@@ -75,8 +75,6 @@ def main():
     m.add_argument("--edge-measured", type=float, default=800)
     m.add_argument("--ert-overhead", type=float, default=0.037,
                    help="extra samples per doubling of ranks from per-share early termination (2 ranks: 3.7%%)")
-    m.add_argument("--no-ert-ratio", type=float, default=3.0,
-                   help="cap: samples without early termination over samples with it")
     m.add_argument("--record-bytes", type=float, default=24, help="DVR bytes per pixel record")
     m.add_argument("--ns-per-join", type=float, default=8.0,
                    help="encoding and compositing, per pixel and part, one thread (8 ms / 0.98 M)")
@@ -87,6 +85,9 @@ def main():
     m.add_argument("--apron", type=float, default=1.07,
                    help="sum of the shards over the unsharded job (4 shards: 1.07)")
     s = p.add_argument_group("assumed (the cluster, the data)")
+    s.add_argument("--no-ert-ratio", type=float, default=3.0,
+                   help="cap on the early-termination overhead: samples without it over samples "
+                        "with it (not reached from 16 to 1024 ranks)")
     s.add_argument("--edge", type=float, default=10000)
     s.add_argument("--sample-bytes", type=float, default=1)
     s.add_argument("--cell", type=float, default=16, help="index cell edge (--cell)")
