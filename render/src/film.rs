@@ -793,7 +793,7 @@ mod tests {
                 let short = &bytes[..bytes.len() - 1];
                 assert!(g.decode_rows(rows.clone(), fields, short).is_none());
             }
-            if n % 8 != 0 {
+            if !n.is_multiple_of(8) {
                 let mut stray = bytes.clone();
                 stray[n.div_ceil(8) - 1] |= 0x80;
                 assert!(g.decode_rows(rows.clone(), fields, &stray).is_none());
