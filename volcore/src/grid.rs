@@ -79,12 +79,28 @@ pub trait Cursor {
         ]
     }
 
+    /// The trilinear value of the cell at base `(i, j, k)` at offsets `t`:
+    /// [`blend`] of [`Cursor::cell`], bit for bit (layouts override it to
+    /// blend without gathering the corners one by one).
+    #[inline(always)]
+    fn cell_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> f32 {
+        blend(&self.cell(i, j, k), t)
+    }
+
+    /// The blends at offsets `t` of [`Cursor::cross_diffs`] around the
+    /// cell at base `(i, j, k)`, per axis (interior cells only, as there),
+    /// bit for bit; layouts override it as [`Cursor::cell_blend`].
+    #[inline(always)]
+    fn cross_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> [f32; 3] {
+        let [dx, dy, dz] = self.cross_diffs(i, j, k);
+        [blend(&dx, t), blend(&dy, t), blend(&dz, t)]
+    }
+
     /// Trilinear interpolation at a point in voxel coordinates.
     #[inline]
     fn trilinear(&mut self, p: [f32; 3]) -> f32 {
         let (base, t) = locate(p, self.dims());
-        let c = self.cell(base[0], base[1], base[2]);
-        blend(&c, t)
+        self.cell_blend(base[0], base[1], base[2], t)
     }
 
     /// The nearest voxel's value at a point in voxel coordinates.
@@ -220,7 +236,13 @@ pub fn blend(c: &[f32; 8], t: [f32; 3]) -> f32 {
 }
 
 #[inline(always)]
-fn cell_from<T: Sample>(s: &[T], base: usize, ox: usize, oy: usize, oz: usize) -> [f32; 8] {
+pub(crate) fn cell_from<T: Sample>(
+    s: &[T],
+    base: usize,
+    ox: usize,
+    oy: usize,
+    oz: usize,
+) -> [f32; 8] {
     // One bounds check for the whole cell instead of eight.
     let s = &s[base..=base + ox + oy + oz];
     [
@@ -240,7 +262,7 @@ fn cell_from<T: Sample>(s: &[T], base: usize, ox: usize, oy: usize, oz: usize) -
 /// Integer samples are subtracted before they are converted
 /// ([`Sample::diff_f32`]): 24 conversions instead of 48, the same bits.
 #[inline(always)]
-fn cross_diffs_from<T: Sample>(
+pub(crate) fn cross_diffs_from<T: Sample>(
     s: &[T],
     base: usize,
     ox: usize,
@@ -406,6 +428,21 @@ impl<T: Sample> Cursor for SlicedCursor<'_, T> {
     fn cross_diffs(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 3] {
         let [sx, sy, sz] = self.strides;
         cross_diffs_from(self.data, self.at(i, j, k), sx, sy, sz)
+    }
+
+    #[inline(always)]
+    fn cell_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> f32 {
+        let d = self.dims;
+        let [sx, sy, sz] = self.strides;
+        let ox = if i + 1 < d.x { sx } else { 0 };
+        let oy = if j + 1 < d.y { sy } else { 0 };
+        let oz = if k + 1 < d.z { sz } else { 0 };
+        T::cell_blend(self.data, self.at(i, j, k), [ox, oy, oz], t)
+    }
+
+    #[inline(always)]
+    fn cross_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> [f32; 3] {
+        T::cross_blend(self.data, self.at(i, j, k), self.strides, t)
     }
 }
 
@@ -610,6 +647,18 @@ impl<T: Sample> Cursor for BrickedCursor<'_, T> {
         // inside the brick of (i, j, k).
         let (base, e) = self.at(i, j, k);
         cross_diffs_from(self.data, base, 1, e, e * e)
+    }
+
+    #[inline(always)]
+    fn cell_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> f32 {
+        let (base, e) = self.at(i, j, k);
+        T::cell_blend(self.data, base, [1, e, e * e], t)
+    }
+
+    #[inline(always)]
+    fn cross_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> [f32; 3] {
+        let (base, e) = self.at(i, j, k);
+        T::cross_blend(self.data, base, [1, e, e * e], t)
     }
 }
 
@@ -829,6 +878,20 @@ impl<T: Sample> Cursor for CompressedCursor<'_, T> {
         let a = self.addr.addr(i, j, k);
         let e = self.addr.e;
         cross_diffs_from(self.brick(a.brick), a.local, 1, e, e * e)
+    }
+
+    #[inline(always)]
+    fn cell_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> f32 {
+        let a = self.addr.addr(i, j, k);
+        let e = self.addr.e;
+        T::cell_blend(self.brick(a.brick), a.local, [1, e, e * e], t)
+    }
+
+    #[inline(always)]
+    fn cross_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> [f32; 3] {
+        let a = self.addr.addr(i, j, k);
+        let e = self.addr.e;
+        T::cross_blend(self.brick(a.brick), a.local, [1, e, e * e], t)
     }
 }
 

@@ -113,6 +113,26 @@ pub trait Sample:
     /// Narrowing from `f32`: round half away from zero, clamp to the type's
     /// range; NaN becomes 0 for integer types and stays NaN for `f32`.
     fn from_f32(v: f32) -> Self;
+    /// The trilinear value at offsets `t` of the cell whose first corner
+    /// is `s[base]`, corners `o` samples apart per axis (all in `s`):
+    /// [`crate::grid::blend`] of its corners, bit for bit.
+    #[inline(always)]
+    fn cell_blend(s: &[Self], base: usize, o: [usize; 3], t: [f32; 3]) -> f32 {
+        crate::grid::blend(&crate::grid::cell_from(s, base, o[0], o[1], o[2]), t)
+    }
+    /// The blends at offsets `t` of the central differences around the
+    /// cell at `s[base]` (not halved; neighbours `o` apart, the whole cross
+    /// in `s`): [`crate::grid::blend`] of each axis's differences, bit for
+    /// bit.
+    #[inline(always)]
+    fn cross_blend(s: &[Self], base: usize, o: [usize; 3], t: [f32; 3]) -> [f32; 3] {
+        let [dx, dy, dz] = crate::grid::cross_diffs_from(s, base, o[0], o[1], o[2]);
+        [
+            crate::grid::blend(&dx, t),
+            crate::grid::blend(&dy, t),
+            crate::grid::blend(&dz, t),
+        ]
+    }
     /// Whether this sample is NaN (always false for integers).
     fn is_nan(self) -> bool {
         false
@@ -125,9 +145,10 @@ pub trait Sample:
 }
 
 macro_rules! int_sample {
-    ($t:ty, $tag:expr) => {
+    ($t:ty, $tag:expr $(, $extra:item)*) => {
         impl Sample for $t {
             const TYPE: SampleType = $tag;
+            $($extra)*
             #[inline(always)]
             fn to_f32(self) -> f32 {
                 self as f32
@@ -163,7 +184,39 @@ macro_rules! int_sample {
     };
 }
 
-int_sample!(u8, SampleType::U8);
+int_sample!(
+    u8,
+    SampleType::U8,
+    // Bytes along x are adjacent in bricks and x-fastest slices: blend in
+    // SSE2 lanes there (the same bits; see `crate::lanes`).
+    #[inline(always)]
+    fn cell_blend(s: &[u8], base: usize, o: [usize; 3], t: [f32; 3]) -> f32 {
+        let lanes = if o[0] == 1 {
+            crate::lanes::cell_blend(s, base, o[1], o[2], t)
+        } else {
+            None
+        };
+        lanes.unwrap_or_else(|| {
+            crate::grid::blend(&crate::grid::cell_from(s, base, o[0], o[1], o[2]), t)
+        })
+    },
+    #[inline(always)]
+    fn cross_blend(s: &[u8], base: usize, o: [usize; 3], t: [f32; 3]) -> [f32; 3] {
+        let lanes = if o[0] == 1 {
+            crate::lanes::cross_blend(s, base, o[1], o[2], t)
+        } else {
+            None
+        };
+        lanes.unwrap_or_else(|| {
+            let [dx, dy, dz] = crate::grid::cross_diffs_from(s, base, o[0], o[1], o[2]);
+            [
+                crate::grid::blend(&dx, t),
+                crate::grid::blend(&dy, t),
+                crate::grid::blend(&dz, t),
+            ]
+        })
+    }
+);
 int_sample!(u16, SampleType::U16);
 int_sample!(i16, SampleType::I16);
 

@@ -27,8 +27,7 @@ impl Reconstruct for Trilinear {
     #[inline(always)]
     fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
         let (base, t) = loc.locate(p.into());
-        let c = cur.cell(base[0], base[1], base[2]);
-        blend(&c, t)
+        cur.cell_blend(base[0], base[1], base[2], t)
     }
     #[inline(always)]
     fn in_cell(c: &[f32; 8], t: [f32; 3]) -> f32 {
@@ -154,8 +153,7 @@ pub fn central_gradient<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> Vec3 
     // The interpolant is linear in the cell values, so f(p + e) − f(p − e)
     // is the blend of the two cells' differences: three blends, not six
     // (and exact differences for integer samples).
-    let [dx, dy, dz] = cur.cross_diffs(base[0], base[1], base[2]);
-    Vec3::new(blend(&dx, t), blend(&dy, t), blend(&dz, t)) * 0.5
+    Vec3::from(cur.cross_blend(base[0], base[1], base[2], t)) * 0.5
 }
 
 #[cfg(test)]
