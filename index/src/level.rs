@@ -183,6 +183,23 @@ impl Level {
             .collect()
     }
 
+    /// Per cell, x fastest: whether the function behind `table` is at most
+    /// 0 over the cell's whole range (empty cells: yes), which is
+    /// `majorants(table)[i] <= 0.0` without the majorants. Cells are taken
+    /// in parallel runs.
+    pub fn zero_cells(&self, table: &RangeMaxTable) -> Vec<bool> {
+        const RUN: usize = 1 << 14;
+        let mut out = vec![false; self.min.len()];
+        out.par_chunks_mut(RUN)
+            .zip(self.min.par_chunks(RUN).zip(self.max.par_chunks(RUN)))
+            .for_each(|(out, (lo, hi))| {
+                for ((o, &a), &b) in out.iter_mut().zip(lo).zip(hi) {
+                    *o = table.zero_over(a, b);
+                }
+            });
+        out
+    }
+
     /// The next coarser level: each cell the union of its 2×2×2 children
     /// (fewer at the far faces).
     pub(crate) fn coarsen(&self) -> Result<Level, IndexError> {
@@ -240,6 +257,34 @@ mod tests {
             vec![[1, 1, 1]]
         );
         assert_eq!(level_shapes(Dims::new(9, 9, 9).unwrap(), 8).len(), 2);
+    }
+
+    /// Over more cells than one parallel run, with empty cells (min above
+    /// max) and NaN ranges among them.
+    #[test]
+    fn zero_cells_are_the_cells_with_no_positive_majorant() {
+        let mut rng = fastrand::Rng::with_seed(4);
+        let n = 40 * 30 * 20;
+        let (mut min, mut max) = (Vec::new(), Vec::new());
+        for _ in 0..n {
+            let a = rng.f32() * 260.0 - 2.0;
+            let (lo, hi) = match rng.u8(..10) {
+                0 => (f32::INFINITY, f32::NEG_INFINITY),
+                1 => (f32::NAN, a),
+                _ => (a, a + rng.f32() * 12.0),
+            };
+            min.push(lo);
+            max.push(hi);
+        }
+        let l = Level::from_parts([40, 30, 20], 4, min, max).unwrap();
+        let maxima: Vec<f32> = (0..256)
+            .map(|v| f32::from((90..110).contains(&v)))
+            .collect();
+        let table = RangeMaxTable::from_bin_maxima(0.0, 255.0, maxima).unwrap();
+        let want: Vec<bool> = l.majorants(&table).iter().map(|&m| m <= 0.0).collect();
+        let got = l.zero_cells(&table);
+        assert_eq!(got, want);
+        assert!(got.iter().any(|&z| z) && got.iter().any(|&z| !z));
     }
 
     #[test]

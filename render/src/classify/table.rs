@@ -173,7 +173,7 @@ impl Classifier for TfTable {
         Ok(index
             .levels()
             .iter()
-            .map(|l| l.majorants(&bounds).iter().map(|&m| m <= 0.0).collect())
+            .map(|l| l.zero_cells(&bounds))
             .collect())
     }
 }
