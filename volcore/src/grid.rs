@@ -235,6 +235,26 @@ pub fn blend(c: &[f32; 8], t: [f32; 3]) -> f32 {
     lerp(y0, y1, t[2])
 }
 
+/// [`blend`] of the cell whose first corner is `s[base]`, corners `ox`,
+/// `oy`, `oz` apart: the scalar [`Sample::cell_blend`].
+#[inline(always)]
+pub(crate) fn blend_cell_from<T: Sample>(s: &[T], base: usize, o: [usize; 3], t: [f32; 3]) -> f32 {
+    blend(&cell_from(s, base, o[0], o[1], o[2]), t)
+}
+
+/// [`blend`] of each axis's [`cross_diffs_from`]: the scalar
+/// [`Sample::cross_blend`].
+#[inline(always)]
+pub(crate) fn blend_cross_from<T: Sample>(
+    s: &[T],
+    base: usize,
+    o: [usize; 3],
+    t: [f32; 3],
+) -> [f32; 3] {
+    let [dx, dy, dz] = cross_diffs_from(s, base, o[0], o[1], o[2]);
+    [blend(&dx, t), blend(&dy, t), blend(&dz, t)]
+}
+
 #[inline(always)]
 pub(crate) fn cell_from<T: Sample>(
     s: &[T],

@@ -118,7 +118,7 @@ pub trait Sample:
     /// [`crate::grid::blend`] of its corners, bit for bit.
     #[inline(always)]
     fn cell_blend(s: &[Self], base: usize, o: [usize; 3], t: [f32; 3]) -> f32 {
-        crate::grid::blend(&crate::grid::cell_from(s, base, o[0], o[1], o[2]), t)
+        crate::grid::blend_cell_from(s, base, o, t)
     }
     /// The blends at offsets `t` of the central differences around the
     /// cell at `s[base]` (not halved; neighbours `o` apart, the whole cross
@@ -126,12 +126,7 @@ pub trait Sample:
     /// bit.
     #[inline(always)]
     fn cross_blend(s: &[Self], base: usize, o: [usize; 3], t: [f32; 3]) -> [f32; 3] {
-        let [dx, dy, dz] = crate::grid::cross_diffs_from(s, base, o[0], o[1], o[2]);
-        [
-            crate::grid::blend(&dx, t),
-            crate::grid::blend(&dy, t),
-            crate::grid::blend(&dz, t),
-        ]
+        crate::grid::blend_cross_from(s, base, o, t)
     }
     /// Whether this sample is NaN (always false for integers).
     fn is_nan(self) -> bool {
@@ -196,9 +191,7 @@ int_sample!(
         } else {
             None
         };
-        lanes.unwrap_or_else(|| {
-            crate::grid::blend(&crate::grid::cell_from(s, base, o[0], o[1], o[2]), t)
-        })
+        lanes.unwrap_or_else(|| crate::grid::blend_cell_from(s, base, o, t))
     },
     #[inline(always)]
     fn cross_blend(s: &[u8], base: usize, o: [usize; 3], t: [f32; 3]) -> [f32; 3] {
@@ -207,14 +200,7 @@ int_sample!(
         } else {
             None
         };
-        lanes.unwrap_or_else(|| {
-            let [dx, dy, dz] = crate::grid::cross_diffs_from(s, base, o[0], o[1], o[2]);
-            [
-                crate::grid::blend(&dx, t),
-                crate::grid::blend(&dy, t),
-                crate::grid::blend(&dz, t),
-            ]
-        })
+        lanes.unwrap_or_else(|| crate::grid::blend_cross_from(s, base, o, t))
     }
 );
 int_sample!(u16, SampleType::U16);
