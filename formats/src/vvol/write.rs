@@ -33,9 +33,7 @@ pub fn write<'a, R: RegionSource>(
         return Err(Error::invalid("writer metadata does not match its source"));
     }
     let mut w = VvolWriter::new(sink, meta, progress)?;
-    while !w.next_slices().is_empty() {
-        w.write_next(src)?;
-    }
+    w.write_rest(src)?;
     w.finish()
 }
 
@@ -185,6 +183,43 @@ impl<'a> VvolWriter<'a> {
         }
     }
 
+    /// Write every unit not written yet from `src`, which must serve all
+    /// their slices. Sliced output goes through one pipeline from the
+    /// first slice to the last, so that producing slices overlaps writing
+    /// them throughout instead of stopping at the end of every unit.
+    pub fn write_rest<R: RegionSource>(&mut self, src: &R) -> Result<()> {
+        if let State::Sliced { next_z, .. } = self.state {
+            return self.write_slices(src, next_z..self.units.end);
+        }
+        while !self.next_slices().is_empty() {
+            self.write_next(src)?;
+        }
+        Ok(())
+    }
+
+    /// Write slices `zs` of a sliced volume, the next ones due.
+    fn write_slices<R: RegionSource>(&mut self, src: &R, zs: Range<u64>) -> Result<()> {
+        let State::Sliced { crc, next_z } = &mut self.state else {
+            return Err(Error::invalid(
+                "slices written to a bricked .vvol (internal error)",
+            ));
+        };
+        if zs.is_empty() {
+            return Ok(());
+        }
+        let base = self.done_bytes;
+        let progress = self.progress;
+        let out = sink_writer(&mut self.sink);
+        let d = self.header.meta.dims;
+        let rows = (zs.start * d.y)..(zs.end * d.y);
+        let w = write_rows(src, rows, out, &|n| progress(base + n))?;
+        crc.combine(&w.crc);
+        self.range = self.range.merge(w.range);
+        self.done_bytes += w.bytes;
+        *next_z = zs.end;
+        Ok(())
+    }
+
     /// Write the next unit from `src`, which must serve every row of the
     /// slices in [`VvolWriter::next_slices`].
     pub fn write_next<R: RegionSource>(&mut self, src: &R) -> Result<()> {
@@ -192,79 +227,79 @@ impl<'a> VvolWriter<'a> {
         if zs.is_empty() {
             return Ok(());
         }
-        let base = self.done_bytes;
+        match self.state {
+            State::Sliced { .. } => self.write_slices(src, zs),
+            State::Bricked { .. } => self.write_layer(src),
+        }
+    }
+
+    /// Write the next layer of bricks of a bricked volume.
+    fn write_layer<R: RegionSource>(&mut self, src: &R) -> Result<()> {
         let progress = self.progress;
         let out = sink_writer(&mut self.sink);
-        match &mut self.state {
-            State::Sliced { crc, next_z } => {
-                let d = self.header.meta.dims;
-                let rows = (zs.start * d.y)..(zs.end * d.y);
-                let w = write_rows(src, rows, out, &|n| progress(base + n))?;
-                crc.combine(&w.crc);
-                self.range = self.range.merge(w.range);
-                self.done_bytes += w.bytes;
-                *next_z = zs.end;
-            }
-            State::Bricked {
-                geom,
-                entries,
-                offset,
-                level,
-                next_layer,
-            } => {
-                let geom = *geom;
-                let level = *level;
-                let size = R::Sample::TYPE.size() as u64;
-                let raw_len = geom.stored_len() as u64 * size;
-                let stride = self.header.brick_stride;
-                let per_layer = geom.counts()[0] * geom.counts()[1];
-                let first = *next_layer * per_layer;
-                let produce = |i: u64| -> Result<(Vec<u8>, ValueRange)> {
-                    let id = first + i;
-                    let mut samples = vec![R::Sample::default(); geom.stored_len()];
-                    fill_brick(src, &geom, geom.brick_coords(id), &mut samples);
-                    let range = ValueRange::of(&samples);
-                    let bytes: &[u8] = bytemuck::cast_slice(&samples);
-                    let out = match level {
-                        Some(l) => compress(bytes, l)?,
-                        None => {
-                            let mut v = Vec::with_capacity(stride as usize);
-                            v.extend_from_slice(bytes);
-                            v.resize(stride as usize, 0);
-                            v
-                        }
-                    };
-                    Ok((out, range))
+        let State::Bricked {
+            geom,
+            entries,
+            offset,
+            level,
+            next_layer,
+        } = &mut self.state
+        else {
+            return Err(Error::invalid(
+                "bricks written to a sliced .vvol (internal error)",
+            ));
+        };
+        let geom = *geom;
+        let level = *level;
+        let size = R::Sample::TYPE.size() as u64;
+        let raw_len = geom.stored_len() as u64 * size;
+        let stride = self.header.brick_stride;
+        let per_layer = geom.counts()[0] * geom.counts()[1];
+        let first = *next_layer * per_layer;
+        let produce = |i: u64| -> Result<(Vec<u8>, ValueRange)> {
+            let id = first + i;
+            let mut samples = vec![R::Sample::default(); geom.stored_len()];
+            fill_brick(src, &geom, geom.brick_coords(id), &mut samples);
+            let range = ValueRange::of(&samples);
+            let bytes: &[u8] = bytemuck::cast_slice(&samples);
+            let out = match level {
+                Some(l) => compress(bytes, l)?,
+                None => {
+                    let mut v = Vec::with_capacity(stride as usize);
+                    v.extend_from_slice(bytes);
+                    v.resize(stride as usize, 0);
+                    v
+                }
+            };
+            Ok((out, range))
+        };
+        let batch = ((16 * ITEM_BYTES) / raw_len.max(1)).clamp(2, 4096) as usize;
+        let range = &mut self.range;
+        let done = &mut self.done_bytes;
+        ordered(
+            per_layer,
+            batch,
+            produce,
+            |(bytes, r): (Vec<u8>, ValueRange)| {
+                let len = if level.is_some() {
+                    bytes.len() as u64
+                } else {
+                    raw_len
                 };
-                let batch = ((16 * ITEM_BYTES) / raw_len.max(1)).clamp(2, 4096) as usize;
-                let range = &mut self.range;
-                let done = &mut self.done_bytes;
-                ordered(
-                    per_layer,
-                    batch,
-                    produce,
-                    |(bytes, r): (Vec<u8>, ValueRange)| {
-                        let len = if level.is_some() {
-                            bytes.len() as u64
-                        } else {
-                            raw_len
-                        };
-                        entries.push(BrickEntry {
-                            offset: *offset,
-                            length: len,
-                            crc32: crc32fast::hash(&bytes[..len as usize]),
-                        });
-                        out.write_all(&bytes)?;
-                        *offset += bytes.len() as u64;
-                        *range = range.merge(r);
-                        *done += raw_len;
-                        progress(*done);
-                        Ok(())
-                    },
-                )?;
-                *next_layer += 1;
-            }
-        }
+                entries.push(BrickEntry {
+                    offset: *offset,
+                    length: len,
+                    crc32: crc32fast::hash(&bytes[..len as usize]),
+                });
+                out.write_all(&bytes)?;
+                *offset += bytes.len() as u64;
+                *range = range.merge(r);
+                *done += raw_len;
+                progress(*done);
+                Ok(())
+            },
+        )?;
+        *next_layer += 1;
         Ok(())
     }
 

@@ -18,6 +18,7 @@ use crate::dims::Dims;
 use crate::region::RegionSource;
 use crate::sample::Sample;
 use std::marker::PhantomData;
+use std::ops::Range;
 
 /// A procedural volume producing `f32` values row by row.
 pub trait Scene: Sync {
@@ -27,6 +28,22 @@ pub trait Scene: Sync {
     /// when every value written is zero, which lets callers skip converting
     /// empty rows (most rows of sparse scenes).
     fn fill_row(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> bool;
+
+    /// Like [`Scene::fill_row`], but writes only the part of `out` that may
+    /// hold non-zero values and returns it as offsets into `out`: every
+    /// voxel outside the returned range is `+0.0` and is left unwritten
+    /// (an empty range: the whole row is `+0.0`). Sparse scenes override
+    /// it so that callers convert only that part. The default fills the
+    /// whole row and returns it whole unless every value is `+0.0`.
+    fn fill_row_span(&self, x0: u64, y: u64, z: u64, out: &mut [f32]) -> Range<usize> {
+        let any = self.fill_row(x0, y, z, out);
+        // `+0.0` bit for bit: a `-0.0` is a different `f32` sample.
+        if !any && out.iter().all(|v| v.to_bits() == 0) {
+            0..0
+        } else {
+            0..out.len()
+        }
+    }
 }
 
 /// A scene as a [`RegionSource`] of sample type `T`, converting with
@@ -69,15 +86,25 @@ impl<T: Sample> RegionSource for SceneSource<'_, T> {
 }
 
 impl<T: Sample> SceneSource<'_, T> {
+    /// Convert only the span the scene filled; the rest of the row is
+    /// the sample of `+0.0`, which [`Sample::from_f32`] would give it.
     fn convert_row(&self, x0: u64, y: u64, z: u64, out: &mut [T], buf: &mut [f32]) {
         const CHUNK: usize = 512;
+        let zero = T::from_f32(0.0);
         let mut done = 0;
         while done < out.len() {
             let n = CHUNK.min(out.len() - done);
-            self.scene.fill_row(x0 + done as u64, y, z, &mut buf[..n]);
-            for (o, &v) in out[done..done + n].iter_mut().zip(&buf[..n]) {
+            let span = self
+                .scene
+                .fill_row_span(x0 + done as u64, y, z, &mut buf[..n]);
+            let end = span.end.min(n);
+            let start = span.start.min(end);
+            let dst = &mut out[done..done + n];
+            dst[..start].fill(zero);
+            for (o, &v) in dst[start..end].iter_mut().zip(&buf[start..end]) {
                 *o = T::from_f32(v);
             }
+            dst[end..].fill(zero);
             done += n;
         }
     }
@@ -139,5 +166,68 @@ mod tests {
             }
             assert!(whole.iter().all(|v| v.is_finite()));
         }
+    }
+
+    /// Every scene's span holds what its full row holds, and the full row
+    /// is `+0.0`, bit for bit, outside the span.
+    #[test]
+    fn spans_agree_with_full_rows() {
+        let d = Dims::new(37, 11, 9).unwrap();
+        let scenes: Vec<Box<dyn Scene>> = vec![
+            Box::new(ShapesScene::new(d, 7, 12, 8, 100.0)),
+            Box::new(SpheresScene::new(d, 3, 5, 8, 200.0)),
+            Box::new(NoiseScene::new(d, 4, NoiseKind::Value, 7.0, 2, 255.0)),
+            Box::new(SolidScene::new(d, 50.0)),
+            Box::new(BoxScene::new(d, 2, 9.0)),
+            Box::new(PhantomScene::new(d, 5)),
+        ];
+        let mut partial = 0;
+        for s in &scenes {
+            for z in 0..d.z {
+                for y in 0..d.y {
+                    for (x0, len) in [(0, 37), (5, 20)] {
+                        let mut full = vec![1f32; len];
+                        s.fill_row(x0, y, z, &mut full);
+                        let mut part = vec![f32::NAN; len];
+                        let span = s.fill_row_span(x0, y, z, &mut part);
+                        partial += (span.len() < len) as usize;
+                        for (i, (f, p)) in full.iter().zip(&part).enumerate() {
+                            if span.contains(&i) {
+                                assert_eq!(f.to_bits(), p.to_bits());
+                            } else {
+                                assert_eq!(f.to_bits(), 0);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(partial > 0);
+    }
+
+    /// A row of `-0.0` reported as all zero.
+    struct NegativeZero(Dims);
+
+    impl Scene for NegativeZero {
+        fn dims(&self) -> Dims {
+            self.0
+        }
+        fn fill_row(&self, _: u64, _: u64, _: u64, out: &mut [f32]) -> bool {
+            out.fill(-0.0);
+            false
+        }
+    }
+
+    /// `-0.0` is not `+0.0` to an `f32` output: the default span keeps it.
+    #[test]
+    fn negative_zero_is_kept() {
+        let s = NegativeZero(Dims::new(5, 2, 2).unwrap());
+        let mut row = vec![0f32; 5];
+        assert_eq!(s.fill_row_span(0, 0, 0, &mut row), 0..5);
+        let whole = pack_sliced(&SceneSource::<f32>::new(&s));
+        assert!(whole.iter().all(|v| v.to_bits() == (-0f32).to_bits()));
+        assert!(pack_sliced(&SceneSource::<u8>::new(&s))
+            .iter()
+            .all(|&v| v == 0));
     }
 }
