@@ -171,7 +171,7 @@ impl Scene for ShapesScene {
         out[lo..hi].fill(0.0);
         // A voxel's value depends on its index alone, so overlapping
         // shapes write the same value and the painting order does not
-        // matter (the reverse draw order is kept all the same).
+        // matter.
         let row = self.dims.index(x0, y, z);
         for (a, b) in self.spans(x0, y, z, len) {
             for (i, o) in out[a..b].iter_mut().enumerate() {
