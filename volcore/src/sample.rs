@@ -101,6 +101,9 @@ pub trait Sample:
 {
     /// The matching runtime tag.
     const TYPE: SampleType;
+    /// Whether [`Sample::bricked_values8`] has a batched path (it declines
+    /// every call otherwise).
+    const BATCHES: bool = false;
     /// Exact widening conversion.
     fn to_f32(self) -> f32;
     /// `hi.to_f32() − lo.to_f32()`, bit for bit; integer types subtract
@@ -127,6 +130,23 @@ pub trait Sample:
     #[inline(always)]
     fn cross_blend(s: &[Self], base: usize, o: [usize; 3], t: [f32; 3]) -> [f32; 3] {
         crate::grid::blend_cross_from(s, base, o, t)
+    }
+    /// Eight samples of the ray `o + d·t` at `t = (k + i)·step` and their
+    /// trilinear values in bricks `s` laid out as `g` says, bit for bit
+    /// the scalar path's (see [`crate::Cursor::trilinear8`]); `None` (the
+    /// default) where the type has no batched path or the points straddle
+    /// bricks.
+    #[inline(always)]
+    fn bricked_values8(
+        s: &[Self],
+        g: &crate::lanes::BrickLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<crate::lanes::Samples8> {
+        let _ = (s, g, o, d, k, step);
+        None
     }
     /// Whether this sample is NaN (always false for integers).
     fn is_nan(self) -> bool {
@@ -201,6 +221,19 @@ int_sample!(
             None
         };
         lanes.unwrap_or_else(|| crate::grid::blend_cross_from(s, base, o, t))
+    },
+    // Eight points at once in AVX2 lanes, where the CPU has them.
+    const BATCHES: bool = true;,
+    #[inline(always)]
+    fn bricked_values8(
+        s: &[u8],
+        g: &crate::lanes::BrickLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<crate::lanes::Samples8> {
+        crate::lanes::bricked_values8(s, g, o, d, k, step)
     }
 );
 int_sample!(u16, SampleType::U16);
