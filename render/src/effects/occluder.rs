@@ -16,6 +16,17 @@ pub trait Occluder: Sync {
     /// step the occluder was built for: 0 clear, infinite opaque, never
     /// negative or NaN.
     fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, q: Self::Query) -> f32;
+    /// Whether a sample's depth follows from its trilinear value alone
+    /// (then [`Occluder::depth8`] gives it, and shadow rays read
+    /// values eight at a time).
+    const FROM_VALUE: bool = false;
+    /// The depths of eight samples of trilinear values `v`, where
+    /// [`Occluder::FROM_VALUE`] holds: [`Occluder::depth`] bit for bit.
+    #[inline(always)]
+    fn depth8(&self, v: &[f32; 8], q: Self::Query) -> [f32; 8] {
+        let _ = (v, q);
+        [f32::NAN; 8]
+    }
 }
 
 /// The classified volume (DVR): a sample's depth is `−ln(1 − α)` of its
@@ -44,6 +55,11 @@ impl<'a, R, G, K> Classified<'a, R, G, K> {
 
 impl<R: Reconstruct, G: Gradient, K: Classifier> Occluder for Classified<'_, R, G, K> {
     type Query = ();
+    const FROM_VALUE: bool = R::TRILINEAR && G::FROM_VALUE.is_some() && !K::NEEDS_GRADIENT;
+    #[inline(always)]
+    fn depth8(&self, v: &[f32; 8], _: ()) -> [f32; 8] {
+        self.table.alpha8(v)
+    }
     #[inline(always)]
     fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, _: ()) -> f32 {
         let (v, early) = G::value::<C, R>(&self.loc, cur, p);
@@ -79,6 +95,17 @@ impl<R> IsoInside<R> {
 
 impl<R: Reconstruct> Occluder for IsoInside<R> {
     type Query = bool;
+    const FROM_VALUE: bool = R::TRILINEAR;
+    #[inline(always)]
+    fn depth8(&self, v: &[f32; 8], outside_above: bool) -> [f32; 8] {
+        v.map(|v| {
+            if (v >= self.level) != outside_above {
+                f32::INFINITY
+            } else {
+                0.0
+            }
+        })
+    }
     #[inline(always)]
     fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, outside_above: bool) -> f32 {
         if (R::value(&self.loc, cur, p) >= self.level) != outside_above {

@@ -72,8 +72,36 @@ impl<O: Occluder> RayMarch for ShadowMarch<'_, O> {
         p: Vec3,
         _: Option<usize>,
     ) -> Flow {
+        let depth = self.occ.depth(cur, p, self.q);
+        self.add(depth)
+    }
+
+    const BATCH: bool = O::FROM_VALUE;
+
+    #[inline(always)]
+    fn sample8<C: Cursor>(
+        &mut self,
+        _: &mut C,
+        _: i64,
+        _: &[f32; 8],
+        v: &[f32; 8],
+        _: &RaySteps,
+    ) -> Flow {
+        for d in self.occ.depth8(v, self.q) {
+            if self.add(d) == Flow::Stop {
+                return Flow::Stop;
+            }
+        }
+        Flow::Next
+    }
+}
+
+impl<O: Occluder> ShadowMarch<'_, O> {
+    /// Count a sample of optical depth `depth`; stop past the cutoff.
+    #[inline(always)]
+    fn add(&mut self, depth: f32) -> Flow {
         self.samples += 1;
-        self.depth += self.occ.depth(cur, p, self.q);
+        self.depth += depth;
         if self.depth > SHADOW_DEPTH_CUTOFF {
             Flow::Stop
         } else {

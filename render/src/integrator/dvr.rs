@@ -282,6 +282,8 @@ where
     #[inline(always)]
     fn query(&self) {}
 
+    const BATCH: bool = R::TRILINEAR && G::FROM_VALUE.is_some();
+
     #[inline(always)]
     fn sample<C: Cursor>(
         &mut self,
@@ -291,9 +293,52 @@ where
         p: Vec3,
         _: Option<usize>,
     ) -> Flow {
+        let (v, early) = G::value::<C, R>(&self.loc, cur, p);
+        self.take(cur, t, p, v, early)
+    }
+
+    #[inline(always)]
+    fn sample8<C: Cursor>(
+        &mut self,
+        cur: &mut C,
+        k: i64,
+        t: &[f32; 8],
+        v: &[f32; 8],
+        s: &RaySteps,
+    ) -> Flow {
+        let Some(early) = G::FROM_VALUE else {
+            // Not reached: BATCH is false for such gradients.
+            for (i, &ti) in t.iter().enumerate() {
+                if self.sample(cur, k + i as i64, ti, s.at(ti), None) == Flow::Stop {
+                    return Flow::Stop;
+                }
+            }
+            return Flow::Next;
+        };
+        for (&ti, &vi) in t.iter().zip(v) {
+            if self.take(cur, ti, s.at(ti), vi, early) == Flow::Stop {
+                return Flow::Stop;
+            }
+        }
+        Flow::Next
+    }
+}
+
+impl<R, G, K, S, T, A> DvrRay<'_, '_, R, G, K, S, T, A>
+where
+    R: Reconstruct,
+    G: Gradient,
+    K: Classifier,
+    S: Shading,
+    T: Termination,
+{
+    /// Classify, shade and composite the sample of value `v` at ray
+    /// parameter `t`, point `p` (`early`: what reading `v` gave the
+    /// gradient).
+    #[inline(always)]
+    fn take<C: Cursor>(&mut self, cur: &mut C, t: f32, p: Vec3, v: f32, early: G::Early) -> Flow {
         let d = self.dvr;
         let loc = &self.loc;
-        let (v, early) = G::value::<C, R>(loc, cur, p);
         self.samples += 1;
         // A classifier that reads the gradient gets it first, and shading
         // reuses it; otherwise only visible samples compute one.

@@ -143,6 +143,30 @@ pub trait RayMarch {
         p: Vec3,
         cell: Option<usize>,
     ) -> Flow;
+    /// Whether the loop may hand runs of eight samples to
+    /// [`RayMarch::sample8`] with their trilinear values read at once (the
+    /// samples read nothing else to find their value).
+    const BATCH: bool = false;
+    /// Take samples `k .. k + 8` at ray parameters `t` (points
+    /// `s.at(t[i])`), whose trilinear values are `v`, in order, exactly as
+    /// [`RayMarch::sample`] would one by one; stop where it would.
+    #[inline(always)]
+    fn sample8<C: Cursor>(
+        &mut self,
+        cur: &mut C,
+        k: i64,
+        t: &[f32; 8],
+        v: &[f32; 8],
+        s: &RaySteps,
+    ) -> Flow {
+        let _ = v;
+        for (i, &ti) in t.iter().enumerate() {
+            if self.sample(cur, k + i as i64, ti, s.at(ti), None) == Flow::Stop {
+                return Flow::Stop;
+            }
+        }
+        Flow::Next
+    }
 }
 
 /// Walk the samples of `s` with `m`, skipping where `accel` allows;
@@ -160,7 +184,25 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     // level-0 cell found not skippable: they need no further check (its
     // flags are fixed for the frame, and taking a sample is never wrong).
     let mut busy_until = i64::MIN;
+    // Runs of eight samples that need no skipping check (in a busy cell,
+    // or all of them when nothing is skipped) read their values at once
+    // where the integrator and the cursor allow it; the rest of a run
+    // goes one by one.
+    let batch = M::BATCH && (M::CACHE_BUSY || !A::ON) && cur.batches();
+    let (o, d) = (s.ray.o.to_array(), s.ray.d.to_array());
     while k <= s.k1 {
+        if batch {
+            let last = if A::ON { busy_until.min(s.k1) } else { s.k1 };
+            if k.saturating_add(7) <= last {
+                if let Some(run) = cur.trilinear8(o, d, k, s.step) {
+                    if m.sample8(cur, k, &run.t, &run.v, s) == Flow::Stop {
+                        break;
+                    }
+                    k += 8;
+                    continue;
+                }
+            }
+        }
         let t = s.t(k);
         let p = s.at(t);
         let mut cell = None;

@@ -7,6 +7,9 @@ use volcore::Cursor;
 
 /// How a value between voxels is reconstructed.
 pub trait Reconstruct: Copy + Send + Sync + 'static {
+    /// Whether [`Reconstruct::value`] is the trilinear value
+    /// ([`Cursor::trilinear`]), which cursors can read eight at a time.
+    const TRILINEAR: bool;
     /// The value at voxel-space point `p`.
     fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32;
     /// The value at offsets `t` inside the cell whose corner values are
@@ -24,6 +27,7 @@ pub struct Trilinear;
 pub struct Nearest;
 
 impl Reconstruct for Trilinear {
+    const TRILINEAR: bool = true;
     #[inline(always)]
     fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
         let (base, t) = loc.locate(p.into());
@@ -36,6 +40,7 @@ impl Reconstruct for Trilinear {
 }
 
 impl Reconstruct for Nearest {
+    const TRILINEAR: bool = false;
     #[inline(always)]
     fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
         let (base, t) = loc.locate(p.into());
@@ -56,6 +61,10 @@ pub trait Gradient: Copy + Send + Sync + 'static {
     /// What the method gets for free while reading the value (the
     /// analytic gradient comes from the same cell fetch).
     type Early: Copy;
+    /// What [`Gradient::value`] returns beside the value when that is all
+    /// it reads (then values read in a batch serve as well); `None` when it
+    /// reads more.
+    const FROM_VALUE: Option<Self::Early>;
     /// The value at `p`, and what the gradient can reuse.
     fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Self::Early);
     /// The gradient at `p`, given what [`Gradient::value`] returned there.
@@ -77,6 +86,7 @@ pub struct Analytic;
 
 impl Gradient for NoGradient {
     type Early = ();
+    const FROM_VALUE: Option<()> = Some(());
     #[inline(always)]
     fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
         (R::value(loc, cur, p), ())
@@ -89,6 +99,7 @@ impl Gradient for NoGradient {
 
 impl Gradient for Central {
     type Early = ();
+    const FROM_VALUE: Option<()> = Some(());
     #[inline(always)]
     fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
         (R::value(loc, cur, p), ())
@@ -101,6 +112,7 @@ impl Gradient for Central {
 
 impl Gradient for Analytic {
     type Early = Vec3;
+    const FROM_VALUE: Option<Vec3> = None;
     #[inline(always)]
     fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Vec3) {
         let (base, t) = loc.locate(p.into());
