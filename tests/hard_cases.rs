@@ -441,19 +441,26 @@ fn huge_sparse_vvol(p: &Path, dims: [u64; 3], data_len: u64) {
         .unwrap();
 }
 
+/// The C library calls the limits below make between fork and exec.
+mod libc_calls {
+    extern "C" {
+        /// `setrlimit(2)`: `rlim` is `[soft, hard]`.
+        pub fn setrlimit(resource: i32, rlim: *const [u64; 2]) -> i32;
+        /// `signal(2)`, with the handler as an address (`SIG_IGN` is 1).
+        pub fn signal(sig: i32, handler: usize) -> usize;
+    }
+}
+
 /// Run with the process's private memory capped at `bytes`
 /// (RLIMIT_DATA): an allocation the header asked for, and not the file,
 /// shows as an abort instead of as memory taken from the machine.
 fn with_memory_cap(cmd: &mut Command, bytes: u64) -> &mut Command {
     use std::os::unix::process::CommandExt;
-    extern "C" {
-        fn setrlimit(resource: i32, rlim: *const [u64; 2]) -> i32;
-    }
     // SAFETY: only an async-signal-safe call between fork and exec.
     unsafe {
         cmd.pre_exec(move || {
             const RLIMIT_DATA: i32 = 2;
-            setrlimit(RLIMIT_DATA, &[bytes, bytes]);
+            libc_calls::setrlimit(RLIMIT_DATA, &[bytes, bytes]);
             Ok(())
         });
     }
@@ -1248,11 +1255,8 @@ fn on_a_full_disk(dir: &Path, tool_path: &str, args: &[&str]) -> (i32, String) {
         assert_eq!(err.lines().count(), 1, "{err}");
         return (code(&out), err);
     }
+    use libc_calls::{setrlimit, signal};
     use std::os::unix::process::CommandExt;
-    extern "C" {
-        fn setrlimit(resource: i32, rlim: *const [u64; 2]) -> i32;
-        fn signal(sig: i32, handler: usize) -> usize;
-    }
     let mut cmd = Command::new(tool_path);
     cmd.args(args).arg("-q").arg("-o").arg(mnt.join("x.vvol"));
     // SAFETY: only async-signal-safe calls between fork and exec.
