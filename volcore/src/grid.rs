@@ -23,7 +23,7 @@ use crate::sample::Sample;
 use crate::storage::Data;
 use std::sync::{Arc, OnceLock};
 
-pub use crate::lanes::Samples8;
+pub use crate::lanes::{Cross8, Samples8};
 
 /// Read access to the samples of one volume of sample type `Self::Sample`.
 pub trait VoxelSource: Sync {
@@ -105,6 +105,15 @@ pub trait Cursor {
     /// batched path for them, and the caller takes them one at a time.
     #[inline(always)]
     fn trilinear8(&mut self, o: [f32; 3], d: [f32; 3], k: i64, step: f64) -> Option<Samples8> {
+        let _ = (o, d, k, step);
+        None
+    }
+
+    /// The central-difference blends ([`Cursor::cross_blend`], not halved)
+    /// at the eight samples [`Cursor::trilinear8`] reads, for those whose
+    /// cells are interior; `None` (the default) where it declines.
+    #[inline(always)]
+    fn cross_blend8(&mut self, o: [f32; 3], d: [f32; 3], k: i64, step: f64) -> Option<Cross8> {
         let _ = (o, d, k, step);
         None
     }
@@ -719,6 +728,12 @@ impl<T: Sample> Cursor for BrickedCursor<'_, T> {
     }
 
     #[inline(always)]
+    fn cross_blend8(&mut self, o: [f32; 3], d: [f32; 3], k: i64, step: f64) -> Option<Cross8> {
+        let g = self.lanes.as_ref()?;
+        T::bricked_cross8(self.data, g, o, d, k, step)
+    }
+
+    #[inline(always)]
     fn batches(&self) -> bool {
         T::BATCHES && self.lanes.is_some()
     }
@@ -985,6 +1000,7 @@ mod tests {
     fn eight_points_at_once_match_one_at_a_time() {
         let mut rng = fastrand::Rng::with_seed(21);
         let mut batched = 0;
+        let mut interiors = 0;
         for (dims, b) in [((40, 37, 33), 16), ((64, 64, 64), 32), ((9, 70, 5), 4)] {
             let dims = Dims::new(dims.0, dims.1, dims.2).unwrap();
             let samples: Vec<u8> = (0..dims.count()).map(|_| rng.u8(..)).collect();
@@ -1009,18 +1025,30 @@ mod tests {
                     continue;
                 };
                 batched += 1;
+                let cross = cur.cross_blend8(o, d, k0, step).unwrap();
+                let loc = Locator::new(dims);
                 for i in 0..8 {
                     let t = ((k0 + i as i64) as f64 * step) as f32;
                     assert_eq!(got.t[i].to_bits(), t.to_bits());
                     let p = std::array::from_fn(|a| o[a] + d[a] * t);
                     let want = one.trilinear(p);
                     assert_eq!(got.v[i].to_bits(), want.to_bits(), "{p:?}");
+                    let (b, f) = loc.locate(p);
+                    let interior = (0..3).all(|a| b[a] >= 1 && b[a] + 2 < dims.as_array()[a]);
+                    assert_eq!(cross.interior >> i & 1 == 1, interior, "{p:?}");
+                    if interior {
+                        interiors += 1;
+                        let want = one.cross_blend(b[0], b[1], b[2], f);
+                        let got = [0, 1, 2].map(|a| cross.g[a][i]);
+                        assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{p:?}");
+                    }
                 }
             }
         }
         // Without AVX2 the batched path declines every time.
         let avx2 = crate::lanes::avx2_available();
         assert_eq!(batched > 5000, avx2, "{batched} batches");
+        assert_eq!(interiors > 20_000, avx2, "{interiors} interior samples");
     }
 
     /// zstd bricks of `samples`, plus one entry whose bytes pass the

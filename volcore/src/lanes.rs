@@ -179,6 +179,8 @@ pub struct BrickLanes {
     stored: usize,
     /// `dims − 1` per axis (the clamping box).
     hi: [f32; 3],
+    /// The dimensions.
+    dims: [i32; 3],
 }
 
 impl BrickLanes {
@@ -212,6 +214,7 @@ impl BrickLanes {
             stride,
             stored: stored as usize,
             hi: dims.map(|d| (d - 1) as f32),
+            dims: dims.map(|d| d as i32),
         })
     }
 }
@@ -235,6 +238,46 @@ pub struct Samples8 {
     pub t: [f32; 8],
     /// Trilinear values at the points `o + d·t[i]`.
     pub v: [f32; 8],
+}
+
+/// The central differences (not halved) blended at eight samples of a ray
+/// (see [`bricked_cross8`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cross8 {
+    /// Per axis, per sample: the blend of the cell's differences along it.
+    pub g: [[f32; 8]; 3],
+    /// Bit `i` set: sample `i`'s cell is interior (its cross lies inside
+    /// the volume) and `g` holds its blends; the others are not computed.
+    pub interior: u8,
+}
+
+/// The central-difference blends ([`crate::Cursor::cross_blend`]) at
+/// samples `k .. k + 8` of the ray `o + d·t` in a bricked `u8` volume, for
+/// the samples whose cells are interior, bit for bit; `None` where
+/// [`bricked_values8`] declines.
+#[inline]
+pub fn bricked_cross8(
+    s: &[u8],
+    g: &BrickLanes,
+    o: [f32; 3],
+    d: [f32; 3],
+    k: i64,
+    step: f64,
+) -> Option<Cross8> {
+    if k.unsigned_abs() >= 1 << 52 {
+        return None;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: as in `bricked_values8`; only interior cells are read,
+        // and their crosses lie in the brick's apron.
+        unsafe { avx2::bricked_cross8(s, g, o, d, k, step) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (s, g, o, d, step);
+        None
+    }
 }
 
 /// Samples `k .. k + 8` of the ray `o + d·t` (voxel space, `t = k·step`)
@@ -307,19 +350,33 @@ mod avx2 {
         _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
     }
 
-    /// See [`super::bricked_values8`].
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
+    /// Where eight samples of a ray fall in one brick.
+    struct Where8 {
+        /// Ray parameters.
+        tv: __m256,
+        /// Offsets in the cells.
+        f: [__m256; 3],
+        /// Cell bases (voxel coordinates).
+        i: [__m256i; 3],
+        /// Offsets of the cells' first corners in the brick.
+        local: __m256i,
+        /// The brick's first sample.
+        base: *const i32,
+    }
+
+    /// Locate samples `k .. k + 8` of the ray `o + d·t`; `None` when they
+    /// are not all in one brick or the brick's samples (and two more) do
+    /// not lie in `s`.
     #[target_feature(enable = "avx2")]
-    pub unsafe fn bricked_values8(
+    #[inline]
+    unsafe fn locate8(
         s: &[u8],
         g: &BrickLanes,
         o: [f32; 3],
         d: [f32; 3],
         k: i64,
         step: f64,
-    ) -> Option<Samples8> {
+    ) -> Option<Where8> {
         // (k + i)·step in f64 (k + i exact: |k| < 2^52), rounded to f32.
         let kf = _mm256_set1_pd(k as f64);
         let st = _mm256_set1_pd(step);
@@ -363,10 +420,34 @@ mod avx2 {
             lx,
             _mm256_mullo_epi32(e, _mm256_add_epi32(ly, _mm256_mullo_epi32(e, lz))),
         );
+        Some(Where8 {
+            tv,
+            f: [fx, fy, fz],
+            i: [ix, iy, iz],
+            local,
+            base: s.as_ptr().add(start).cast::<i32>(),
+        })
+    }
+
+    /// See [`super::bricked_values8`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn bricked_values8(
+        s: &[u8],
+        g: &BrickLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<Samples8> {
+        let w = locate8(s, g, o, d, k, step)?;
+        let [fx, fy, fz] = w.f;
         let oy = _mm256_set1_epi32(g.e);
         let oz = _mm256_set1_epi32(g.e * g.e);
-        let base = s.as_ptr().add(start).cast::<i32>();
-        let row = |off: __m256i| _mm256_i32gather_epi32::<1>(base, off);
+        let local = w.local;
+        let row = |off: __m256i| _mm256_i32gather_epi32::<1>(w.base, off);
         let (a0, b0) = pair(row(local));
         let (a1, b1) = pair(row(_mm256_add_epi32(local, oy)));
         let (a2, b2) = pair(row(_mm256_add_epi32(local, oz)));
@@ -382,9 +463,120 @@ mod avx2 {
             t: [0.0; 8],
             v: [0.0; 8],
         };
-        _mm256_storeu_ps(out.t.as_mut_ptr(), tv);
+        _mm256_storeu_ps(out.t.as_mut_ptr(), w.tv);
         _mm256_storeu_ps(out.v.as_mut_ptr(), v);
         Some(out)
+    }
+
+    /// The four bytes from `p − 1` of each gathered word, as f32 lanes.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn quad(w: __m256i) -> [__m256; 4] {
+        let m = _mm256_set1_epi32(0xff);
+        let byte = |b: __m256i| _mm256_cvtepi32_ps(_mm256_and_si256(b, m));
+        [
+            byte(w),
+            byte(_mm256_srli_epi32::<8>(w)),
+            byte(_mm256_srli_epi32::<16>(w)),
+            byte(_mm256_srli_epi32::<24>(w)),
+        ]
+    }
+
+    /// See [`super::bricked_cross8`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn bricked_cross8(
+        s: &[u8],
+        g: &BrickLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<Cross8> {
+        let w = locate8(s, g, o, d, k, step)?;
+        let [fx, fy, fz] = w.f;
+        // Interior cells (1 <= i and i + 2 < dims on every axis) read their
+        // whole cross inside the brick (its apron); the others are left to
+        // the caller, and not read.
+        let mut inside = _mm256_set1_epi32(-1);
+        for a in 0..3 {
+            let i = w.i[a];
+            let ok = _mm256_and_si256(
+                _mm256_cmpgt_epi32(i, _mm256_setzero_si256()),
+                _mm256_cmpgt_epi32(_mm256_set1_epi32(g.dims[a] - 2), i),
+            );
+            inside = _mm256_and_si256(inside, ok);
+        }
+        let interior = _mm256_movemask_ps(_mm256_castsi256_ps(inside)) as u8;
+        let (e, e2) = (g.e, g.e * g.e);
+        let zero = _mm256_setzero_si256();
+        let at = |off: i32| {
+            _mm256_mask_i32gather_epi32::<1>(
+                zero,
+                w.base,
+                _mm256_add_epi32(w.local, _mm256_set1_epi32(off)),
+                inside,
+            )
+        };
+        // Rows in the blend's order: (y, z), (y + 1, z), (y, z + 1),
+        // (y + 1, z + 1); each read from one voxel before its first corner.
+        let rows = [0, e, e2, e + e2];
+        let wide = rows.map(|r| quad(at(r - 1)));
+        let two = |off: i32| pair(at(off));
+        // x: the differences of corners x and x + 1 along x.
+        let gx = rows_blend(
+            wide.map(|q| (_mm256_sub_ps(q[2], q[0]), _mm256_sub_ps(q[3], q[1]))),
+            fx,
+            fy,
+            fz,
+        );
+        // y and z: each row's neighbours one before and one after along the
+        // axis (rows of the cell where they are rows of the cell).
+        let cell = |r: usize| (wide[r][1], wide[r][2]);
+        let diff = |p: (__m256, __m256), m: (__m256, __m256)| {
+            (_mm256_sub_ps(p.0, m.0), _mm256_sub_ps(p.1, m.1))
+        };
+        let gy = rows_blend(
+            [
+                diff(cell(1), two(-e)),
+                diff(two(2 * e), cell(0)),
+                diff(cell(3), two(e2 - e)),
+                diff(two(e2 + 2 * e), cell(2)),
+            ],
+            fx,
+            fy,
+            fz,
+        );
+        let gz = rows_blend(
+            [
+                diff(cell(2), two(-e2)),
+                diff(cell(3), two(e - e2)),
+                diff(two(2 * e2), cell(0)),
+                diff(two(e + 2 * e2), cell(1)),
+            ],
+            fx,
+            fy,
+            fz,
+        );
+        let mut out = Cross8 {
+            g: [[0.0; 8]; 3],
+            interior,
+        };
+        _mm256_storeu_ps(out.g[0].as_mut_ptr(), gx);
+        _mm256_storeu_ps(out.g[1].as_mut_ptr(), gy);
+        _mm256_storeu_ps(out.g[2].as_mut_ptr(), gz);
+        Some(out)
+    }
+
+    /// The blend of four rows' corner pairs `(corner x, corner x + 1)` in
+    /// the scalar blend's order: along x per row, then y, then z.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn rows_blend(r: [(__m256, __m256); 4], fx: __m256, fy: __m256, fz: __m256) -> __m256 {
+        let x = r.map(|(a, b)| lerp(a, b, fx));
+        lerp(lerp(x[0], x[1], fy), lerp(x[2], x[3], fy), fz)
     }
 }
 

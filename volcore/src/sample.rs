@@ -148,6 +148,21 @@ pub trait Sample:
         let _ = (s, g, o, d, k, step);
         None
     }
+    /// The central-difference blends at the eight samples
+    /// [`Sample::bricked_values8`] reads, for the interior ones (see
+    /// [`crate::lanes::Cross8`]); `None` (the default) where it declines.
+    #[inline(always)]
+    fn bricked_cross8(
+        s: &[Self],
+        g: &crate::lanes::BrickLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<crate::lanes::Cross8> {
+        let _ = (s, g, o, d, k, step);
+        None
+    }
     /// Whether this sample is NaN (always false for integers).
     fn is_nan(self) -> bool {
         false
@@ -234,6 +249,17 @@ int_sample!(
         step: f64,
     ) -> Option<crate::lanes::Samples8> {
         crate::lanes::bricked_values8(s, g, o, d, k, step)
+    },
+    #[inline(always)]
+    fn bricked_cross8(
+        s: &[u8],
+        g: &crate::lanes::BrickLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<crate::lanes::Cross8> {
+        crate::lanes::bricked_cross8(s, g, o, d, k, step)
     }
 );
 int_sample!(u16, SampleType::U16);
