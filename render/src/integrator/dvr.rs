@@ -294,7 +294,7 @@ where
         _: Option<usize>,
     ) -> Flow {
         let (v, early) = G::value::<C, R>(&self.loc, cur, p);
-        self.take(cur, t, p, v, early)
+        self.take(cur, t, p, v, early, None)
     }
 
     #[inline(always)]
@@ -315,8 +315,19 @@ where
             }
             return Flow::Next;
         };
-        for (&ti, &vi) in t.iter().zip(v) {
-            if self.take(cur, ti, s.at(ti), vi, early) == Flow::Stop {
+        // Shaded frames read the central-difference blends of all eight in
+        // lanes too, once the first visible sample of the run asks for a
+        // gradient (runs with none visible read none); samples whose cells
+        // are not interior compute their own.
+        let mut cross = None;
+        for (i, (&ti, &vi)) in t.iter().zip(v).enumerate() {
+            let lanes = LaneGradients {
+                cross: &mut cross,
+                lane: i,
+                k,
+                steps: s,
+            };
+            if self.take(cur, ti, s.at(ti), vi, early, Some(lanes)) == Flow::Stop {
                 return Flow::Stop;
             }
         }
@@ -334,9 +345,18 @@ where
 {
     /// Classify, shade and composite the sample of value `v` at ray
     /// parameter `t`, point `p` (`early`: what reading `v` gave the
-    /// gradient).
+    /// gradient; `lanes`: the run of eight it belongs to, whose gradients
+    /// can be read together).
     #[inline(always)]
-    fn take<C: Cursor>(&mut self, cur: &mut C, t: f32, p: Vec3, v: f32, early: G::Early) -> Flow {
+    fn take<C: Cursor>(
+        &mut self,
+        cur: &mut C,
+        t: f32,
+        p: Vec3,
+        v: f32,
+        early: G::Early,
+        lanes: Option<LaneGradients<'_>>,
+    ) -> Flow {
         let d = self.dvr;
         let loc = &self.loc;
         self.samples += 1;
@@ -353,7 +373,16 @@ where
             let mut c = Vec3::new(e[0], e[1], e[2]);
             if S::ON {
                 if !K::NEEDS_GRADIENT {
-                    grad = G::gradient(early, loc, cur, p) * self.inv_spacing;
+                    let blend = match lanes {
+                        Some(l) if G::CENTRAL => l.blend(cur),
+                        _ => None,
+                    };
+                    // What `central_gradient` gives for an interior cell.
+                    let g = match blend {
+                        Some(b) => b * 0.5,
+                        None => G::gradient(early, loc, cur, p),
+                    };
+                    grad = g * self.inv_spacing;
                     len2 = grad.length_squared();
                 }
                 c = d.shading.shade(&mut self.view, cur, c, grad, len2, t);
@@ -366,5 +395,28 @@ where
             }
         }
         Flow::Next
+    }
+}
+
+/// A sample's place in a run of eight read together, and the run's
+/// central-difference blends, read in lanes when first asked for.
+struct LaneGradients<'a> {
+    cross: &'a mut Option<Option<volcore::grid::Cross8>>,
+    lane: usize,
+    k: i64,
+    steps: &'a RaySteps,
+}
+
+impl LaneGradients<'_> {
+    /// The blend (not halved) at this sample, if its cell is interior and
+    /// the cursor reads the run's blends in lanes.
+    #[inline(always)]
+    fn blend<C: Cursor>(self, cur: &mut C) -> Option<Vec3> {
+        let s = self.steps;
+        let c = (*self.cross.get_or_insert_with(|| {
+            cur.cross_blend8(s.ray.o.to_array(), s.ray.d.to_array(), self.k, s.step)
+        }))?;
+        let i = self.lane;
+        (c.interior >> i & 1 == 1).then(|| Vec3::new(c.g[0][i], c.g[1][i], c.g[2][i]))
     }
 }

@@ -65,6 +65,9 @@ pub trait Gradient: Copy + Send + Sync + 'static {
     /// it reads (then values read in a batch serve as well); `None` when it
     /// reads more.
     const FROM_VALUE: Option<Self::Early>;
+    /// Whether this is [`Central`] (whose blends cursors can read for eight
+    /// samples at once).
+    const CENTRAL: bool = false;
     /// The value at `p`, and what the gradient can reuse.
     fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Self::Early);
     /// The gradient at `p`, given what [`Gradient::value`] returned there.
@@ -100,6 +103,7 @@ impl Gradient for NoGradient {
 impl Gradient for Central {
     type Early = ();
     const FROM_VALUE: Option<()> = Some(());
+    const CENTRAL: bool = true;
     #[inline(always)]
     fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
         (R::value(loc, cur, p), ())
