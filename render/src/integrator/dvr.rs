@@ -1,6 +1,6 @@
 //! Emission-absorption compositing, front to back.
 
-use super::march::{march, Flow, RayMarch, RaySteps};
+use super::march::{march, one_by_one, Flow, RayMarch, RaySteps};
 use super::reconstruct::{Gradient, Reconstruct};
 use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::Accel;
@@ -308,12 +308,7 @@ where
     ) -> Flow {
         let Some(early) = G::FROM_VALUE else {
             // Not reached: BATCH is false for such gradients.
-            for (i, &ti) in t.iter().enumerate() {
-                if self.sample(cur, k + i as i64, ti, s.at(ti), None) == Flow::Stop {
-                    return Flow::Stop;
-                }
-            }
-            return Flow::Next;
+            return one_by_one(self, cur, k, t, s);
         };
         // Shaded frames read the central-difference blends of all eight in
         // lanes too, once the first visible sample of the run asks for a

@@ -160,13 +160,26 @@ pub trait RayMarch {
         s: &RaySteps,
     ) -> Flow {
         let _ = v;
-        for (i, &ti) in t.iter().enumerate() {
-            if self.sample(cur, k + i as i64, ti, s.at(ti), None) == Flow::Stop {
-                return Flow::Stop;
-            }
-        }
-        Flow::Next
+        one_by_one(self, cur, k, t, s)
     }
+}
+
+/// Take samples `k .. k + 8` at parameters `t` with [`RayMarch::sample`],
+/// one at a time (what a run of eight is without lanes).
+#[inline(always)]
+pub fn one_by_one<M: RayMarch + ?Sized, C: Cursor>(
+    m: &mut M,
+    cur: &mut C,
+    k: i64,
+    t: &[f32; 8],
+    s: &RaySteps,
+) -> Flow {
+    for (i, &ti) in t.iter().enumerate() {
+        if m.sample(cur, k + i as i64, ti, s.at(ti), None) == Flow::Stop {
+            return Flow::Stop;
+        }
+    }
+    Flow::Next
 }
 
 /// Walk the samples of `s` with `m`, skipping where `accel` allows;
