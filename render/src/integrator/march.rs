@@ -203,8 +203,23 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     // goes one by one.
     let batch = M::BATCH && (M::CACHE_BUSY || !A::ON) && cur.batches();
     let (o, d) = (s.ray.o.to_array(), s.ray.d.to_array());
+    // When a run of eight would cross the end of a busy cell, the loop
+    // looks one sample ahead: if that sample's cell is busy too, the busy
+    // stretch grows to its exit (the same samples are taken, in longer
+    // runs); otherwise the answer is kept for when the loop reaches it.
+    let mut ahead: Option<(i64, Step)> = None;
     while k <= s.k1 {
         if batch {
+            if A::ON && k <= busy_until && busy_until < s.k1 && k.saturating_add(7) > busy_until {
+                let next = busy_until + 1;
+                if ahead.is_none_or(|(at, _)| at != next) {
+                    let step = accel.step(s.at(s.t(next)), &s.ray, m.query());
+                    ahead = Some((next, step));
+                    if let Step::Busy { exit, .. } = step {
+                        busy_until = busy_until.max(s.last_before(exit));
+                    }
+                }
+            }
             let last = if A::ON { busy_until.min(s.k1) } else { s.k1 };
             if k.saturating_add(7) <= last {
                 if let Some(run) = cur.trilinear8(o, d, k, s.step) {
@@ -220,7 +235,11 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
         let p = s.at(t);
         let mut cell = None;
         if A::ON && (!M::CACHE_BUSY || k > busy_until) {
-            match accel.step(p, &s.ray, m.query()) {
+            let step = match ahead {
+                Some((at, step)) if at == k => step,
+                _ => accel.step(p, &s.ray, m.query()),
+            };
+            match step {
                 Step::Skip { until, cell: c } => {
                     if let Some(kn) = s.after_skip(k, until) {
                         m.skipped(k, kn);
