@@ -7,6 +7,7 @@
 //! it exists once, not once per gradient method; MIP, MinIP and X-ray have
 //! no gradient, classifier or shading parameter at all.
 
+use crate::accel::open_sky::OpenSky;
 use crate::accel::{FixedCells, IsoSides, NoSkipping, RunningMax, RunningMin};
 use crate::classify::{Classifier, TfTable, TfTable2d};
 use crate::effects::{AoSource, Classified, EffectsPhong, IsoInside, LightGrid, ShadowCaster};
@@ -81,6 +82,8 @@ pub struct DvrEffects<'a> {
     pub hi: Vec3,
     /// Per light: its transmittance grid, or `None` for shadow rays.
     pub grids: &'a [Option<LightGrid>],
+    /// Per light: the cells from which its way is clear, if known.
+    pub skies: &'a [Option<OpenSky>],
     /// The lights.
     pub lighting: &'a Lighting,
     /// Squared gradient length above which samples get a normal.
@@ -216,7 +219,8 @@ where
         V: IntegratorVisitor,
     {
         let occ = Classified::<R, G, K>::new(d, sh.geom.locator, sh.geom.inv_spacing);
-        let caster = ShadowCaster::new(occ, sh.skip, sh.geom, sh.hi, sh.grids, 0.0);
+        let caster = ShadowCaster::new(occ, sh.skip, sh.geom, sh.hi, sh.grids, 0.0)
+            .with_open_skies(sh.skies);
         let caster = sh.shadows.then_some(&caster);
         let s = EffectsPhong::new(sh.lighting, sh.threshold2, caster, sh.ao);
         go::<R, G, _, _, _, _, V>(p, k, s, t, a, v)

@@ -645,7 +645,18 @@ impl TableUser for DvrFrame<'_> {
                     )?),
                     None => None,
                 };
-                Some((sgeom, depth, clear, grids, stats, ao))
+                // Shadow rays toward a distant light stop where the rest
+                // of their way is clear.
+                let skies = match &settings.shadows {
+                    Some(_) => effects::setup::open_skies(
+                        &settings.lighting.lights,
+                        &grids,
+                        clear.as_ref(),
+                        &sgeom,
+                    ),
+                    None => Vec::new(),
+                };
+                Some((sgeom, depth, clear, grids, stats, ao, skies))
             }
             None => None,
         };
@@ -656,7 +667,7 @@ impl TableUser for DvrFrame<'_> {
             .map(|ao| ao.source(tiles.hi, 1.0, min_spacing));
         let effects = effect_parts
             .as_ref()
-            .map(|(sgeom, depth, clear, grids, ..)| DvrEffects {
+            .map(|(sgeom, depth, clear, grids, _, _, skies)| DvrEffects {
                 shadows: settings.shadows.is_some(),
                 ao: ao_source.as_ref(),
                 depth: as_ref(depth),
@@ -664,6 +675,7 @@ impl TableUser for DvrFrame<'_> {
                 geom: *sgeom,
                 hi: tiles.hi,
                 grids,
+                skies,
                 lighting: &settings.lighting,
                 threshold2,
             });
@@ -679,7 +691,7 @@ impl TableUser for DvrFrame<'_> {
         };
         let mut film = dispatch::dvr(plan, tiles);
         film.set_culled_blocks(busy.as_ref().map_or(0, |b| b.culled()) as u64);
-        if let Some((.., stats, _)) = &effect_parts {
+        if let Some((.., stats, _, _)) = &effect_parts {
             film.add_grid_stats(stats);
         }
         Ok(film)

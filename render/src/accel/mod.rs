@@ -10,6 +10,8 @@
 //! - [`dda`]: the macrocells a ray crosses, in order, as segments
 //!   `(t_enter, t_exit, cell)` (pbrt's majorant-iterator shape).
 //! - [`cull`]: the image tiles whose rays meet no cell a rule keeps.
+//! - [`open_sky`]: per column along a distant light, the height past
+//!   which no busy cell lies (shadow rays stop there).
 //! - [`majorant`]: per-cell maximum extinction under a transfer function
 //!   (or a density mapping), for shadow rays and delta tracking.
 
@@ -17,6 +19,7 @@ pub mod cull;
 pub mod dda;
 pub mod hierarchy;
 pub mod majorant;
+pub mod open_sky;
 pub mod skip;
 
 pub use hierarchy::{Hierarchy, Step};

@@ -65,6 +65,12 @@ impl<'a> FixedCells<'a> {
         self.flags[below + cell] != 0
     }
 
+    /// Whether the rule may skip level-0 cell `cell` (linear index).
+    #[inline]
+    pub fn skippable_finest(&self, cell: usize) -> bool {
+        self.flags.get(cell).is_some_and(|&f| f != 0)
+    }
+
     /// The fraction of level-0 cells that may be skipped.
     pub fn skippable_fraction(&self) -> f64 {
         let n = self.h.index().levels().first().map_or(0, |l| l.len());

@@ -7,6 +7,7 @@ use super::light_grid::LightGrid;
 use super::occluder::Occluder;
 use super::shadow_ray::transmittance;
 use super::RayEffects;
+use crate::accel::open_sky::OpenSky;
 use crate::accel::{Accel, NoSkipping};
 use crate::integrator::dvr::Shading;
 use crate::integrator::march::RaySteps;
@@ -27,6 +28,8 @@ pub struct ShadowCaster<'a, O, A> {
     hi: Vec3,
     /// Per light: its grid, or `None` for shadow rays.
     grids: &'a [Option<LightGrid>],
+    /// Per light: the cells from which its way is clear, if known.
+    skies: &'a [Option<OpenSky>],
     /// Voxels along the light by which a grid read moves off the point
     /// (iso-surfaces: so the surface does not shadow itself).
     grid_offset: f32,
@@ -50,8 +53,15 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
             geom,
             hi,
             grids,
+            skies: &[],
             grid_offset,
         }
+    }
+
+    /// The same caster, its shadow rays stopping in the cells `skies`
+    /// marks open for their light (per light, as in `grids`).
+    pub fn with_open_skies(self, skies: &'a [Option<OpenSky>]) -> Self {
+        ShadowCaster { skies, ..self }
     }
 
     /// The fraction of light `light` (arriving as `inc`) that reaches
@@ -86,7 +96,12 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
         let Some((_, t1)) = intersect_box(&ray, Vec3::ZERO, self.hi) else {
             return 1.0;
         };
-        let t1 = t1.min(inc.distance);
+        let mut t1 = t1.min(inc.distance);
+        if let Some(Some(sky)) = self.skies.get(light) {
+            // Past this point the ray meets only clear cells: the samples
+            // left out would each add zero depth.
+            t1 = t1.min(sky.clear_after(p * inv));
+        }
         let steps = RaySteps::new(&self.geom, &ray, self.geom.step, t1);
         let (t, samples) = match self.skip {
             Some(a) => transmittance(&self.occ, a, cur, &steps, q),

@@ -7,7 +7,8 @@ use super::light_grid::LightGrid;
 use super::occluder::{Classified, IsoInside, Occluder};
 use super::occlusion_grid::{Intervals, OcclusionGrid, OCCLUSION_CELL};
 use super::{EffectStats, ShadowMethod, Shadows};
-use crate::accel::ClearBoxes;
+use crate::accel::open_sky::OpenSky;
+use crate::accel::{ClearBoxes, FixedCells};
 use crate::classify::Classifier;
 use crate::error::RenderError;
 use crate::integrator::reconstruct::{Analytic, Central, Nearest, NoGradient, Trilinear};
@@ -29,6 +30,34 @@ pub fn shadow_geometry(geom: &FrameGeometry, shadows: Option<&Shadows>) -> Frame
         step: shadows.and_then(|s| s.step).unwrap_or(geom.step),
         ..*geom
     }
+}
+
+/// Per light, the cells from which the way to it is clear (see
+/// [`OpenSky`]): for the directional lights that cast shadow rays (no grid
+/// in `grids`), when the frame skips by `clear`; `None` for the others.
+pub fn open_skies(
+    lights: &[Light],
+    grids: &[Option<LightGrid>],
+    clear: Option<&FixedCells<'_>>,
+    geom: &FrameGeometry,
+) -> Vec<Option<OpenSky>> {
+    lights
+        .iter()
+        .enumerate()
+        .map(|(i, light)| {
+            let clear = clear?;
+            let Light::Directional { towards, .. } = *light else {
+                return None;
+            };
+            if matches!(grids.get(i), Some(Some(_))) {
+                return None;
+            }
+            // The direction shadow rays take in voxel units, as
+            // `RaySteps::new` makes it.
+            let d = towards * geom.inv_spacing;
+            OpenSky::build(clear.index(), |c| !clear.skippable_finest(c), d)
+        })
+        .collect()
 }
 
 /// The grids a frame's lights read: one per directional light under the
