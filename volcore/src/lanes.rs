@@ -434,6 +434,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must have AVX2.
     #[target_feature(enable = "avx2")]
+    #[inline]
     pub unsafe fn bricked_values8(
         s: &[u8],
         g: &BrickLanes,
@@ -487,6 +488,7 @@ mod avx2 {
     /// # Safety
     /// The CPU must have AVX2.
     #[target_feature(enable = "avx2")]
+    #[inline]
     pub unsafe fn bricked_cross8(
         s: &[u8],
         g: &BrickLanes,

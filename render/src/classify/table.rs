@@ -221,6 +221,7 @@ mod avx2 {
     /// The CPU must have AVX2, and `entries` hold `bins.count()` entries,
     /// fewer than 2^28.
     #[target_feature(enable = "avx2")]
+    #[inline]
     pub unsafe fn alpha8(bins: &Bins, entries: &[[f32; 4]], v: &[f32; 8]) -> [f32; 8] {
         let v = _mm256_loadu_ps(v.as_ptr());
         let i = _mm256_mul_ps(

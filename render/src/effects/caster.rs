@@ -30,6 +30,9 @@ pub struct ShadowCaster<'a, O, A> {
     grids: &'a [Option<LightGrid>],
     /// Per light: the cells from which its way is clear, if known.
     skies: &'a [Option<OpenSky>],
+    /// Whether the CPU has AVX2 (shadow rays march in code compiled for
+    /// it).
+    avx2: bool,
     /// Voxels along the light by which a grid read moves off the point
     /// (iso-surfaces: so the surface does not shadow itself).
     grid_offset: f32,
@@ -54,6 +57,7 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
             hi,
             grids,
             skies: &[],
+            avx2: avx2_available(),
             grid_offset,
         }
     }
@@ -104,12 +108,49 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
         }
         let steps = RaySteps::new(&self.geom, &ray, self.geom.step, t1);
         let (t, samples) = match self.skip {
-            Some(a) => transmittance(&self.occ, a, cur, &steps, q),
-            None => transmittance(&self.occ, &NoSkipping, cur, &steps, q),
+            Some(a) => march_shadow(self.avx2, &self.occ, a, cur, &steps, q),
+            None => march_shadow(self.avx2, &self.occ, &NoSkipping, cur, &steps, q),
         };
         fx.shadow_samples += samples as u64;
         t
     }
+}
+
+/// [`transmittance`], compiled for AVX2 where the CPU has it (so the
+/// eight-sample reads and lookups inline into the march) and as usual
+/// elsewhere; the same bits either way.
+#[inline(always)]
+fn march_shadow<C: Cursor, O: Occluder, A: Accel<O::Query>>(
+    avx2: bool,
+    occ: &O,
+    accel: &A,
+    cur: &mut C,
+    steps: &RaySteps,
+    q: O::Query,
+) -> (f32, u32) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` is set only where the CPU was found to have it.
+        return unsafe { transmittance_avx2(occ, accel, cur, steps, q) };
+    }
+    let _ = avx2;
+    transmittance(occ, accel, cur, steps, q)
+}
+
+/// [`transmittance`] compiled with AVX2.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn transmittance_avx2<C: Cursor, O: Occluder, A: Accel<O::Query>>(
+    occ: &O,
+    accel: &A,
+    cur: &mut C,
+    steps: &RaySteps,
+    q: O::Query,
+) -> (f32, u32) {
+    transmittance(occ, accel, cur, steps, q)
 }
 
 /// Blinn-Phong with effects for DVR: each light's share of a sample's
@@ -236,5 +277,17 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
     #[inline(always)]
     fn effects(st: &EffectsRay) -> RayEffects {
         st.fx
+    }
+}
+
+/// Whether the CPU has AVX2.
+fn avx2_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
