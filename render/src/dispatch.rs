@@ -82,7 +82,7 @@ pub struct DvrEffects<'a> {
     pub hi: Vec3,
     /// Per light: its transmittance grid, or `None` for shadow rays.
     pub grids: &'a [Option<LightGrid>],
-    /// Per light: the cells from which its way is clear, if known.
+    /// Per light: where a shadow ray's way to it becomes clear, if known.
     pub skies: &'a [Option<OpenSky>],
     /// The lights.
     pub lighting: &'a Lighting,

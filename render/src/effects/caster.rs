@@ -28,7 +28,7 @@ pub struct ShadowCaster<'a, O, A> {
     hi: Vec3,
     /// Per light: its grid, or `None` for shadow rays.
     grids: &'a [Option<LightGrid>],
-    /// Per light: the cells from which its way is clear, if known.
+    /// Per light: where a shadow ray's way to it becomes clear, if known.
     skies: &'a [Option<OpenSky>],
     /// Whether the CPU has AVX2 (shadow rays march in code compiled for
     /// it).
@@ -62,8 +62,8 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
         }
     }
 
-    /// The same caster, its shadow rays stopping in the cells `skies`
-    /// marks open for their light (per light, as in `grids`).
+    /// The same caster, its shadow rays stopping where `skies` finds the
+    /// rest of their way clear (per light, as in `grids`).
     pub fn with_open_skies(self, skies: &'a [Option<OpenSky>]) -> Self {
         ShadowCaster { skies, ..self }
     }

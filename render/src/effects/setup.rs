@@ -32,7 +32,7 @@ pub fn shadow_geometry(geom: &FrameGeometry, shadows: Option<&Shadows>) -> Frame
     }
 }
 
-/// Per light, the cells from which the way to it is clear (see
+/// Per light, where shadow rays' way to it becomes clear (see
 /// [`OpenSky`]): for the directional lights that cast shadow rays (no grid
 /// in `grids`), when the frame skips by `clear`; `None` for the others.
 pub fn open_skies(
