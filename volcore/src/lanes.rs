@@ -220,7 +220,7 @@ impl BrickLanes {
 }
 
 /// Whether this CPU runs AVX2 (std caches the answer).
-pub(crate) fn avx2_available() -> bool {
+pub fn avx2_available() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2")

@@ -111,7 +111,7 @@ impl TfTable {
         TfTable {
             bins,
             entries,
-            lanes: avx2_available(),
+            lanes: volcore::lanes::avx2_available(),
         }
     }
 
@@ -193,18 +193,6 @@ impl Classifier for TfTable {
             .iter()
             .map(|l| l.zero_cells(&bounds))
             .collect())
-    }
-}
-
-/// Whether this CPU runs AVX2 (std caches the answer).
-fn avx2_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
     }
 }
 

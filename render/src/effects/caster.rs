@@ -57,7 +57,7 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
             hi,
             grids,
             skies: &[],
-            avx2: avx2_available(),
+            avx2: volcore::lanes::avx2_available(),
             grid_offset,
         }
     }
@@ -277,17 +277,5 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
     #[inline(always)]
     fn effects(st: &EffectsRay) -> RayEffects {
         st.fx
-    }
-}
-
-/// Whether the CPU has AVX2.
-fn avx2_available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
     }
 }
