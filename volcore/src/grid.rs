@@ -1001,6 +1001,8 @@ mod tests {
         let mut rng = fastrand::Rng::with_seed(21);
         let mut batched = 0;
         let mut interiors = 0;
+        let mut straddles = 0;
+        let mut declined = 0;
         for (dims, b) in [((40, 37, 33), 16), ((64, 64, 64), 32), ((9, 70, 5), 4)] {
             let dims = Dims::new(dims.0, dims.1, dims.2).unwrap();
             let samples: Vec<u8> = (0..dims.count()).map(|_| rng.u8(..)).collect();
@@ -1027,6 +1029,26 @@ mod tests {
                 batched += 1;
                 let cross = cur.cross_blend8(o, d, k0, step).unwrap();
                 let loc = Locator::new(dims);
+                let brick = |i: usize| {
+                    let t = ((k0 + i as i64) as f64 * step) as f32;
+                    loc.locate(std::array::from_fn(|a| o[a] + d[a] * t))
+                        .0
+                        .map(|c| c / u64::from(b))
+                };
+                let straddle = brick(0) != brick(7);
+                straddles += usize::from(straddle);
+                // Volumes whose offsets do not fit the lanes (here: a slice
+                // one byte short of the bricks) read runs within one brick
+                // only, the same bits.
+                let g = cur.lanes.as_ref().unwrap();
+                let short = &cur.data[..cur.data.len() - 1];
+                match crate::lanes::bricked_values8(short, g, o, d, k0, step) {
+                    Some(s) => {
+                        assert!(!straddle);
+                        assert_eq!(s, got);
+                    }
+                    None => declined += 1,
+                }
                 for i in 0..8 {
                     let t = ((k0 + i as i64) as f64 * step) as f32;
                     assert_eq!(got.t[i].to_bits(), t.to_bits());
@@ -1049,6 +1071,12 @@ mod tests {
         let avx2 = crate::lanes::avx2_available();
         assert_eq!(batched > 5000, avx2, "{batched} batches");
         assert_eq!(interiors > 20_000, avx2, "{interiors} interior samples");
+        // Runs that cross brick faces read each point from its own brick.
+        assert_eq!(straddles > 500, avx2, "{straddles} runs across bricks");
+        assert!(
+            declined >= straddles && declined < batched / 2,
+            "{declined}"
+        );
     }
 
     /// zstd bricks of `samples`, plus one entry whose bytes pass the

@@ -181,6 +181,10 @@ pub struct BrickLanes {
     hi: [f32; 3],
     /// The dimensions.
     dims: [i32; 3],
+    /// Where every brick's offset fits an `i32`: the bytes a volume's
+    /// bricks take (lanes then read from each one's own brick, so a run
+    /// may cross brick faces).
+    flat_end: Option<usize>,
 }
 
 impl BrickLanes {
@@ -205,7 +209,20 @@ impl BrickLanes {
         if !(dims.iter().all(|&d| d >= 1 && fits(d)) && bricks < (1 << 31) && stored < (1 << 30)) {
             return None;
         }
+        // No read leaves its brick's stored samples: a cell's first corner
+        // lies at most at owned offset `b − 1` (+ apron 1 = `b`) on each
+        // axis (points are clamped to the box), a gathered word reads three
+        // more along x, ending at `e = b + 3` of a row, and rows go to at
+        // most `b + 2 = e − 1` along y and z (the cross's outer rows), so
+        // the last byte read is below `e³`. If the last brick's end fits an
+        // i32, so does every offset.
+        let flat_end = (bricks - 1)
+            .checked_mul(stride as u64)
+            .and_then(|b| b.checked_add(stored))
+            .filter(|&end| end <= i32::MAX as u64)
+            .map(|end| end as usize);
         Some(BrickLanes {
+            flat_end,
             shift: brick.trailing_zeros() as i32,
             lo: apron_lo as i32,
             e: stored_edge as i32,
@@ -283,9 +300,10 @@ pub fn bricked_cross8(
 /// Samples `k .. k + 8` of the ray `o + d·t` (voxel space, `t = k·step`)
 /// in a bricked `u8` volume `s`: each parameter and value bit for bit
 /// what the scalar path gives (`(k·step) as f32`; clamp to the box, floor,
-/// blend x then y then z); `None` when the points do not all lie in one
-/// brick (the caller takes them one by one), `k` is too large for exact
-/// f64 lanes or the brick lies outside `s`. (Reading only the lanes in the
+/// blend x then y then z); `None` when `k` is too large for exact f64
+/// lanes or a brick read lies outside `s`, and in volumes whose brick
+/// offsets do not fit 32-bit lanes, also when the points do not all lie
+/// in one brick (the caller takes them one by one). (Reading only the lanes in the
 /// first point's brick, with a masked gather, and handing over partial
 /// runs measured slower: a call per short run costs more than the scalar
 /// samples it replaces.)
@@ -350,7 +368,7 @@ mod avx2 {
         _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
     }
 
-    /// Where eight samples of a ray fall in one brick.
+    /// Where eight samples of a ray fall in the volume's bricks.
     struct Where8 {
         /// Ray parameters.
         tv: __m256,
@@ -358,15 +376,15 @@ mod avx2 {
         f: [__m256; 3],
         /// Cell bases (voxel coordinates).
         i: [__m256i; 3],
-        /// Offsets of the cells' first corners in the brick.
+        /// Offsets of the cells' first corners from `base`.
         local: __m256i,
-        /// The brick's first sample.
+        /// The volume's first sample, or the one brick's first sample.
         base: *const i32,
     }
 
-    /// Locate samples `k .. k + 8` of the ray `o + d·t`; `None` when they
-    /// are not all in one brick or the brick's samples (and two more) do
-    /// not lie in `s`.
+    /// Locate samples `k .. k + 8` of the ray `o + d·t`; `None` when a
+    /// brick read would leave `s`, or (volumes whose offsets do not fit
+    /// 32-bit lanes) the samples are not all in one brick.
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn locate8(
@@ -399,17 +417,6 @@ mod avx2 {
                 _mm256_add_epi32(by, _mm256_mullo_epi32(_mm256_set1_epi32(g.ny), bz)),
             ),
         );
-        let first = _mm_cvtsi128_si32(_mm256_castsi256_si128(brick));
-        let same = _mm256_cmpeq_epi32(brick, _mm256_set1_epi32(first));
-        if _mm256_movemask_epi8(same) != -1 {
-            return None;
-        }
-        // Each gather reads four bytes from a row's first corner: at most
-        // two past the brick's last stored sample.
-        let start = (first as usize).checked_mul(g.stride)?;
-        if start.checked_add(g.stored + 2)? > s.len() {
-            return None;
-        }
         let lo = _mm256_set1_epi32(g.lo);
         let local_axis = |i: __m256i, b: __m256i| {
             _mm256_add_epi32(_mm256_sub_epi32(i, _mm256_sll_epi32(b, sh)), lo)
@@ -420,6 +427,32 @@ mod avx2 {
             lx,
             _mm256_mullo_epi32(e, _mm256_add_epi32(ly, _mm256_mullo_epi32(e, lz))),
         );
+        let (start, local) = match g.flat_end {
+            // Each lane from its own brick: offsets from the volume's start
+            // (every brick number is below the count, so no lane reads past
+            // the last brick's end).
+            Some(end) if end <= s.len() => (
+                0,
+                _mm256_add_epi32(
+                    _mm256_mullo_epi32(brick, _mm256_set1_epi32(g.stride as i32)),
+                    local,
+                ),
+            ),
+            _ => {
+                let first = _mm_cvtsi128_si32(_mm256_castsi256_si128(brick));
+                let same = _mm256_cmpeq_epi32(brick, _mm256_set1_epi32(first));
+                if _mm256_movemask_epi8(same) != -1 {
+                    return None;
+                }
+                // Each gather reads four bytes from a row's first corner: at
+                // most two past the brick's last stored sample.
+                let start = (first as usize).checked_mul(g.stride)?;
+                if start.checked_add(g.stored + 2)? > s.len() {
+                    return None;
+                }
+                (start, local)
+            }
+        };
         Some(Where8 {
             tv,
             f: [fx, fy, fz],
