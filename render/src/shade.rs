@@ -243,6 +243,118 @@ impl ViewShading {
     }
 }
 
+/// Eight samples' values per component, then per lane: colours, world
+/// gradients or shaded colours.
+pub type Lanes3 = [[f32; 8]; 3];
+
+impl ViewShading {
+    /// Eight samples of colours `colour` and world gradients `grad` shaded
+    /// at once, where this CPU has AVX2 and the exponent is whole: per
+    /// lane, `colour` where the squared gradient length is at most
+    /// `threshold2` (or NaN), [`ViewShading::shade_normal`] of the
+    /// gradient over its length elsewhere, bit for bit (the same
+    /// operations in the same order); `None` otherwise.
+    pub fn shade8(&self, colour: &Lanes3, grad: &Lanes3, threshold2: f32) -> Option<Lanes3> {
+        let e = self.whole_exponent?;
+        #[cfg(target_arch = "x86_64")]
+        if volcore::lanes::avx2_available() {
+            // SAFETY: AVX2 was just found on this CPU.
+            return Some(unsafe { avx2::shade8(self, e, colour, grad, threshold2) });
+        }
+        let _ = (e, colour, grad, threshold2);
+        None
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{Lanes3, ViewShading};
+    use std::arch::x86_64::*;
+
+    /// `a + b` per lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn add(a: __m256, b: __m256) -> __m256 {
+        _mm256_add_ps(a, b)
+    }
+
+    /// `a · b` per lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn mul(a: __m256, b: __m256) -> __m256 {
+        _mm256_mul_ps(a, b)
+    }
+
+    /// `a · b` per lane for vectors `a` in lanes and `b` in every lane,
+    /// summed as `Vec3::dot` sums.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn dot(a: &[__m256; 3], b: glam::Vec3) -> __m256 {
+        add(
+            add(
+                mul(a[0], _mm256_set1_ps(b.x)),
+                mul(a[1], _mm256_set1_ps(b.y)),
+            ),
+            mul(a[2], _mm256_set1_ps(b.z)),
+        )
+    }
+
+    /// See [`ViewShading::shade8`]; `e` is the whole exponent.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn shade8(
+        v: &ViewShading,
+        e: u32,
+        colour: &Lanes3,
+        grad: &Lanes3,
+        threshold2: f32,
+    ) -> Lanes3 {
+        let zero = _mm256_setzero_ps();
+        let g = [
+            _mm256_loadu_ps(grad[0].as_ptr()),
+            _mm256_loadu_ps(grad[1].as_ptr()),
+            _mm256_loadu_ps(grad[2].as_ptr()),
+        ];
+        // |g|², as `length_squared` sums it.
+        let len2 = add(add(mul(g[0], g[0]), mul(g[1], g[1])), mul(g[2], g[2]));
+        let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(len2, _mm256_set1_ps(threshold2));
+        let r = _mm256_div_ps(_mm256_set1_ps(1.0), _mm256_sqrt_ps(len2));
+        // The normal −g·r, flipped to face the eye (sign flips, as `-n`).
+        let sign = _mm256_set1_ps(-0.0);
+        let mut n = [zero; 3];
+        for j in 0..3 {
+            n[j] = _mm256_xor_ps(mul(g[j], r), sign);
+        }
+        let away = _mm256_and_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(dot(&n, v.to_eye), zero), sign);
+        for c in &mut n {
+            *c = _mm256_xor_ps(*c, away);
+        }
+        // `max(x, 0)` gives 0 for NaN, as `f32::max` does.
+        let diff = _mm256_max_ps(dot(&n, v.l), zero);
+        let (mut x, mut p, mut k) = (_mm256_max_ps(dot(&n, v.h), zero), _mm256_set1_ps(1.0), e);
+        while k > 0 {
+            if k & 1 == 1 {
+                p = mul(p, x);
+            }
+            x = mul(x, x);
+            k >>= 1;
+        }
+        let spec = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(diff, zero), p);
+        let kd = mul(_mm256_set1_ps(v.model.diffuse), diff);
+        let ks = mul(_mm256_set1_ps(v.model.specular), spec);
+        let mut out = [[0f32; 8]; 3];
+        for (j, o) in out.iter_mut().enumerate() {
+            let col = _mm256_loadu_ps(colour[j].as_ptr());
+            let (amb, rad) = (_mm256_set1_ps(v.ambient[j]), _mm256_set1_ps(v.radiance[j]));
+            let shaded = add(mul(col, add(amb, mul(rad, kd))), mul(rad, ks));
+            _mm256_storeu_ps(o.as_mut_ptr(), _mm256_blendv_ps(col, shaded, lit));
+        }
+        out
+    }
+}
+
 /// `x^n` by repeated squaring, inline (`powi` with an exponent known only
 /// at run time becomes a library call).
 #[inline(always)]
@@ -303,6 +415,84 @@ mod tests {
             Lighting::default().shade_at(Vec3::ONE, Vec3::ZERO, Vec3::NEG_Z, Vec3::ZERO),
             Vec3::splat(0.25)
         );
+    }
+
+    #[test]
+    fn lanes_shade_as_one_by_one_bit_for_bit() {
+        let Some(_) = Lighting::default()
+            .for_view(Light::HEADLIGHT, Vec3::NEG_Z)
+            .shade8(&[[0.0; 8]; 3], &[[0.0; 8]; 3], 0.0)
+        else {
+            return; // No AVX2 here: nothing runs in lanes.
+        };
+        let mut rng = fastrand::Rng::with_seed(12);
+        let unit = |rng: &mut fastrand::Rng| {
+            Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5).normalize_or(Vec3::X)
+        };
+        // Gradients that stress the edges: zero, tiny, huge, NaN, infinite,
+        // along an axis, at right angles to the light.
+        let special = [
+            Vec3::ZERO,
+            Vec3::splat(1e-30),
+            Vec3::new(3e19, -1e19, 0.0),
+            Vec3::new(f32::NAN, 1.0, 0.0),
+            Vec3::new(f32::INFINITY, 0.0, 0.0),
+            Vec3::X,
+            Vec3::NEG_Z,
+        ];
+        let mut lit = 0;
+        for round in 0..400 {
+            let light = if round % 3 == 0 {
+                Light::HEADLIGHT
+            } else {
+                Light::directional(unit(&mut rng)).unwrap()
+            };
+            let lighting = Lighting {
+                lights: vec![light],
+                ambient: Vec3::new(rng.f32(), 0.0, 0.25),
+                model: BlinnPhong {
+                    shininess: [1.0, 2.0, 24.0, 255.0][round % 4],
+                    ..Default::default()
+                },
+            };
+            let view = lighting.for_view(light, unit(&mut rng));
+            let threshold2 = [0.0, 1e-6, 0.5][round % 3];
+            let mut colour = [[0f32; 8]; 3];
+            let mut grad = [[0f32; 8]; 3];
+            for i in 0..8 {
+                let g = match rng.usize(0..10) {
+                    0 => special[rng.usize(0..special.len())],
+                    1 => view.l.cross(unit(&mut rng)) * 3.0,
+                    _ => unit(&mut rng) * rng.f32() * 100.0,
+                };
+                for j in 0..3 {
+                    colour[j][i] = rng.f32();
+                    grad[j][i] = g[j];
+                }
+            }
+            let out = view.shade8(&colour, &grad, threshold2).unwrap();
+            for i in 0..8 {
+                let c = Vec3::new(colour[0][i], colour[1][i], colour[2][i]);
+                let g = Vec3::new(grad[0][i], grad[1][i], grad[2][i]);
+                let len2 = g.length_squared();
+                let want = if len2 > threshold2 {
+                    lit += 1;
+                    view.shade_normal(c, g * len2.sqrt().recip())
+                } else {
+                    c
+                };
+                for j in 0..3 {
+                    assert_eq!(
+                        out[j][i].to_bits(),
+                        want[j].to_bits(),
+                        "round {round} lane {i}: {g} gives {} not {}",
+                        out[j][i],
+                        want[j]
+                    );
+                }
+            }
+        }
+        assert!(lit > 2000, "{lit}");
     }
 
     #[test]

@@ -41,6 +41,14 @@ pub trait Classifier: Sync {
     /// NaN values are transparent.
     fn classify(&self, v: f32, gradient: f32) -> [f32; 4];
 
+    /// `classify(v[i], 0.0)` of eight samples of values `v`, bit for bit
+    /// (for classifiers that do not read the gradient); tables override it
+    /// to find the bins in lanes.
+    #[inline(always)]
+    fn classify8(&self, v: &[f32; 8]) -> [[f32; 4]; 8] {
+        v.map(|x| self.classify(x, 0.0))
+    }
+
     /// The opacities of eight samples of values `v`, each
     /// `classify(v[i], 0.0)[3]` bit for bit (for classifiers that do not
     /// read the gradient); tables override it to look up in lanes.

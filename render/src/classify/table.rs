@@ -174,6 +174,23 @@ impl Classifier for TfTable {
         v.map(|x| self.lookup(x)[3])
     }
 
+    #[inline(always)]
+    fn classify8(&self, v: &[f32; 8]) -> [[f32; 4]; 8] {
+        #[cfg(target_arch = "x86_64")]
+        if self.lanes && self.entries.len() < (1 << 28) {
+            // SAFETY: as in `alpha8`.
+            let (bins, nan) = unsafe { avx2::bins8(&self.bins, v) };
+            let mut out = [[0.0; 4]; 8];
+            for (i, (o, &b)) in out.iter_mut().zip(&bins).enumerate() {
+                if nan >> i & 1 == 0 {
+                    *o = self.entries[b as usize];
+                }
+            }
+            return out;
+        }
+        v.map(|x| self.lookup(x))
+    }
+
     fn to_optical_depth(&self) -> Self {
         let mut t = self.clone();
         for e in &mut t.entries {
@@ -201,6 +218,37 @@ mod avx2 {
     use super::Bins;
     use std::arch::x86_64::*;
 
+    /// [`Bins::bin`] of eight values, the same operations per lane.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn bin_lanes(bins: &Bins, v: __m256) -> __m256i {
+        let i = _mm256_mul_ps(
+            _mm256_sub_ps(v, _mm256_set1_ps(bins.lo)),
+            _mm256_set1_ps(bins.scale),
+        );
+        let top = _mm256_set1_ps(bins.top);
+        let above = _mm256_cmp_ps::<_CMP_GT_OQ>(i, _mm256_setzero_ps());
+        let below = _mm256_cmp_ps::<_CMP_LT_OQ>(i, top);
+        _mm256_cvttps_epi32(_mm256_and_ps(_mm256_blendv_ps(top, i, below), above))
+    }
+
+    /// [`Bins::bin`] of eight values, and a bit per NaN value.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub unsafe fn bins8(bins: &Bins, v: &[f32; 8]) -> ([u32; 8], u8) {
+        let v = _mm256_loadu_ps(v.as_ptr());
+        let mut out = [0u32; 8];
+        _mm256_storeu_si256(out.as_mut_ptr().cast(), bin_lanes(bins, v));
+        let nan = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_UNORD_Q>(v, v)) as u8;
+        (out, nan)
+    }
+
     /// [`super::TfTable::lookup`]'s opacity for eight values: the bin as
     /// [`Bins::bin`] computes it (the same operations per lane), then a
     /// gather; NaN values are transparent.
@@ -212,17 +260,9 @@ mod avx2 {
     #[inline]
     pub unsafe fn alpha8(bins: &Bins, entries: &[[f32; 4]], v: &[f32; 8]) -> [f32; 8] {
         let v = _mm256_loadu_ps(v.as_ptr());
-        let i = _mm256_mul_ps(
-            _mm256_sub_ps(v, _mm256_set1_ps(bins.lo)),
-            _mm256_set1_ps(bins.scale),
-        );
-        let top = _mm256_set1_ps(bins.top);
-        let above = _mm256_cmp_ps::<_CMP_GT_OQ>(i, _mm256_setzero_ps());
-        let below = _mm256_cmp_ps::<_CMP_LT_OQ>(i, top);
-        let i = _mm256_and_ps(_mm256_blendv_ps(top, i, below), above);
         // Word offsets of each bin's alpha (bins < 2^28, so no overflow).
         let at = _mm256_add_epi32(
-            _mm256_slli_epi32::<2>(_mm256_cvttps_epi32(i)),
+            _mm256_slli_epi32::<2>(bin_lanes(bins, v)),
             _mm256_set1_epi32(3),
         );
         let a = _mm256_i32gather_ps::<4>(entries.as_ptr().cast::<f32>(), at);
@@ -274,6 +314,9 @@ mod tests {
                 let want = v.map(|x| table.lookup(x)[3]);
                 let got = table.alpha8(&v);
                 assert_eq!(got.map(f32::to_bits), want.map(f32::to_bits), "{v:?}");
+                let got = table.classify8(&v).map(|e| e.map(f32::to_bits));
+                let want = v.map(|x| table.lookup(x).map(f32::to_bits));
+                assert_eq!(got, want, "{v:?}");
             }
         }
     }

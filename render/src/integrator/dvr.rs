@@ -8,7 +8,7 @@ use crate::classify::Classifier;
 use crate::effects::RayEffects;
 use crate::light::Light;
 use crate::ray::Ray;
-use crate::shade::{Lighting, ViewShading};
+use crate::shade::{Lanes3, Lighting, ViewShading};
 use glam::Vec3;
 use std::marker::PhantomData;
 use volcore::grid::Locator;
@@ -69,6 +69,21 @@ pub trait Shading: Sync {
     #[inline(always)]
     fn effects(_per_ray: &Self::PerRay) -> RayEffects {
         RayEffects::default()
+    }
+    /// Whether [`Shading::shade8`] may shade runs of eight samples (it
+    /// then reads nothing through a cursor).
+    const LANES: bool = false;
+    /// [`Shading::shade`] of eight samples of colours `colour` and world
+    /// gradients `grad` (per component, then per lane), bit for bit;
+    /// `None` where it cannot here (then the samples go one by one).
+    #[inline(always)]
+    fn shade8(
+        &self,
+        _per_ray: &mut Self::PerRay,
+        _colour: &Lanes3,
+        _grad: &Lanes3,
+    ) -> Option<Lanes3> {
+        None
     }
 }
 
@@ -163,6 +178,11 @@ impl Shading for Phong<'_> {
         } else {
             colour
         }
+    }
+    const LANES: bool = true;
+    #[inline(always)]
+    fn shade8(&self, view: &mut ViewShading, colour: &Lanes3, grad: &Lanes3) -> Option<Lanes3> {
+        view.shade8(colour, grad, self.threshold2)
     }
 }
 
@@ -310,6 +330,9 @@ where
             // Not reached: BATCH is false for such gradients.
             return one_by_one(self, cur, k, t, s);
         };
+        if S::LANES && G::CENTRAL && !K::NEEDS_GRADIENT {
+            return self.take8(cur, k, t, v, early, s);
+        }
         // Shaded frames read the central-difference blends of all eight in
         // lanes too, once the first visible sample of the run asks for a
         // gradient (runs with none visible read none); samples whose cells
@@ -387,6 +410,77 @@ where
             self.alpha += weight;
             if d.termination.reached(self.alpha) {
                 return Flow::Stop;
+            }
+        }
+        Flow::Next
+    }
+}
+
+impl<R, G, K, S, T, A> DvrRay<'_, '_, R, G, K, S, T, A>
+where
+    R: Reconstruct,
+    G: Gradient,
+    K: Classifier,
+    S: Shading,
+    T: Termination,
+{
+    /// Samples `k .. k + 8` (parameters `t`, values `v`) as [`Self::take`]
+    /// takes them one by one, with the visible ones' gradients read and
+    /// their shading worked out in lanes; the same bits. For classifiers
+    /// that read no gradient and central-difference gradients.
+    #[inline(always)]
+    fn take8<C: Cursor>(
+        &mut self,
+        cur: &mut C,
+        k: i64,
+        t: &[f32; 8],
+        v: &[f32; 8],
+        early: G::Early,
+        s: &RaySteps,
+    ) -> Flow {
+        let d = self.dvr;
+        let e = d.classifier.classify8(v);
+        if !e.iter().any(|e| e[3] > 0.0) {
+            self.samples += 8;
+            return Flow::Next;
+        }
+        // Visible samples' gradients: the run's blends where the cell is
+        // interior, `central_gradient` elsewhere (what `take` reads).
+        let cross = cur.cross_blend8(s.ray.o.to_array(), s.ray.d.to_array(), k, s.step);
+        let (mut colour, mut grad) = ([[0f32; 8]; 3], [[0f32; 8]; 3]);
+        for (i, e) in e.iter().enumerate() {
+            if e[3] > 0.0 {
+                let g = match cross {
+                    Some(c) if c.interior >> i & 1 == 1 => {
+                        Vec3::new(c.g[0][i], c.g[1][i], c.g[2][i]) * 0.5
+                    }
+                    _ => G::gradient(early, &self.loc, cur, s.at(t[i])),
+                } * self.inv_spacing;
+                for j in 0..3 {
+                    colour[j][i] = e[j];
+                    grad[j][i] = g[j];
+                }
+            }
+        }
+        let shaded = d.shading.shade8(&mut self.view, &colour, &grad);
+        for (i, e) in e.iter().enumerate() {
+            self.samples += 1;
+            if e[3] > 0.0 {
+                let c = match shaded {
+                    Some(sh) => Vec3::new(sh[0][i], sh[1][i], sh[2][i]),
+                    None => {
+                        let g = Vec3::new(grad[0][i], grad[1][i], grad[2][i]);
+                        let c = Vec3::new(e[0], e[1], e[2]);
+                        d.shading
+                            .shade(&mut self.view, cur, c, g, g.length_squared(), t[i])
+                    }
+                };
+                let weight = (1.0 - self.alpha) * e[3];
+                self.colour += c * weight;
+                self.alpha += weight;
+                if d.termination.reached(self.alpha) {
+                    return Flow::Stop;
+                }
             }
         }
         Flow::Next

@@ -145,7 +145,7 @@ pub trait RayMarch {
     ) -> Flow;
     /// Whether the loop may hand runs of eight samples to
     /// [`RayMarch::sample8`] with their trilinear values read at once (the
-    /// samples read nothing else to find their value).
+    /// samples read nothing else to find their value, nor their cell).
     const BATCH: bool = false;
     /// Take samples `k .. k + 8` at ray parameters `t` (points
     /// `s.at(t[i])`), whose trilinear values are `v`, in order, exactly as
@@ -254,6 +254,17 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
                         busy_until = s.last_before(exit);
                     }
                     cell = Some(c);
+                    // A busy stretch's first eight samples go in lanes too
+                    // (integrators that batch read no cell).
+                    if batch && k.saturating_add(7) <= busy_until.min(s.k1) {
+                        if let Some(run) = cur.trilinear8(o, d, k, s.step) {
+                            if m.sample8(cur, k, &run.t, &run.v, s) == Flow::Stop {
+                                break;
+                            }
+                            k += 8;
+                            continue;
+                        }
+                    }
                 }
             }
         }
