@@ -395,35 +395,48 @@ where
                         Some(l) if G::CENTRAL => l.blend(cur),
                         _ => None,
                     };
-                    // What `central_gradient` gives for an interior cell.
-                    let g = match blend {
-                        Some(b) => b * 0.5,
-                        None => G::gradient(early, loc, cur, p),
-                    };
-                    grad = g * self.inv_spacing;
+                    grad = self.world_gradient(cur, blend, early, p);
                     len2 = grad.length_squared();
                 }
                 c = d.shading.shade(&mut self.view, cur, c, grad, len2, t);
             }
-            let weight = (1.0 - self.alpha) * e[3];
-            self.colour += c * weight;
-            self.alpha += weight;
-            if d.termination.reached(self.alpha) {
-                return Flow::Stop;
-            }
+            return self.composite(c, e[3]);
         }
         Flow::Next
     }
-}
 
-impl<R, G, K, S, T, A> DvrRay<'_, '_, R, G, K, S, T, A>
-where
-    R: Reconstruct,
-    G: Gradient,
-    K: Classifier,
-    S: Shading,
-    T: Termination,
-{
+    /// The world gradient at `p`: from the blend of its cell's central
+    /// differences where the run read it (what `central_gradient` gives
+    /// for an interior cell), else from `G`.
+    #[inline(always)]
+    fn world_gradient<C: Cursor>(
+        &self,
+        cur: &mut C,
+        blend: Option<Vec3>,
+        early: G::Early,
+        p: Vec3,
+    ) -> Vec3 {
+        let g = match blend {
+            Some(b) => b * 0.5,
+            None => G::gradient(early, &self.loc, cur, p),
+        };
+        g * self.inv_spacing
+    }
+
+    /// Composite colour `c` of opacity `alpha` behind what the ray holds;
+    /// stop once the termination rule says so.
+    #[inline(always)]
+    fn composite(&mut self, c: Vec3, alpha: f32) -> Flow {
+        let weight = (1.0 - self.alpha) * alpha;
+        self.colour += c * weight;
+        self.alpha += weight;
+        if self.dvr.termination.reached(self.alpha) {
+            Flow::Stop
+        } else {
+            Flow::Next
+        }
+    }
+
     /// Samples `k .. k + 8` (parameters `t`, values `v`) as [`Self::take`]
     /// takes them one by one, with the visible ones' gradients read and
     /// their shading worked out in lanes; the same bits. For classifiers
@@ -446,16 +459,18 @@ where
         }
         // Visible samples' gradients: the run's blends where the cell is
         // interior, `central_gradient` elsewhere (what `take` reads).
-        let cross = cur.cross_blend8(s.ray.o.to_array(), s.ray.d.to_array(), k, s.step);
+        let mut cross = None;
         let (mut colour, mut grad) = ([[0f32; 8]; 3], [[0f32; 8]; 3]);
         for (i, e) in e.iter().enumerate() {
             if e[3] > 0.0 {
-                let g = match cross {
-                    Some(c) if c.interior >> i & 1 == 1 => {
-                        Vec3::new(c.g[0][i], c.g[1][i], c.g[2][i]) * 0.5
-                    }
-                    _ => G::gradient(early, &self.loc, cur, s.at(t[i])),
-                } * self.inv_spacing;
+                let lanes = LaneGradients {
+                    cross: &mut cross,
+                    lane: i,
+                    k,
+                    steps: s,
+                };
+                let blend = lanes.blend(cur);
+                let g = self.world_gradient(cur, blend, early, s.at(t[i]));
                 for j in 0..3 {
                     colour[j][i] = e[j];
                     grad[j][i] = g[j];
@@ -475,10 +490,7 @@ where
                             .shade(&mut self.view, cur, c, g, g.length_squared(), t[i])
                     }
                 };
-                let weight = (1.0 - self.alpha) * e[3];
-                self.colour += c * weight;
-                self.alpha += weight;
-                if d.termination.reached(self.alpha) {
+                if self.composite(c, e[3]) == Flow::Stop {
                     return Flow::Stop;
                 }
             }
