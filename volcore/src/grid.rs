@@ -408,6 +408,8 @@ pub struct SlicedCursor<'a, T: Sample> {
     /// Samples between neighbours along x, y and z.
     strides: [usize; 3],
     data: &'a [T],
+    /// The batched path's addressing, where the CPU and volume allow it.
+    lanes: Option<crate::lanes::SliceLanes>,
 }
 
 impl<T: Sample> SlicedCursor<'_, T> {
@@ -428,10 +430,16 @@ impl<T: Sample> VoxelSource for SlicedGrid<T> {
     }
 
     fn cursor(&self) -> SlicedCursor<'_, T> {
+        let strides = self.order.strides(self.dims);
         SlicedCursor {
             dims: self.dims,
-            strides: self.order.strides(self.dims).map(|s| s as usize),
+            strides: strides.map(|s| s as usize),
             data: &self.data,
+            lanes: T::BATCHES
+                .then(|| {
+                    crate::lanes::SliceLanes::new(self.dims.as_array(), strides, self.data.len())
+                })
+                .flatten(),
         }
     }
 
@@ -492,6 +500,23 @@ impl<T: Sample> Cursor for SlicedCursor<'_, T> {
     #[inline(always)]
     fn cross_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> [f32; 3] {
         T::cross_blend(self.data, self.at(i, j, k), self.strides, t)
+    }
+
+    #[inline(always)]
+    fn trilinear8(&mut self, o: [f32; 3], d: [f32; 3], k: i64, step: f64) -> Option<Samples8> {
+        let g = self.lanes.as_ref()?;
+        T::sliced_values8(self.data, g, o, d, k, step)
+    }
+
+    #[inline(always)]
+    fn cross_blend8(&mut self, o: [f32; 3], d: [f32; 3], k: i64, step: f64) -> Option<Cross8> {
+        let g = self.lanes.as_ref()?;
+        T::sliced_cross8(self.data, g, o, d, k, step)
+    }
+
+    #[inline(always)]
+    fn batches(&self) -> bool {
+        T::BATCHES && self.lanes.is_some()
     }
 }
 
@@ -1077,6 +1102,116 @@ mod tests {
             declined >= straddles && declined < batched / 2,
             "{declined}"
         );
+    }
+
+    /// Sliced `u8` volumes in either order batch runs of eight whose cells
+    /// all have a neighbour on every axis and whose reads stay in the
+    /// samples, each value and interior gradient bit for bit what the
+    /// cursor gives one by one; the others are declined, never read: runs
+    /// reaching a far face or (rays toward the last corner) the end of the
+    /// samples.
+    #[test]
+    fn sliced_runs_of_eight_match_one_at_a_time() {
+        let mut rng = fastrand::Rng::with_seed(5);
+        let (mut batched, mut interiors, mut at_end, mut near_end) = (0, 0, 0, 0);
+        for order in [SliceOrder::XFastest, SliceOrder::ZFastest] {
+            for dims in [(40, 37, 33), (9, 70, 5), (64, 64, 64), (2, 3, 7)] {
+                let dims = Dims::new(dims.0, dims.1, dims.2).unwrap();
+                let samples: Vec<u8> = (0..dims.count())
+                    .map(|_| match rng.u8(0..8) {
+                        0 => 0,
+                        1 => 255,
+                        _ => rng.u8(..),
+                    })
+                    .collect();
+                let len = samples.len() as i64;
+                let grid = SlicedGrid::with_order(dims, order, Data::Owned(samples)).unwrap();
+                let mut cur = grid.cursor();
+                let mut one = grid.cursor();
+                assert_eq!(cur.batches(), crate::lanes::avx2_available());
+                let loc = Locator::new(dims);
+                let n = dims.as_array();
+                let size = n.map(|d| d as f32);
+                let st = order.strides(dims).map(|s| s as i64);
+                // The two slower axes' strides, in x, y, z order.
+                let (s1, s2) = match order {
+                    SliceOrder::XFastest => (st[1], st[2]),
+                    SliceOrder::ZFastest => (st[0], st[1]),
+                };
+                for i in 0..3000 {
+                    let toward_end = i % 3 == 0;
+                    let o: [f32; 3] = std::array::from_fn(|a| {
+                        if toward_end {
+                            size[a] - 1.0 - rng.f32() * 3.0
+                        } else {
+                            rng.f32() * (size[a] + 4.0) - 2.0
+                        }
+                    });
+                    let mut d: [f32; 3] = std::array::from_fn(|_| rng.f32() * 2.0 - 1.0);
+                    if toward_end {
+                        d = d.map(|c| c.abs() * 0.3);
+                    }
+                    if i % 7 == 0 {
+                        d = [0.0; 3];
+                        d[i % 3] = if i % 2 == 0 { 1.0 } else { -1.0 };
+                    }
+                    let step = [0.2, 0.05, 1.0, 3.0, 0.1][i % 5];
+                    let k0 = rng.i64(-12..40);
+                    let points: [([u64; 3], [f32; 3]); 8] = std::array::from_fn(|j| {
+                        let t = ((k0 + j as i64) as f64 * step) as f32;
+                        loc.locate(std::array::from_fn(|a| o[a] + d[a] * t))
+                    });
+                    let base = |b: [u64; 3]| (0..3).map(|a| b[a] as i64 * st[a]).sum::<i64>();
+                    let on_face = points.iter().any(|(b, _)| (0..3).any(|a| b[a] + 1 >= n[a]));
+                    let past_end = points.iter().any(|(b, _)| base(*b) + s1 + s2 + 3 >= len);
+                    let got = cur.trilinear8(o, d, k0, step);
+                    let expect = crate::lanes::avx2_available() && !on_face && !past_end;
+                    assert_eq!(got.is_some(), expect, "{order:?} {dims} {o:?} {d:?} {k0}");
+                    at_end += usize::from(past_end && !on_face);
+                    let Some(got) = got else {
+                        continue;
+                    };
+                    batched += 1;
+                    let interior = |b: [u64; 3]| (0..3).all(|a| b[a] >= 1 && b[a] + 2 < n[a]);
+                    // No interior cell's cross reaches past the samples
+                    // (so the lanes need not check).
+                    let reach = (s1 + 2 * s2).max(2 * s1 + s2);
+                    for (b, _) in &points {
+                        if interior(*b) {
+                            assert!(base(*b) - s1.max(s2) >= 0 && base(*b) + reach + 3 < len);
+                            near_end += usize::from(base(*b) + reach + 3 + s2 >= len);
+                        }
+                    }
+                    let cross = cur
+                        .cross_blend8(o, d, k0, step)
+                        .expect("a batched run's crosses are read");
+                    for (j, &(b, f)) in points.iter().enumerate() {
+                        let t = ((k0 + j as i64) as f64 * step) as f32;
+                        assert_eq!(got.t[j].to_bits(), t.to_bits());
+                        let p = std::array::from_fn(|a| o[a] + d[a] * t);
+                        let want = one.trilinear(p);
+                        assert_eq!(got.v[j].to_bits(), want.to_bits(), "{order:?} {p:?}");
+                        assert_eq!(cross.interior >> j & 1 == 1, interior(b), "{p:?}");
+                        if interior(b) {
+                            interiors += 1;
+                            let want = one.cross_blend(b[0], b[1], b[2], f);
+                            let got = [0, 1, 2].map(|a| cross.g[a][j]);
+                            assert_eq!(
+                                got.map(f32::to_bits),
+                                want.map(f32::to_bits),
+                                "{order:?} {p:?}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        let avx2 = crate::lanes::avx2_available();
+        assert_eq!(batched > 3000, avx2, "{batched} batches");
+        assert_eq!(interiors > 20_000, avx2, "{interiors} interior samples");
+        assert!(at_end > 50, "{at_end} runs reaching the end");
+        // Some interior crosses come within a row of the end.
+        assert_eq!(near_end > 0, avx2, "{near_end} crosses near the end");
     }
 
     /// zstd bricks of `samples`, plus one entry whose bytes pass the

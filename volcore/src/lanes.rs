@@ -236,6 +236,122 @@ impl BrickLanes {
     }
 }
 
+/// What [`sliced_values8`] needs of a sliced `u8` volume (x fastest, or z
+/// fastest as the thesis `.vol` stores it): its strides as 32-bit lane
+/// arithmetic. It exists only where the CPU has AVX2 and every sample's
+/// offset fits an `i32`.
+#[derive(Clone, Copy, Debug)]
+pub struct SliceLanes {
+    /// Whether z is the fastest axis (else x is).
+    z_fastest: bool,
+    /// Samples between neighbours along x, y and z.
+    strides: [i32; 3],
+    /// `dims − 1` per axis (the clamping box).
+    hi: [f32; 3],
+    /// The dimensions.
+    dims: [i32; 3],
+    /// The samples the lanes were made for.
+    len: usize,
+    /// The largest first-corner offset whose cell's reads (four bytes
+    /// from each row's first corner) stay in the samples.
+    cell_limit: i32,
+}
+
+impl SliceLanes {
+    /// The lanes' view of `len` samples of a `dims` volume whose
+    /// neighbours along x, y and z lie `strides` apart; `None` when the CPU
+    /// lacks AVX2, neither x nor z is the fastest axis, or the samples do
+    /// not fit 32-bit lanes.
+    pub fn new(dims: [u64; 3], strides: [u64; 3], len: usize) -> Option<SliceLanes> {
+        if !avx2_available() || len > i32::MAX as usize {
+            return None;
+        }
+        let fits = |v: u64| v < (1 << 24);
+        if !dims.iter().all(|&d| d >= 2 && fits(d)) || strides.iter().any(|&s| s > len as u64) {
+            return None;
+        }
+        let z_fastest = match strides {
+            [1, _, _] => false,
+            [_, _, 1] => true,
+            _ => return None,
+        };
+        let [s1, s2] = if z_fastest {
+            [strides[0], strides[1]]
+        } else {
+            [strides[1], strides[2]]
+        }
+        .map(|s| s as i64);
+        // A cell reads up to three bytes past the start of its last row
+        // (s1 + s2 on).
+        Some(SliceLanes {
+            z_fastest,
+            strides: strides.map(|s| s as i32),
+            hi: dims.map(|d| (d - 1) as f32),
+            dims: dims.map(|d| d as i32),
+            len,
+            cell_limit: (len as i64 - 4 - s1 - s2).max(-1) as i32,
+        })
+    }
+}
+
+/// [`bricked_values8`] for a sliced `u8` volume `s` laid out as `g` says:
+/// bit for bit the scalar path's; `None` when `k` is too large for exact
+/// f64 lanes, a point's cell lies on a far face (its neighbour would be
+/// clamped) or a read would pass the end of `s`.
+#[inline]
+pub fn sliced_values8(
+    s: &[u8],
+    g: &SliceLanes,
+    o: [f32; 3],
+    d: [f32; 3],
+    k: i64,
+    step: f64,
+) -> Option<Samples8> {
+    if k.unsigned_abs() >= 1 << 52 {
+        return None;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: a `SliceLanes` exists only where AVX2 was detected; every
+        // offset read is checked against the limits made for `s`'s length
+        // (and `s` against that length).
+        unsafe { avx2::sliced_values8(s, g, o, d, k, step) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (s, g, o, d, step);
+        None
+    }
+}
+
+/// [`bricked_cross8`] for a sliced `u8` volume: the central-difference
+/// blends at the samples [`sliced_values8`] reads, for the interior ones;
+/// `None` where it declines.
+#[inline]
+pub fn sliced_cross8(
+    s: &[u8],
+    g: &SliceLanes,
+    o: [f32; 3],
+    d: [f32; 3],
+    k: i64,
+    step: f64,
+) -> Option<Cross8> {
+    if k.unsigned_abs() >= 1 << 52 {
+        return None;
+    }
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: as in `sliced_values8`; only interior cells are read, and
+        // their crosses lie in `s` (see `avx2::sliced_cross8`).
+        unsafe { avx2::sliced_cross8(s, g, o, d, k, step) }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (s, g, o, d, step);
+        None
+    }
+}
+
 /// Whether this CPU runs AVX2 (std caches the answer).
 pub fn avx2_available() -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -368,7 +484,20 @@ mod avx2 {
         _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
     }
 
-    /// Where eight samples of a ray fall in the volume's bricks.
+    /// The parameters `(k + i)·step` in f64 (`k + i` exact: `|k| < 2^52`),
+    /// rounded to f32, as the scalar path computes them.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn parameters8(k: i64, step: f64) -> __m256 {
+        let kf = _mm256_set1_pd(k as f64);
+        let st = _mm256_set1_pd(step);
+        let lo = _mm256_mul_pd(_mm256_add_pd(kf, _mm256_set_pd(3.0, 2.0, 1.0, 0.0)), st);
+        let hi = _mm256_mul_pd(_mm256_add_pd(kf, _mm256_set_pd(7.0, 6.0, 5.0, 4.0)), st);
+        _mm256_set_m128(_mm256_cvtpd_ps(hi), _mm256_cvtpd_ps(lo))
+    }
+
+    /// Where eight samples of a ray fall in the volume (its bricks, or its
+    /// slices).
     struct Where8 {
         /// Ray parameters.
         tv: __m256,
@@ -395,12 +524,7 @@ mod avx2 {
         k: i64,
         step: f64,
     ) -> Option<Where8> {
-        // (k + i)·step in f64 (k + i exact: |k| < 2^52), rounded to f32.
-        let kf = _mm256_set1_pd(k as f64);
-        let st = _mm256_set1_pd(step);
-        let lo = _mm256_mul_pd(_mm256_add_pd(kf, _mm256_set_pd(3.0, 2.0, 1.0, 0.0)), st);
-        let hi = _mm256_mul_pd(_mm256_add_pd(kf, _mm256_set_pd(7.0, 6.0, 5.0, 4.0)), st);
-        let tv = _mm256_set_m128(_mm256_cvtpd_ps(hi), _mm256_cvtpd_ps(lo));
+        let tv = parameters8(k, step);
         let (ix, fx) = axis(o[0], d[0], tv, g.hi[0]);
         let (iy, fy) = axis(o[1], d[1], tv, g.hi[1]);
         let (iz, fz) = axis(o[2], d[2], tv, g.hi[2]);
@@ -477,29 +601,7 @@ mod avx2 {
         step: f64,
     ) -> Option<Samples8> {
         let w = locate8(s, g, o, d, k, step)?;
-        let [fx, fy, fz] = w.f;
-        let oy = _mm256_set1_epi32(g.e);
-        let oz = _mm256_set1_epi32(g.e * g.e);
-        let local = w.local;
-        let row = |off: __m256i| _mm256_i32gather_epi32::<1>(w.base, off);
-        let (a0, b0) = pair(row(local));
-        let (a1, b1) = pair(row(_mm256_add_epi32(local, oy)));
-        let (a2, b2) = pair(row(_mm256_add_epi32(local, oz)));
-        let (a3, b3) = pair(row(_mm256_add_epi32(local, _mm256_add_epi32(oy, oz))));
-        let x00 = lerp(a0, b0, fx);
-        let x10 = lerp(a1, b1, fx);
-        let x01 = lerp(a2, b2, fx);
-        let x11 = lerp(a3, b3, fx);
-        let y0 = lerp(x00, x10, fy);
-        let y1 = lerp(x01, x11, fy);
-        let v = lerp(y0, y1, fz);
-        let mut out = Samples8 {
-            t: [0.0; 8],
-            v: [0.0; 8],
-        };
-        _mm256_storeu_ps(out.t.as_mut_ptr(), w.tv);
-        _mm256_storeu_ps(out.v.as_mut_ptr(), v);
-        Some(out)
+        Some(w.samples(values_at::<false>(&w, g.e, g.e * g.e)))
     }
 
     /// The four bytes from `p − 1` of each gathered word, as f32 lanes.
@@ -531,21 +633,82 @@ mod avx2 {
         step: f64,
     ) -> Option<Cross8> {
         let w = locate8(s, g, o, d, k, step)?;
-        let [fx, fy, fz] = w.f;
-        // Interior cells (1 <= i and i + 2 < dims on every axis) read their
-        // whole cross inside the brick (its apron); the others are left to
-        // the caller, and not read.
-        let mut inside = _mm256_set1_epi32(-1);
-        for a in 0..3 {
-            let i = w.i[a];
-            let ok = _mm256_and_si256(
-                _mm256_cmpgt_epi32(i, _mm256_setzero_si256()),
-                _mm256_cmpgt_epi32(_mm256_set1_epi32(g.dims[a] - 2), i),
-            );
-            inside = _mm256_and_si256(inside, ok);
+        // Interior cells read their whole cross inside the brick (its
+        // apron); the others are left to the caller, and not read.
+        let inside = w.interior(g.dims);
+        Some(cross8(
+            cross_at::<false>(&w, inside, g.e, g.e * g.e),
+            inside,
+        ))
+    }
+
+    impl Where8 {
+        /// The run's parameters with values `v`.
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn samples(&self, v: __m256) -> Samples8 {
+            let mut out = Samples8 {
+                t: [0.0; 8],
+                v: [0.0; 8],
+            };
+            _mm256_storeu_ps(out.t.as_mut_ptr(), self.tv);
+            _mm256_storeu_ps(out.v.as_mut_ptr(), v);
+            out
         }
-        let interior = _mm256_movemask_ps(_mm256_castsi256_ps(inside)) as u8;
-        let (e, e2) = (g.e, g.e * g.e);
+
+        /// All ones in the lanes whose cells are interior in a volume of
+        /// `dims` (1 <= i and i + 2 < dims on every axis: the whole cross
+        /// lies inside it).
+        #[target_feature(enable = "avx2")]
+        #[inline]
+        unsafe fn interior(&self, dims: [i32; 3]) -> __m256i {
+            let mut inside = _mm256_set1_epi32(-1);
+            for (i, d) in self.i.iter().zip(dims) {
+                let ok = _mm256_and_si256(
+                    _mm256_cmpgt_epi32(*i, _mm256_setzero_si256()),
+                    _mm256_cmpgt_epi32(_mm256_set1_epi32(d - 2), *i),
+                );
+                inside = _mm256_and_si256(inside, ok);
+            }
+            inside
+        }
+    }
+
+    /// The trilinear values at `w`, whose cells' bytes are adjacent along
+    /// the fastest axis (x, or z when `Z`) and `s1`, `s2` apart along the
+    /// other two (in x, y, z order): four gathered words per lane, one per
+    /// row of the cell, blended in the scalar blend's order.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, and four bytes from each row's first corner
+    /// must be readable from `w.base`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn values_at<const Z: bool>(w: &Where8, s1: i32, s2: i32) -> __m256 {
+        let row = |r: i32| {
+            let off = _mm256_add_epi32(w.local, _mm256_set1_epi32(r));
+            pair(_mm256_i32gather_epi32::<1>(w.base, off))
+        };
+        let rows = [row(0), row(s1), row(s2), row(s1 + s2)];
+        rows_blend::<Z>(rows, w.f)
+    }
+
+    /// The central-difference blends (x, y, z; not halved) at `w` for the
+    /// lanes set in `inside` (the others read nothing and hold garbage),
+    /// laid out as for [`values_at`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2, and each set lane's cross (one voxel before
+    /// its first corner to three bytes past the last, rows `s1`, `s2`
+    /// apart) must be readable from `w.base`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn cross_at<const Z: bool>(
+        w: &Where8,
+        inside: __m256i,
+        s1: i32,
+        s2: i32,
+    ) -> [__m256; 3] {
         let zero = _mm256_setzero_si256();
         let at = |off: i32| {
             _mm256_mask_i32gather_epi32::<1>(
@@ -555,63 +718,178 @@ mod avx2 {
                 inside,
             )
         };
-        // Rows in the blend's order: (y, z), (y + 1, z), (y, z + 1),
-        // (y + 1, z + 1); each read from one voxel before its first corner.
-        let rows = [0, e, e2, e + e2];
+        // Rows (d1, d2) in the order d1 + 2·d2 (d1 along the first of the
+        // two slower axes); each read from one voxel before its first
+        // corner.
+        let rows = [0, s1, s2, s1 + s2];
         let wide = rows.map(|r| quad(at(r - 1)));
         let two = |off: i32| pair(at(off));
-        // x: the differences of corners x and x + 1 along x.
-        let gx = rows_blend(
-            wide.map(|q| (_mm256_sub_ps(q[2], q[0]), _mm256_sub_ps(q[3], q[1]))),
-            fx,
-            fy,
-            fz,
-        );
-        // y and z: each row's neighbours one before and one after along the
-        // axis (rows of the cell where they are rows of the cell).
+        // Fastest axis: the differences of each row's two corners' outer
+        // neighbours.
+        let fast = wide.map(|q| (_mm256_sub_ps(q[2], q[0]), _mm256_sub_ps(q[3], q[1])));
+        // The slower axes: each row's neighbours one before and one after
+        // along the axis (rows of the cell where they are rows of the
+        // cell).
         let cell = |r: usize| (wide[r][1], wide[r][2]);
         let diff = |p: (__m256, __m256), m: (__m256, __m256)| {
             (_mm256_sub_ps(p.0, m.0), _mm256_sub_ps(p.1, m.1))
         };
-        let gy = rows_blend(
-            [
-                diff(cell(1), two(-e)),
-                diff(two(2 * e), cell(0)),
-                diff(cell(3), two(e2 - e)),
-                diff(two(e2 + 2 * e), cell(2)),
-            ],
-            fx,
-            fy,
-            fz,
-        );
-        let gz = rows_blend(
-            [
-                diff(cell(2), two(-e2)),
-                diff(cell(3), two(e - e2)),
-                diff(two(2 * e2), cell(0)),
-                diff(two(e + 2 * e2), cell(1)),
-            ],
-            fx,
-            fy,
-            fz,
-        );
-        let mut out = Cross8 {
-            g: [[0.0; 8]; 3],
-            interior,
-        };
-        _mm256_storeu_ps(out.g[0].as_mut_ptr(), gx);
-        _mm256_storeu_ps(out.g[1].as_mut_ptr(), gy);
-        _mm256_storeu_ps(out.g[2].as_mut_ptr(), gz);
-        Some(out)
+        let first = [
+            diff(cell(1), two(-s1)),
+            diff(two(2 * s1), cell(0)),
+            diff(cell(3), two(s2 - s1)),
+            diff(two(2 * s1 + s2), cell(2)),
+        ];
+        let second = [
+            diff(cell(2), two(-s2)),
+            diff(cell(3), two(s1 - s2)),
+            diff(two(2 * s2), cell(0)),
+            diff(two(s1 + 2 * s2), cell(1)),
+        ];
+        let blend = |r| rows_blend::<Z>(r, w.f);
+        if Z {
+            // z fastest; the slower axes are x, then y.
+            [blend(first), blend(second), blend(fast)]
+        } else {
+            [blend(fast), blend(first), blend(second)]
+        }
     }
 
-    /// The blend of four rows' corner pairs `(corner x, corner x + 1)` in
-    /// the scalar blend's order: along x per row, then y, then z.
+    /// A run's blends `g` for its `inside` lanes, as a [`Cross8`].
     #[target_feature(enable = "avx2")]
     #[inline]
-    unsafe fn rows_blend(r: [(__m256, __m256); 4], fx: __m256, fy: __m256, fz: __m256) -> __m256 {
-        let x = r.map(|(a, b)| lerp(a, b, fx));
+    unsafe fn cross8(g: [__m256; 3], inside: __m256i) -> Cross8 {
+        let mut out = Cross8 {
+            g: [[0.0; 8]; 3],
+            interior: _mm256_movemask_ps(_mm256_castsi256_ps(inside)) as u8,
+        };
+        for (o, g) in out.g.iter_mut().zip(g) {
+            _mm256_storeu_ps(o.as_mut_ptr(), g);
+        }
+        out
+    }
+
+    /// The blend of four rows' corner pairs (corner, next corner along the
+    /// fastest axis) in the scalar blend's order: along x, then y, then z.
+    /// Rows come in the order `d1 + 2·d2` of the two slower axes: (y, z)
+    /// for x fastest; (x, y) when `Z` (z fastest), whose pairs run along
+    /// z, so the x lerps pair rows instead.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn rows_blend<const Z: bool>(r: [(__m256, __m256); 4], f: [__m256; 3]) -> __m256 {
+        let [fx, fy, fz] = f;
+        let x = if Z {
+            // Corner (dx, dy, dz) is row dx + 2·dy, pair member dz.
+            [
+                lerp(r[0].0, r[1].0, fx),
+                lerp(r[2].0, r[3].0, fx),
+                lerp(r[0].1, r[1].1, fx),
+                lerp(r[2].1, r[3].1, fx),
+            ]
+        } else {
+            r.map(|(a, b)| lerp(a, b, fx))
+        };
         lerp(lerp(x[0], x[1], fy), lerp(x[2], x[3], fy), fz)
+    }
+
+    /// Locate samples `k .. k + 8` of the ray `o + d·t` in a sliced
+    /// volume; `None` when a cell lies on a far face (its next corner
+    /// would be clamped) or its reads would pass the end of `s`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn locate_sliced8(
+        s: &[u8],
+        g: &SliceLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<Where8> {
+        let tv = parameters8(k, step);
+        let (ix, fx) = axis(o[0], d[0], tv, g.hi[0]);
+        let (iy, fy) = axis(o[1], d[1], tv, g.hi[1]);
+        let (iz, fz) = axis(o[2], d[2], tv, g.hi[2]);
+        let i = [ix, iy, iz];
+        let mut past = _mm256_setzero_si256();
+        for (i, d) in i.iter().zip(g.dims) {
+            past = _mm256_or_si256(past, _mm256_cmpgt_epi32(*i, _mm256_set1_epi32(d - 2)));
+        }
+        let st = g.strides;
+        let local = _mm256_add_epi32(
+            _mm256_mullo_epi32(ix, _mm256_set1_epi32(st[0])),
+            _mm256_add_epi32(
+                _mm256_mullo_epi32(iy, _mm256_set1_epi32(st[1])),
+                _mm256_mullo_epi32(iz, _mm256_set1_epi32(st[2])),
+            ),
+        );
+        past = _mm256_or_si256(
+            past,
+            _mm256_cmpgt_epi32(local, _mm256_set1_epi32(g.cell_limit)),
+        );
+        if g.len != s.len() || _mm256_movemask_epi8(past) != 0 {
+            return None;
+        }
+        Some(Where8 {
+            tv,
+            f: [fx, fy, fz],
+            i,
+            local,
+            base: s.as_ptr().cast::<i32>(),
+        })
+    }
+
+    /// See [`super::sliced_values8`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub unsafe fn sliced_values8(
+        s: &[u8],
+        g: &SliceLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<Samples8> {
+        let w = locate_sliced8(s, g, o, d, k, step)?;
+        let v = if g.z_fastest {
+            values_at::<true>(&w, g.strides[0], g.strides[1])
+        } else {
+            values_at::<false>(&w, g.strides[1], g.strides[2])
+        };
+        Some(w.samples(v))
+    }
+
+    /// See [`super::sliced_cross8`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub unsafe fn sliced_cross8(
+        s: &[u8],
+        g: &SliceLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<Cross8> {
+        let w = locate_sliced8(s, g, o, d, k, step)?;
+        // Only interior cells are read. Their crosses stay in the samples:
+        // the lowest read is one row (or byte) before a corner whose
+        // coordinate on that axis is at least 1; the highest, three bytes
+        // past a row start at most two rows on along one slower axis and
+        // one along the other, whose coordinates stay two and one below
+        // that axis's far face, so at least one whole row of samples
+        // follows.
+        let inside = w.interior(g.dims);
+        let gr = if g.z_fastest {
+            cross_at::<true>(&w, inside, g.strides[0], g.strides[1])
+        } else {
+            cross_at::<false>(&w, inside, g.strides[1], g.strides[2])
+        };
+        Some(cross8(gr, inside))
     }
 }
 

@@ -163,6 +163,35 @@ pub trait Sample:
         let _ = (s, g, o, d, k, step);
         None
     }
+    /// [`Sample::bricked_values8`] for sliced samples `s` laid out as `g`
+    /// says; `None` (the default) where the type has no batched path or
+    /// the run declines.
+    #[inline(always)]
+    fn sliced_values8(
+        s: &[Self],
+        g: &crate::lanes::SliceLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<crate::lanes::Samples8> {
+        let _ = (s, g, o, d, k, step);
+        None
+    }
+    /// [`Sample::bricked_cross8`] for sliced samples; `None` (the default)
+    /// where it declines.
+    #[inline(always)]
+    fn sliced_cross8(
+        s: &[Self],
+        g: &crate::lanes::SliceLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<crate::lanes::Cross8> {
+        let _ = (s, g, o, d, k, step);
+        None
+    }
     /// Whether this sample is NaN (always false for integers).
     fn is_nan(self) -> bool {
         false
@@ -260,6 +289,28 @@ int_sample!(
         step: f64,
     ) -> Option<crate::lanes::Cross8> {
         crate::lanes::bricked_cross8(s, g, o, d, k, step)
+    },
+    #[inline(always)]
+    fn sliced_values8(
+        s: &[u8],
+        g: &crate::lanes::SliceLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<crate::lanes::Samples8> {
+        crate::lanes::sliced_values8(s, g, o, d, k, step)
+    },
+    #[inline(always)]
+    fn sliced_cross8(
+        s: &[u8],
+        g: &crate::lanes::SliceLanes,
+        o: [f32; 3],
+        d: [f32; 3],
+        k: i64,
+        step: f64,
+    ) -> Option<crate::lanes::Cross8> {
+        crate::lanes::sliced_cross8(s, g, o, d, k, step)
     }
 );
 int_sample!(u16, SampleType::U16);
