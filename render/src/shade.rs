@@ -251,17 +251,25 @@ impl ViewShading {
     /// Eight samples of colours `colour` and world gradients `grad` shaded
     /// at once, where this CPU has AVX2 and the exponent is whole: per
     /// lane, `colour` where the squared gradient length is at most
-    /// `threshold2` (or NaN), [`ViewShading::shade_normal`] of the
-    /// gradient over its length elsewhere, bit for bit (the same
-    /// operations in the same order); `None` otherwise.
-    pub fn shade8(&self, colour: &Lanes3, grad: &Lanes3, threshold2: f32) -> Option<Lanes3> {
+    /// `threshold2` (or NaN), elsewhere [`ViewShading::shade_normal`] of
+    /// the gradient over its length, or with `transmittance`
+    /// [`ViewShading::shade_normal_shadowed`] (no occlusion) with that
+    /// lane's transmittance; bit for bit (the same operations in the same
+    /// order); `None` otherwise.
+    pub fn shade8(
+        &self,
+        colour: &Lanes3,
+        grad: &Lanes3,
+        threshold2: f32,
+        transmittance: Option<&[f32; 8]>,
+    ) -> Option<Lanes3> {
         let e = self.whole_exponent?;
         #[cfg(target_arch = "x86_64")]
         if volcore::lanes::avx2_available() {
             // SAFETY: AVX2 was just found on this CPU.
-            return Some(unsafe { avx2::shade8(self, e, colour, grad, threshold2) });
+            return Some(unsafe { avx2::shade8(self, e, colour, grad, threshold2, transmittance) });
         }
-        let _ = (e, colour, grad, threshold2);
+        let _ = (e, colour, grad, threshold2, transmittance);
         None
     }
 }
@@ -310,6 +318,7 @@ mod avx2 {
         colour: &Lanes3,
         grad: &Lanes3,
         threshold2: f32,
+        transmittance: Option<&[f32; 8]>,
     ) -> Lanes3 {
         let zero = _mm256_setzero_ps();
         let g = [
@@ -344,11 +353,28 @@ mod avx2 {
         let spec = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(diff, zero), p);
         let kd = mul(_mm256_set1_ps(v.model.diffuse), diff);
         let ks = mul(_mm256_set1_ps(v.model.specular), spec);
+        // With shadows: the light's share scaled by the lane's
+        // transmittance, and lanes the light adds nothing to keep the
+        // ambient part alone (as `shade_normal_shadowed` returns early).
+        let shadow = transmittance.map(|t| {
+            let dark = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_EQ_OQ>(kd, zero),
+                _mm256_cmp_ps::<_CMP_EQ_OQ>(ks, zero),
+            );
+            (_mm256_loadu_ps(t.as_ptr()), dark)
+        });
         let mut out = [[0f32; 8]; 3];
         for (j, o) in out.iter_mut().enumerate() {
             let col = _mm256_loadu_ps(colour[j].as_ptr());
-            let (amb, rad) = (_mm256_set1_ps(v.ambient[j]), _mm256_set1_ps(v.radiance[j]));
-            let shaded = add(mul(col, add(amb, mul(rad, kd))), mul(rad, ks));
+            let amb = _mm256_set1_ps(v.ambient[j]);
+            let mut rad = _mm256_set1_ps(v.radiance[j]);
+            if let Some((t, _)) = shadow {
+                rad = mul(rad, t);
+            }
+            let mut shaded = add(mul(col, add(amb, mul(rad, kd))), mul(rad, ks));
+            if let Some((_, dark)) = shadow {
+                shaded = _mm256_blendv_ps(shaded, mul(col, amb), dark);
+            }
             _mm256_storeu_ps(o.as_mut_ptr(), _mm256_blendv_ps(col, shaded, lit));
         }
         out
@@ -421,7 +447,7 @@ mod tests {
     fn lanes_shade_as_one_by_one_bit_for_bit() {
         let Some(_) = Lighting::default()
             .for_view(Light::HEADLIGHT, Vec3::NEG_Z)
-            .shade8(&[[0.0; 8]; 3], &[[0.0; 8]; 3], 0.0)
+            .shade8(&[[0.0; 8]; 3], &[[0.0; 8]; 3], 0.0, None)
         else {
             return; // No AVX2 here: nothing runs in lanes.
         };
@@ -459,6 +485,7 @@ mod tests {
             let threshold2 = [0.0, 1e-6, 0.5][round % 3];
             let mut colour = [[0f32; 8]; 3];
             let mut grad = [[0f32; 8]; 3];
+            let mut transmittance = [0f32; 8];
             for i in 0..8 {
                 let g = match rng.usize(0..10) {
                     0 => special[rng.usize(0..special.len())],
@@ -466,18 +493,43 @@ mod tests {
                     _ => unit(&mut rng) * rng.f32() * 100.0,
                 };
                 for j in 0..3 {
-                    colour[j][i] = rng.f32();
+                    colour[j][i] = match rng.usize(0..20) {
+                        0 => -0.0,
+                        1 => 0.0,
+                        _ => rng.f32(),
+                    };
                     grad[j][i] = g[j];
                 }
+                transmittance[i] = match rng.usize(0..6) {
+                    0 => 0.0,
+                    1 => 1.0,
+                    2 => 1e-38,
+                    _ => rng.f32(),
+                };
             }
-            let out = view.shade8(&colour, &grad, threshold2).unwrap();
+            // Every other round with shadows: each lane's light scaled by
+            // its transmittance.
+            let shadowed = round % 2 == 1;
+            let out = view
+                .shade8(
+                    &colour,
+                    &grad,
+                    threshold2,
+                    shadowed.then_some(&transmittance),
+                )
+                .unwrap();
             for i in 0..8 {
                 let c = Vec3::new(colour[0][i], colour[1][i], colour[2][i]);
                 let g = Vec3::new(grad[0][i], grad[1][i], grad[2][i]);
                 let len2 = g.length_squared();
                 let want = if len2 > threshold2 {
                     lit += 1;
-                    view.shade_normal(c, g * len2.sqrt().recip())
+                    let unit = g * len2.sqrt().recip();
+                    if shadowed {
+                        view.shade_normal_shadowed(c, unit, 1.0, || transmittance[i])
+                    } else {
+                        view.shade_normal(c, unit)
+                    }
                 } else {
                     c
                 };

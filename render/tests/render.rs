@@ -413,8 +413,9 @@ fn sliced_bricked_and_compressed_copies_render_identically() {
 
 /// Settings whose samples bricked u8 volumes read eight at a time (where
 /// the CPU has AVX2): DVR with neither optimisation (every sample in a
-/// run), and shadow rays in DVR and iso mode from a sun and a point
-/// light, at steps that do and do not divide a voxel.
+/// run), shadow rays in DVR and iso mode from a sun and a point light, at
+/// steps that do and do not divide a voxel, and DVR under one sun with a
+/// shadow grid (shaded eight at a time), with and without skipping.
 fn batched_modes() -> Vec<RenderSettings> {
     use volrender::{Light, Lighting, ShadowMethod, Shadows};
     let lighting = Lighting {
@@ -433,10 +434,34 @@ fn batched_modes() -> Vec<RenderSettings> {
             step: Some(step),
         })
     };
+    let sun = Lighting {
+        lights: vec![Light::directional(Vec3::new(-1.0, 2.0, 0.5)).unwrap()],
+        ..Default::default()
+    };
+    let grid = Some(Shadows {
+        method: ShadowMethod::Grid { divisor: 2 },
+        step: None,
+    });
     vec![
         RenderSettings {
             step: 0.2,
             shading: true,
+            ert: None,
+            ess: false,
+            ..Default::default()
+        },
+        RenderSettings {
+            step: 0.2,
+            shading: true,
+            lighting: sun.clone(),
+            shadows: grid,
+            ..Default::default()
+        },
+        RenderSettings {
+            step: 0.3,
+            shading: true,
+            lighting: sun,
+            shadows: grid,
             ert: None,
             ess: false,
             ..Default::default()

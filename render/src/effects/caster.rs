@@ -14,7 +14,7 @@ use crate::integrator::march::RaySteps;
 use crate::integrator::FrameGeometry;
 use crate::light::Incident;
 use crate::ray::{intersect_box, Ray};
-use crate::shade::{Lighting, ViewShading};
+use crate::shade::{Lanes3, Lighting, ViewShading};
 use glam::Vec3;
 use volcore::Cursor;
 
@@ -80,18 +80,10 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
         q: O::Query,
         fx: &mut RayEffects,
     ) -> f32 {
-        let inv = self.geom.inv_spacing;
-        if let Some(Some(grid)) = self.grids.get(light) {
-            let mut pv = p * inv;
-            if self.grid_offset > 0.0 {
-                let lv = inc.towards * inv;
-                let m = lv.abs().max_element();
-                if m > 0.0 {
-                    pv += lv * (self.grid_offset / m);
-                }
-            }
-            return grid.transmittance(pv);
+        if let Some(grid) = self.grid(light) {
+            return self.grid_transmittance(grid, p, inc);
         }
+        let inv = self.geom.inv_spacing;
         fx.shadow_rays += 1;
         let ray = Ray {
             origin: p,
@@ -113,6 +105,32 @@ impl<'a, O: Occluder, A: Accel<O::Query>> ShadowCaster<'a, O, A> {
         };
         fx.shadow_samples += samples as u64;
         t
+    }
+}
+
+impl<O, A> ShadowCaster<'_, O, A> {
+    /// Light `light`'s transmittance grid, if it has one (else it casts
+    /// shadow rays).
+    #[inline(always)]
+    pub fn grid(&self, light: usize) -> Option<&LightGrid> {
+        self.grids.get(light)?.as_ref()
+    }
+
+    /// The fraction of the light arriving as `inc` that reaches world
+    /// point `p`, read from its grid `grid` (moved the caster's grid
+    /// offset toward the light).
+    #[inline(always)]
+    pub fn grid_transmittance(&self, grid: &LightGrid, p: Vec3, inc: &Incident) -> f32 {
+        let inv = self.geom.inv_spacing;
+        let mut pv = p * inv;
+        if self.grid_offset > 0.0 {
+            let lv = inc.towards * inv;
+            let m = lv.abs().max_element();
+            if m > 0.0 {
+                pv += lv * (self.grid_offset / m);
+            }
+        }
+        grid.transmittance(pv)
     }
 }
 
@@ -277,5 +295,58 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
     #[inline(always)]
     fn effects(st: &EffectsRay) -> RayEffects {
         st.fx
+    }
+    const LANES: bool = true;
+    /// Runs of eight shade in lanes when the frame's one light reads a
+    /// transmittance grid and there is no ambient occlusion (grid reads
+    /// count nothing and read no volume, so taking them for a whole run
+    /// changes nothing); the lanes the light leaves unlit (too short a
+    /// gradient) go one by one, as in [`Shading::shade`].
+    #[inline(always)]
+    fn shade8(
+        &self,
+        st: &mut EffectsRay,
+        colour: &Lanes3,
+        grad: &Lanes3,
+        t: &[f32; 8],
+        visible: u8,
+    ) -> Option<Lanes3> {
+        if self.ao.is_some() {
+            return None;
+        }
+        let caster = self.caster?;
+        let grid = caster.grid(0)?;
+        let EffectsRay { ray, one_light, .. } = st;
+        let view = one_light.as_ref()?;
+        let inc = self.lighting.lights[0].for_ray(ray.dir);
+        let lane = |l: &Lanes3, i: usize| Vec3::new(l[0][i], l[1][i], l[2][i]);
+        let mut tr = [1.0f32; 8];
+        let mut unlit = 0u8;
+        for (i, tr) in tr.iter_mut().enumerate() {
+            if visible >> i & 1 == 0 {
+                continue;
+            }
+            let p = ray.origin + ray.dir * t[i];
+            if lane(grad, i).length_squared() > self.threshold2 {
+                *tr = caster.grid_transmittance(grid, p, &inc);
+            } else {
+                unlit |= 1 << i;
+            }
+        }
+        let mut out = view.shade8(colour, grad, self.threshold2, Some(&tr))?;
+        for i in (0..8).filter(|i| unlit >> i & 1 == 1) {
+            let p = ray.origin + ray.dir * t[i];
+            let c = self
+                .lighting
+                .unlit_shadowed(lane(colour, i), ray.dir, p, 1.0, |l, inc| {
+                    caster
+                        .grid(l)
+                        .map_or(1.0, |g| caster.grid_transmittance(g, p, inc))
+                });
+            for (j, o) in out.iter_mut().enumerate() {
+                o[i] = c[j];
+            }
+        }
+        Some(out)
     }
 }

@@ -73,15 +73,19 @@ pub trait Shading: Sync {
     /// Whether [`Shading::shade8`] may shade runs of eight samples (it
     /// then reads nothing through a cursor).
     const LANES: bool = false;
-    /// [`Shading::shade`] of eight samples of colours `colour` and world
-    /// gradients `grad` (per component, then per lane), bit for bit;
-    /// `None` where it cannot here (then the samples go one by one).
+    /// [`Shading::shade`] of eight samples at ray parameters `t` of
+    /// colours `colour` and world gradients `grad` (per component, then
+    /// per lane), bit for bit, for the lanes set in `visible` (the others
+    /// are garbage); `None` where it cannot here (then the samples go one
+    /// by one).
     #[inline(always)]
     fn shade8(
         &self,
         _per_ray: &mut Self::PerRay,
         _colour: &Lanes3,
         _grad: &Lanes3,
+        _t: &[f32; 8],
+        _visible: u8,
     ) -> Option<Lanes3> {
         None
     }
@@ -181,8 +185,15 @@ impl Shading for Phong<'_> {
     }
     const LANES: bool = true;
     #[inline(always)]
-    fn shade8(&self, view: &mut ViewShading, colour: &Lanes3, grad: &Lanes3) -> Option<Lanes3> {
-        view.shade8(colour, grad, self.threshold2)
+    fn shade8(
+        &self,
+        view: &mut ViewShading,
+        colour: &Lanes3,
+        grad: &Lanes3,
+        _: &[f32; 8],
+        _: u8,
+    ) -> Option<Lanes3> {
+        view.shade8(colour, grad, self.threshold2, None)
     }
 }
 
@@ -461,8 +472,10 @@ where
         // interior, `central_gradient` elsewhere (what `take` reads).
         let mut cross = None;
         let (mut colour, mut grad) = ([[0f32; 8]; 3], [[0f32; 8]; 3]);
+        let mut visible = 0u8;
         for (i, e) in e.iter().enumerate() {
             if e[3] > 0.0 {
+                visible |= 1 << i;
                 let lanes = LaneGradients {
                     cross: &mut cross,
                     lane: i,
@@ -477,7 +490,7 @@ where
                 }
             }
         }
-        let shaded = d.shading.shade8(&mut self.view, &colour, &grad);
+        let shaded = d.shading.shade8(&mut self.view, &colour, &grad, t, visible);
         for (i, e) in e.iter().enumerate() {
             self.samples += 1;
             if e[3] > 0.0 {
