@@ -132,6 +132,41 @@ impl<O, A> ShadowCaster<'_, O, A> {
         }
         grid.transmittance(pv)
     }
+
+    /// [`ShadowCaster::grid_transmittance`] at the eight points of `ray`
+    /// at parameters `t`, bit for bit, the grid read in lanes where it
+    /// allows.
+    #[inline(always)]
+    pub fn grid_transmittance8(
+        &self,
+        grid: &LightGrid,
+        ray: &Ray,
+        t: &[f32; 8],
+        inc: &Incident,
+    ) -> [f32; 8] {
+        let inv = self.geom.inv_spacing;
+        let mut shift = None;
+        if self.grid_offset > 0.0 {
+            let lv = inc.towards * inv;
+            let m = lv.abs().max_element();
+            if m > 0.0 {
+                shift = Some(lv * (self.grid_offset / m));
+            }
+        }
+        let mut pv = [[0f32; 8]; 3];
+        for (i, &t) in t.iter().enumerate() {
+            let mut p = (ray.origin + ray.dir * t) * inv;
+            if let Some(s) = shift {
+                p += s;
+            }
+            for (a, lanes) in pv.iter_mut().enumerate() {
+                lanes[i] = p[a];
+            }
+        }
+        grid.transmittance8(&pv).unwrap_or_else(|| {
+            t.map(|t| self.grid_transmittance(grid, ray.origin + ray.dir * t, inc))
+        })
+    }
 }
 
 /// [`transmittance`], compiled for AVX2 where the CPU has it (so the
@@ -320,19 +355,13 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
         let view = one_light.as_ref()?;
         let inc = self.lighting.lights[0].for_ray(ray.dir);
         let lane = |l: &Lanes3, i: usize| Vec3::new(l[0][i], l[1][i], l[2][i]);
-        let mut tr = [1.0f32; 8];
-        let mut unlit = 0u8;
-        for (i, tr) in tr.iter_mut().enumerate() {
-            if visible >> i & 1 == 0 {
-                continue;
-            }
-            let p = ray.origin + ray.dir * t[i];
-            if lane(grad, i).length_squared() > self.threshold2 {
-                *tr = caster.grid_transmittance(grid, p, &inc);
-            } else {
-                unlit |= 1 << i;
-            }
-        }
+        // Every lane's read (those not shaded here are dropped).
+        let tr = caster.grid_transmittance8(grid, ray, t, &inc);
+        // Unlit as `shade` finds them: not `len2 > threshold2` (NaN too).
+        let lit = |i: usize| lane(grad, i).length_squared() > self.threshold2;
+        let unlit = (0..8)
+            .filter(|&i| visible >> i & 1 == 1 && !lit(i))
+            .fold(0u8, |m, i| m | 1 << i);
         let mut out = view.shade8(colour, grad, self.threshold2, Some(&tr))?;
         for i in (0..8).filter(|i| unlit >> i & 1 == 1) {
             let p = ray.origin + ray.dir * t[i];

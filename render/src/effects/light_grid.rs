@@ -33,6 +33,10 @@ pub struct LightGrid {
     /// The storage axes' point lookup, in storage order.
     axes: [GridAxis; 3],
     data: Vec<f32>,
+    /// Whether eight points can be read at once
+    /// ([`LightGrid::transmittance8`]): AVX2, every axis at least two
+    /// points, every index an `i32`.
+    lanes: bool,
     /// Seconds the build took.
     pub build_s: f64,
     /// Samples the build took.
@@ -191,6 +195,9 @@ impl LightGrid {
             perm,
             g,
             axes: perm.map(|ax| GridAxis::new(n[ax], g[ax], div)),
+            lanes: volcore::lanes::avx2_available()
+                && g.iter().all(|&g| (2..1 << 24).contains(&g))
+                && data.len() < i32::MAX as usize,
             data,
             build_s: start.elapsed().as_secs_f64(),
             samples,
@@ -217,6 +224,106 @@ impl LightGrid {
         let c10 = lerp(at(step_a), at(step_a + step_c), fc);
         let c11 = lerp(at(step_a + step_b), at(step_a + step_b + step_c), fc);
         lerp(lerp(c00, c01, fb), lerp(c10, c11, fb), fa).clamp(0.0, 1.0)
+    }
+}
+
+impl LightGrid {
+    /// [`LightGrid::transmittance`] at eight voxel-space points (per axis,
+    /// then per lane), bit for bit, read in AVX2 lanes; `None` where the
+    /// CPU or the grid does not allow it.
+    #[inline]
+    pub fn transmittance8(&self, p: &[[f32; 8]; 3]) -> Option<[f32; 8]> {
+        if !self.lanes {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `lanes` is set only where AVX2 was found, every axis
+            // has two points or more and every index fits an i32.
+            Some(unsafe { avx2::transmittance8(self, p) })
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = p;
+            None
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{GridAxis, LightGrid};
+    use std::arch::x86_64::*;
+
+    /// [`GridAxis::locate`] of eight coordinates: lower points and
+    /// weights, the same operations.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn locate(ax: &GridAxis, p: __m256) -> (__m256i, __m256) {
+        // `if p > 0 { p.min(hi) } else { 0 }` (NaN to 0).
+        let positive = _mm256_cmp_ps::<_CMP_GT_OQ>(p, _mm256_setzero_ps());
+        let p = _mm256_and_ps(_mm256_min_ps(p, _mm256_set1_ps(ax.hi)), positive);
+        let lu = _mm256_set1_ps(ax.last_uniform);
+        let uniform = _mm256_mul_ps(p, _mm256_set1_ps(ax.inv_div));
+        let last = _mm256_add_ps(
+            _mm256_set1_ps((ax.g - 2) as f32),
+            _mm256_mul_ps(_mm256_sub_ps(p, lu), _mm256_set1_ps(ax.inv_last)),
+        );
+        let c = _mm256_blendv_ps(last, uniform, _mm256_cmp_ps::<_CMP_LE_OQ>(p, lu));
+        // `split`: (c as usize).min(g − 2) and the rest (c >= 0).
+        let i = _mm256_min_epi32(_mm256_cvttps_epi32(c), _mm256_set1_epi32((ax.g - 2) as i32));
+        (i, _mm256_sub_ps(c, _mm256_cvtepi32_ps(i)))
+    }
+
+    /// `a + (b − a)·t` per lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn lerp(a: __m256, b: __m256, t: __m256) -> __m256 {
+        _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
+    }
+
+    /// See [`LightGrid::transmittance8`].
+    ///
+    /// # Safety
+    /// The CPU must have AVX2; the grid must have at least two points per
+    /// axis and fewer than 2^31 in all.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn transmittance8(grid: &LightGrid, p: &[[f32; 8]; 3]) -> [f32; 8] {
+        let [a, b, c] = grid.perm;
+        let read = |axis: usize| _mm256_loadu_ps(p[axis].as_ptr());
+        let (ia, fa) = locate(&grid.axes[0], read(a));
+        let (ib, fb) = locate(&grid.axes[1], read(b));
+        let (ic, fc) = locate(&grid.axes[2], read(c));
+        let (gb, gc) = (grid.g[b] as i32, grid.g[c] as i32);
+        let (sa, sb) = (gb * gc, gc);
+        let base = _mm256_add_epi32(
+            _mm256_mullo_epi32(
+                _mm256_add_epi32(_mm256_mullo_epi32(ia, _mm256_set1_epi32(gb)), ib),
+                _mm256_set1_epi32(gc),
+            ),
+            ic,
+        );
+        // Every index is at most the last point's: each lower point is at
+        // most g − 2 on its axis.
+        let data = grid.data.as_ptr();
+        let at =
+            |o: i32| _mm256_i32gather_ps::<4>(data, _mm256_add_epi32(base, _mm256_set1_epi32(o)));
+        let c00 = lerp(at(0), at(1), fc);
+        let c01 = lerp(at(sb), at(sb + 1), fc);
+        let c10 = lerp(at(sa), at(sa + 1), fc);
+        let c11 = lerp(at(sa + sb), at(sa + sb + 1), fc);
+        let v = lerp(lerp(c00, c01, fb), lerp(c10, c11, fb), fa);
+        // `clamp(0, 1)`: NaN stays NaN.
+        let v = _mm256_blendv_ps(
+            v,
+            _mm256_setzero_ps(),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(v, _mm256_setzero_ps()),
+        );
+        let one = _mm256_set1_ps(1.0);
+        let v = _mm256_blendv_ps(v, one, _mm256_cmp_ps::<_CMP_GT_OQ>(v, one));
+        let mut out = [0f32; 8];
+        _mm256_storeu_ps(out.as_mut_ptr(), v);
+        out
     }
 }
 
@@ -484,6 +591,72 @@ mod tests {
         assert_eq!(points(1, 2), 1);
         assert_eq!(grid_coord(0.0, 1, 1, 2), 0.0);
         assert_eq!(split(3.0, 4), (2, 1.0));
+    }
+
+    /// Eight points read in lanes give each point's one-by-one
+    /// transmittance bit for bit: random grids of uneven last cells in
+    /// every storage order, points inside, outside, on grid points, on
+    /// the last cell, NaN, -0 and infinite.
+    #[test]
+    fn eight_reads_at_once_match_one_by_one() {
+        let mut rng = fastrand::Rng::with_seed(3);
+        let mut checked = 0;
+        for (n, div, perm) in [
+            ([10, 9, 17], 4, [2, 0, 1]),
+            ([33, 2, 8], 1, [0, 1, 2]),
+            ([40, 41, 42], 2, [1, 2, 0]),
+            ([7, 300, 5], 4, [1, 0, 2]),
+        ] {
+            let g = n.map(|n| points(n, div));
+            let total: usize = g.iter().product();
+            let grid = LightGrid {
+                perm,
+                g,
+                axes: perm.map(|ax| GridAxis::new(n[ax], g[ax], div)),
+                data: (0..total)
+                    .map(|i| match i % 13 {
+                        0 => 0.0,
+                        1 => 1.0,
+                        _ => rng.f32() * 1.2 - 0.1,
+                    })
+                    .collect(),
+                lanes: volcore::lanes::avx2_available(),
+                build_s: 0.0,
+                samples: 0,
+            };
+            for _ in 0..2000 {
+                let mut p = [[0f32; 8]; 3];
+                for (a, axis) in p.iter_mut().enumerate() {
+                    let hi = (n[a] - 1) as f32;
+                    for x in axis.iter_mut() {
+                        *x = match rng.usize(0..12) {
+                            0 => f32::NAN,
+                            1 => -0.0,
+                            2 => f32::INFINITY,
+                            3 => -3.5,
+                            4 => hi,
+                            5 => (rng.usize(0..n[a]) / div * div) as f32,
+                            6 => hi - rng.f32() * div as f32,
+                            _ => rng.f32() * (hi + 4.0) - 2.0,
+                        };
+                    }
+                }
+                let Some(got) = grid.transmittance8(&p) else {
+                    assert!(!volcore::lanes::avx2_available());
+                    return;
+                };
+                for (i, got) in got.iter().enumerate() {
+                    let want = grid.transmittance(Vec3::new(p[0][i], p[1][i], p[2][i]));
+                    assert_eq!(
+                        got.to_bits(),
+                        want.to_bits(),
+                        "{n:?} / {div}: lane {i} of {p:?}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 4 * 2000 * 8);
     }
 
     #[test]
