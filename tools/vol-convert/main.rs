@@ -237,7 +237,11 @@ fn merge_cmd(cli: &Cli) -> Result<()> {
         ));
     }
     let mut parts = part::open_parts(&cli.merge)?;
-    let data: u64 = parts.iter().map(|p| p.header.data_len).sum();
+    // The parts' data lengths come from their headers: add them checked.
+    let data = parts
+        .iter()
+        .try_fold(0u64, |n, p| n.checked_add(p.header.data_len))
+        .ok_or_else(|| at(out, "the parts' data lengths add up past 2^64 bytes"))?;
     volformats::output::check_space(out, data).map_err(|e| at(out, e))?;
     let bar = volkit_cli::progress::bytes_bar(data, "vol-convert", cli.quiet);
     let mut file = AtomicFile::create(out).map_err(|e| at(out, e))?;
