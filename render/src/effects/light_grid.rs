@@ -186,8 +186,8 @@ impl LightGrid {
                 .par_chunks_mut(g[c])
                 .enumerate()
                 .map_init(
-                    || src.cursor(),
-                    |cur, (j, row)| sweep.row(cur, &slab, j, row, prev_slab),
+                    || (src.cursor(), Vec::new()),
+                    |(cur, clear), (j, row)| sweep.row(cur, clear, &slab, j, row, prev_slab),
                 )
                 .sum::<u64>();
         }
@@ -470,10 +470,12 @@ impl<O: Occluder> Sweep<'_, O> {
         }
     }
 
-    /// Row `j` of a slab; returns the samples taken.
+    /// Row `j` of a slab (`clear`: scratch space); returns the samples
+    /// taken.
     fn row<C: Cursor>(
         &self,
         cur: &mut C,
+        clear: &mut Vec<bool>,
         slab: &Slab,
         j: usize,
         row: &mut [f32],
@@ -482,24 +484,46 @@ impl<O: Occluder> Sweep<'_, O> {
         let [a, b, c] = self.perm;
         let (gb, gc) = (self.g[b], self.g[c]);
         let lb = &slab.lines_b[j];
+        // Per index cell along c: clear through the slab over every cell
+        // along b this row's segments span (none without skipping).
+        clear.clear();
+        if !slab.clear_columns.is_empty() {
+            let (b0, b1) = (lb.cells.0 as usize, lb.cells.1 as usize);
+            clear.extend(
+                (0..slab.cells_c).map(|cc_i| {
+                    (b0..=b1).all(|cb_i| slab.clear_columns[cb_i * slab.cells_c + cc_i])
+                }),
+            );
+        }
+        // The upstream slab's two rows this row reads (the same one twice
+        // on a one-point axis), blended as the grid is read (`transmittance`).
+        let (ib, fb) = lb.upstream;
+        let up0 = &prev_slab[ib * gc..(ib + 1) * gc];
+        let up1 = if gb > 1 {
+            &prev_slab[(ib + 1) * gc..(ib + 2) * gc]
+        } else {
+            up0
+        };
+        let sc = usize::from(gc > 1);
+        let lerp = |x: f32, y: f32, f: f32| x + (y - x) * f;
         let mut samples = 0;
         for (out, lc) in row.iter_mut().zip(&slab.lines_c) {
             let u_exit = lb.u_exit.min(lc.u_exit);
             let (u, upstream) = if u_exit >= slab.u_full {
-                let (ib, fb) = lb.upstream;
                 let (ic, fc) = lc.upstream;
-                (slab.u_full, bilinear_at(prev_slab, gb, gc, ib, fb, ic, fc))
+                let v = lerp(
+                    lerp(up0[ic], up0[ic + sc], fc),
+                    lerp(up1[ic], up1[ic + sc], fc),
+                    fb,
+                );
+                (slab.u_full, v)
             } else {
                 (u_exit, 1.0)
             };
             // A segment whose box lies in clear cells passes all light
             // (only whole segments: a clipped one is shorter, so inside).
-            let clear = !slab.clear_columns.is_empty()
-                && (lb.cells.0..=lb.cells.1).all(|cb_i| {
-                    (lc.cells.0..=lc.cells.1).all(|cc_i| {
-                        slab.clear_columns[cb_i as usize * slab.cells_c + cc_i as usize]
-                    })
-                });
+            let clear = !clear.is_empty()
+                && (lc.cells.0 as usize..=lc.cells.1 as usize).all(|cc_i| clear[cc_i]);
             *out = if clear {
                 upstream
             } else {
@@ -556,21 +580,6 @@ struct Slab {
     /// slab's depth (empty without skipping).
     clear_columns: Vec<bool>,
     cells_c: usize,
-}
-
-/// Bilinear read of a `gb × gc` slab between points `(ib, ic)` and
-/// `(ib + 1, ic + 1)` with weights `fb`, `fc`.
-#[inline(always)]
-fn bilinear_at(slab: &[f32], gb: usize, gc: usize, ib: usize, fb: f32, ic: usize, fc: f32) -> f32 {
-    let sb = if gb > 1 { gc } else { 0 };
-    let sc = usize::from(gc > 1);
-    let base = ib * gc + ic;
-    let lerp = |x: f32, y: f32, f: f32| x + (y - x) * f;
-    lerp(
-        lerp(slab[base], slab[base + sc], fc),
-        lerp(slab[base + sb], slab[base + sb + sc], fc),
-        fb,
-    )
 }
 
 #[cfg(test)]
