@@ -496,7 +496,7 @@ impl<O: Occluder> Sweep<'_, O> {
             );
         }
         // The upstream slab's two rows this row reads (the same one twice
-        // on a one-point axis), blended as the grid is read (`transmittance`).
+        // on a one-point axis), blended along c, then b.
         let (ib, fb) = lb.upstream;
         let up0 = &prev_slab[ib * gc..(ib + 1) * gc];
         let up1 = if gb > 1 {
