@@ -121,16 +121,25 @@ impl<O, A> ShadowCaster<'_, O, A> {
     /// offset toward the light).
     #[inline(always)]
     pub fn grid_transmittance(&self, grid: &LightGrid, p: Vec3, inc: &Incident) -> f32 {
-        let inv = self.geom.inv_spacing;
-        let mut pv = p * inv;
-        if self.grid_offset > 0.0 {
-            let lv = inc.towards * inv;
-            let m = lv.abs().max_element();
-            if m > 0.0 {
-                pv += lv * (self.grid_offset / m);
-            }
+        let mut pv = p * self.geom.inv_spacing;
+        if let Some(s) = self.grid_shift(inc) {
+            pv += s;
         }
         grid.transmittance(pv)
+    }
+
+    /// The voxel-space move of a grid read toward the light arriving as
+    /// `inc` (`grid_offset` voxels along its longest axis), if any.
+    #[inline(always)]
+    fn grid_shift(&self, inc: &Incident) -> Option<Vec3> {
+        if self.grid_offset > 0.0 {
+            let lv = inc.towards * self.geom.inv_spacing;
+            let m = lv.abs().max_element();
+            if m > 0.0 {
+                return Some(lv * (self.grid_offset / m));
+            }
+        }
+        None
     }
 
     /// [`ShadowCaster::grid_transmittance`] at the eight points of `ray`
@@ -145,14 +154,7 @@ impl<O, A> ShadowCaster<'_, O, A> {
         inc: &Incident,
     ) -> [f32; 8] {
         let inv = self.geom.inv_spacing;
-        let mut shift = None;
-        if self.grid_offset > 0.0 {
-            let lv = inc.towards * inv;
-            let m = lv.abs().max_element();
-            if m > 0.0 {
-                shift = Some(lv * (self.grid_offset / m));
-            }
-        }
+        let shift = self.grid_shift(inc);
         let mut pv = [[0f32; 8]; 3];
         for (i, &t) in t.iter().enumerate() {
             let mut p = (ray.origin + ray.dir * t) * inv;
