@@ -299,8 +299,10 @@ fn skipping_is_exact_from_far_away() {
         let c = Vec3::new((d[0] - 1) as f32, (d[1] - 1) as f32, (d[2] - 1) as f32) * 0.5;
         let cam = Camera::orbit(c, az, el, 4000.0, Projection::Perspective(1.6), 96, 96).unwrap();
         // X-ray sums every sample, so a skipped sample that strayed past a
-        // cell's face and picked up a sliver of a neighbour would show.
-        for mode in [Mode::Dvr, Mode::XraySum] {
+        // cell's face and picked up a sliver of a neighbour would show; its
+        // mean counts skipped samples, so a jump past the ray's end that
+        // counted samples beyond it would show too.
+        for mode in [Mode::Dvr, Mode::XraySum, Mode::XrayMean] {
             let s = RenderSettings {
                 mode,
                 step: 0.1,

@@ -129,7 +129,8 @@ pub trait RayMarch {
     const CACHE_BUSY: bool;
     /// The ray's current contribution to the rule.
     fn query(&self) -> Self::Query;
-    /// Samples `from .. to` were skipped.
+    /// Samples `from .. to` were skipped (all of them the ray's own: `to`
+    /// is at most one past its last sample).
     #[inline(always)]
     fn skipped(&mut self, _from: i64, _to: i64) {}
     /// Take sample `k` at ray parameter `t`, voxel-space point `p`;
@@ -242,7 +243,9 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
             match step {
                 Step::Skip { until, cell: c } => {
                     if let Some(kn) = s.after_skip(k, until) {
-                        m.skipped(k, kn);
+                        // A jump may end past the ray's last sample: only
+                        // the ray's own samples were skipped.
+                        m.skipped(k, kn.min(s.k1.saturating_add(1)));
                         k = kn;
                         skips += 1;
                         continue;
