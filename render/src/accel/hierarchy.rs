@@ -153,7 +153,7 @@ impl<'a> Hierarchy<'a> {
         if !qualifies(0, cell, cell) {
             // Taking a sample is never wrong, so this needs no margin.
             return Step::Busy {
-                exit: exit(c0, g0.edge, 0.0, ray),
+                exit: exit(c0, g0.edge, 0, 0.0, ray),
                 cell,
             };
         }
@@ -168,8 +168,35 @@ impl<'a> Hierarchy<'a> {
         }
         // Stop the margin short of the faces (see the module notes).
         Step::Skip {
-            until: exit(best.0, best.1, self.margin, ray),
+            until: exit(best.0, best.1, 0, self.margin, ray),
             cell,
+        }
+    }
+
+    /// What to do at voxel-space point `p` of `ray` from per-level-0-cell
+    /// chessboard distances to the nearest cell ahead of the ray that does
+    /// not qualify (`distance(cell)`, see [`super::distance`]): skip to the
+    /// exit of the block of cells from `p`'s cell onward that all qualify,
+    /// or, at distance 0, sample on until the ray leaves the cell.
+    pub fn step_ahead(&self, p: Vec3, ray: &VoxelRay, distance: impl Fn(usize) -> u8) -> Step {
+        let v = self.locator.voxel(p.into());
+        let Some(g0) = self.levels.first() else {
+            return Step::Busy {
+                exit: f32::INFINITY,
+                cell: 0,
+            };
+        };
+        let c0 = self.cell_of(g0, v);
+        let cell = g0.linear(c0);
+        match distance(cell) {
+            0 => Step::Busy {
+                exit: exit(c0, g0.edge, 0, 0.0, ray),
+                cell,
+            },
+            d => Step::Skip {
+                until: exit(c0, g0.edge, d as u64 - 1, self.margin, ray),
+                cell,
+            },
         }
     }
 }
@@ -183,19 +210,22 @@ impl LevelGeom {
 }
 
 /// The ray parameter at which `ray` comes within `margin` of leaving the
-/// cell `c` of edge `e`, per axis it moves along; infinite if it moves
-/// along none. Multiplying by an f64 reciprocal rounds `t` as dividing in
-/// f32 would (once, to f32), without a division's latency.
+/// block of cells of edge `e` that reaches from cell `c` to `r` cells
+/// ahead of it along each axis the ray moves along (the cell itself when
+/// `r` is 0); infinite
+/// if it moves along none. Multiplying by an f64 reciprocal rounds `t` as
+/// dividing in f32 would (once, to f32), without a division's latency.
 #[inline(always)]
-fn exit(c: [u64; 3], e: u64, margin: f32, ray: &VoxelRay) -> f32 {
+fn exit(c: [u64; 3], e: u64, r: u64, margin: f32, ray: &VoxelRay) -> f32 {
     let mut until = f32::INFINITY;
     for (a, &ca) in c.iter().enumerate() {
         // Cell corners are far below 2^63: convert through i64, which is
-        // one instruction (u64 to f32 is several).
+        // one instruction (u64 to f32 is several). The block's far faces
+        // may lie outside the volume: no sample is taken there.
         let face = if ray.d[a] > 0.0 {
-            ((ca + 1) * e) as i64 as f32 - margin
+            ((ca + 1 + r) * e) as i64 as f32 - margin
         } else if ray.d[a] < 0.0 {
-            (ca * e) as i64 as f32 + margin
+            ((ca as i64 - r as i64) * e as i64) as f32 + margin
         } else {
             continue;
         };

@@ -7,6 +7,9 @@
 //!   cannot beat the running MIP/MinIP value, on one side of the iso
 //!   value), each an [`Accel`] the march loop is compiled for; their flags
 //!   stay private.
+//! - [`distance`]: per level-0 cell and octant of directions, the
+//!   chessboard distance to the nearest cell ahead that a rule keeps (one
+//!   jump crosses the whole clear block ahead).
 //! - [`dda`]: the macrocells a ray crosses, in order, as segments
 //!   `(t_enter, t_exit, cell)` (pbrt's majorant-iterator shape).
 //! - [`cull`]: the image tiles whose rays meet no cell a rule keeps.
@@ -17,6 +20,7 @@
 
 pub mod cull;
 pub mod dda;
+pub mod distance;
 pub mod hierarchy;
 pub mod majorant;
 pub mod open_sky;
@@ -39,6 +43,8 @@ pub struct VoxelRay {
     pub d: Vec3,
     /// `1 / d` per axis.
     pub inv_d: [f64; 3],
+    /// The octant `d` points into (see [`distance::octant`]).
+    pub octant: usize,
 }
 
 impl VoxelRay {
@@ -48,6 +54,7 @@ impl VoxelRay {
             o,
             d,
             inv_d: d.to_array().map(|c| 1.0 / c as f64),
+            octant: distance::octant(d.to_array()),
         }
     }
 

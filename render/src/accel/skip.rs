@@ -2,6 +2,7 @@
 //! changing its pixel. Each rule is its own type, so the march loop is
 //! compiled for exactly one; their per-frame flags are private.
 
+use super::distance::OctantDistances;
 use super::{Accel, Hierarchy, Step, VoxelRay};
 use glam::Vec3;
 use volindex::MajorantIndex;
@@ -25,6 +26,10 @@ pub struct FixedCells<'a> {
     /// Per cell of every level (flat order): 1 when the cell may be
     /// skipped.
     flags: Vec<u8>,
+    /// Per octant and level-0 cell: the chessboard distance, in cells, to
+    /// the nearest level-0 cell ahead that may not be skipped (0 on those;
+    /// see [`super::distance`]).
+    distance: OctantDistances,
 }
 
 impl<'a> FixedCells<'a> {
@@ -32,17 +37,34 @@ impl<'a> FixedCells<'a> {
     /// every sample the cell can produce has zero opacity), as a
     /// classifier computes them.
     pub fn transparent(index: &'a MajorantIndex, transparent: Vec<Vec<bool>>) -> Self {
-        FixedCells {
-            h: Hierarchy::new(index),
-            flags: transparent.into_iter().flatten().map(u8::from).collect(),
-        }
+        Self::with_flags(
+            index,
+            transparent.into_iter().flatten().map(u8::from).collect(),
+        )
     }
 
     /// The zero-cell rule: cells holding only zeros (or only NaN).
     pub fn zero(index: &'a MajorantIndex) -> Self {
+        Self::with_flags(
+            index,
+            flags_of(index, |lo, hi| ((lo == 0.0 && hi == 0.0) || lo > hi) as u8),
+        )
+    }
+
+    /// The rule from its flags (flat order), with the level-0 distances
+    /// computed from them.
+    fn with_flags(index: &'a MajorantIndex, flags: Vec<u8>) -> Self {
+        let (n, keep) = match index.levels().first() {
+            Some(l) => {
+                let keep: Vec<bool> = flags[..l.len()].iter().map(|&f| f == 0).collect();
+                (l.cells().map(|c| c as usize), keep)
+            }
+            None => ([0; 3], Vec::new()),
+        };
         FixedCells {
             h: Hierarchy::new(index),
-            flags: flags_of(index, |lo, hi| ((lo == 0.0 && hi == 0.0) || lo > hi) as u8),
+            distance: OctantDistances::new(n, keep),
+            flags,
         }
     }
 
@@ -83,7 +105,8 @@ impl Accel<()> for FixedCells<'_> {
     const ON: bool = true;
     #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, _: ()) -> Step {
-        self.h.step(p, ray, |_, _, f| self.flags[f] != 0)
+        let table = self.distance.table(ray.octant);
+        self.h.step_ahead(p, ray, |c| table[c])
     }
 }
 
@@ -283,7 +306,7 @@ mod tests {
         let mut rng = fastrand::Rng::with_seed(11);
         let (mut skipped, mut skips) = (0u64, 0u64);
         for n in 0..6000 {
-            let radius = [150.0, 4000.0, 30000.0][n % 3];
+            let radius = [150.0, 4000.0, 30000.0][(n / 3) % 3];
             let step: f64 = [0.05, 0.1, 0.37, 1.0][n % 4];
             let around = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
             let origin = hi * 0.5 + around.normalize_or_zero() * radius;
@@ -300,12 +323,19 @@ mod tests {
             let mut k = w.k0;
             while k <= w.k1 {
                 let p = w.at(w.t(k));
-                // Odd rays skip one level-0 cell at a time: many more skips
-                // end near a face.
-                let finest = n % 2 == 1;
+                // Rays of one kind in three skip one level-0 cell at a
+                // time (many more skips end near a face), and one in three
+                // jumps whole clear blocks by the chessboard distances ahead.
+                let finest = n % 3 == 1;
                 let qualifies =
                     |l: usize, _: usize, f: usize| zero.flags[f] != 0 && (l == 0 || !finest);
-                let next = match zero.h.step(p, &w.ray, qualifies) {
+                let step = if n % 3 == 2 {
+                    let table = zero.distance.table(w.ray.octant);
+                    zero.h.step_ahead(p, &w.ray, |c| table[c])
+                } else {
+                    zero.h.step(p, &w.ray, qualifies)
+                };
+                let next = match step {
                     Step::Skip { until, .. } => w.after_skip(k, until),
                     Step::Busy { .. } => None,
                 };
