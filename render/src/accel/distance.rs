@@ -154,7 +154,7 @@ mod tests {
             [5, 4, 3],
             [12, 11, 10],
             [3, 17, 2],
-            [16, 16, 16],
+            [10, 9, 8],
         ];
         for (s, &n) in shapes.iter().enumerate() {
             for density in [0.0, 0.002, 0.02, 0.2, 1.0] {

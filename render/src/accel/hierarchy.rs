@@ -178,6 +178,7 @@ impl<'a> Hierarchy<'a> {
     /// not qualify (`distance(cell)`, see [`super::distance`]): skip to the
     /// exit of the block of cells from `p`'s cell onward that all qualify,
     /// or, at distance 0, sample on until the ray leaves the cell.
+    #[inline(always)]
     pub fn step_ahead(&self, p: Vec3, ray: &VoxelRay, distance: impl Fn(usize) -> u8) -> Step {
         let v = self.locator.voxel(p.into());
         let Some(g0) = self.levels.first() else {
@@ -212,9 +213,9 @@ impl LevelGeom {
 /// The ray parameter at which `ray` comes within `margin` of leaving the
 /// block of cells of edge `e` that reaches from cell `c` to `r` cells
 /// ahead of it along each axis the ray moves along (the cell itself when
-/// `r` is 0); infinite
-/// if it moves along none. Multiplying by an f64 reciprocal rounds `t` as
-/// dividing in f32 would (once, to f32), without a division's latency.
+/// `r` is 0); infinite if it moves along none. Multiplying by an f64
+/// reciprocal rounds `t` as dividing in f32 would (once, to f32), without a
+/// division's latency.
 #[inline(always)]
 fn exit(c: [u64; 3], e: u64, r: u64, margin: f32, ray: &VoxelRay) -> f32 {
     let mut until = f32::INFINITY;
