@@ -291,7 +291,7 @@ fn output_files_are_unchanged() {
             [
                 0x0385_960c_1adc_3dfa,
                 0x902d_4da0_8505_9443,
-                0x3cff_e091_f193_4094,
+                0xb455_37e6_fb8d_cf18,
             ],
         ),
         (
@@ -327,7 +327,7 @@ fn output_files_are_unchanged() {
             [
                 0x9904_d2c8_bc80_d38b,
                 0x9099_83fa_02c7_6731,
-                0xb951_095c_b819_b3bb,
+                0xde95_f998_3586_29ad,
             ],
         ),
         (
@@ -336,7 +336,7 @@ fn output_files_are_unchanged() {
             [
                 0x9d77_ff85_0cf3_b480,
                 0x6df4_ac06_74bf_fc44,
-                0xb951_095c_b819_b3bb,
+                0xde95_f998_3586_29ad,
             ],
         ),
         (
