@@ -19,12 +19,11 @@
 
 use std::sync::OnceLock;
 
-/// Per-octant distance tables over a grid of cells, made on first use.
+/// Per-octant distance tables over a grid of cells, made on first use
+/// from the skipping rule's level-0 flags.
 pub struct OctantDistances {
     /// Cells along x, y, z.
     n: [usize; 3],
-    /// Per cell (x fastest): whether the rule keeps it.
-    keep: Vec<bool>,
     /// Per octant (see [`octant`]), the distances.
     tables: [OnceLock<Vec<u8>>; 8],
 }
@@ -37,42 +36,45 @@ pub fn octant(d: [f32; 3]) -> usize {
 }
 
 impl OctantDistances {
-    /// The tables for an `n[0] × n[1] × n[2]` grid of cells (x fastest)
-    /// whose kept cells are `keep`.
-    pub fn new(n: [usize; 3], keep: Vec<bool>) -> OctantDistances {
-        debug_assert_eq!(keep.len(), n[0] * n[1] * n[2]);
+    /// Empty tables for an `n[0] × n[1] × n[2]` grid of cells (x fastest).
+    pub fn new(n: [usize; 3]) -> OctantDistances {
         OctantDistances {
             n,
-            keep,
             tables: Default::default(),
         }
     }
 
     /// The distances for rays in octant `o` (see [`octant`]), made on the
-    /// first call.
+    /// first call from `clear` (per cell, x fastest: non-zero where the
+    /// rule skips the cell; the same flags on every call).
     #[inline(always)]
-    pub fn table(&self, o: usize) -> &[u8] {
-        self.tables[o & 7].get_or_init(|| ahead(self.n, &self.keep, o & 7))
+    pub fn table(&self, o: usize, clear: &[u8]) -> &[u8] {
+        self.tables[o & 7].get_or_init(|| ahead(self.n, clear, o & 7))
     }
 }
 
 /// The saturated chessboard distance of each cell of an `n` grid (x
-/// fastest) to the nearest kept cell among those ahead of it in octant
-/// `o` (itself included): 0 on kept cells, 255 when there is none (or
-/// none within 255 cells).
-pub fn ahead(n: [usize; 3], keep: &[bool], o: usize) -> Vec<u8> {
+/// fastest) to the nearest kept cell (`clear` zero) among those ahead of
+/// it in octant `o` (itself included): 0 on kept cells, 255 when there is
+/// none (or none within 255 cells). `clear` holds at least one flag per
+/// cell (any more are ignored).
+pub fn ahead(n: [usize; 3], clear: &[u8], o: usize) -> Vec<u8> {
     let [nx, ny, nz] = n;
-    let mut d = vec![u8::MAX; keep.len()];
-    if d.is_empty() {
+    let len = nx * ny * nz;
+    let mut d = vec![u8::MAX; len];
+    if len == 0 {
         return d;
     }
+    let clear = &clear[..len];
     // Along each axis the pass starts at the far end of the octant's
     // direction, so that the neighbours ahead are done first.
     let down = [o & 1 != 0, o & 2 != 0, o & 4 != 0];
     let order = |i: usize, len: usize, down: bool| if down { i } else { len - 1 - i };
     let slab = nx * ny;
-    // The least of the three neighbour rows ahead (the slab ahead, rows
-    // y and y ahead; this slab, row y ahead), per x.
+    // Per x, the least of the three neighbour rows ahead (the slab ahead,
+    // rows y and y ahead; this slab, row y ahead), then also of the next
+    // cell's along x: all but the cell ahead along x, which the row's
+    // pass takes as it goes.
     let mut near = vec![u8::MAX; nx];
     for zi in 0..nz {
         let z = order(zi, nz, down[2]);
@@ -91,19 +93,36 @@ pub fn ahead(n: [usize; 3], keep: &[bool], o: usize) -> Vec<u8> {
                     .zip(&d[at..at + nx])
                     .for_each(|(m, &v)| *m = (*m).min(v));
             }
+            // Fold in the next cell's column along x (x + 1 moving up,
+            // x − 1 moving down), in place: each cell reads a neighbour
+            // not yet overwritten.
+            if down[0] {
+                for x in (1..nx).rev() {
+                    near[x] = near[x].min(near[x - 1]);
+                }
+            } else {
+                for x in 0..nx - 1 {
+                    near[x] = near[x].min(near[x + 1]);
+                }
+            }
             let at = z * slab + y * nx;
-            let (row, kept) = (&mut d[at..at + nx], &keep[at..at + nx]);
-            // Along the row, from its far end: each cell sees its own
-            // column's rows ahead and the next cell's, and the next cell.
+            let (row, clear) = (&mut d[at..at + nx], &clear[at..at + nx]);
+            // Along the row, from its far end: the one step that depends
+            // on the cell just done.
             let mut next = u8::MAX; // the cell ahead along x, done
-            let mut next_near = u8::MAX; // its rows ahead
-            for xi in 0..nx {
-                let x = order(xi, nx, down[0]);
-                let least = near[x].min(next_near).min(next);
-                let v = if kept[x] { 0 } else { least.saturating_add(1) };
+            let mut cell = |x: usize| {
+                let v = if clear[x] == 0 {
+                    0
+                } else {
+                    near[x].min(next).saturating_add(1)
+                };
                 row[x] = v;
                 next = v;
-                next_near = near[x];
+            };
+            if down[0] {
+                (0..nx).for_each(&mut cell);
+            } else {
+                (0..nx).rev().for_each(&mut cell);
             }
         }
     }
@@ -160,10 +179,11 @@ mod tests {
             for density in [0.0, 0.002, 0.02, 0.2, 1.0] {
                 let len = n[0] * n[1] * n[2];
                 let keep: Vec<bool> = (0..len).map(|_| rng.f64() < density).collect();
-                let tables = OctantDistances::new(n, keep.clone());
+                let clear: Vec<u8> = keep.iter().map(|&k| u8::from(!k)).collect();
+                let tables = OctantDistances::new(n);
                 for o in 0..8 {
                     assert_eq!(
-                        tables.table(o),
+                        tables.table(o, &clear),
                         brute(n, &keep, o),
                         "shape {s} {n:?}, density {density}, octant {o}"
                     );
@@ -177,13 +197,13 @@ mod tests {
     /// see nothing.
     #[test]
     fn distances_saturate() {
-        let mut keep = vec![false; 600];
-        keep[599] = true;
-        let up = ahead([600, 1, 1], &keep, 0);
+        let mut clear = vec![1u8; 600];
+        clear[599] = 0;
+        let up = ahead([600, 1, 1], &clear, 0);
         assert_eq!(up[596..], [3, 2, 1, 0]);
         assert_eq!(up[599 - 254], 254);
         assert!(up[..599 - 254].iter().all(|&v| v == 255));
-        let down = ahead([600, 1, 1], &keep, 1);
+        let down = ahead([600, 1, 1], &clear, 1);
         assert!(down[..599].iter().all(|&v| v == 255));
         assert_eq!(down[599], 0);
     }

@@ -118,6 +118,17 @@ impl<'a> Hierarchy<'a> {
         g.linear(self.cell_of(g, v))
     }
 
+    /// The voxel the sampler reads first at voxel-space point `p`, and the
+    /// finest level's geometry with the cell holding that voxel (its
+    /// coordinates and linear index); `None` when the index has no levels.
+    #[inline(always)]
+    fn finest_cell(&self, p: Vec3) -> Option<([u64; 3], &LevelGeom, [u64; 3], usize)> {
+        let v = self.locator.voxel(p.into());
+        let g0 = self.levels.first()?;
+        let c0 = self.cell_of(g0, v);
+        Some((v, g0, c0, g0.linear(c0)))
+    }
+
     /// The cell of a level holding voxel `v`.
     #[inline(always)]
     fn cell_of(&self, g: &LevelGeom, v: [u64; 3]) -> [u64; 3] {
@@ -141,24 +152,14 @@ impl<'a> Hierarchy<'a> {
         ray: &VoxelRay,
         qualifies: impl Fn(usize, usize, usize) -> bool,
     ) -> Step {
-        let v = self.locator.voxel(p.into());
-        let Some((g0, coarser)) = self.levels.split_first() else {
-            return Step::Busy {
-                exit: f32::INFINITY,
-                cell: 0,
-            };
+        let Some((v, g0, c0, cell)) = self.finest_cell(p) else {
+            return NO_LEVELS;
         };
-        let c0 = self.cell_of(g0, v);
-        let cell = g0.linear(c0);
         if !qualifies(0, cell, cell) {
-            // Taking a sample is never wrong, so this needs no margin.
-            return Step::Busy {
-                exit: exit(c0, g0.edge, 0, 0.0, ray),
-                cell,
-            };
+            return busy(g0, c0, cell, ray);
         }
         let mut best = (c0, g0.edge);
-        for (li, g) in coarser.iter().enumerate() {
+        for (li, g) in self.levels[1..].iter().enumerate() {
             let c = self.cell_of(g, v);
             let i = g.linear(c);
             if !qualifies(li + 1, i, g.offset + i) {
@@ -180,25 +181,33 @@ impl<'a> Hierarchy<'a> {
     /// or, at distance 0, sample on until the ray leaves the cell.
     #[inline(always)]
     pub fn step_ahead(&self, p: Vec3, ray: &VoxelRay, distance: impl Fn(usize) -> u8) -> Step {
-        let v = self.locator.voxel(p.into());
-        let Some(g0) = self.levels.first() else {
-            return Step::Busy {
-                exit: f32::INFINITY,
-                cell: 0,
-            };
+        let Some((_, g0, c0, cell)) = self.finest_cell(p) else {
+            return NO_LEVELS;
         };
-        let c0 = self.cell_of(g0, v);
-        let cell = g0.linear(c0);
         match distance(cell) {
-            0 => Step::Busy {
-                exit: exit(c0, g0.edge, 0, 0.0, ray),
-                cell,
-            },
+            0 => busy(g0, c0, cell, ray),
             d => Step::Skip {
                 until: exit(c0, g0.edge, d as u64 - 1, self.margin, ray),
                 cell,
             },
         }
+    }
+}
+
+/// What an index without levels answers everywhere: sample on.
+const NO_LEVELS: Step = Step::Busy {
+    exit: f32::INFINITY,
+    cell: 0,
+};
+
+/// Sample on through level-0 cell `c` (geometry `g`, linear index `cell`)
+/// until `ray` leaves it. Taking a sample is never wrong, so this exit
+/// needs no margin.
+#[inline(always)]
+fn busy(g: &LevelGeom, c: [u64; 3], cell: usize, ray: &VoxelRay) -> Step {
+    Step::Busy {
+        exit: exit(c, g.edge, 0, 0.0, ray),
+        cell,
     }
 }
 

@@ -10,11 +10,12 @@ use volindex::MajorantIndex;
 /// A flag per cell of every level, from a per-cell test of its range, in
 /// the hierarchy's flat order (finest level first).
 fn flags_of(index: &MajorantIndex, f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
-    index
-        .levels()
-        .iter()
-        .flat_map(|l| l.min().iter().zip(l.max()).map(|(&lo, &hi)| f(lo, hi)))
-        .collect()
+    let levels = index.levels();
+    let mut flags = Vec::with_capacity(levels.iter().map(|l| l.len()).sum());
+    for l in levels {
+        flags.extend(l.min().iter().zip(l.max()).map(|(&lo, &hi)| f(lo, hi)));
+    }
+    flags
 }
 
 /// Cells flagged once per frame by a rule that does not depend on the
@@ -37,10 +38,12 @@ impl<'a> FixedCells<'a> {
     /// every sample the cell can produce has zero opacity), as a
     /// classifier computes them.
     pub fn transparent(index: &'a MajorantIndex, transparent: Vec<Vec<bool>>) -> Self {
-        Self::with_flags(
-            index,
-            transparent.into_iter().flatten().map(u8::from).collect(),
-        )
+        // Level by level: a flattening iterator would go cell by cell.
+        let mut flags = Vec::with_capacity(transparent.iter().map(Vec::len).sum());
+        for level in &transparent {
+            flags.extend(level.iter().map(|&t| u8::from(t)));
+        }
+        Self::with_flags(index, flags)
     }
 
     /// The zero-cell rule: cells holding only zeros (or only NaN).
@@ -54,16 +57,13 @@ impl<'a> FixedCells<'a> {
     /// The rule from its flags (flat order), with the level-0 distances
     /// computed from them.
     fn with_flags(index: &'a MajorantIndex, flags: Vec<u8>) -> Self {
-        let (n, keep) = match index.levels().first() {
-            Some(l) => {
-                let keep: Vec<bool> = flags[..l.len()].iter().map(|&f| f == 0).collect();
-                (l.cells().map(|c| c as usize), keep)
-            }
-            None => ([0; 3], Vec::new()),
-        };
+        let n = index
+            .levels()
+            .first()
+            .map_or([0; 3], |l| l.cells().map(|c| c as usize));
         FixedCells {
             h: Hierarchy::new(index),
-            distance: OctantDistances::new(n, keep),
+            distance: OctantDistances::new(n),
             flags,
         }
     }
@@ -105,7 +105,7 @@ impl Accel<()> for FixedCells<'_> {
     const ON: bool = true;
     #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, _: ()) -> Step {
-        let table = self.distance.table(ray.octant);
+        let table = self.distance.table(ray.octant, &self.flags);
         self.h.step_ahead(p, ray, |c| table[c])
     }
 }
@@ -330,7 +330,7 @@ mod tests {
                 let qualifies =
                     |l: usize, _: usize, f: usize| zero.flags[f] != 0 && (l == 0 || !finest);
                 let step = if n % 3 == 2 {
-                    let table = zero.distance.table(w.ray.octant);
+                    let table = zero.distance.table(w.ray.octant, &zero.flags);
                     zero.h.step_ahead(p, &w.ray, |c| table[c])
                 } else {
                     zero.h.step(p, &w.ray, qualifies)
