@@ -259,6 +259,26 @@ impl<'a> ClearBoxes<'a> {
     pub fn is_clear(&self, c: [u64; 3]) -> bool {
         self.clear[self.level.index(c[0], c[1], c[2])]
     }
+
+    /// Per cell of the plane across axes `b` (rows) and `c` (columns),
+    /// row-major: whether every cell from `a0` to `a1` (inclusive) along
+    /// axis `a` is clear, for `[a, b, c]` a permutation of the axes and
+    /// `a0 ≤ a1` cells along `a`.
+    pub fn clear_columns(&self, [a, b, c]: [usize; 3], a0: u64, a1: u64) -> Vec<bool> {
+        let cells = self.cells().map(|n| n as usize);
+        let stride = [1, cells[0], cells[0] * cells[1]];
+        let (nb, nc) = (cells[b], cells[c]);
+        let mut cols = vec![true; nb * nc];
+        for ca in a0 as usize..=(a1 as usize).min(cells[a].saturating_sub(1)) {
+            for (cb, row) in cols.chunks_exact_mut(nc.max(1)).enumerate() {
+                let at = ca * stride[a] + cb * stride[b];
+                for (cc, col) in row.iter_mut().enumerate() {
+                    *col &= self.clear[at + cc * stride[c]];
+                }
+            }
+        }
+        cols
+    }
 }
 
 impl Accel<bool> for IsoSides<'_> {
@@ -366,5 +386,52 @@ mod tests {
             skips > 10_000 && skipped > 500_000,
             "{skips} skips, {skipped} samples"
         );
+    }
+
+    /// The clear columns of a plane are, cell by cell, whether every cell
+    /// of the column's range is clear: every axis order and range.
+    #[test]
+    fn clear_columns_are_the_columns_cells() {
+        let dims = Dims::new(70, 50, 40).unwrap();
+        let scene = ShapesScene::new(dims, 4, 12, 20, 100.0);
+        let vol = volcore::Volume::from_samples(dims, pack_sliced(&SceneSource::<u8>::new(&scene)))
+            .unwrap();
+        let ix = MajorantIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
+        let zero = FixedCells::zero(&ix);
+        let boxes = zero.clear_boxes();
+        let cells = boxes.cells();
+        let mut some = [0usize; 2];
+        for perm in [
+            [0, 1, 2],
+            [0, 2, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 0, 1],
+            [2, 1, 0],
+        ] {
+            let [a, b, c] = perm;
+            for (a0, a1) in [
+                (0, 0),
+                (1, 2),
+                (0, cells[a] - 1),
+                (cells[a] - 1, cells[a] - 1),
+            ] {
+                let got = boxes.clear_columns(perm, a0, a1);
+                assert_eq!(got.len() as u64, cells[b] * cells[c]);
+                for cb in 0..cells[b] {
+                    for cc in 0..cells[c] {
+                        let want = (a0..=a1).all(|ca| {
+                            let mut cell = [0; 3];
+                            (cell[a], cell[b], cell[c]) = (ca, cb, cc);
+                            boxes.is_clear(cell)
+                        });
+                        let got = got[(cb * cells[c] + cc) as usize];
+                        assert_eq!(got, want, "{perm:?} {a0}..={a1}: {cb}, {cc}");
+                        some[usize::from(got)] += 1;
+                    }
+                }
+            }
+        }
+        assert!(some[0] > 100 && some[1] > 100, "{some:?}");
     }
 }

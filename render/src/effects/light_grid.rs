@@ -439,25 +439,11 @@ impl<O: Occluder> Sweep<'_, O> {
         let (clear_columns, cells_c) = match self.clear {
             None => (Vec::new(), 0),
             Some(cb) => {
-                let cells = cb.cells();
                 let (a0, a1) = (
                     cb.cell_along(a, xa.min(xa + delta)),
                     cb.cell_along(a, xa.max(xa + delta)),
                 );
-                let mut cols = Vec::with_capacity((cells[b] * cells[c]) as usize);
-                for cb_i in 0..cells[b] {
-                    for cc_i in 0..cells[c] {
-                        let clear = (a0..=a1).all(|ca| {
-                            let mut cell = [0u64; 3];
-                            cell[a] = ca;
-                            cell[b] = cb_i;
-                            cell[c] = cc_i;
-                            cb.is_clear(cell)
-                        });
-                        cols.push(clear);
-                    }
-                }
-                (cols, cells[c] as usize)
+                (cb.clear_columns(self.perm, a0, a1), cb.cells()[c] as usize)
             }
         };
         Slab {
@@ -489,11 +475,15 @@ impl<O: Occluder> Sweep<'_, O> {
         clear.clear();
         if !slab.clear_columns.is_empty() {
             let (b0, b1) = (lb.cells.0 as usize, lb.cells.1 as usize);
-            clear.extend(
-                (0..slab.cells_c).map(|cc_i| {
-                    (b0..=b1).all(|cb_i| slab.clear_columns[cb_i * slab.cells_c + cc_i])
-                }),
-            );
+            let nc = slab.cells_c;
+            let column_row = |cb_i: usize| &slab.clear_columns[cb_i * nc..(cb_i + 1) * nc];
+            clear.extend_from_slice(column_row(b0));
+            for cb_i in b0 + 1..=b1 {
+                clear
+                    .iter_mut()
+                    .zip(column_row(cb_i))
+                    .for_each(|(x, &y)| *x &= y);
+            }
         }
         // The upstream slab's two rows this row reads (the same one twice
         // on a one-point axis), blended along c, then b.
@@ -506,35 +496,48 @@ impl<O: Occluder> Sweep<'_, O> {
         };
         let sc = usize::from(gc > 1);
         let lerp = |x: f32, y: f32, f: f32| x + (y - x) * f;
-        let mut samples = 0;
-        for (out, lc) in row.iter_mut().zip(&slab.lines_c) {
+        // Where a point's segment reaches the upstream slab, and how far
+        // it goes (to where it leaves the volume, if sooner).
+        let reach = |lc: &Line| {
             let u_exit = lb.u_exit.min(lc.u_exit);
-            let (u, upstream) = if u_exit >= slab.u_full {
+            (u_exit >= slab.u_full, u_exit)
+        };
+        // First the transmittance arriving at each point's segment (1 for
+        // a segment that leaves the volume first), in one pass without
+        // the volume...
+        for (out, lc) in row.iter_mut().zip(&slab.lines_c) {
+            *out = if reach(lc).0 {
                 let (ic, fc) = lc.upstream;
-                let v = lerp(
+                lerp(
                     lerp(up0[ic], up0[ic + sc], fc),
                     lerp(up1[ic], up1[ic + sc], fc),
                     fb,
-                );
-                (slab.u_full, v)
+                )
             } else {
-                (u_exit, 1.0)
+                1.0
             };
-            // A segment whose box lies in clear cells passes all light
-            // (only whole segments: a clipped one is shorter, so inside).
+        }
+        // ...then the segments themselves, but those whose box lies in
+        // clear cells, which pass all light (only whole segments: a
+        // clipped one is shorter, so inside); most rows have none left.
+        if !clear.is_empty() && clear.iter().all(|&c| c) {
+            return 0;
+        }
+        let mut samples = 0;
+        for (out, lc) in row.iter_mut().zip(&slab.lines_c) {
             let clear = !clear.is_empty()
                 && (lc.cells.0 as usize..=lc.cells.1 as usize).all(|cc_i| clear[cc_i]);
-            *out = if clear {
-                upstream
-            } else {
+            if !clear {
+                let (full, u_exit) = reach(lc);
+                let u = if full { slab.u_full } else { u_exit };
                 let mut x = Vec3::ZERO;
                 x[a] = slab.xa;
                 x[b] = lb.x;
                 x[c] = lc.x;
                 let (t, s) = self.segment(cur, x, u);
                 samples += s;
-                upstream * t
-            };
+                *out *= t;
+            }
         }
         samples
     }
