@@ -674,6 +674,29 @@ mod avx2 {
         }
     }
 
+    /// Ask the cache for the rows the ray's next run will most likely read,
+    /// so that its gathers do not wait on memory (a ray's run waits on its
+    /// first row otherwise: the hardware prefetchers do not follow
+    /// gathers). The next run's middle and last lanes are extrapolated
+    /// from this run's first and last offsets, and the four rows of each
+    /// asked for; a guess that crosses a brick's face only fetches a
+    /// useless line. Prefetches change no result and never fault; the
+    /// addresses are formed with wrapping arithmetic. (Two runs ahead
+    /// measured slower than one on the thesis scene.)
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn prefetch_next_run(w: &Where8, s1: i32, s2: i32) {
+        let first = _mm256_extract_epi32::<0>(w.local) as isize;
+        let last = _mm256_extract_epi32::<7>(w.local) as isize;
+        let run = last - first;
+        let base = w.base.cast::<i8>();
+        for ahead in [last + run / 2, last + run + run / 7] {
+            for r in [0, s1 as isize, s2 as isize, (s1 + s2) as isize] {
+                _mm_prefetch::<_MM_HINT_T0>(base.wrapping_offset(ahead + r));
+            }
+        }
+    }
+
     /// The trilinear values at `w`, whose cells' bytes are adjacent along
     /// the fastest axis (x, or z when `Z`) and `s1`, `s2` apart along the
     /// other two (in x, y, z order): four gathered words per lane, one per
@@ -685,6 +708,7 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     #[inline]
     unsafe fn values_at<const Z: bool>(w: &Where8, s1: i32, s2: i32) -> __m256 {
+        prefetch_next_run(w, s1, s2);
         let row = |r: i32| {
             let off = _mm256_add_epi32(w.local, _mm256_set1_epi32(r));
             pair(_mm256_i32gather_epi32::<1>(w.base, off))
