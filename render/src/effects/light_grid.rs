@@ -166,31 +166,37 @@ impl LightGrid {
             clear,
         };
         let mut samples = 0u64;
-        // The first slab (nearest the light) keeps transmittance 1.
-        for s in 1..g[a] {
-            let (i, prev) = if towards_plus {
-                (g[a] - 1 - s, g[a] - s)
-            } else {
-                (s, s - 1)
-            };
-            let (cur_slab, prev_slab) = if towards_plus {
-                let (head, tail) = data.split_at_mut(prev * slice_len);
-                (&mut head[i * slice_len..], &tail[..slice_len])
-            } else {
-                let (head, tail) = data.split_at_mut(i * slice_len);
-                (&mut tail[..slice_len], &head[prev * slice_len..])
-            };
-            let prev_slab: &[f32] = prev_slab;
-            let slab = sweep.slab(i, prev);
-            samples += cur_slab
-                .par_chunks_mut(g[c])
-                .enumerate()
-                .map_init(
-                    || (src.cursor(), Vec::new()),
-                    |(cur, clear), (j, row)| sweep.row(cur, clear, &slab, j, row, prev_slab),
-                )
-                .sum::<u64>();
-        }
+        // The sweep runs as one job on the pool: each slab's rows are
+        // split from a worker, not handed over from this thread and waited
+        // for, a round trip per slab (on one thread about a tenth of a
+        // 200-slab build; on two, no change measured).
+        rayon::scope(|_| {
+            // The first slab (nearest the light) keeps transmittance 1.
+            for s in 1..g[a] {
+                let (i, prev) = if towards_plus {
+                    (g[a] - 1 - s, g[a] - s)
+                } else {
+                    (s, s - 1)
+                };
+                let (cur_slab, prev_slab) = if towards_plus {
+                    let (head, tail) = data.split_at_mut(prev * slice_len);
+                    (&mut head[i * slice_len..], &tail[..slice_len])
+                } else {
+                    let (head, tail) = data.split_at_mut(i * slice_len);
+                    (&mut tail[..slice_len], &head[prev * slice_len..])
+                };
+                let prev_slab: &[f32] = prev_slab;
+                let slab = sweep.slab(i, prev);
+                samples += cur_slab
+                    .par_chunks_mut(g[c])
+                    .enumerate()
+                    .map_init(
+                        || (src.cursor(), Vec::new()),
+                        |(cur, clear), (j, row)| sweep.row(cur, clear, &slab, j, row, prev_slab),
+                    )
+                    .sum::<u64>();
+            }
+        });
         Ok(LightGrid {
             perm,
             g,
