@@ -252,25 +252,31 @@ impl ViewShading {
     /// at once, where this CPU has AVX2 and the exponent is whole: per
     /// lane, `colour` where the squared gradient length is at most
     /// `threshold2` (or NaN), elsewhere [`ViewShading::shade_normal`] of
-    /// the gradient over its length, or with `transmittance`
-    /// [`ViewShading::shade_normal_shadowed`] (no occlusion) with that
-    /// lane's transmittance; bit for bit (the same operations in the same
-    /// order); `None` otherwise.
+    /// the gradient over its length, or with `shadowed` = (transmittance,
+    /// occlusion) [`ViewShading::shade_normal_shadowed`] with that lane's
+    /// occlusion and transmittance; bit for bit (the same operations in
+    /// the same order); `None` where [`ViewShading::lanes`] says no.
     pub fn shade8(
         &self,
         colour: &Lanes3,
         grad: &Lanes3,
         threshold2: f32,
-        transmittance: Option<&[f32; 8]>,
+        shadowed: Option<(&[f32; 8], &[f32; 8])>,
     ) -> Option<Lanes3> {
         let e = self.whole_exponent?;
         #[cfg(target_arch = "x86_64")]
         if volcore::lanes::avx2_available() {
             // SAFETY: AVX2 was just found on this CPU.
-            return Some(unsafe { avx2::shade8(self, e, colour, grad, threshold2, transmittance) });
+            return Some(unsafe { avx2::shade8(self, e, colour, grad, threshold2, shadowed) });
         }
-        let _ = (e, colour, grad, threshold2, transmittance);
+        let _ = (e, colour, grad, threshold2, shadowed);
         None
+    }
+
+    /// Whether [`ViewShading::shade8`] shades in lanes here (this CPU has
+    /// AVX2 and the exponent is whole).
+    pub fn lanes(&self) -> bool {
+        self.whole_exponent.is_some() && volcore::lanes::avx2_available()
     }
 }
 
@@ -318,7 +324,7 @@ mod avx2 {
         colour: &Lanes3,
         grad: &Lanes3,
         threshold2: f32,
-        transmittance: Option<&[f32; 8]>,
+        shadowed: Option<(&[f32; 8], &[f32; 8])>,
     ) -> Lanes3 {
         let zero = _mm256_setzero_ps();
         let g = [
@@ -354,25 +360,31 @@ mod avx2 {
         let kd = mul(_mm256_set1_ps(v.model.diffuse), diff);
         let ks = mul(_mm256_set1_ps(v.model.specular), spec);
         // With shadows: the light's share scaled by the lane's
-        // transmittance, and lanes the light adds nothing to keep the
-        // ambient part alone (as `shade_normal_shadowed` returns early).
-        let shadow = transmittance.map(|t| {
+        // transmittance, the ambient part by its occlusion, and lanes the
+        // light adds nothing to keep the ambient part alone (as
+        // `shade_normal_shadowed` returns early).
+        let shadow = shadowed.map(|(t, ao)| {
             let dark = _mm256_and_ps(
                 _mm256_cmp_ps::<_CMP_EQ_OQ>(kd, zero),
                 _mm256_cmp_ps::<_CMP_EQ_OQ>(ks, zero),
             );
-            (_mm256_loadu_ps(t.as_ptr()), dark)
+            (
+                _mm256_loadu_ps(t.as_ptr()),
+                _mm256_loadu_ps(ao.as_ptr()),
+                dark,
+            )
         });
         let mut out = [[0f32; 8]; 3];
         for (j, o) in out.iter_mut().enumerate() {
             let col = _mm256_loadu_ps(colour[j].as_ptr());
-            let amb = _mm256_set1_ps(v.ambient[j]);
+            let mut amb = _mm256_set1_ps(v.ambient[j]);
             let mut rad = _mm256_set1_ps(v.radiance[j]);
-            if let Some((t, _)) = shadow {
+            if let Some((t, ao, _)) = shadow {
                 rad = mul(rad, t);
+                amb = mul(amb, ao);
             }
             let mut shaded = add(mul(col, add(amb, mul(rad, kd))), mul(rad, ks));
-            if let Some((_, dark)) = shadow {
+            if let Some((_, _, dark)) = shadow {
                 shaded = _mm256_blendv_ps(shaded, mul(col, amb), dark);
             }
             _mm256_storeu_ps(o.as_mut_ptr(), _mm256_blendv_ps(col, shaded, lit));
@@ -451,6 +463,9 @@ mod tests {
         else {
             return; // No AVX2 here: nothing runs in lanes.
         };
+        assert!(Lighting::default()
+            .for_view(Light::HEADLIGHT, Vec3::NEG_Z)
+            .lanes());
         let mut rng = fastrand::Rng::with_seed(12);
         let unit = |rng: &mut fastrand::Rng| {
             Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5).normalize_or(Vec3::X)
@@ -486,6 +501,7 @@ mod tests {
             let mut colour = [[0f32; 8]; 3];
             let mut grad = [[0f32; 8]; 3];
             let mut transmittance = [0f32; 8];
+            let mut ao = [0f32; 8];
             for i in 0..8 {
                 let g = match rng.usize(0..10) {
                     0 => special[rng.usize(0..special.len())],
@@ -506,16 +522,22 @@ mod tests {
                     2 => 1e-38,
                     _ => rng.f32(),
                 };
+                ao[i] = match rng.usize(0..6) {
+                    0 => 0.0,
+                    1 => 1.0,
+                    _ => rng.f32(),
+                };
             }
-            // Every other round with shadows: each lane's light scaled by
-            // its transmittance.
+            // Every other round with shadows and occlusion: each lane's
+            // light scaled by its transmittance, its ambient part by its
+            // occlusion.
             let shadowed = round % 2 == 1;
             let out = view
                 .shade8(
                     &colour,
                     &grad,
                     threshold2,
-                    shadowed.then_some(&transmittance),
+                    shadowed.then_some((&transmittance, &ao)),
                 )
                 .unwrap();
             for i in 0..8 {
@@ -526,7 +548,7 @@ mod tests {
                     lit += 1;
                     let unit = g * len2.sqrt().recip();
                     if shadowed {
-                        view.shade_normal_shadowed(c, unit, 1.0, || transmittance[i])
+                        view.shade_normal_shadowed(c, unit, ao[i], || transmittance[i])
                     } else {
                         view.shade_normal(c, unit)
                     }

@@ -35,9 +35,23 @@ impl Occluder for Medium {
     }
 }
 
-struct BuildGrid<'a>(&'a Medium);
+/// A medium whose optical depth per `STEP` varies smoothly from place to
+/// place, from clear to `peak`.
+struct Wavy {
+    peak: f32,
+}
 
-impl VolumeVisitor for BuildGrid<'_> {
+impl Occluder for Wavy {
+    type Query = ();
+    fn depth<C: Cursor>(&self, _: &mut C, p: Vec3, _: ()) -> f32 {
+        let w = (0.31 * p.x).sin() * (0.17 * p.y + 1.0).cos() + (0.23 * p.z).sin();
+        self.peak * (0.5 * w).clamp(0.0, 1.0)
+    }
+}
+
+struct BuildGrid<'a, O>(&'a O);
+
+impl<O: Occluder<Query = ()>> VolumeVisitor for BuildGrid<'_, O> {
     type Output = OcclusionGrid;
     fn visit<S: VoxelSource>(self, src: &S) -> OcclusionGrid {
         OcclusionGrid::build(src, self.0, (), [1.0; 3], STEP, u64::MAX, None).unwrap()
@@ -174,6 +188,130 @@ fn dense_media_occlude_fully_and_never_give_nan() {
             }
         }
     }
+}
+
+#[test]
+fn rays_marched_in_lanes_match_rays_marched_one_by_one() {
+    let d = Dims::new(N as u64, N as u64, N as u64).unwrap();
+    let v = Volume::from_samples(d, vec![0u8; N * N * N]).unwrap();
+    let s = HashSampler::new(11);
+    for peak in [0.02, 0.5, 40.0] {
+        let g = v.visit(BuildGrid(&Wavy { peak }));
+        for radius in [0.0, 3.0, 20.0, 300.0] {
+            let iv = Intervals::new(radius, 2.0, 4.0);
+            let (mut cut, mut left, mut compared) = (0, 0, 0);
+            for k in 0..400u64 {
+                let mut r = s.pixel(k as u32, 1, 0);
+                let mut u = || r.next_2d();
+                // Origins inside the box and a little past its faces.
+                let (a, b) = u();
+                let (c, _) = u();
+                let origin = Vec3::new(a, b, c) * 70.0 - 3.0;
+                let mut dirs = [[0f32; 8]; 3];
+                let mut want = Vec::new();
+                for lane in 0..8 {
+                    let (a, b) = u();
+                    let z = 1.0 - 2.0 * a;
+                    let rr = (1.0 - z * z).max(0.0).sqrt();
+                    let phi = 2.0 * std::f32::consts::PI * b;
+                    // Some axis-parallel directions too.
+                    let dir = match (k + lane) % 9 {
+                        0 => Vec3::X,
+                        1 => Vec3::NEG_Y,
+                        _ => Vec3::new(rr * phi.cos(), rr * phi.sin(), z),
+                    };
+                    for (axis, v) in dir.to_array().into_iter().enumerate() {
+                        dirs[axis][lane as usize] = v;
+                    }
+                    want.push(iv.transmittance(&g, origin, dir, hi()));
+                }
+                let count = 1 + (k % 8) as usize;
+                let Some((got, taken)) = iv.transmittance8(&g, origin, &dirs, count, hi()) else {
+                    assert!(!volcore::lanes::avx2_available());
+                    return;
+                };
+                for lane in 0..8 {
+                    if lane < count {
+                        assert_eq!(
+                            got[lane].to_bits(),
+                            want[lane].0.to_bits(),
+                            "peak {peak}, R {radius}, ray {k}, lane {lane}"
+                        );
+                        cut += usize::from(got[lane] == 0.0);
+                        left += usize::from(want[lane].1 < iv.len() as u32);
+                        compared += 1;
+                    } else {
+                        assert_eq!(got[lane], 1.0);
+                    }
+                }
+                let all: u64 = want[..count].iter().map(|w| w.1 as u64).sum();
+                assert_eq!(taken, all, "peak {peak}, R {radius}, ray {k}");
+            }
+            assert!(compared > 1000);
+            // The dense medium cuts rays off, and long rays leave the box.
+            if peak > 10.0 && radius > 10.0 {
+                assert!(cut > 100, "peak {peak}, R {radius}: {cut} cut off");
+            }
+            if radius > 100.0 {
+                assert!(left > 100, "R {radius}: {left} left the box");
+            }
+        }
+    }
+}
+
+#[test]
+fn field_lookups_in_lanes_match_lookups_one_by_one() {
+    let d = Dims::new(N as u64, N as u64, N as u64).unwrap();
+    let v = Volume::from_samples(d, vec![0u8; N * N * N]).unwrap();
+    let g = v.visit(BuildGrid(&Wavy { peak: 0.5 }));
+    let s = HashSampler::new(5);
+    let mut compared = 0;
+    for (k, cell) in [(16, 8), (32, 3), (1, 64)] {
+        let iv = Intervals::new(20.0, 2.0, 4.0);
+        let f = AoField::build(&g, &iv, [N; 3], [1.0; 3], k, cell, u64::MAX).unwrap();
+        let src = AoSource::new(&g, AoLookup::Field(&f), hi(), 4.0);
+        for round in 0..300u32 {
+            let mut r = s.pixel(round, cell, 0);
+            let mut p = [Vec3::ZERO; 8];
+            let mut n = [None; 8];
+            for i in 0..8 {
+                let (a, b) = r.next_2d();
+                let (c, e) = r.next_2d();
+                // Points inside and past the faces; on grid points too.
+                p[i] = match (round as usize + i) % 7 {
+                    0 => Vec3::new(8.0, 16.0, 24.0),
+                    1 => Vec3::new(f32::NAN, 3.0, 70.0),
+                    _ => Vec3::new(a, b, c) * 72.0 - 4.0,
+                };
+                let z = 1.0 - 2.0 * e;
+                let (u, _) = r.next_2d();
+                let rr = (1.0 - z * z).max(0.0).sqrt();
+                let phi = 2.0 * std::f32::consts::PI * u;
+                n[i] = match (round as usize + 3 * i) % 5 {
+                    0 => None,
+                    1 => Some(Vec3::NEG_Z),
+                    _ => Some(Vec3::new(rr * phi.cos(), rr * phi.sin(), z)),
+                };
+            }
+            let Some(got) = src.field8(&p, &n) else {
+                assert!(!volcore::lanes::avx2_available());
+                return;
+            };
+            for i in 0..8 {
+                let mut fx = RayEffects::default();
+                let want = src.occlusion(p[i], n[i], [0, 0], 0, &mut fx);
+                assert_eq!(
+                    got[i].to_bits(),
+                    want.to_bits(),
+                    "K {k}, cell {cell}, round {round}, lane {i}: {:?} {:?}",
+                    p[i],
+                    n[i]
+                );
+                compared += 1;
+            }
+        }
+    }
+    assert_eq!(compared, 3 * 300 * 8);
 }
 
 #[test]

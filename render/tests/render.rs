@@ -403,10 +403,17 @@ fn sliced_bricked_and_compressed_copies_render_identically() {
         let v = volformats::vvol::open(&p, Default::default()).unwrap();
         let ix = index(&v);
         let cam = orbit(&v, 60.0, 10.0, 48);
-        let frames: Vec<Vec<u32>> = all_modes()
+        // The images, and what the effects counted (occlusion rays and
+        // their reads, shadow rays and theirs: lanes take the same work).
+        let frames: Vec<(Vec<u32>, [u64; 4])> = all_modes()
             .into_iter()
             .chain(batched_modes())
-            .map(|s| bits(&render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap()))
+            .map(|s| {
+                let f = render(&v, Some(&ix), Some(&tf), &cam, &s).unwrap();
+                let e = f.stats.effects;
+                let counts = [e.ao_rays, e.ao_samples, e.shadow_rays, e.shadow_samples];
+                (bits(&f), counts)
+            })
             .collect();
         results.push(frames);
     }
@@ -417,9 +424,17 @@ fn sliced_bricked_and_compressed_copies_render_identically() {
 /// the CPU has AVX2): DVR with neither optimisation (every sample in a
 /// run), shadow rays in DVR and iso mode from a sun and a point light, at
 /// steps that do and do not divide a voxel, and DVR under one sun with a
-/// shadow grid (shaded eight at a time), with and without skipping.
+/// shadow grid, ambient occlusion by rays or by a field, or both (shaded
+/// eight at a time), with and without skipping and early termination.
 fn batched_modes() -> Vec<RenderSettings> {
-    use volrender::{Light, Lighting, ShadowMethod, Shadows};
+    use volrender::{Ao, AoMethod, Light, Lighting, ShadowMethod, Shadows};
+    let ao = |method| {
+        Some(Ao {
+            method,
+            radius: Some(9.0),
+            seed: 5,
+        })
+    };
     let lighting = Lighting {
         lights: vec![
             Light::directional(Vec3::new(1.0, 2.0, 0.5)).unwrap(),
@@ -462,10 +477,45 @@ fn batched_modes() -> Vec<RenderSettings> {
         RenderSettings {
             step: 0.3,
             shading: true,
-            lighting: sun,
+            lighting: sun.clone(),
             shadows: grid,
             ert: None,
             ess: false,
+            ..Default::default()
+        },
+        // Early termination at a low opacity, so runs stop part way.
+        RenderSettings {
+            step: 0.2,
+            shading: true,
+            lighting: sun.clone(),
+            ao: ao(AoMethod::Rays { n: 11 }),
+            ert: Some(0.6),
+            ..Default::default()
+        },
+        RenderSettings {
+            step: 0.3,
+            shading: true,
+            lighting: sun.clone(),
+            shadows: grid,
+            ao: ao(AoMethod::Rays { n: 8 }),
+            ert: None,
+            ess: false,
+            ..Default::default()
+        },
+        RenderSettings {
+            step: 0.2,
+            shading: true,
+            lighting: sun.clone(),
+            ao: ao(AoMethod::Field { k: 16, cell: 4 }),
+            ert: Some(0.6),
+            ..Default::default()
+        },
+        RenderSettings {
+            step: 0.25,
+            shading: true,
+            lighting: sun,
+            shadows: grid,
+            ao: ao(AoMethod::Field { k: 16, cell: 3 }),
             ..Default::default()
         },
         RenderSettings {

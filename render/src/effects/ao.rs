@@ -23,7 +23,7 @@
 //! The ambient term of the lighting is multiplied by the occlusion; lights
 //! are not (their shadows are the shadow methods' job).
 
-use super::occlusion_grid::{trilinear, Intervals, Lattice, OcclusionGrid, OCCLUSION_CELL};
+use super::occlusion_grid::{Intervals, Lattice, OcclusionGrid, RayBatch, OCCLUSION_CELL};
 use super::RayEffects;
 use crate::error::RenderError;
 use crate::sampler::HashSampler;
@@ -197,6 +197,9 @@ pub struct AoField {
     /// and order-2 terms, scaled so that the occlusion for unit normal
     /// `n` is `c[0] + Σ c[i]·shape_i(n)`.
     data: Vec<[f32; SH]>,
+    /// Whether lookups may run eight at a time in AVX2 lanes: this CPU
+    /// has AVX2 and every coefficient's index fits an `i32`.
+    lanes: bool,
     /// Seconds the build took.
     pub build_s: f64,
     /// Grid reads the build took.
@@ -283,11 +286,17 @@ impl AoField {
                         (z * cell).min(dims[2].saturating_sub(1)) as f32,
                     );
                     let p = voxel * Vec3::from(spacing);
-                    for (tk, &d) in t.iter_mut().zip(&dirs) {
-                        let (v, s) = intervals.transmittance(grid, p, d, hi);
-                        taken += s as u64;
-                        *tk = v;
+                    let mut k = 0;
+                    let mut put = |v: f32| {
+                        t[k] = v;
+                        k += 1;
+                    };
+                    let mut batch = RayBatch::new(intervals, grid, p, hi);
+                    for &d in &dirs {
+                        batch.push(d, &mut put);
                     }
+                    batch.flush(&mut put);
+                    taken += batch.taken;
                     let mean = t.iter().sum::<f32>() / t.len() as f32;
                     let mut c = [0.0f32; SH];
                     c[0] = mean;
@@ -307,11 +316,17 @@ impl AoField {
                 taken
             })
             .sum();
+        let lanes = volcore::lanes::avx2_available()
+            && data
+                .len()
+                .checked_mul(SH)
+                .is_some_and(|n| n <= i32::MAX as usize);
         Ok(AoField {
             k,
             cell,
             lattice: Lattice::new(g, spacing, cell as f32),
             data,
+            lanes,
             build_s: start.elapsed().as_secs_f64(),
             samples,
         })
@@ -324,15 +339,122 @@ impl AoField {
     pub fn occlusion(&self, p: Vec3, n: Option<Vec3>) -> f32 {
         let (at, f) = self.lattice.corners(p);
         let v = at.map(|i| &self.data[i]);
-        let coef = |j: usize| trilinear(v.map(|c| c[j]), f);
-        let mut ao = coef(0);
+        // `trilinear` of every coefficient at once: the same lerps, row
+        // by row.
+        let lerp = |a: &[f32; SH], b: &[f32; SH], t: f32| -> [f32; SH] {
+            std::array::from_fn(|j| a[j] + (b[j] - a[j]) * t)
+        };
+        let c00 = lerp(v[0], v[1], f.x);
+        let c10 = lerp(v[2], v[3], f.x);
+        let c01 = lerp(v[4], v[5], f.x);
+        let c11 = lerp(v[6], v[7], f.x);
+        let c = lerp(&lerp(&c00, &c10, f.y), &lerp(&c01, &c11, f.y), f.z);
+        let mut ao = c[0];
         if let Some(n) = n {
             let shape = sh_shape(n);
             for (j, s) in shape.iter().enumerate() {
-                ao += coef(j + 1) * s;
+                ao += c[j + 1] * s;
             }
         }
         ao.clamp(0.0, 1.0)
+    }
+
+    /// [`AoField::occlusion`] at eight world points `p` (per component,
+    /// then per lane) with unit normals `n` in the lanes set in `lit` (the
+    /// mean over all directions in the others), read in AVX2 lanes, bit
+    /// for bit; `None` where the field cannot be read in lanes.
+    #[inline]
+    pub fn occlusion8(&self, p: &[[f32; 8]; 3], n: &[[f32; 8]; 3], lit: u8) -> Option<[f32; 8]> {
+        if !self.lanes {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `lanes` is set only where AVX2 was found and every
+            // coefficient's index fits an i32.
+            Some(unsafe { avx2::occlusion8(self, p, n, lit) })
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (p, n, lit);
+            None
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::super::occlusion_grid::avx2::{corners8, trilinear8};
+    use super::{AoField, SH};
+    use std::arch::x86_64::*;
+
+    /// See [`AoField::occlusion8`].
+    ///
+    /// # Safety
+    /// AVX2; every coefficient's index fits an i32.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn occlusion8(
+        f: &AoField,
+        p: &[[f32; 8]; 3],
+        n: &[[f32; 8]; 3],
+        lit: u8,
+    ) -> [f32; 8] {
+        let load = |c: &[f32; 8]| _mm256_loadu_ps(c.as_ptr());
+        let (at, w) = corners8(&f.lattice, &p.each_ref().map(load));
+        let first = at.map(|i| _mm256_mullo_epi32(i, _mm256_set1_epi32(SH as i32)));
+        let data = f.data.as_ptr().cast::<f32>();
+        // Eight samples along a ray mostly share one cell (a field cell
+        // holds dozens of steps): then every lane reads the same corners,
+        // broadcast instead of gathered (the same values).
+        let lane0 = _mm256_permutevar8x32_epi32(at[0], _mm256_setzero_si256());
+        let shared = _mm256_movemask_epi8(_mm256_cmpeq_epi32(at[0], lane0)) == -1;
+        let mut one = [0i32; 8];
+        for (o, i) in one.iter_mut().zip(&first) {
+            *o = _mm256_cvtsi256_si32(*i);
+        }
+        let coef = |j: i32| {
+            let v = if shared {
+                // The corners' indices are in bounds (`corners8`).
+                one.map(|i| _mm256_set1_ps(*data.add((i + j) as usize)))
+            } else {
+                first.map(|i| {
+                    _mm256_i32gather_ps::<4>(data, _mm256_add_epi32(i, _mm256_set1_epi32(j)))
+                })
+            };
+            trilinear8(v, w)
+        };
+        let mean = coef(0);
+        // `sh_shape`, the same operations.
+        let [x, y, z] = n.each_ref().map(load);
+        let mul = |a, b| _mm256_mul_ps(a, b);
+        let shape = [
+            y,
+            z,
+            x,
+            mul(x, y),
+            mul(y, z),
+            _mm256_sub_ps(mul(mul(_mm256_set1_ps(3.0), z), z), _mm256_set1_ps(1.0)),
+            mul(x, z),
+            _mm256_sub_ps(mul(x, x), mul(y, y)),
+        ];
+        let mut ao = mean;
+        for (j, s) in shape.into_iter().enumerate() {
+            ao = _mm256_add_ps(ao, mul(coef(j as i32 + 1), s));
+        }
+        let lanes = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let lit = _mm256_cmpeq_epi32(
+            _mm256_and_si256(_mm256_set1_epi32(lit as i32), lanes),
+            lanes,
+        );
+        let ao = _mm256_blendv_ps(mean, ao, _mm256_castsi256_ps(lit));
+        // `clamp(0, 1)`: NaN stays NaN.
+        let zero = _mm256_setzero_ps();
+        let one = _mm256_set1_ps(1.0);
+        let ao = _mm256_blendv_ps(ao, zero, _mm256_cmp_ps::<_CMP_LT_OQ>(ao, zero));
+        let ao = _mm256_blendv_ps(ao, one, _mm256_cmp_ps::<_CMP_GT_OQ>(ao, one));
+        let mut out = [0f32; 8];
+        _mm256_storeu_ps(out.as_mut_ptr(), ao);
+        out
     }
 }
 
@@ -408,17 +530,43 @@ impl<'a> AoSource<'a> {
             } => {
                 let (u_rot, u_off) = sampler.pixel(pixel[0], pixel[1], index).next_2d();
                 let mut sum = 0.0f32;
-                let mut taken = 0u64;
-                spiral.directions(n, u_rot, u_off, |d| {
-                    let (t, s) = intervals.transmittance(self.grid, origin, d, self.hi);
-                    sum += t;
-                    taken += s as u64;
-                });
-                fx.ao_samples += taken;
+                let mut add = |t: f32| sum += t;
+                let mut batch = RayBatch::new(intervals, self.grid, origin, self.hi);
+                spiral.directions(n, u_rot, u_off, |d| batch.push(d, &mut add));
+                batch.flush(&mut add);
+                fx.ao_samples += batch.taken;
                 fx.ao_rays += spiral.len() as u32;
                 sum / spiral.len().max(1) as f32
             }
         }
+    }
+
+    /// [`AoSource::occlusion`] at the eight world points `p` with unit
+    /// normals `n` (`None`: no normal), looked up in the field in lanes,
+    /// bit for bit; `None` for sampled directions, or where the field
+    /// cannot be read in lanes.
+    #[inline]
+    pub fn field8(&self, p: &[Vec3; 8], n: &[Option<Vec3>; 8]) -> Option<[f32; 8]> {
+        let AoLookup::Field(field) = self.lookup else {
+            return None;
+        };
+        let (mut origin, mut normal, mut lit) = ([[0f32; 8]; 3], [[0f32; 8]; 3], 0u8);
+        for (i, (&p, n)) in p.iter().zip(n).enumerate() {
+            let o = match *n {
+                Some(n) => {
+                    lit |= 1 << i;
+                    for (a, v) in n.to_array().into_iter().enumerate() {
+                        normal[a][i] = v;
+                    }
+                    p + n * self.offset
+                }
+                None => p,
+            };
+            for (a, v) in o.to_array().into_iter().enumerate() {
+                origin[a][i] = v;
+            }
+        }
+        field.occlusion8(&origin, &normal, lit)
     }
 }
 

@@ -334,11 +334,13 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
         st.fx
     }
     const LANES: bool = true;
-    /// Runs of eight shade in lanes when the frame's one light reads a
-    /// transmittance grid and there is no ambient occlusion (grid reads
-    /// count nothing and read no volume, so taking them for a whole run
-    /// changes nothing); the lanes the light leaves unlit (too short a
-    /// gradient) go one by one, as in [`Shading::shade`].
+    /// Runs of eight shade in lanes when the frame has one light from a
+    /// fixed direction whose shadows, if any, come from a transmittance
+    /// grid (grid reads count nothing and read no volume). Occlusion is
+    /// worked out per visible lane in lane order, as [`Shading::shade`]
+    /// takes the samples, so every lane keeps its index into the
+    /// directions' sampler; the lanes the light leaves unlit (too short a
+    /// gradient) are shaded one by one, as in [`Shading::shade`].
     #[inline(always)]
     fn shade8(
         &self,
@@ -348,32 +350,65 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
         t: &[f32; 8],
         visible: u8,
     ) -> Option<Lanes3> {
-        if self.ao.is_some() {
-            return None;
-        }
-        let caster = self.caster?;
-        let grid = caster.grid(0)?;
-        let EffectsRay { ray, one_light, .. } = st;
-        let view = one_light.as_ref()?;
+        let EffectsRay {
+            ray,
+            pixel,
+            fx,
+            ao_index,
+            one_light,
+        } = st;
+        let view = one_light.as_ref().filter(|v| v.lanes())?;
+        // Shadow rays read the volume: those samples go one by one.
+        let shadow = match self.caster {
+            Some(c) => Some((c, c.grid(0)?)),
+            None => None,
+        };
         let inc = self.lighting.lights[0].for_ray(ray.dir);
         let lane = |l: &Lanes3, i: usize| Vec3::new(l[0][i], l[1][i], l[2][i]);
         // Every lane's read (those not shaded here are dropped).
-        let tr = caster.grid_transmittance8(grid, ray, t, &inc);
+        let tr = shadow.map_or([1.0; 8], |(c, g)| c.grid_transmittance8(g, ray, t, &inc));
         // Unlit as `shade` finds them: not `len2 > threshold2` (NaN too).
         let lit = |i: usize| lane(grad, i).length_squared() > self.threshold2;
-        let unlit = (0..8)
-            .filter(|&i| visible >> i & 1 == 1 && !lit(i))
-            .fold(0u8, |m, i| m | 1 << i);
-        let mut out = view.shade8(colour, grad, self.threshold2, Some(&tr))?;
-        for i in (0..8).filter(|i| unlit >> i & 1 == 1) {
+        let shaded = || (0..8).filter(move |&i| visible >> i & 1 == 1);
+        let mut ao = [1.0f32; 8];
+        if let Some(src) = self.ao {
+            let p = t.map(|t| ray.origin + ray.dir * t);
+            let n: [Option<Vec3>; 8] = std::array::from_fn(|i| {
+                let shaded = visible >> i & 1 == 1 && lit(i);
+                shaded.then(|| outward_normal(lane(grad, i))).flatten()
+            });
+            match src.field8(&p, &n) {
+                Some(a) => {
+                    for i in shaded() {
+                        ao[i] = a[i];
+                        *ao_index += 1;
+                    }
+                }
+                None => {
+                    for i in shaded() {
+                        ao[i] = src.occlusion(p[i], n[i], *pixel, *ao_index, fx);
+                        *ao_index += 1;
+                    }
+                }
+            }
+        }
+        let lanes = view.shade8(colour, grad, self.threshold2, Some((&tr, &ao)));
+        let mut out = lanes.unwrap_or([[0.0; 8]; 3]);
+        for i in shaded().filter(|&i| lanes.is_none() || !lit(i)) {
             let p = ray.origin + ray.dir * t[i];
-            let c = self
-                .lighting
-                .unlit_shadowed(lane(colour, i), ray.dir, p, 1.0, |l, inc| {
-                    caster
-                        .grid(l)
-                        .map_or(1.0, |g| caster.grid_transmittance(g, p, inc))
-                });
+            let c = if lit(i) {
+                // Not reached: `lanes()` said the lanes shade here.
+                let g = lane(grad, i);
+                let unit = g * g.length_squared().sqrt().recip();
+                view.shade_normal_shadowed(lane(colour, i), unit, ao[i], || tr[i])
+            } else {
+                self.lighting
+                    .unlit_shadowed(lane(colour, i), ray.dir, p, ao[i], |l, inc| {
+                        shadow.map_or(1.0, |(c, _)| {
+                            c.grid(l).map_or(1.0, |g| c.grid_transmittance(g, p, inc))
+                        })
+                    })
+            };
             for (j, o) in out.iter_mut().enumerate() {
                 o[i] = c[j];
             }

@@ -186,6 +186,9 @@ impl Level {
 pub struct OcclusionGrid {
     /// Finest first.
     levels: Vec<Level>,
+    /// Whether occlusion rays may march eight at a time in AVX2 lanes:
+    /// this CPU has AVX2 and every level's points fit an `i32` index.
+    lanes: bool,
     /// Seconds the build took.
     pub build_s: f64,
     /// Samples the build took.
@@ -291,8 +294,11 @@ impl OcclusionGrid {
             let next = levels[l - 1].coarser(spacing, cell * (1 << l) as f32);
             levels.push(next);
         }
+        let lanes = volcore::lanes::avx2_available()
+            && levels.iter().all(|l| l.sigma.len() <= i32::MAX as usize);
         Ok(OcclusionGrid {
             levels,
+            lanes,
             build_s: start.elapsed().as_secs_f64(),
             samples,
         })
@@ -423,6 +429,286 @@ impl Intervals {
             }
         }
         ((-depth).exp(), taken)
+    }
+
+    /// [`Intervals::transmittance`] along the first `count` (at most 8) of
+    /// the unit directions `dirs` (per component, then per lane) from one
+    /// `origin`, the rays marched side by side in AVX2 lanes, bit for bit:
+    /// each lane's transmittance (lanes from `count` on hold 1), and the
+    /// samples the `count` rays took in all. `None` where the grid cannot
+    /// be read in lanes (then march them one by one).
+    #[inline]
+    pub fn transmittance8(
+        &self,
+        grid: &OcclusionGrid,
+        origin: Vec3,
+        dirs: &[[f32; 8]; 3],
+        count: usize,
+        hi: Vec3,
+    ) -> Option<([f32; 8], u64)> {
+        if !grid.lanes {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: `lanes` is set only where AVX2 was found and every
+            // level's points fit an i32 index.
+            Some(unsafe { avx2::transmittance8(self, grid, origin, dirs, count.min(8), hi) })
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = (origin, dirs, count, hi);
+            None
+        }
+    }
+}
+
+/// Occlusion rays from one origin, marched eight at a time in lanes where
+/// the grid allows (one by one elsewhere), their transmittances handed on
+/// in the order their directions came: the same numbers either way.
+pub struct RayBatch<'a> {
+    intervals: &'a Intervals,
+    grid: &'a OcclusionGrid,
+    origin: Vec3,
+    hi: Vec3,
+    /// Directions waiting, per component, then per lane.
+    dirs: [[f32; 8]; 3],
+    /// How many are waiting.
+    count: usize,
+    /// Samples the rays marched so far took.
+    pub taken: u64,
+}
+
+impl<'a> RayBatch<'a> {
+    /// Rays from `origin` through `grid` with `intervals`, in the box
+    /// `[0, hi]`.
+    #[inline]
+    pub fn new(intervals: &'a Intervals, grid: &'a OcclusionGrid, origin: Vec3, hi: Vec3) -> Self {
+        RayBatch {
+            intervals,
+            grid,
+            origin,
+            hi,
+            dirs: [[0.0; 8]; 3],
+            count: 0,
+            taken: 0,
+        }
+    }
+
+    /// Add the ray along unit direction `d`; `out` receives the
+    /// transmittances of the rays marched (eight once eight wait).
+    #[inline]
+    pub fn push(&mut self, d: Vec3, out: &mut impl FnMut(f32)) {
+        if !self.grid.lanes {
+            let (t, s) = self
+                .intervals
+                .transmittance(self.grid, self.origin, d, self.hi);
+            self.taken += s as u64;
+            out(t);
+            return;
+        }
+        for (a, v) in d.to_array().into_iter().enumerate() {
+            self.dirs[a][self.count] = v;
+        }
+        self.count += 1;
+        if self.count == 8 {
+            self.flush(out);
+        }
+    }
+
+    /// March the rays still waiting; `out` receives their transmittances.
+    #[inline]
+    pub fn flush(&mut self, out: &mut impl FnMut(f32)) {
+        if self.count == 0 {
+            return;
+        }
+        let count = std::mem::take(&mut self.count);
+        match self
+            .intervals
+            .transmittance8(self.grid, self.origin, &self.dirs, count, self.hi)
+        {
+            Some((t, s)) => {
+                self.taken += s;
+                t[..count].iter().for_each(|&t| out(t));
+            }
+            None => {
+                for i in 0..count {
+                    let d = Vec3::new(self.dirs[0][i], self.dirs[1][i], self.dirs[2][i]);
+                    let (t, s) = self
+                        .intervals
+                        .transmittance(self.grid, self.origin, d, self.hi);
+                    self.taken += s as u64;
+                    out(t);
+                }
+            }
+        }
+    }
+}
+
+/// Reads of the grid's levels (and of lattices like them) in AVX2 lanes.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx2 {
+    use super::{Intervals, Lattice, Level, OcclusionGrid, SHADOW_DEPTH_CUTOFF};
+    use glam::Vec3;
+    use std::arch::x86_64::*;
+
+    /// `a + (b − a)·t` per lane, as [`super::trilinear`] lerps.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn lerp(a: __m256, b: __m256, t: __m256) -> __m256 {
+        _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
+    }
+
+    /// One axis of [`super::Lattice::corners`] for eight world
+    /// coordinates: the lower points and the weights, the same
+    /// operations (the clamp's `max` first, so NaN reads point 0).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn locate(p: __m256, world_to_grid: f32, top: f32) -> (__m256i, __m256) {
+        let c = _mm256_mul_ps(p, _mm256_set1_ps(world_to_grid));
+        let c = _mm256_min_ps(_mm256_max_ps(c, _mm256_setzero_ps()), _mm256_set1_ps(top));
+        let i = _mm256_cvttps_epi32(c);
+        (i, _mm256_sub_ps(c, _mm256_cvtepi32_ps(i)))
+    }
+
+    /// `step` where the lower point `i` has a next point on an axis of
+    /// `g` points, else 0 (the lattice's last face reads itself).
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn stride(i: __m256i, g: usize, step: i32) -> __m256i {
+        let has_next = _mm256_cmpgt_epi32(
+            _mm256_set1_epi32(g as i32),
+            _mm256_add_epi32(i, _mm256_set1_epi32(1)),
+        );
+        _mm256_and_si256(has_next, _mm256_set1_epi32(step))
+    }
+
+    /// [`super::Lattice::corners`] of eight world points `p`: the eight
+    /// corners' indices (in its order) and the weights per axis, the same
+    /// operations.
+    ///
+    /// # Safety
+    /// AVX2; the lattice's points fit an i32 index.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn corners8(l: &Lattice, p: &[__m256; 3]) -> ([__m256i; 8], [__m256; 3]) {
+        let [gx, gy, gz] = l.g;
+        let (ix, fx) = locate(p[0], l.world_to_grid.x, l.top.x);
+        let (iy, fy) = locate(p[1], l.world_to_grid.y, l.top.y);
+        let (iz, fz) = locate(p[2], l.world_to_grid.z, l.top.z);
+        let sx = stride(ix, gx, 1);
+        let sy = stride(iy, gy, gx as i32);
+        let sz = stride(iz, gz, (gx * gy) as i32);
+        let b = _mm256_add_epi32(
+            _mm256_mullo_epi32(
+                _mm256_add_epi32(_mm256_mullo_epi32(iz, _mm256_set1_epi32(gy as i32)), iy),
+                _mm256_set1_epi32(gx as i32),
+            ),
+            ix,
+        );
+        // Every lower point is clamped into the lattice and every stride
+        // stays inside it, so every index is in bounds.
+        let by = _mm256_add_epi32(b, sy);
+        let bz = _mm256_add_epi32(b, sz);
+        let bzy = _mm256_add_epi32(bz, sy);
+        let plus = |i: __m256i| _mm256_add_epi32(i, sx);
+        (
+            [b, plus(b), by, plus(by), bz, plus(bz), bzy, plus(bzy)],
+            [fx, fy, fz],
+        )
+    }
+
+    /// [`super::trilinear`] of corner values `v` at weights `f`, per lane.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(crate) unsafe fn trilinear8(v: [__m256; 8], f: [__m256; 3]) -> __m256 {
+        let c00 = lerp(v[0], v[1], f[0]);
+        let c10 = lerp(v[2], v[3], f[0]);
+        let c01 = lerp(v[4], v[5], f[0]);
+        let c11 = lerp(v[6], v[7], f[0]);
+        lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2])
+    }
+
+    /// [`Level::sigma`] at eight world points.
+    ///
+    /// # Safety
+    /// AVX2; the level's points fit an i32 index.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn sigma8(level: &Level, p: &[__m256; 3]) -> __m256 {
+        let (at, f) = corners8(&level.lattice, p);
+        let data = level.sigma.as_ptr();
+        trilinear8(at.map(|i| _mm256_i32gather_ps::<4>(data, i)), f)
+    }
+
+    /// See [`Intervals::transmittance8`].
+    ///
+    /// # Safety
+    /// AVX2; every level's points fit an i32 index; `count <= 8`.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn transmittance8(
+        iv: &Intervals,
+        grid: &OcclusionGrid,
+        origin: Vec3,
+        dirs: &[[f32; 8]; 3],
+        count: usize,
+        hi: Vec3,
+    ) -> ([f32; 8], u64) {
+        let zero = _mm256_setzero_ps();
+        let d = dirs.map(|c| _mm256_loadu_ps(c.as_ptr()));
+        let o = [origin.x, origin.y, origin.z].map(|v| _mm256_set1_ps(v));
+        let h = [hi.x, hi.y, hi.z].map(|v| _mm256_set1_ps(v));
+        let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        // Lanes still marching; those cut off (optical depth past the
+        // cutoff: transmittance 0).
+        let mut alive =
+            _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(count as i32), lane));
+        let mut cut = zero;
+        let mut depth = zero;
+        let mut taken = _mm256_setzero_si256();
+        let cutoff = _mm256_set1_ps(SHADOW_DEPTH_CUTOFF);
+        for &(mid, len, level) in &iv.parts {
+            let m = _mm256_set1_ps(mid);
+            let mut p = [zero; 3];
+            let mut outside = zero;
+            for a in 0..3 {
+                p[a] = _mm256_add_ps(o[a], _mm256_mul_ps(d[a], m));
+                outside = _mm256_or_ps(
+                    outside,
+                    _mm256_or_ps(
+                        _mm256_cmp_ps::<_CMP_LT_OQ>(p[a], zero),
+                        _mm256_cmp_ps::<_CMP_GT_OQ>(p[a], h[a]),
+                    ),
+                );
+            }
+            // A ray that leaves a convex box never comes back.
+            alive = _mm256_andnot_ps(outside, alive);
+            if _mm256_movemask_ps(alive) == 0 {
+                break;
+            }
+            // Alive lanes are all ones: −1 each.
+            taken = _mm256_sub_epi32(taken, _mm256_castps_si256(alive));
+            let s = sigma8(&grid.levels[level.min(grid.levels.len() - 1)], &p);
+            let next = _mm256_add_ps(depth, _mm256_mul_ps(s, _mm256_set1_ps(len)));
+            depth = _mm256_blendv_ps(depth, next, alive);
+            let over = _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(depth, cutoff), alive);
+            cut = _mm256_or_ps(cut, over);
+            alive = _mm256_andnot_ps(over, alive);
+        }
+        let mut dep = [0f32; 8];
+        _mm256_storeu_ps(dep.as_mut_ptr(), depth);
+        let mut n = [0i32; 8];
+        _mm256_storeu_si256(n.as_mut_ptr().cast(), taken);
+        let cut = _mm256_movemask_ps(cut);
+        let mut out = [1f32; 8];
+        for i in 0..count {
+            out[i] = if cut >> i & 1 == 1 {
+                0.0
+            } else {
+                (-dep[i]).exp()
+            };
+        }
+        (out, n.iter().map(|&k| k as u64).sum())
     }
 }
 

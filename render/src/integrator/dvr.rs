@@ -490,7 +490,21 @@ where
                 }
             }
         }
-        let shaded = d.shading.shade8(&mut self.view, &colour, &grad, t, visible);
+        // The visible samples the ray composites before it terminates
+        // (the same opacity sums `composite` makes): only those are shaded,
+        // as one by one, so effects count the same work.
+        let mut reached = 0u8;
+        let mut alpha = self.alpha;
+        for (i, e) in e.iter().enumerate() {
+            if visible >> i & 1 == 1 {
+                reached |= 1 << i;
+                alpha += (1.0 - alpha) * e[3];
+                if d.termination.reached(alpha) {
+                    break;
+                }
+            }
+        }
+        let shaded = d.shading.shade8(&mut self.view, &colour, &grad, t, reached);
         for (i, e) in e.iter().enumerate() {
             self.samples += 1;
             if e[3] > 0.0 {
