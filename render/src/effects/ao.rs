@@ -27,6 +27,7 @@ use super::occlusion_grid::{Intervals, Lattice, OcclusionGrid, RayBatch, OCCLUSI
 use super::RayEffects;
 use crate::error::RenderError;
 use crate::sampler::HashSampler;
+use crate::shade::Lanes3;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -185,6 +186,11 @@ const SH_NORM: [f32; SH - 1] = [
     0.546_274_2,
 ];
 
+/// A field point's first eight coefficients, 32-byte aligned.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+struct Head([f32; SH - 1]);
+
 /// The cosine-weighted occlusion around every normal, precomputed at the
 /// points of a coarse grid from the transmittance toward `K` directions.
 #[derive(Clone, Debug)]
@@ -195,10 +201,14 @@ pub struct AoField {
     lattice: Lattice,
     /// Per point (x fastest): the mean transmittance, then the order-1
     /// and order-2 terms, scaled so that the occlusion for unit normal
-    /// `n` is `c[0] + Σ c[i]·shape_i(n)`.
-    data: Vec<[f32; SH]>,
+    /// `n` is `c[0] + Σ c[i]·shape_i(n)`; the first eight here, each
+    /// point's in one aligned half cache line (a lane lookup reads a
+    /// corner in one load)...
+    head: Vec<Head>,
+    /// ... and the last one.
+    tail: Vec<f32>,
     /// Whether lookups may run eight at a time in AVX2 lanes: this CPU
-    /// has AVX2 and every coefficient's index fits an `i32`.
+    /// has AVX2 and every point's index fits an `i32`.
     lanes: bool,
     /// Seconds the build took.
     pub build_s: f64,
@@ -217,7 +227,7 @@ impl AoField {
 
     /// The field's memory, bytes.
     pub fn bytes(&self) -> u64 {
-        (self.data.len() * SH * 4) as u64
+        (self.head.len() * SH * 4) as u64
     }
 
     /// The number of directions it was built from.
@@ -259,11 +269,14 @@ impl AoField {
             dims[a].saturating_sub(1) as f32 * spacing[a]
         }));
         let points = g[0] * g[1] * g[2];
-        let mut data: Vec<[f32; SH]> = Vec::new();
-        data.try_reserve_exact(points).map_err(|_| {
-            RenderError::Setting(format!("cannot allocate an AO field of {bytes} bytes"))
-        })?;
-        data.resize(points, [0.0; SH]);
+        let no_room =
+            || RenderError::Setting(format!("cannot allocate an AO field of {bytes} bytes"));
+        let mut head: Vec<Head> = Vec::new();
+        head.try_reserve_exact(points).map_err(|_| no_room())?;
+        head.resize(points, Head::default());
+        let mut tail: Vec<f32> = Vec::new();
+        tail.try_reserve_exact(points).map_err(|_| no_room())?;
+        tail.resize(points, 0.0);
         // The projection's quadrature weight (4π/K) times the clamped
         // cosine's convolution factors over π (2/3 for order 1, 1/4 for
         // order 2) times each harmonic's constant twice (projection and
@@ -273,13 +286,14 @@ impl AoField {
             let band = if i < 3 { 2.0 / 3.0 } else { 0.25 };
             w * band * SH_NORM[i] * SH_NORM[i]
         });
-        let samples: u64 = data
+        let samples: u64 = head
             .par_chunks_mut(g[0] * g[1])
+            .zip(tail.par_chunks_mut(g[0] * g[1]))
             .enumerate()
-            .map(|(z, slice)| {
+            .map(|(z, (heads, tails))| {
                 let mut taken = 0u64;
                 let mut t = vec![0.0f32; dirs.len()];
-                for (i, out) in slice.iter_mut().enumerate() {
+                for (i, (h, last)) in heads.iter_mut().zip(tails.iter_mut()).enumerate() {
                     let voxel = Vec3::new(
                         ((i % g[0]) * cell).min(dims[0].saturating_sub(1)) as f32,
                         ((i / g[0]) * cell).min(dims[1].saturating_sub(1)) as f32,
@@ -311,21 +325,19 @@ impl AoField {
                     for j in 0..SH - 1 {
                         c[j + 1] *= scale[j];
                     }
-                    *out = c;
+                    h.0.copy_from_slice(&c[..SH - 1]);
+                    *last = c[SH - 1];
                 }
                 taken
             })
             .sum();
-        let lanes = volcore::lanes::avx2_available()
-            && data
-                .len()
-                .checked_mul(SH)
-                .is_some_and(|n| n <= i32::MAX as usize);
+        let lanes = volcore::lanes::avx2_available() && points <= i32::MAX as usize;
         Ok(AoField {
             k,
             cell,
             lattice: Lattice::new(g, spacing, cell as f32),
-            data,
+            head,
+            tail,
             lanes,
             build_s: start.elapsed().as_secs_f64(),
             samples,
@@ -338,16 +350,19 @@ impl AoField {
     #[inline]
     pub fn occlusion(&self, p: Vec3, n: Option<Vec3>) -> f32 {
         let (at, f) = self.lattice.corners(p);
-        let v = at.map(|i| &self.data[i]);
+        let v = at.map(|i| -> [f32; SH] {
+            let h = &self.head[i].0;
+            std::array::from_fn(|j| if j < SH - 1 { h[j] } else { self.tail[i] })
+        });
         // `trilinear` of every coefficient at once: the same lerps, row
         // by row.
         let lerp = |a: &[f32; SH], b: &[f32; SH], t: f32| -> [f32; SH] {
             std::array::from_fn(|j| a[j] + (b[j] - a[j]) * t)
         };
-        let c00 = lerp(v[0], v[1], f.x);
-        let c10 = lerp(v[2], v[3], f.x);
-        let c01 = lerp(v[4], v[5], f.x);
-        let c11 = lerp(v[6], v[7], f.x);
+        let c00 = lerp(&v[0], &v[1], f.x);
+        let c10 = lerp(&v[2], &v[3], f.x);
+        let c01 = lerp(&v[4], &v[5], f.x);
+        let c11 = lerp(&v[6], &v[7], f.x);
         let c = lerp(&lerp(&c00, &c10, f.y), &lerp(&c01, &c11, f.y), f.z);
         let mut ao = c[0];
         if let Some(n) = n {
@@ -362,21 +377,22 @@ impl AoField {
     /// [`AoField::occlusion`] at eight world points `p` (per component,
     /// then per lane) with unit normals `n` in the lanes set in `lit` (the
     /// mean over all directions in the others), read in AVX2 lanes, bit
-    /// for bit; `None` where the field cannot be read in lanes.
+    /// for bit, in the lanes set in `want` (the others' values mean
+    /// nothing); `None` where the field cannot be read in lanes.
     #[inline]
-    pub fn occlusion8(&self, p: &[[f32; 8]; 3], n: &[[f32; 8]; 3], lit: u8) -> Option<[f32; 8]> {
+    pub fn occlusion8(&self, p: &Lanes3, n: &Lanes3, lit: u8, want: u8) -> Option<[f32; 8]> {
         if !self.lanes {
             return None;
         }
         #[cfg(target_arch = "x86_64")]
         {
             // SAFETY: `lanes` is set only where AVX2 was found and every
-            // coefficient's index fits an i32.
-            Some(unsafe { avx2::occlusion8(self, p, n, lit) })
+            // point's index fits an i32.
+            Some(unsafe { avx2::occlusion8(self, p, n, lit, want) })
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let _ = (p, n, lit);
+            let _ = (p, n, lit, want);
             None
         }
     }
@@ -385,45 +401,79 @@ impl AoField {
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::super::occlusion_grid::avx2::{corners8, trilinear8};
-    use super::{AoField, SH};
+    use super::{AoField, Lanes3, SH};
     use std::arch::x86_64::*;
+
+    /// Rows `r` (eight values each) as columns: lane `i` of the result's
+    /// `j` is lane `j` of `r[i]`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
+        let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+        let t1 = _mm256_unpackhi_ps(r[0], r[1]);
+        let t2 = _mm256_unpacklo_ps(r[2], r[3]);
+        let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+        let t4 = _mm256_unpacklo_ps(r[4], r[5]);
+        let t5 = _mm256_unpackhi_ps(r[4], r[5]);
+        let t6 = _mm256_unpacklo_ps(r[6], r[7]);
+        let t7 = _mm256_unpackhi_ps(r[6], r[7]);
+        let u0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+        let u1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+        let u2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+        let u3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+        let u4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+        let u5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+        let u6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+        let u7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+        [
+            _mm256_permute2f128_ps::<0x20>(u0, u4),
+            _mm256_permute2f128_ps::<0x20>(u1, u5),
+            _mm256_permute2f128_ps::<0x20>(u2, u6),
+            _mm256_permute2f128_ps::<0x20>(u3, u7),
+            _mm256_permute2f128_ps::<0x31>(u0, u4),
+            _mm256_permute2f128_ps::<0x31>(u1, u5),
+            _mm256_permute2f128_ps::<0x31>(u2, u6),
+            _mm256_permute2f128_ps::<0x31>(u3, u7),
+        ]
+    }
 
     /// See [`AoField::occlusion8`].
     ///
+    /// Each wanted lane reads its eight corners' first eight coefficients
+    /// with one aligned load apiece and blends them across the vector (the
+    /// scalar lookup's lerps, coefficient by coefficient); the blends are
+    /// turned back into lanes for the harmonics' sum, and the ninth
+    /// coefficient is gathered. Eight gathers a lookup where gathering
+    /// every coefficient took 72.
+    ///
     /// # Safety
-    /// AVX2; every coefficient's index fits an i32.
+    /// AVX2; every point's index fits an i32.
     #[target_feature(enable = "avx2")]
-    pub unsafe fn occlusion8(
-        f: &AoField,
-        p: &[[f32; 8]; 3],
-        n: &[[f32; 8]; 3],
-        lit: u8,
-    ) -> [f32; 8] {
+    pub unsafe fn occlusion8(f: &AoField, p: &Lanes3, n: &Lanes3, lit: u8, want: u8) -> [f32; 8] {
         let load = |c: &[f32; 8]| _mm256_loadu_ps(c.as_ptr());
         let (at, w) = corners8(&f.lattice, &p.each_ref().map(load));
-        let first = at.map(|i| _mm256_mullo_epi32(i, _mm256_set1_epi32(SH as i32)));
-        let data = f.data.as_ptr().cast::<f32>();
-        // Eight samples along a ray mostly share one cell (a field cell
-        // holds dozens of steps): then every lane reads the same corners,
-        // broadcast instead of gathered (the same values).
-        let lane0 = _mm256_permutevar8x32_epi32(at[0], _mm256_setzero_si256());
-        let shared = _mm256_movemask_epi8(_mm256_cmpeq_epi32(at[0], lane0)) == -1;
-        let mut one = [0i32; 8];
-        for (o, i) in one.iter_mut().zip(&first) {
-            *o = _mm256_cvtsi256_si32(*i);
+        let mut corner = [[0i32; 8]; 8];
+        for (c, i) in corner.iter_mut().zip(&at) {
+            _mm256_storeu_si256(c.as_mut_ptr().cast(), *i);
         }
-        let coef = |j: i32| {
-            let v = if shared {
-                // The corners' indices are in bounds (`corners8`).
-                one.map(|i| _mm256_set1_ps(*data.add((i + j) as usize)))
-            } else {
-                first.map(|i| {
-                    _mm256_i32gather_ps::<4>(data, _mm256_add_epi32(i, _mm256_set1_epi32(j)))
-                })
-            };
-            trilinear8(v, w)
-        };
-        let mean = coef(0);
+        let mut weight = [[0f32; 8]; 3];
+        for (c, v) in weight.iter_mut().zip(&w) {
+            _mm256_storeu_ps(c.as_mut_ptr(), *v);
+        }
+        let head = f.head.as_ptr().cast::<f32>();
+        let mut rows = [_mm256_setzero_ps(); 8];
+        for (lane, row) in rows.iter_mut().enumerate() {
+            if want >> lane & 1 == 0 {
+                continue;
+            }
+            // The corners' indices are in bounds (`corners8`); each point's
+            // head is 32-byte aligned.
+            let v = corner.map(|c| _mm256_load_ps(head.add(c[lane] as usize * (SH - 1))));
+            *row = trilinear8(v, weight.map(|w| _mm256_set1_ps(w[lane])));
+        }
+        let c = transpose8(rows);
+        let last = trilinear8(at.map(|i| _mm256_i32gather_ps::<4>(f.tail.as_ptr(), i)), w);
+        let mean = c[0];
         // `sh_shape`, the same operations.
         let [x, y, z] = n.each_ref().map(load);
         let mul = |a, b| _mm256_mul_ps(a, b);
@@ -439,7 +489,8 @@ mod avx2 {
         ];
         let mut ao = mean;
         for (j, s) in shape.into_iter().enumerate() {
-            ao = _mm256_add_ps(ao, mul(coef(j as i32 + 1), s));
+            let cj = if j + 1 < SH - 1 { c[j + 1] } else { last };
+            ao = _mm256_add_ps(ao, mul(cj, s));
         }
         let lanes = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
         let lit = _mm256_cmpeq_epi32(
@@ -541,32 +592,28 @@ impl<'a> AoSource<'a> {
         }
     }
 
-    /// [`AoSource::occlusion`] at the eight world points `p` with unit
-    /// normals `n` (`None`: no normal), looked up in the field in lanes,
-    /// bit for bit; `None` for sampled directions, or where the field
-    /// cannot be read in lanes.
+    /// [`AoSource::occlusion`] at eight world points `p` (per component,
+    /// then per lane) with unit normals `n` in the lanes set in `lit` (no
+    /// normal in the others), looked up in the field in lanes, bit for
+    /// bit, in the lanes set in `want` (the others' values mean nothing);
+    /// `None` for sampled directions, or where the field cannot be read in
+    /// lanes.
     #[inline]
-    pub fn field8(&self, p: &[Vec3; 8], n: &[Option<Vec3>; 8]) -> Option<[f32; 8]> {
+    pub fn field8(&self, p: &Lanes3, n: &Lanes3, lit: u8, want: u8) -> Option<[f32; 8]> {
         let AoLookup::Field(field) = self.lookup else {
             return None;
         };
-        let (mut origin, mut normal, mut lit) = ([[0f32; 8]; 3], [[0f32; 8]; 3], 0u8);
-        for (i, (&p, n)) in p.iter().zip(n).enumerate() {
-            let o = match *n {
-                Some(n) => {
-                    lit |= 1 << i;
-                    for (a, v) in n.to_array().into_iter().enumerate() {
-                        normal[a][i] = v;
-                    }
-                    p + n * self.offset
+        // `p + n * offset` where there is a normal, as one by one.
+        let origin: Lanes3 = std::array::from_fn(|a| {
+            std::array::from_fn(|i| {
+                if lit >> i & 1 == 1 {
+                    p[a][i] + n[a][i] * self.offset
+                } else {
+                    p[a][i]
                 }
-                None => p,
-            };
-            for (a, v) in o.to_array().into_iter().enumerate() {
-                origin[a][i] = v;
-            }
-        }
-        field.occlusion8(&origin, &normal, lit)
+            })
+        });
+        field.occlusion8(&origin, n, lit, want)
     }
 }
 
