@@ -627,3 +627,41 @@ fn normals_in_lanes_match_normals_one_by_one() {
     }
     assert_eq!(checked, 400 * 8);
 }
+
+#[test]
+fn batches_fed_in_runs_of_eight_match_batches_fed_one_by_one() {
+    use volrender::effects::occlusion_grid::RayBatch;
+    let d = Dims::new(N as u64, N as u64, N as u64).unwrap();
+    let v = Volume::from_samples(d, vec![0u8; N * N * N]).unwrap();
+    let g = v.visit(BuildGrid(&Wavy { peak: 0.5 }));
+    let iv = Intervals::new(20.0, 2.0, 4.0);
+    let s = HashSampler::new(3);
+    for count in [1u32, 3, 8, 9, 16, 21] {
+        let spiral = Spiral::new(count);
+        for k in 0..200u64 {
+            let (u1, u2) = s.pixel(k as u32, count, 0).next_2d();
+            let origin = Vec3::new(u1, u2, 0.5) * 60.0;
+            let n = (k % 3 != 0).then(|| Vec3::new(u2 - 0.5, 0.3, u1 - 0.5).normalize());
+            let (mut one, mut runs) = (Vec::new(), Vec::new());
+            // Odd rays find a ray waiting already: their runs then go one
+            // by one.
+            let waiting = k % 2 == 1;
+            let mut a = RayBatch::new(&iv, &g, origin, hi());
+            if waiting {
+                a.push(Vec3::Z, &mut |t| one.push(t));
+            }
+            spiral.directions(n, u1, u2, |d| a.push(d, &mut |t| one.push(t)));
+            a.flush(&mut |t| one.push(t));
+            let mut b = RayBatch::new(&iv, &g, origin, hi());
+            if waiting {
+                b.push(Vec3::Z, &mut |t| runs.push(t));
+            }
+            spiral.directions8(n, u1, u2, |d, c| b.push8(d, c, &mut |t| runs.push(t)));
+            b.flush(&mut |t| runs.push(t));
+            assert_eq!(one.len(), count as usize + (k % 2) as usize);
+            let bits = |v: &[f32]| v.iter().map(|t| t.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&one), bits(&runs), "N {count}, ray {k}");
+            assert_eq!(a.taken, b.taken);
+        }
+    }
+}

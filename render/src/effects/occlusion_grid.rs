@@ -253,37 +253,43 @@ impl OcclusionGrid {
             .par_chunks_mut(per_slice)
             .enumerate()
             .map_init(
-                || src.cursor(),
-                |cur, (z, slice)| {
+                || (src.cursor(), Vec::new()),
+                |(cur, row), (z, slice)| {
                     let mut taken = 0u64;
-                    for (i, out) in slice.iter_mut().enumerate() {
-                        let centre = Vec3::new(
-                            ((i % g[0]) * OCCLUSION_CELL) as f32,
-                            ((i / g[0]) * OCCLUSION_CELL) as f32,
-                            (z * OCCLUSION_CELL) as f32,
-                        );
-                        // The samples lie within a quarter cell of the
-                        // point: when every index cell that box touches
-                        // is clear, so are they.
-                        let x = (i % g[0], i / g[0], z);
-                        if ranges.as_ref().is_some_and(|r| r.clear(x)) {
-                            *out = 0.0;
-                            continue;
+                    for (y, line) in slice.chunks_mut(g[0]).enumerate() {
+                        // Which index cells along x are clear across the
+                        // row's y and z: found once a row.
+                        if let Some(r) = &ranges {
+                            r.row(y, z, row);
                         }
-                        let mut sum = 0.0f32;
-                        for corner in 0..8 {
-                            let off = Vec3::new(
-                                if corner & 1 == 0 { -0.25 } else { 0.25 },
-                                if corner & 2 == 0 { -0.25 } else { 0.25 },
-                                if corner & 4 == 0 { -0.25 } else { 0.25 },
-                            ) * cell;
-                            let p =
-                                (centre + off).clamp(Vec3::ZERO, Vec3::new(hi[0], hi[1], hi[2]));
-                            taken += 1;
-                            let s = occ.depth(cur, p, q) / step;
-                            sum += if s.is_nan() { 0.0 } else { s.min(sigma_max) };
+                        for (x, out) in line.iter_mut().enumerate() {
+                            // The samples lie within a quarter cell of the
+                            // point: when every index cell that box
+                            // touches is clear, so are they.
+                            if ranges.as_ref().is_some_and(|r| r.clear_in_row(x, row)) {
+                                *out = 0.0;
+                                continue;
+                            }
+                            let centre = Vec3::new(
+                                (x * OCCLUSION_CELL) as f32,
+                                (y * OCCLUSION_CELL) as f32,
+                                (z * OCCLUSION_CELL) as f32,
+                            );
+                            let mut sum = 0.0f32;
+                            for corner in 0..8 {
+                                let off = Vec3::new(
+                                    if corner & 1 == 0 { -0.25 } else { 0.25 },
+                                    if corner & 2 == 0 { -0.25 } else { 0.25 },
+                                    if corner & 4 == 0 { -0.25 } else { 0.25 },
+                                ) * cell;
+                                let p = (centre + off)
+                                    .clamp(Vec3::ZERO, Vec3::new(hi[0], hi[1], hi[2]));
+                                taken += 1;
+                                let s = occ.depth(cur, p, q) / step;
+                                sum += if s.is_nan() { 0.0 } else { s.min(sigma_max) };
+                            }
+                            *out = sum * 0.125;
                         }
-                        *out = sum * 0.125;
                     }
                     taken
                 },
@@ -338,14 +344,22 @@ impl<'a> ClearRanges<'a> {
         ClearRanges { clear, ranges }
     }
 
-    /// Whether every index cell the box around point `(x, y, z)` touches
-    /// is clear.
+    /// Per index cell along x: whether every cell the boxes around the
+    /// points of row `(y, z)` touch across y and z is clear (into `out`).
+    fn row(&self, y: usize, z: usize, out: &mut Vec<bool>) {
+        let (ry, rz) = (self.ranges[1][y], self.ranges[2][z]);
+        out.clear();
+        out.extend((0..self.clear.cells()[0]).map(|cx| {
+            (rz.0..=rz.1).all(|cz| (ry.0..=ry.1).all(|cy| self.clear.is_clear([cx, cy, cz])))
+        }));
+    }
+
+    /// Whether every index cell the box around point `x` of a row touches
+    /// is clear, from the row's [`ClearRanges::row`].
     #[inline]
-    fn clear(&self, (x, y, z): (usize, usize, usize)) -> bool {
-        let (rx, ry, rz) = (self.ranges[0][x], self.ranges[1][y], self.ranges[2][z]);
-        (rz.0..=rz.1).all(|cz| {
-            (ry.0..=ry.1).all(|cy| (rx.0..=rx.1).all(|cx| self.clear.is_clear([cx, cy, cz])))
-        })
+    fn clear_in_row(&self, x: usize, row: &[bool]) -> bool {
+        let rx = self.ranges[0][x];
+        (rx.0..=rx.1).all(|cx| row.get(cx as usize).copied().unwrap_or(false))
     }
 }
 
@@ -514,6 +528,23 @@ impl<'a> RayBatch<'a> {
         if self.count == 8 {
             self.flush(out);
         }
+    }
+
+    /// [`RayBatch::push`] of the first `count` (at most 8) of the unit
+    /// directions `dirs` (per component, then per lane), in lane order;
+    /// eight with none waiting are marched at once.
+    #[inline]
+    pub fn push8(&mut self, dirs: &[[f32; 8]; 3], count: usize, out: &mut impl FnMut(f32)) {
+        if self.grid.lanes && self.count == 0 {
+            self.dirs = *dirs;
+            self.count = count.min(8);
+            if self.count == 8 {
+                self.flush(out);
+            }
+            return;
+        }
+        (0..count.min(8))
+            .for_each(|i| self.push(Vec3::new(dirs[0][i], dirs[1][i], dirs[2][i]), out));
     }
 
     /// March the rays still waiting; `out` receives their transmittances.
