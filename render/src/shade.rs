@@ -151,6 +151,34 @@ impl Lighting {
         colour * (a * ao + (Vec3::ONE - a) * lit)
     }
 
+    /// [`Lighting::unlit_shadowed`] of eight samples (per component, then
+    /// per lane) with occlusion `ao`, for lighting with one per-ray light
+    /// ([`Lighting::single_per_ray_light`]) along a ray travelling along
+    /// `view_dir`, whose transmittance at each sample is `tr`; bit for bit
+    /// (the same operations in the same order), in AVX2 lanes. `None` for
+    /// other lighting or where the CPU lacks AVX2.
+    #[inline]
+    pub fn unlit_shadowed8(
+        &self,
+        colour: &Lanes3,
+        view_dir: Vec3,
+        ao: &[f32; 8],
+        tr: &[f32; 8],
+    ) -> Option<Lanes3> {
+        let light = self.single_per_ray_light()?;
+        // `at` is `for_ray` for per-ray lights.
+        let w = light.for_ray(view_dir).radiance.element_sum();
+        let a = self.ambient.clamp(Vec3::ZERO, Vec3::ONE);
+        #[cfg(target_arch = "x86_64")]
+        if volcore::lanes::avx2_available() {
+            let weight = (w > 0.0 && w.is_finite()).then_some(w);
+            // SAFETY: AVX2 was just found on this CPU.
+            return Some(unsafe { avx2::unlit_shadowed8(colour, a, ao, tr, weight) });
+        }
+        let _ = (colour, ao, tr, w, a);
+        None
+    }
+
     /// The one light, when there is exactly one and it arrives from the
     /// same direction all along a ray (then shading along a ray can be
     /// worked out once per ray: [`Lighting::for_view`]).
@@ -311,6 +339,42 @@ mod avx2 {
             ),
             mul(a[2], _mm256_set1_ps(b.z)),
         )
+    }
+
+    /// See [`super::Lighting::unlit_shadowed8`]: `a` is the clamped
+    /// ambient term, `weight` the light's radiance sum where it counts.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn unlit_shadowed8(
+        colour: &Lanes3,
+        a: glam::Vec3,
+        ao: &[f32; 8],
+        tr: &[f32; 8],
+        weight: Option<f32>,
+    ) -> Lanes3 {
+        let zero = _mm256_setzero_ps();
+        // `sum / weight`, each summed from zero as one by one.
+        let lit = match weight {
+            Some(w) => _mm256_div_ps(
+                add(zero, mul(_mm256_set1_ps(w), _mm256_loadu_ps(tr.as_ptr()))),
+                _mm256_set1_ps(0.0 + w),
+            ),
+            None => _mm256_set1_ps(1.0),
+        };
+        let ao = _mm256_loadu_ps(ao.as_ptr());
+        let mut out = [[0f32; 8]; 3];
+        for (j, o) in out.iter_mut().enumerate() {
+            // `colour · (a·ao + (1 − a)·lit)`.
+            let f = add(
+                mul(_mm256_set1_ps(a[j]), ao),
+                mul(_mm256_set1_ps(1.0 - a[j]), lit),
+            );
+            let c = mul(_mm256_loadu_ps(colour[j].as_ptr()), f);
+            _mm256_storeu_ps(o.as_mut_ptr(), c);
+        }
+        out
     }
 
     /// See [`ViewShading::shade8`]; `e` is the whole exponent.
@@ -567,6 +631,72 @@ mod tests {
             }
         }
         assert!(lit > 2000, "{lit}");
+    }
+
+    #[test]
+    fn unlit_lanes_shade_as_one_by_one_bit_for_bit() {
+        let mut rng = fastrand::Rng::with_seed(5);
+        let mut compared = 0;
+        for round in 0..300 {
+            let dir = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, 0.3).normalize();
+            // Lights that count, one of no radiance, one of infinite
+            // radiance (neither weighs: the light's share is then 1).
+            let radiance = match round % 5 {
+                0 => Vec3::ZERO,
+                1 => Vec3::new(f32::INFINITY, 1.0, 1.0),
+                _ => Vec3::new(rng.f32() * 3.0, rng.f32(), 0.5),
+            };
+            let light = if round % 4 == 0 {
+                Light::Headlight { radiance }
+            } else {
+                Light::Directional {
+                    towards: dir,
+                    radiance,
+                }
+            };
+            let lighting = Lighting {
+                lights: vec![light],
+                // Ambient terms outside [0, 1] are clamped.
+                ambient: Vec3::new(rng.f32() * 1.4 - 0.2, 0.0, 0.25),
+                ..Default::default()
+            };
+            let view_dir = Vec3::new(0.2, rng.f32() - 0.5, -1.0).normalize();
+            let pick = |rng: &mut fastrand::Rng| match rng.usize(0..8) {
+                0 => 0.0,
+                1 => 1.0,
+                2 => 1e-38,
+                3 => -0.0,
+                _ => rng.f32(),
+            };
+            let colour: Lanes3 = std::array::from_fn(|_| std::array::from_fn(|_| pick(&mut rng)));
+            let ao: [f32; 8] = std::array::from_fn(|_| pick(&mut rng));
+            let tr: [f32; 8] = std::array::from_fn(|_| pick(&mut rng));
+            let Some(out) = lighting.unlit_shadowed8(&colour, view_dir, &ao, &tr) else {
+                return; // No AVX2 here: nothing runs in lanes.
+            };
+            for i in 0..8 {
+                let c = Vec3::new(colour[0][i], colour[1][i], colour[2][i]);
+                let p = Vec3::new(1.0, 2.0, 3.0);
+                let want = lighting.unlit_shadowed(c, view_dir, p, ao[i], |l, inc| {
+                    assert_eq!((l, inc.towards), (0, light.for_ray(view_dir).towards));
+                    tr[i]
+                });
+                for j in 0..3 {
+                    assert_eq!(out[j][i].to_bits(), want[j].to_bits(), "round {round}");
+                }
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 2400);
+        // Other lighting does not run in lanes.
+        let two = Lighting {
+            lights: vec![Light::HEADLIGHT, Light::HEADLIGHT],
+            ..Default::default()
+        };
+        let zero = [[0.0; 8]; 3];
+        assert!(two
+            .unlit_shadowed8(&zero, Vec3::Z, &[1.0; 8], &[1.0; 8])
+            .is_none());
     }
 
     #[test]

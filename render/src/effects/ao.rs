@@ -417,9 +417,18 @@ impl AoField {
     /// then per lane) with unit normals `n` in the lanes set in `lit` (the
     /// mean over all directions in the others), read in AVX2 lanes, bit
     /// for bit, in the lanes set in `want` (the others' values mean
-    /// nothing); `None` where the field cannot be read in lanes.
+    /// nothing); lit lanes' points are first moved `offset` along their
+    /// normals (`p + n * offset`, as [`AoSource::occlusion`] moves them).
+    /// `None` where the field cannot be read in lanes.
     #[inline]
-    pub fn occlusion8(&self, p: &Lanes3, n: &Lanes3, lit: u8, want: u8) -> Option<[f32; 8]> {
+    pub fn occlusion8(
+        &self,
+        p: &Lanes3,
+        n: &Lanes3,
+        offset: f32,
+        lit: u8,
+        want: u8,
+    ) -> Option<[f32; 8]> {
         if !self.lanes {
             return None;
         }
@@ -427,11 +436,11 @@ impl AoField {
         {
             // SAFETY: `lanes` is set only where AVX2 was found and every
             // point's index fits an i32.
-            Some(unsafe { avx2::occlusion8(self, p, n, lit, want) })
+            Some(unsafe { avx2::occlusion8(self, p, n, offset, lit, want) })
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            let _ = (p, n, lit, want);
+            let _ = (p, n, offset, lit, want);
             None
         }
     }
@@ -488,9 +497,28 @@ mod avx2 {
     /// # Safety
     /// AVX2; every point's index fits an i32.
     #[target_feature(enable = "avx2")]
-    pub unsafe fn occlusion8(f: &AoField, p: &Lanes3, n: &Lanes3, lit: u8, want: u8) -> [f32; 8] {
+    pub unsafe fn occlusion8(
+        f: &AoField,
+        p: &Lanes3,
+        n: &Lanes3,
+        offset: f32,
+        lit: u8,
+        want: u8,
+    ) -> [f32; 8] {
         let load = |c: &[f32; 8]| _mm256_loadu_ps(c.as_ptr());
-        let (at, w) = corners8(&f.lattice, &p.each_ref().map(load));
+        let lanes = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let lit = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+            _mm256_and_si256(_mm256_set1_epi32(lit as i32), lanes),
+            lanes,
+        ));
+        let [x, y, z] = n.each_ref().map(load);
+        // `p + n * offset` in lit lanes, as one by one.
+        let by = _mm256_set1_ps(offset);
+        let origin = [(0, x), (1, y), (2, z)].map(|(a, n)| {
+            let p = load(&p[a]);
+            _mm256_blendv_ps(p, _mm256_add_ps(p, _mm256_mul_ps(n, by)), lit)
+        });
+        let (at, w) = corners8(&f.lattice, &origin);
         let mut corner = [[0i32; 8]; 8];
         for (c, i) in corner.iter_mut().zip(&at) {
             _mm256_storeu_si256(c.as_mut_ptr().cast(), *i);
@@ -514,7 +542,6 @@ mod avx2 {
         let last = trilinear8(at.map(|i| _mm256_i32gather_ps::<4>(f.tail.as_ptr(), i)), w);
         let mean = c[0];
         // `sh_shape`, the same operations.
-        let [x, y, z] = n.each_ref().map(load);
         let mul = |a, b| _mm256_mul_ps(a, b);
         let shape = [
             y,
@@ -531,12 +558,7 @@ mod avx2 {
             let cj = if j + 1 < SH - 1 { c[j + 1] } else { last };
             ao = _mm256_add_ps(ao, mul(cj, s));
         }
-        let lanes = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-        let lit = _mm256_cmpeq_epi32(
-            _mm256_and_si256(_mm256_set1_epi32(lit as i32), lanes),
-            lanes,
-        );
-        let ao = _mm256_blendv_ps(mean, ao, _mm256_castsi256_ps(lit));
+        let ao = _mm256_blendv_ps(mean, ao, lit);
         // `clamp(0, 1)`: NaN stays NaN.
         let zero = _mm256_setzero_ps();
         let one = _mm256_set1_ps(1.0);
@@ -642,17 +664,7 @@ impl<'a> AoSource<'a> {
         let AoLookup::Field(field) = self.lookup else {
             return None;
         };
-        // `p + n * offset` where there is a normal, as one by one.
-        let origin: Lanes3 = std::array::from_fn(|a| {
-            std::array::from_fn(|i| {
-                if lit >> i & 1 == 1 {
-                    p[a][i] + n[a][i] * self.offset
-                } else {
-                    p[a][i]
-                }
-            })
-        });
-        field.occlusion8(&origin, n, lit, want)
+        field.occlusion8(p, n, self.offset, lit, want)
     }
 }
 

@@ -287,10 +287,51 @@ pub fn outward_normals8(grad: &Lanes3) -> (Lanes3, u8) {
     (out, has)
 }
 
+/// The points `ray.origin + ray.dir * t` of eight parameters (per
+/// component, then per lane), and the lanes whose gradient's squared
+/// length exceeds `threshold2` (NaN does not), as one by one, bit for bit.
+#[inline]
+pub fn points8(ray: &Ray, t: &[f32; 8], grad: &Lanes3, threshold2: f32) -> (Lanes3, u8) {
+    #[cfg(target_arch = "x86_64")]
+    if volcore::lanes::avx2_available() {
+        // SAFETY: AVX2 was found.
+        return unsafe { avx2::points8(ray, t, grad, threshold2) };
+    }
+    let p = std::array::from_fn(|a| t.map(|t| ray.origin[a] + ray.dir[a] * t));
+    let lit = (0..8)
+        .filter(|&i| Vec3::new(grad[0][i], grad[1][i], grad[2][i]).length_squared() > threshold2)
+        .fold(0u8, |m, i| m | 1 << i);
+    (p, lit)
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
+    use crate::ray::Ray;
     use crate::shade::Lanes3;
     use std::arch::x86_64::*;
+
+    /// See [`super::points8`].
+    ///
+    /// # Safety
+    /// AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn points8(ray: &Ray, t: &[f32; 8], grad: &Lanes3, threshold2: f32) -> (Lanes3, u8) {
+        let mul = |a, b| _mm256_mul_ps(a, b);
+        let tv = _mm256_loadu_ps(t.as_ptr());
+        let mut p = [[0f32; 8]; 3];
+        for (a, o) in p.iter_mut().enumerate() {
+            let v = _mm256_add_ps(
+                _mm256_set1_ps(ray.origin[a]),
+                mul(_mm256_set1_ps(ray.dir[a]), tv),
+            );
+            _mm256_storeu_ps(o.as_mut_ptr(), v);
+        }
+        let [x, y, z] = grad.each_ref().map(|c| _mm256_loadu_ps(c.as_ptr()));
+        // `length_squared`'s sum.
+        let len2 = _mm256_add_ps(_mm256_add_ps(mul(x, x), mul(y, y)), mul(z, z));
+        let lit = _mm256_cmp_ps::<_CMP_GT_OQ>(len2, _mm256_set1_ps(threshold2));
+        (p, _mm256_movemask_ps(lit) as u8)
+    }
 
     /// See [`super::outward_normals8`]: `outward_normal`'s operations in
     /// lanes (MAXPS picks as `max_element` does, NaN included).
@@ -440,25 +481,22 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
         let lane = |l: &Lanes3, i: usize| Vec3::new(l[0][i], l[1][i], l[2][i]);
         // Every lane's read (those not shaded here are dropped).
         let tr = shadow.map_or([1.0; 8], |(c, g)| c.grid_transmittance8(g, ray, t, &inc));
-        // Unlit as `shade` finds them: not `len2 > threshold2` (NaN too).
-        let lit = |i: usize| lane(grad, i).length_squared() > self.threshold2;
-        let shaded = || (0..8).filter(move |&i| visible >> i & 1 == 1);
+        // The points, and the lanes lit as `shade` finds them
+        // (`len2 > threshold2`, so not NaN).
+        let (p, lit) = points8(ray, t, grad, self.threshold2);
+        let shaded = |mask: u8| (0..8).filter(move |&i| mask >> i & 1 == 1);
         let mut ao = [1.0f32; 8];
         if let Some(src) = self.ao {
-            // `ray.origin + ray.dir * t` per lane.
-            let p: Lanes3 = std::array::from_fn(|a| t.map(|t| ray.origin[a] + ray.dir[a] * t));
             let (normal, has_normal) = outward_normals8(grad);
-            let lit_lanes = (0..8).filter(|&i| lit(i)).fold(0u8, |m, i| m | 1 << i);
-            let with_normal = visible & lit_lanes & has_normal;
+            let with_normal = visible & lit & has_normal;
             match src.field8(&p, &normal, with_normal, visible) {
                 Some(a) => {
-                    for i in shaded() {
-                        ao[i] = a[i];
-                        *ao_index += 1;
-                    }
+                    // Lanes not shaded here are dropped.
+                    ao = a;
+                    *ao_index += u64::from(visible.count_ones());
                 }
                 None => {
-                    for i in shaded() {
+                    for i in shaded(visible) {
                         let n = (with_normal >> i & 1 == 1).then(|| lane(&normal, i));
                         ao[i] = src.occlusion(lane(&p, i), n, *pixel, *ao_index, fx);
                         *ao_index += 1;
@@ -466,22 +504,23 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
                 }
             }
         }
-        let lanes = view.shade8(colour, grad, self.threshold2, Some((&tr, &ao)));
-        let mut out = lanes.unwrap_or([[0.0; 8]; 3]);
-        for i in shaded().filter(|&i| lanes.is_none() || !lit(i)) {
-            let p = ray.origin + ray.dir * t[i];
-            let c = if lit(i) {
-                // Not reached: `lanes()` said the lanes shade here.
-                let g = lane(grad, i);
-                let unit = g * g.length_squared().sqrt().recip();
-                view.shade_normal_shadowed(lane(colour, i), unit, ao[i], || tr[i])
-            } else {
-                self.lighting
-                    .unlit_shadowed(lane(colour, i), ray.dir, p, ao[i], |l, inc| {
-                        shadow.map_or(1.0, |(c, _)| {
-                            c.grid(l).map_or(1.0, |g| c.grid_transmittance(g, p, inc))
-                        })
-                    })
+        // `lanes()` said the lit lanes shade here.
+        let mut out = view.shade8(colour, grad, self.threshold2, Some((&tr, &ao)))?;
+        let unlit = visible & !lit;
+        if unlit == 0 {
+            return Some(out);
+        }
+        // One light, per ray: its incident light is `inc` everywhere, and
+        // its transmittance `tr`.
+        let dark = self.lighting.unlit_shadowed8(colour, ray.dir, &ao, &tr);
+        for i in shaded(unlit) {
+            let c = match &dark {
+                Some(d) => lane(d, i),
+                None => {
+                    let p = lane(&p, i);
+                    self.lighting
+                        .unlit_shadowed(lane(colour, i), ray.dir, p, ao[i], |_, _| tr[i])
+                }
             };
             for (j, o) in out.iter_mut().enumerate() {
                 o[i] = c[j];
