@@ -259,6 +259,67 @@ fn rays_marched_in_lanes_match_rays_marched_one_by_one() {
     }
 }
 
+/// Where the volume's last voxel is a lattice point on every level (65
+/// voxels: 16 cells of 4, 8 of 8, ...), rays along the box's far faces
+/// and from its far corner read the lattice's last points, whose two
+/// corners along x are one point: lanes read them as one by one does.
+#[test]
+fn rays_along_the_far_faces_read_the_last_points_as_one_by_one() {
+    const M: usize = 65;
+    let d = Dims::new(M as u64, M as u64, M as u64).unwrap();
+    let v = Volume::from_samples(d, vec![0u8; M * M * M]).unwrap();
+    let g = v.visit(BuildGrid(&Wavy { peak: 0.7 }));
+    let top = Vec3::splat((M - 1) as f32);
+    let iv = Intervals::new(200.0, 2.0, 4.0);
+    let s = HashSampler::new(3);
+    let mut compared = 0;
+    for k in 0..200u64 {
+        let mut r = s.pixel(k as u32, 2, 0);
+        let mut u = || r.next_2d();
+        let (a, b) = u();
+        // On the far x face, on the far x and y edge, or at the corner.
+        let origin = match k % 3 {
+            0 => Vec3::new(top.x, a * top.y, b * top.z),
+            1 => Vec3::new(top.x, top.y, a * top.z),
+            _ => top,
+        };
+        let mut dirs = [[0f32; 8]; 3];
+        let mut want = Vec::new();
+        // Along the faces, and inward.
+        let along: Vec<Vec3> = (0..8)
+            .map(|lane| {
+                let (a, b) = u();
+                match lane {
+                    0 => Vec3::NEG_Y,
+                    1 => Vec3::NEG_Z,
+                    2 => Vec3::new(0.0, -a, -b).normalize_or(Vec3::NEG_Y),
+                    _ => Vec3::new(-a - 0.1, -b, a - 1.0).normalize(),
+                }
+            })
+            .collect();
+        for (lane, &dir) in along.iter().enumerate() {
+            for (axis, v) in dir.to_array().into_iter().enumerate() {
+                dirs[axis][lane] = v;
+            }
+            want.push(iv.transmittance(&g, origin, dir, top).0);
+        }
+        let Some((got, _)) = iv.transmittance8(&g, origin, &dirs, 8, top) else {
+            assert!(!volcore::lanes::avx2_available());
+            return;
+        };
+        for lane in 0..8 {
+            assert_eq!(
+                got[lane].to_bits(),
+                want[lane].to_bits(),
+                "ray {k}, lane {lane}: {origin:?}"
+            );
+            compared += usize::from(want[lane] < 1.0);
+        }
+    }
+    // Most rays meet some of the medium.
+    assert!(compared > 800, "{compared}");
+}
+
 #[test]
 fn field_lookups_in_lanes_match_lookups_one_by_one() {
     let d = Dims::new(N as u64, N as u64, N as u64).unwrap();

@@ -115,12 +115,16 @@ pub fn trilinear(v: [f32; 8], f: Vec3) -> f32 {
 struct Level {
     /// Where its points are.
     lattice: Lattice,
-    /// Extinction per world unit, x fastest.
+    /// Extinction per world unit, x fastest, and one zero past the last
+    /// point (so reading a point and the next as a pair stays in bounds).
     sigma: Vec<f32>,
 }
 
 impl Level {
-    fn new(g: [usize; 3], spacing: [f32; 3], cell: f32, sigma: Vec<f32>) -> Level {
+    /// The level of `g` points per axis `cell` voxels of `spacing` apart,
+    /// with extinctions `sigma` (x fastest; padded here).
+    fn new(g: [usize; 3], spacing: [f32; 3], cell: f32, mut sigma: Vec<f32>) -> Level {
+        sigma.push(0.0);
         Level {
             lattice: Lattice::new(g, spacing, cell),
             sigma,
@@ -132,7 +136,10 @@ impl Level {
     fn coarser(&self, spacing: [f32; 3], cell: f32) -> Level {
         let g = self.lattice.g.map(|n| n.div_ceil(2));
         let [fx, fy, fz] = self.lattice.g;
-        let mut sigma = vec![0.0f32; g[0] * g[1] * g[2]];
+        let points = g[0] * g[1] * g[2];
+        // Room for the padding `Level::new` adds.
+        let mut sigma = Vec::with_capacity(points + 1);
+        sigma.resize(points, 0.0f32);
         sigma
             .par_chunks_mut(g[0] * g[1])
             .enumerate()
@@ -205,7 +212,8 @@ impl OcclusionGrid {
 
     /// The grid's memory, bytes (all levels).
     pub fn bytes(&self) -> u64 {
-        self.levels.iter().map(|l| l.sigma.len() as u64 * 4).sum()
+        let points = |l: &Level| l.lattice.g.iter().product::<usize>() as u64;
+        self.levels.iter().map(|l| points(l) * 4).sum()
     }
 
     /// Build the grid of `src` through `occ` (query `q`, optical depth per
@@ -233,11 +241,14 @@ impl OcclusionGrid {
         }
         let g = n.map(|n| n.saturating_sub(1).div_ceil(OCCLUSION_CELL) + 1);
         let mut sigma: Vec<f32> = Vec::new();
-        sigma.try_reserve_exact(g[0] * g[1] * g[2]).map_err(|_| {
-            RenderError::Setting(format!(
-                "cannot allocate an occlusion grid of {bytes} bytes"
-            ))
-        })?;
+        // With room for the padding `Level::new` adds.
+        sigma
+            .try_reserve_exact(g[0] * g[1] * g[2] + 1)
+            .map_err(|_| {
+                RenderError::Setting(format!(
+                    "cannot allocate an occlusion grid of {bytes} bytes"
+                ))
+            })?;
         sigma.resize(g[0] * g[1] * g[2], 0.0);
         let min_spacing = spacing.iter().copied().fold(f32::INFINITY, f32::min);
         // One voxel of the densest material blocks light down to the
@@ -669,7 +680,38 @@ pub(crate) mod avx2 {
     unsafe fn sigma8(level: &Level, p: &[__m256; 3]) -> __m256 {
         let (at, f) = corners8(&level.lattice, p);
         let data = level.sigma.as_ptr();
-        trilinear8(at.map(|i| _mm256_i32gather_ps::<4>(data, i)), f)
+        // Lanes at the lattice's last x, whose two x corners are one point.
+        let same = _mm256_castsi256_ps(_mm256_cmpeq_epi32(at[0], at[1]));
+        let mut v = [_mm256_setzero_ps(); 8];
+        for k in 0..4 {
+            // In bounds: the level is padded by one.
+            let (first, next) = pairs8(data, at[2 * k]);
+            v[2 * k] = first;
+            v[2 * k + 1] = _mm256_blendv_ps(next, first, same);
+        }
+        trilinear8(v, f)
+    }
+
+    /// `data[at]` and `data[at + 1]` per lane, each pair read as one
+    /// 8-byte element, four lanes a gather: half the elements of gathering
+    /// the two apart.
+    ///
+    /// # Safety
+    /// AVX2; `at` and `at + 1` are in bounds of `data`'s allocation.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    unsafe fn pairs8(data: *const f32, at: __m256i) -> (__m256, __m256) {
+        let pairs = data.cast::<f64>();
+        let lo = _mm256_i32gather_pd::<4>(pairs, _mm256_castsi256_si128(at));
+        let hi = _mm256_i32gather_pd::<4>(pairs, _mm256_extracti128_si256::<1>(at));
+        let (lo, hi) = (_mm256_castpd_ps(lo), _mm256_castpd_ps(hi));
+        // Firsts and seconds come in lane order 0 1 4 5 | 2 3 6 7.
+        let order =
+            |v: __m256| _mm256_castpd_ps(_mm256_permute4x64_pd::<0xD8>(_mm256_castps_pd(v)));
+        (
+            order(_mm256_shuffle_ps::<0x88>(lo, hi)),
+            order(_mm256_shuffle_ps::<0xDD>(lo, hi)),
+        )
     }
 
     /// See [`Intervals::transmittance8`].
