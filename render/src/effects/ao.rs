@@ -456,7 +456,7 @@ mod avx2 {
     /// `j` is lane `j` of `r[i]`.
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(super) unsafe fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
+    unsafe fn transpose8(r: [__m256; 8]) -> [__m256; 8] {
         let t0 = _mm256_unpacklo_ps(r[0], r[1]);
         let t1 = _mm256_unpackhi_ps(r[0], r[1]);
         let t2 = _mm256_unpacklo_ps(r[2], r[3]);

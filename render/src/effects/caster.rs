@@ -142,32 +142,26 @@ impl<O, A> ShadowCaster<'_, O, A> {
         None
     }
 
-    /// [`ShadowCaster::grid_transmittance`] at the eight points of `ray`
-    /// at parameters `t`, bit for bit, the grid read in lanes where it
-    /// allows.
+    /// [`ShadowCaster::grid_transmittance`] at eight world points `p`
+    /// (per component, then per lane), bit for bit, the grid read in lanes
+    /// where it allows.
     #[inline(always)]
-    pub fn grid_transmittance8(
-        &self,
-        grid: &LightGrid,
-        ray: &Ray,
-        t: &[f32; 8],
-        inc: &Incident,
-    ) -> [f32; 8] {
+    pub fn grid_transmittance8(&self, grid: &LightGrid, p: &Lanes3, inc: &Incident) -> [f32; 8] {
         let inv = self.geom.inv_spacing;
         let shift = self.grid_shift(inc);
+        let lane = |i: usize| Vec3::new(p[0][i], p[1][i], p[2][i]);
         let mut pv = [[0f32; 8]; 3];
-        for (i, &t) in t.iter().enumerate() {
-            let mut p = (ray.origin + ray.dir * t) * inv;
+        for i in 0..8 {
+            let mut v = lane(i) * inv;
             if let Some(s) = shift {
-                p += s;
+                v += s;
             }
             for (a, lanes) in pv.iter_mut().enumerate() {
-                lanes[i] = p[a];
+                lanes[i] = v[a];
             }
         }
-        grid.transmittance8(&pv).unwrap_or_else(|| {
-            t.map(|t| self.grid_transmittance(grid, ray.origin + ray.dir * t, inc))
-        })
+        grid.transmittance8(&pv)
+            .unwrap_or_else(|| std::array::from_fn(|i| self.grid_transmittance(grid, lane(i), inc)))
     }
 }
 
@@ -479,11 +473,11 @@ impl<O: Occluder<Query = ()>, A: Accel<()>> Shading for EffectsPhong<'_, O, A> {
         };
         let inc = self.lighting.lights[0].for_ray(ray.dir);
         let lane = |l: &Lanes3, i: usize| Vec3::new(l[0][i], l[1][i], l[2][i]);
-        // Every lane's read (those not shaded here are dropped).
-        let tr = shadow.map_or([1.0; 8], |(c, g)| c.grid_transmittance8(g, ray, t, &inc));
         // The points, and the lanes lit as `shade` finds them
         // (`len2 > threshold2`, so not NaN).
         let (p, lit) = points8(ray, t, grad, self.threshold2);
+        // Every lane's read (those not shaded here are dropped).
+        let tr = shadow.map_or([1.0; 8], |(c, g)| c.grid_transmittance8(g, &p, &inc));
         let shaded = |mask: u8| (0..8).filter(move |&i| mask >> i & 1 == 1);
         let mut ao = [1.0f32; 8];
         if let Some(src) = self.ao {
