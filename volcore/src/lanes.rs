@@ -448,8 +448,22 @@ pub fn bricked_values8(
     }
 }
 
+/// `a + (b − a)·t` in eight AVX2 lanes: the scalar lerp's operations in
+/// its order, so each lane gives the scalar's float. Shared by every
+/// blend done in lanes (volume cells here, the renderer's grids).
+///
+/// # Safety
+/// The CPU must have AVX2 (see [`avx2_available`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+pub unsafe fn lerp8(a: __m256, b: __m256, t: __m256) -> __m256 {
+    _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
+    use super::lerp8 as lerp;
     use super::*;
 
     /// One axis of eight points: `o + d·t` clamped to `[0, hi]` (NaN to
@@ -475,13 +489,6 @@ mod avx2 {
             _mm256_cvtepi32_ps(_mm256_and_si256(w, m)),
             _mm256_cvtepi32_ps(_mm256_and_si256(_mm256_srli_epi32::<8>(w), m)),
         )
-    }
-
-    /// `a + (b − a)·t` per lane.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn lerp(a: __m256, b: __m256, t: __m256) -> __m256 {
-        _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
     }
 
     /// The parameters `(k + i)·step` in f64 (`k + i` exact: `|k| < 2^52`),

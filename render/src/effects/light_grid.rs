@@ -288,6 +288,7 @@ impl LightGrid {
 mod avx2 {
     use super::{GridAxis, LightGrid, Lines, UpstreamRows};
     use std::arch::x86_64::*;
+    use volcore::lanes::lerp8 as lerp;
 
     /// [`GridAxis::locate`] of eight coordinates: lower points and
     /// weights, the same operations.
@@ -307,13 +308,6 @@ mod avx2 {
         // `split`: (c as usize).min(g − 2) and the rest (c >= 0).
         let i = _mm256_min_epi32(_mm256_cvttps_epi32(c), _mm256_set1_epi32((ax.g - 2) as i32));
         (i, _mm256_sub_ps(c, _mm256_cvtepi32_ps(i)))
-    }
-
-    /// `a + (b − a)·t` per lane.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn lerp(a: __m256, b: __m256, t: __m256) -> __m256 {
-        _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
     }
 
     /// The upstream pass over one row (see `Sweep::upstream`): where the

@@ -593,13 +593,7 @@ pub(crate) mod avx2 {
     use super::{Intervals, Lattice, Level, OcclusionGrid, SHADOW_DEPTH_CUTOFF};
     use glam::Vec3;
     use std::arch::x86_64::*;
-
-    /// `a + (b − a)·t` per lane, as [`super::trilinear`] lerps.
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    unsafe fn lerp(a: __m256, b: __m256, t: __m256) -> __m256 {
-        _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), t))
-    }
+    use volcore::lanes::lerp8 as lerp;
 
     /// One axis of [`super::Lattice::corners`] for eight world
     /// coordinates: the lower points and the weights, the same
