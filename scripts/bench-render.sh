@@ -14,6 +14,9 @@
 # Ambient occlusion (issue 12): the same lit scene with --ao 8 (target <=
 # 6x; the occlusion grid's build counts in the frame) and --ao-field 32
 # (target <= 1.5x per frame; the field's precomputation is reported apart).
+# The effect rows run in ROUNDS interleaved rounds (default 3): the lit
+# frame, then each effect, every ratio against its own round's lit frame;
+# the script prints each round's ratio and their median.
 # Peers (issue 16), timed in the same run when they are available (the
 # script says which it skipped): the thesis renderer through
 # ../shared/peers/thesis.sh (built and its volumes generated on first use:
@@ -30,6 +33,7 @@
 #        ONLY=ao scripts/bench-render.sh           (the AO rows alone)
 #        ONLY=peers scripts/bench-render.sh        (ours against the peers)
 #        PEERS=0 scripts/bench-render.sh           (no peers)
+#        ROUNDS=5 ONLY=shadows scripts/bench-render.sh  (5 rounds of effects)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DIM=${1:-800}
@@ -118,23 +122,38 @@ if [ "${ONLY:-}" = peers ]; then
     exit 0
 fi
 LIGHT=(--light 1,2,0.5 --threads 2 --repeat "$REPEAT")
-run "2 threads, directional light" "${LIGHT[@]}"; t0=$(cat "$DIR/last.txt")
+# The effect rows, interleaved: each round renders the lit frame and then
+# every effect, and each effect's ratio is taken against the lit frame of
+# its own round (this machine drifts by more than the effects' margins);
+# the script prints every round's ratio and their median.
+ROUNDS=${ROUNDS:-3}
+EFFECTS=()
 if [ "${ONLY:-}" != ao ]; then
-for sh in "ray" "ray --shadow-step 1" "grid:4" "grid:2"; do
-    # shellcheck disable=SC2086 # the method and its options, split
-    run "  + shadows $sh" "${LIGHT[@]}" --shadows $sh
-    echo "    shadows $sh / no shadows: $(ratio "$(cat "$DIR/last.txt")" "$t0")"
-done
+    EFFECTS+=("--shadows ray" "--shadows ray --shadow-step 1" "--shadows grid:4" "--shadows grid:2")
 fi
-if [ "${ONLY:-}" != shadows ]; then
-for ao in "--ao 8" "--ao-field 32"; do
-    # shellcheck disable=SC2086 # the option and its value, split
-    run "  + $ao" "${LIGHT[@]}" $ao
-    extra=""
-    if [ "$ao" = "--ao-field 32" ]; then
-        extra=" (field precomputed once in $(field ao_field_s < "$DIR/last.json" | awk '{printf "%.2f", $1}') s, $(field ao_field_bytes < "$DIR/last.json" | awk '{printf "%.0f", $1/1e6}') MB)"
-    fi
-    echo "    $ao / no AO: $(ratio "$(cat "$DIR/last.txt")" "$t0")$extra"
+if [ "${ONLY:-}" != shadows ]; then EFFECTS+=("--ao 8" "--ao-field 32"); fi
+declare -A RATIOS=()
+echo "effects: $ROUNDS interleaved rounds, each against its round's lit frame"
+for round in $(seq 1 "$ROUNDS"); do
+    echo "round $round, load average $(cut -d' ' -f1 /proc/loadavg)"
+    run "  2 threads, directional light" "${LIGHT[@]}"; t0=$(cat "$DIR/last.txt")
+    for e in "${EFFECTS[@]}"; do
+        # shellcheck disable=SC2086 # the option and its values, split
+        run "  + ${e#--}" "${LIGHT[@]}" $e
+        r=$(ratio "$(cat "$DIR/last.txt")" "$t0")
+        extra=""
+        if [ "$e" = "--shadows grid:4" ] || [ "$e" = "--shadows grid:2" ]; then
+            extra=" (grid built in $(field shadow_grid_s < "$DIR/last.json" | awk '{printf "%.3f", $1}') s, $(field shadow_grid_bytes < "$DIR/last.json" | awk '{printf "%.0f", $1/1e6}') MB)"
+        elif [ "$e" = "--ao-field 32" ]; then
+            extra=" (field precomputed once in $(field ao_field_s < "$DIR/last.json" | awk '{printf "%.2f", $1}') s, $(field ao_field_bytes < "$DIR/last.json" | awk '{printf "%.0f", $1/1e6}') MB)"
+        fi
+        echo "    ${e#--} / lit frame: $r$extra"
+        RATIOS[$e]="${RATIOS[$e]:-} ${r%x}"
+    done
 done
-fi
+echo "effects, median of the per-round ratios to the lit frame (targets: shadows grid:4 <= 1.5x, ray <= 4x; ao 8 <= 6x, ao-field 32 <= 1.5x):"
+for e in "${EFFECTS[@]}"; do
+    # shellcheck disable=SC2086 # one ratio per round
+    printf '  %-32s %sx  (rounds:%s)\n' "${e#--}" "$(printf '%s\n' ${RATIOS[$e]} | sort -g | awk '{a[NR]=$1} END {print (NR%2 ? a[(NR+1)/2] : (a[NR/2]+a[NR/2+1])/2)}')" "${RATIOS[$e]}"
+done
 echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg)"
