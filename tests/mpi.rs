@@ -14,10 +14,20 @@ use common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// `vol-render` as `n` ranks.
-fn mpirun(n: usize) -> Command {
+/// `vol-render` as `n` ranks, with Open MPI's session files under `dir`.
+///
+/// The tests run side by side, and `mpirun`s that share the default
+/// session directory race on it: one job's cleanup removes the top
+/// directory while another creates its own below it, and the second
+/// fails in `orte_init` (`session_dir.c`). A session directory per test
+/// keeps concurrent jobs apart.
+fn mpirun(dir: &Path, n: usize) -> Command {
+    let session = dir.join("mpi-session");
+    std::fs::create_dir_all(&session).unwrap();
     let mut c = Command::new("mpirun");
     c.args(["-q", "--oversubscribe", "-np", &n.to_string()])
+        .env("TMPDIR", &session)
+        .env("OMPI_MCA_orte_tmpdir_base", &session)
         // Containers and CI run as root; a bound on ranks per core would
         // refuse 4 ranks on 2 cores.
         .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
@@ -76,7 +86,7 @@ fn both(dir: &Path, vol: &Path, args: &[&str], n: usize) -> (PathBuf, PathBuf, s
         .arg(dir.join("one.png"))
         .arg("--hdr")
         .arg(&one));
-    let out = ok(mpirun(n)
+    let out = ok(mpirun(dir, n)
         .arg(vol)
         .args(args)
         .args(common)
@@ -215,7 +225,7 @@ fn a_failure_on_one_rank_ends_the_job_with_one_line_and_no_output() {
     let out = dir.path().join("out.png");
     for n in [2, 4] {
         let line = fails(
-            mpirun(n)
+            mpirun(dir.path(), n)
                 .arg(&bad)
                 .args(["--mode", "mip", "--size", "64x48", "--index"])
                 .arg(&index)
@@ -230,7 +240,7 @@ fn a_failure_on_one_rank_ends_the_job_with_one_line_and_no_output() {
     }
     // The same failure on every rank is said once, without ranks.
     let line = fails(
-        mpirun(3)
+        mpirun(dir.path(), 3)
             .arg(dir.path().join("missing.vvol"))
             .arg("-o")
             .arg(&out),
@@ -238,7 +248,7 @@ fn a_failure_on_one_rank_ends_the_job_with_one_line_and_no_output() {
     );
     assert!(!line.contains("rank "), "{line}");
     // A bad option: a usage error (status 2) from rank 0 only.
-    let o = run(mpirun(3)
+    let o = run(mpirun(dir.path(), 3)
         .arg(&vol)
         .args(["--step", "banana", "-o"])
         .arg(&out));
@@ -261,7 +271,14 @@ fn single_node_effects_are_refused() {
         (&["--mode", "path"][..], "--mode path"),
         (&["--mode", "xray-mean"][..], "xray-mean"),
     ] {
-        let line = fails(mpirun(2).arg(&vol).args(args).arg("-o").arg(&out), needle);
+        let line = fails(
+            mpirun(dir.path(), 2)
+                .arg(&vol)
+                .args(args)
+                .arg("-o")
+                .arg(&out),
+            needle,
+        );
         assert!(line.contains("MPI"), "{line}");
         assert!(!out.exists());
     }
