@@ -20,4 +20,7 @@ pub enum RenderError {
     /// The index does not belong to the volume.
     #[error("index: {0}")]
     Index(String),
+    /// The caller raised the frame's [`crate::settings::Cancel`] flag.
+    #[error("cancelled")]
+    Cancelled,
 }

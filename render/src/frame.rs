@@ -306,6 +306,7 @@ pub fn render_film(
         share,
         share_pixels: share.and_then(|b| b.pixels(camera, Vec3::from(vol.meta.world_extent()))),
         step: settings.step,
+        cancel: &settings.cancel,
     };
     let mut film = match settings.mode {
         Mode::Dvr => {
@@ -404,6 +405,9 @@ pub fn render_film(
             film
         }
     };
+    if settings.cancel.is_cancelled() {
+        return Err(RenderError::Cancelled);
+    }
     // The frame's time is its wall time, set-up included (classifier
     // tables, skipping flags, culling, light and occlusion grids), but for
     // the AO field, built once per transfer function and reported beside.
@@ -731,6 +735,9 @@ struct Tiles<'a> {
     share_pixels: Option<crate::distributed::share::PixelRect>,
     /// The frame's step (to find a share's samples).
     step: f32,
+    /// Checked before each tile: once raised, the remaining tiles are
+    /// left untraced (and the frame is refused as cancelled).
+    cancel: &'a crate::settings::Cancel,
 }
 
 impl IntegratorVisitor for Tiles<'_> {
@@ -759,6 +766,7 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
             share,
             share_pixels,
             step,
+            cancel,
             ..
         } = self.tiles;
         let (w, h) = (camera.width(), camera.height());
@@ -768,10 +776,13 @@ impl<I: Integrator> VolumeVisitor for Trace<'_, I> {
         let results: Vec<Vec<([u32; 2], RayResult)>> = (0..tx * ty)
             .into_par_iter()
             .map(|i| {
+                let mut out = Vec::new();
+                if cancel.is_cancelled() {
+                    return out;
+                }
                 let (x0, y0) = ((i % tx) * tile, (i / tx) * tile);
                 let mut cur = src.cursor();
                 let (x1, y1) = ((x0 + tile).min(w), (y0 + tile).min(h));
-                let mut out = Vec::new();
                 for y in y0..y1 {
                     for x in x0..x1 {
                         if busy.is_some_and(|b| !b.may_see(x, y))

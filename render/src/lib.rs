@@ -48,6 +48,6 @@ pub use error::RenderError;
 pub use film::{Frame, FrameStats};
 pub use frame::{render, render_tf};
 pub use light::Light;
-pub use settings::{GradientMethod, Interp, Mode, RenderSettings};
+pub use settings::{Cancel, GradientMethod, Interp, Mode, RenderSettings};
 pub use shade::{BlinnPhong, Lighting};
 pub use tf::{Tf, TransferFunction};

@@ -3,6 +3,34 @@
 
 use crate::effects::{Ao, Shadows};
 use crate::shade::Lighting;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// A flag that stops a frame (or a path-tracing render) early: the tile
+/// loop checks it before each tile and the path tracer before each pass,
+/// and the call then returns [`crate::RenderError::Cancelled`]. Clones
+/// share the flag, so a caller keeps one and hands the other to the
+/// frame (a viewer whose camera moved on, Ctrl-C in a script).
+#[derive(Clone, Debug, Default)]
+pub struct Cancel(Arc<AtomicBool>);
+
+impl Cancel {
+    /// A flag not yet raised.
+    pub fn new() -> Cancel {
+        Cancel::default()
+    }
+
+    /// Ask the work holding a clone of this flag to stop.
+    pub fn cancel(&self) {
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether [`Cancel::cancel`] was called on this flag or a clone.
+    #[inline]
+    pub fn is_cancelled(&self) -> bool {
+        self.0.load(Ordering::Relaxed)
+    }
+}
 
 /// What a ray computes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,6 +102,8 @@ pub struct RenderSettings {
     /// Ambient occlusion (DVR with shading, and iso); `None`: off, and no
     /// occlusion code runs.
     pub ao: Option<Ao>,
+    /// Stops the frame between tiles when raised (never, by default).
+    pub cancel: Cancel,
 }
 
 impl Default for RenderSettings {
@@ -93,6 +123,7 @@ impl Default for RenderSettings {
             iso_colour: [0.85, 0.85, 0.8],
             shadows: None,
             ao: None,
+            cancel: Cancel::default(),
         }
     }
 }

@@ -202,6 +202,7 @@ pub struct PathTracer<'a> {
     medium: AnyMedium,
     grid: MajorantGrid,
     scatters: bool,
+    cancel: crate::settings::Cancel,
 }
 
 /// The majorant grid's level: the index's finest.
@@ -286,7 +287,15 @@ impl<'a> PathTracer<'a> {
             medium,
             grid,
             scatters: max_albedo > 0.0,
+            cancel: crate::settings::Cancel::default(),
         })
+    }
+
+    /// The same tracer, [`PathTracer::render`] stopping before its next
+    /// pass once `cancel` is raised (the passes done so far stay in the
+    /// accumulator, whole).
+    pub fn with_cancel(self, cancel: crate::settings::Cancel) -> Self {
+        PathTracer { cancel, ..self }
     }
 
     /// The fraction of majorant-grid cells that are empty (majorant 0).
@@ -377,7 +386,8 @@ impl<'a> PathTracer<'a> {
     }
 
     /// Render passes into `acc` until `budget` is spent, calling
-    /// `progress` after each pass.
+    /// `progress` after each pass; [`RenderError::Cancelled`] when the
+    /// tracer's cancel flag ([`PathTracer::with_cancel`]) is raised first.
     pub fn render(
         &self,
         acc: &mut Accumulator,
@@ -398,6 +408,9 @@ impl<'a> PathTracer<'a> {
         let mut total = PathCounters::default();
         let mut done = 0u64;
         while done < cap {
+            if self.cancel.is_cancelled() {
+                return Err(RenderError::Cancelled);
+            }
             let remaining = cap - done;
             // Passes of a sixteenth of a fixed count; when time or error
             // decide, passes that double from one sample, to a pass of at
