@@ -3,13 +3,16 @@
 # renderer's tests under mpirun (cargo feature `mpi`) when Open MPI is
 # installed. Without it those are skipped with a note; with
 # VOLKIT_REQUIRE_MPI=1 (CI) a missing MPI is an error instead.
+# The suite runs against release-profile artifacts: the tools it tests
+# are the ones scripts/demo.sh then runs (built once, not once per
+# profile), and the rendering tests run at full speed.
 #
 #   bash scripts/test.sh            # all tests
 #   VOLKIT_REQUIRE_MPI=1 bash scripts/test.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-cargo test --workspace
+cargo test --workspace --release
 
 have_mpi() {
     command -v mpirun >/dev/null 2>&1 &&
@@ -18,8 +21,9 @@ have_mpi() {
 }
 
 if have_mpi; then
-    echo "== MPI: cargo test -p volkit --features mpi --test mpi"
-    cargo test -p volkit --features mpi --test mpi
+    # Only the root package is built again (with the feature).
+    echo "== MPI: cargo test --release -p volkit --features mpi --test mpi"
+    cargo test --release -p volkit --features mpi --test mpi
 elif [ "${VOLKIT_REQUIRE_MPI:-0}" = 1 ]; then
     echo "test.sh: Open MPI not found (mpirun, pkg-config ompi); install libopenmpi-dev openmpi-bin libclang-dev pkg-config" >&2
     exit 1

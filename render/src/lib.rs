@@ -3,11 +3,12 @@
 //! A frame is a [`Camera`], [`RenderSettings`] (mode, step,
 //! interpolation, gradient, shading, early termination, empty-space
 //! skipping) and, for the modes that need one, a transfer function
-//! ([`tf`]). [`render`] resolves the settings into one concrete
-//! integrator type ([`dispatch`]) and runs it for every pixel, tile by
-//! tile on all threads, into a [`film::Film`] that resolves to a
-//! [`Frame`]. Every pixel is computed on its own from its own ray, so the
-//! image does not depend on the thread count or the tile order.
+//! ([`tf`]). [`render`] checks the settings, lets the mode's set-up
+//! ([`integrator`]) choose one concrete integrator type, and runs it for
+//! every pixel, tile by tile on all threads ([`tiles`]), into a
+//! [`film::Film`] that resolves to a [`Frame`]. Every pixel is computed on
+//! its own from its own ray, so the image does not depend on the thread
+//! count or the tile order.
 //!
 //! The pieces, after pbrt's split: [`camera`] and [`ray`]; [`sampler`]
 //! (hashed random numbers for Monte Carlo work); [`film`]; [`light`] and
@@ -27,13 +28,13 @@
 pub mod accel;
 pub mod camera;
 pub mod classify;
-pub mod dispatch;
 pub mod distributed;
 pub mod effects;
 pub mod error;
 pub mod film;
 pub mod frame;
 pub mod integrator;
+pub mod lanes;
 pub mod light;
 pub mod path;
 pub mod ray;
@@ -41,6 +42,7 @@ pub mod sampler;
 pub mod settings;
 pub mod shade;
 pub mod tf;
+pub mod tiles;
 
 pub use camera::{Camera, Projection};
 pub use effects::{Ao, AoMethod, EffectStats, ShadowMethod, Shadows};

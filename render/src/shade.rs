@@ -2,6 +2,7 @@
 //! Blinn-Phong is the one the ray caster uses; a phase function will sit
 //! beside it for scattering media.
 
+use crate::lanes::Lanes3;
 use crate::light::{Incident, Light};
 use glam::Vec3;
 
@@ -270,10 +271,6 @@ impl ViewShading {
         colour * (ambient + light * kd) + light * ks
     }
 }
-
-/// Eight samples' values per component, then per lane: colours, world
-/// gradients or shaded colours.
-pub type Lanes3 = [[f32; 8]; 3];
 
 impl ViewShading {
     /// Eight samples of colours `colour` and world gradients `grad` shaded

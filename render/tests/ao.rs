@@ -644,7 +644,7 @@ fn bad_ao_settings_are_refused() {
 
 #[test]
 fn normals_in_lanes_match_normals_one_by_one() {
-    use volrender::effects::caster::{outward_normal, outward_normals8};
+    use volrender::effects::{outward_normal, outward_normals8};
     let tiny = f32::MIN_POSITIVE / 8.0;
     let edge = [
         Vec3::ZERO,

@@ -31,7 +31,8 @@ use volkit_cli::scene::ModeArg;
 use volkit_cli::{noteln, outln};
 use volrender::classify::srgb_to_linear;
 use volrender::distributed::{composite_for, strip_rows, Layout};
-use volrender::film::{Composite, Fields, Film, FrameStats};
+use volrender::distributed::{Composite, Fields};
+use volrender::film::{Film, FrameStats};
 use volrender::frame::{busy_cells, display_for, render_film};
 
 /// Edge of the blocks the volume is split by, in voxels (a multiple of

@@ -69,9 +69,16 @@ impl VoxelRay {
 /// what the ray's own state adds to the rule (`()` for rules fixed for the
 /// frame, the running value for MIP, the side for iso).
 pub trait Accel<Q: Copy>: Sync {
-    /// Whether this skips at all (the loop leaves the skipping code out
-    /// when it does not).
+    /// Whether this type can skip at all (the loop leaves the skipping
+    /// code out when it cannot).
     const ON: bool;
+    /// Whether this value skips in this frame (a rule that is off, such as
+    /// `None` for an `Option` of a rule, answers `false`, and the loop
+    /// then takes every sample without asking it).
+    #[inline(always)]
+    fn active(&self) -> bool {
+        Self::ON
+    }
     /// What to do at voxel-space point `p` of `ray`.
     fn step(&self, p: Vec3, ray: &VoxelRay, q: Q) -> Step;
     /// The rule's per-frame flag of a level-0 cell (0 when it has none).
@@ -98,11 +105,40 @@ impl<Q: Copy> Accel<Q> for NoSkipping {
 impl<Q: Copy, A: Accel<Q>> Accel<Q> for &A {
     const ON: bool = A::ON;
     #[inline(always)]
+    fn active(&self) -> bool {
+        (**self).active()
+    }
+    #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, q: Q) -> Step {
         (**self).step(p, ray, q)
     }
     #[inline(always)]
     fn flag(&self, cell: usize) -> u8 {
         (**self).flag(cell)
+    }
+}
+
+/// A rule that is on for some frames and off for others: one compiled
+/// loop serves both (with `None` the loop asks nothing, as for
+/// [`NoSkipping`], deciding so once per ray).
+impl<Q: Copy, A: Accel<Q>> Accel<Q> for Option<A> {
+    const ON: bool = A::ON;
+    #[inline(always)]
+    fn active(&self) -> bool {
+        self.as_ref().is_some_and(|a| a.active())
+    }
+    #[inline(always)]
+    fn step(&self, p: Vec3, ray: &VoxelRay, q: Q) -> Step {
+        match self {
+            Some(a) => a.step(p, ray, q),
+            None => Step::Busy {
+                exit: f32::INFINITY,
+                cell: 0,
+            },
+        }
+    }
+    #[inline(always)]
+    fn flag(&self, cell: usize) -> u8 {
+        self.as_ref().map_or(0, |a| a.flag(cell))
     }
 }

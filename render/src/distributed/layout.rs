@@ -2,9 +2,9 @@
 //! ranks weighted by the cells the frame can see, each rank's box in world
 //! and voxel coordinates, the composite rule and order for the camera.
 
+use super::composite::Composite;
 use super::{KdTree, ShareBox, Viewer};
 use crate::camera::{Camera, Projection};
-use crate::film::Composite;
 use crate::settings::Mode;
 use std::ops::Range;
 use volcore::Dims;

@@ -26,8 +26,8 @@
 use super::occlusion_grid::{Intervals, Lattice, OcclusionGrid, RayBatch, OCCLUSION_CELL};
 use super::RayEffects;
 use crate::error::RenderError;
+use crate::lanes::Lanes3;
 use crate::sampler::HashSampler;
-use crate::shade::Lanes3;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::f32::consts::PI;
@@ -665,6 +665,93 @@ impl<'a> AoSource<'a> {
             return None;
         };
         field.occlusion8(p, n, self.offset, lit, want)
+    }
+}
+
+/// The outward unit normal for ambient occlusion from world gradient
+/// `grad` (toward falling values), scaled by its largest component first
+/// so tiny and huge gradients normalise alike; `None` when it has no
+/// direction.
+#[inline]
+pub fn outward_normal(grad: Vec3) -> Option<Vec3> {
+    let m = grad.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return None;
+    }
+    let n = -(grad / m).normalize_or_zero();
+    (n != Vec3::ZERO).then_some(n)
+}
+
+/// [`outward_normal`] of eight gradients (per component, then per lane):
+/// the normals (zero where there is none) and the lanes that have one, bit
+/// for bit.
+#[inline]
+pub fn outward_normals8(grad: &Lanes3) -> (Lanes3, u8) {
+    #[cfg(target_arch = "x86_64")]
+    if volcore::lanes::avx2_available() {
+        // SAFETY: AVX2 was found.
+        return unsafe { normals_avx2::outward_normals8(grad) };
+    }
+    let mut out = [[0.0; 8]; 3];
+    let mut has = 0u8;
+    for i in 0..8 {
+        if let Some(n) = outward_normal(Vec3::new(grad[0][i], grad[1][i], grad[2][i])) {
+            has |= 1 << i;
+            for (a, o) in out.iter_mut().enumerate() {
+                o[i] = n[a];
+            }
+        }
+    }
+    (out, has)
+}
+
+#[cfg(target_arch = "x86_64")]
+mod normals_avx2 {
+    use crate::lanes::Lanes3;
+    use std::arch::x86_64::*;
+
+    /// See [`super::outward_normals8`]: `outward_normal`'s operations in
+    /// lanes (MAXPS picks as `max_element` does, NaN included).
+    ///
+    /// # Safety
+    /// AVX2.
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn outward_normals8(grad: &Lanes3) -> (Lanes3, u8) {
+        let [x, y, z] = grad.each_ref().map(|c| _mm256_loadu_ps(c.as_ptr()));
+        let sign = _mm256_set1_ps(-0.0);
+        let abs = |v| _mm256_andnot_ps(sign, v);
+        let zero = _mm256_setzero_ps();
+        let inf = _mm256_set1_ps(f32::INFINITY);
+        let m = _mm256_max_ps(abs(x), _mm256_max_ps(abs(y), abs(z)));
+        // `m > 0 && m.is_finite()`.
+        let scaled = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(m, zero),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(m, inf),
+        );
+        let q = [x, y, z].map(|c| _mm256_div_ps(c, m));
+        let mul = |a, b| _mm256_mul_ps(a, b);
+        let dot = _mm256_add_ps(
+            _mm256_add_ps(mul(q[0], q[0]), mul(q[1], q[1])),
+            mul(q[2], q[2]),
+        );
+        let rcp = _mm256_div_ps(_mm256_set1_ps(1.0), _mm256_sqrt_ps(dot));
+        // `normalize_or_zero`: `rcp.is_finite() && rcp > 0`.
+        let unit = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(rcp, zero),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(rcp, inf),
+        );
+        let ok = _mm256_and_ps(scaled, unit);
+        let n = q.map(|c| _mm256_and_ps(_mm256_xor_ps(mul(c, rcp), sign), ok));
+        // `n != ZERO` (NaN counts as not zero).
+        let nonzero = n.iter().fold(zero, |acc, &c| {
+            _mm256_or_ps(acc, _mm256_cmp_ps::<_CMP_NEQ_UQ>(c, zero))
+        });
+        let has = _mm256_movemask_ps(_mm256_and_ps(ok, nonzero)) as u8;
+        let mut out = [[0f32; 8]; 3];
+        for (o, c) in out.iter_mut().zip(n) {
+            _mm256_storeu_ps(o.as_mut_ptr(), c);
+        }
+        (out, has)
     }
 }
 

@@ -24,7 +24,7 @@ use crate::error::RenderError;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
-use volcore::{Cursor, VoxelSource};
+use volcore::VoxelSource;
 
 /// Transmittance toward one light at every grid point.
 #[derive(Clone, Debug)]
@@ -115,9 +115,38 @@ impl LightGrid {
         budget: u64,
         clear: Option<&ClearBoxes<'_>>,
     ) -> Result<LightGrid, RenderError> {
+        let depths = SourceDepths { src, occ, q };
+        let options = GridOptions {
+            towards,
+            spacing,
+            divisor,
+            step,
+            spacing_of_samples,
+            budget,
+            clear,
+        };
+        LightGrid::build_with(&depths, src.dims(), &options)
+    }
+
+    /// [`LightGrid::build`] with its samples taken by `depths` in a volume
+    /// of `dims`: everything but the segments' samples is compiled once,
+    /// whatever the occluder and the volume's layout.
+    fn build_with(
+        depths: &dyn SegmentDepths,
+        d: volcore::Dims,
+        options: &GridOptions<'_>,
+    ) -> Result<LightGrid, RenderError> {
+        let GridOptions {
+            towards,
+            spacing,
+            divisor,
+            step,
+            spacing_of_samples,
+            budget,
+            clear,
+        } = *options;
         let start = Instant::now();
         let div = divisor.max(1) as usize;
-        let d = src.cursor().dims();
         let n = [d.x as usize, d.y as usize, d.z as usize];
         let g = n.map(|n| points(n, div));
         let bytes = LightGrid::bytes_for(n, divisor).unwrap_or(u64::MAX);
@@ -157,8 +186,6 @@ impl LightGrid {
         data.resize(total, 1.0);
         let towards_plus = lv[a] > 0.0;
         let sweep = Sweep {
-            occ,
-            q,
             lv,
             perm,
             g,
@@ -180,22 +207,15 @@ impl LightGrid {
         let slabs: Vec<(u64, Option<Upstream>)> = data
             .par_chunks_mut(slice_len)
             .enumerate()
-            .map_init(
-                || (src.cursor(), Vec::new()),
-                |(cur, clear), (i, slab_data)| {
-                    if i == nearest {
-                        return (0, None);
-                    }
-                    let prev = if towards_plus { i + 1 } else { i - 1 };
-                    let slab = sweep.slab(i, prev);
-                    let samples = slab_data
-                        .chunks_mut(g[c])
-                        .enumerate()
-                        .map(|(j, row)| sweep.segments(cur, clear, &slab, j, row))
-                        .sum::<u64>();
-                    (samples, Some(Upstream::of(&slab)))
-                },
-            )
+            .map_init(Vec::new, |clear, (i, slab_data)| {
+                if i == nearest {
+                    return (0, None);
+                }
+                let prev = if towards_plus { i + 1 } else { i - 1 };
+                let slab = sweep.slab(i, prev);
+                let samples = depths.slab(&sweep, &slab, slab_data, clear);
+                (samples, Some(Upstream::of(&slab)))
+            })
             .collect();
         let samples = slabs.iter().map(|(s, _)| s).sum();
         // The upstream pass runs as one job on the pool: each slab's rows
@@ -464,10 +484,48 @@ impl GridAxis {
     }
 }
 
-/// What every point of a sweep needs.
-struct Sweep<'o, O: Occluder> {
-    occ: &'o O,
+/// What a light grid's build reads from the volume: the optical depth
+/// of the samples along a slab's segments. The one part of the build
+/// specialised per occluder and per volume layout (one cursor per slab).
+trait SegmentDepths: Sync {
+    /// The first pass over `slab` (see [`Sweep::segments`]), row by row
+    /// into `data`; returns the samples taken.
+    fn slab(&self, sweep: &Sweep<'_>, slab: &Slab, data: &mut [f32], clear: &mut Vec<bool>) -> u64;
+}
+
+/// The depths of occluder `occ` (query `q`) over `src`.
+struct SourceDepths<'a, S, O: Occluder> {
+    src: &'a S,
+    occ: &'a O,
     q: O::Query,
+}
+
+impl<S: VoxelSource, O: Occluder> SegmentDepths for SourceDepths<'_, S, O> {
+    fn slab(&self, sweep: &Sweep<'_>, slab: &Slab, data: &mut [f32], clear: &mut Vec<bool>) -> u64 {
+        let mut cur = self.src.cursor();
+        let mut depth = |p: Vec3| self.occ.depth(&mut cur, p, self.q);
+        let row_len = sweep.g[sweep.perm[2]];
+        data.chunks_mut(row_len)
+            .enumerate()
+            .map(|(j, row)| sweep.segments(&mut depth, clear, slab, j, row))
+            .sum()
+    }
+}
+
+/// A light grid's settings besides its volume (see [`LightGrid::build`]).
+#[derive(Clone, Copy)]
+struct GridOptions<'a> {
+    towards: Vec3,
+    spacing: [f32; 3],
+    divisor: u32,
+    step: f32,
+    spacing_of_samples: f32,
+    budget: u64,
+    clear: Option<&'a ClearBoxes<'a>>,
+}
+
+/// What every point of a sweep needs.
+struct Sweep<'o> {
     /// The light's direction, voxels per world unit.
     lv: Vec3,
     perm: [usize; 3],
@@ -481,7 +539,7 @@ struct Sweep<'o, O: Occluder> {
     clear: Option<&'o ClearBoxes<'o>>,
 }
 
-impl<O: Occluder> Sweep<'_, O> {
+impl Sweep<'_> {
     /// What every row of slab `i` (looking toward slab `prev`) shares:
     /// per grid line along each of the two other axes, the point's
     /// coordinate, where a segment from it leaves the volume, the upstream
@@ -557,9 +615,9 @@ impl<O: Occluder> Sweep<'_, O> {
     /// transmittance of each point's own segment, but those whose box lies
     /// in clear cells (only whole segments: a clipped one is shorter, so
     /// inside), which keep 1; returns the samples taken.
-    fn segments<C: Cursor>(
+    fn segments(
         &self,
-        cur: &mut C,
+        depth: &mut impl FnMut(Vec3) -> f32,
         clear: &mut Vec<bool>,
         slab: &Slab,
         j: usize,
@@ -597,7 +655,7 @@ impl<O: Occluder> Sweep<'_, O> {
                 x[a] = slab.xa;
                 x[b] = lb.x;
                 x[c] = lc.x;
-                let (t, s) = self.segment(cur, x, u);
+                let (t, s) = self.segment(depth, x, u);
                 samples += s;
                 *out = t;
             }
@@ -646,7 +704,7 @@ impl<O: Occluder> Sweep<'_, O> {
 
     /// Transmittance over world length `u` from voxel point `x` toward the
     /// light, and the samples taken (about one per step, at midpoints).
-    fn segment<C: Cursor>(&self, cur: &mut C, x: Vec3, u: f32) -> (f32, u64) {
+    fn segment(&self, depth_at: &mut impl FnMut(Vec3) -> f32, x: Vec3, u: f32) -> (f32, u64) {
         if u.is_nan() || u <= 0.0 {
             return (1.0, 0);
         }
@@ -655,7 +713,7 @@ impl<O: Occluder> Sweep<'_, O> {
         let mut depth = 0.0f32;
         for s in 0..count {
             let p = x + self.lv * (h * (s as f32 + 0.5));
-            depth += self.occ.depth(cur, p, self.q);
+            depth += depth_at(p);
         }
         let depth = depth * (h / self.step);
         ((-depth).exp(), count as u64)

@@ -1,7 +1,7 @@
 //! Lighting effects beyond local shading: shadows and ambient
-//! occlusion, each switched on by
-//! the frame's settings and costing nothing when off (the frame is then
-//! built from exactly the integrator types it had before effects existed).
+//! occlusion, each switched on by the frame's settings and costing nothing
+//! when off but a branch per shaded sample (no grid is built, no shadow or
+//! occlusion ray cast, no counter moved).
 //!
 //! - [`occluder`]: what blocks light, as optical depth per sample: the
 //!   classified volume (DVR) or the iso-surface's inside (iso).
@@ -9,8 +9,9 @@
 //!   with the frame's macrocell skipping.
 //! - [`light_grid`]: a transmittance grid per directional light, swept
 //!   slab by slab away from the light once per frame, read trilinearly.
-//! - [`caster`]: the per-light choice between the two, the counters, and
-//!   the shading type that applies the effects to DVR samples.
+//! - [`caster`]: the per-light choice between the two, and the counters
+//!   (the DVR shading that applies effects to samples is
+//!   [`crate::integrator::dvr::shading::Phong`]).
 //! - [`occlusion_grid`]: the classified volume's extinction on a coarse
 //!   grid, and the march of an occlusion ray through it.
 //! - [`ao`]: ambient occlusion by sampled directions or a precomputed
@@ -24,8 +25,8 @@ pub mod occlusion_grid;
 pub mod setup;
 pub mod shadow_ray;
 
-pub use ao::{Ao, AoField, AoLookup, AoMethod, AoSource};
-pub use caster::{EffectsPhong, ShadowCaster};
+pub use ao::{outward_normal, outward_normals8, Ao, AoField, AoLookup, AoMethod, AoSource};
+pub use caster::ShadowCaster;
 pub use light_grid::LightGrid;
 pub use occluder::{Classified, IsoInside, Occluder};
 pub use occlusion_grid::OcclusionGrid;

@@ -22,7 +22,7 @@ use crate::error::RenderError;
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
-use volcore::{Cursor, VoxelSource};
+use volcore::VoxelSource;
 
 /// Voxels between occlusion-grid points along each axis.
 pub const OCCLUSION_CELL: usize = 4;
@@ -229,8 +229,22 @@ impl OcclusionGrid {
         budget: u64,
         clear: Option<&ClearBoxes<'_>>,
     ) -> Result<OcclusionGrid, RenderError> {
+        let depths = SourceDepths { src, occ, q };
+        OcclusionGrid::build_with(&depths, src.dims(), spacing, step, budget, clear)
+    }
+
+    /// [`OcclusionGrid::build`] with its samples taken by `depths` in a
+    /// volume of `dims`: everything but the samples is compiled once,
+    /// whatever the occluder and the volume's layout.
+    fn build_with(
+        depths: &dyn PointDepths,
+        d: volcore::Dims,
+        spacing: [f32; 3],
+        step: f32,
+        budget: u64,
+        clear: Option<&ClearBoxes<'_>>,
+    ) -> Result<OcclusionGrid, RenderError> {
         let start = Instant::now();
-        let d = src.cursor().dims();
         let n = [d.x as usize, d.y as usize, d.z as usize];
         let bytes = OcclusionGrid::bytes_for(n).unwrap_or(u64::MAX);
         if bytes > budget {
@@ -260,51 +274,19 @@ impl OcclusionGrid {
         let hi = n.map(|n| n.saturating_sub(1) as f32);
         let per_slice = g[0] * g[1];
         let ranges = clear.map(|c| ClearRanges::new(c, g, 0.25 * cell, hi));
+        let slices = Slices {
+            g,
+            hi,
+            step,
+            sigma_max,
+            ranges: ranges.as_ref(),
+        };
         let samples: u64 = sigma
             .par_chunks_mut(per_slice)
             .enumerate()
-            .map_init(
-                || (src.cursor(), Vec::new()),
-                |(cur, row), (z, slice)| {
-                    let mut taken = 0u64;
-                    for (y, line) in slice.chunks_mut(g[0]).enumerate() {
-                        // Which index cells along x are clear across the
-                        // row's y and z: found once a row.
-                        if let Some(r) = &ranges {
-                            r.row(y, z, row);
-                        }
-                        for (x, out) in line.iter_mut().enumerate() {
-                            // The samples lie within a quarter cell of the
-                            // point: when every index cell that box
-                            // touches is clear, so are they.
-                            if ranges.as_ref().is_some_and(|r| r.clear_in_row(x, row)) {
-                                *out = 0.0;
-                                continue;
-                            }
-                            let centre = Vec3::new(
-                                (x * OCCLUSION_CELL) as f32,
-                                (y * OCCLUSION_CELL) as f32,
-                                (z * OCCLUSION_CELL) as f32,
-                            );
-                            let mut sum = 0.0f32;
-                            for corner in 0..8 {
-                                let off = Vec3::new(
-                                    if corner & 1 == 0 { -0.25 } else { 0.25 },
-                                    if corner & 2 == 0 { -0.25 } else { 0.25 },
-                                    if corner & 4 == 0 { -0.25 } else { 0.25 },
-                                ) * cell;
-                                let p = (centre + off)
-                                    .clamp(Vec3::ZERO, Vec3::new(hi[0], hi[1], hi[2]));
-                                taken += 1;
-                                let s = occ.depth(cur, p, q) / step;
-                                sum += if s.is_nan() { 0.0 } else { s.min(sigma_max) };
-                            }
-                            *out = sum * 0.125;
-                        }
-                    }
-                    taken
-                },
-            )
+            .map_init(Vec::new, |row, (z, slice)| {
+                depths.slice(&slices, z, slice, row)
+            })
             .sum();
         let mut levels = vec![Level::new(g, spacing, cell, sigma)];
         for l in 1..OCCLUSION_LEVELS {
@@ -776,6 +758,88 @@ pub(crate) mod avx2 {
             };
         }
         (out, n.iter().map(|&k| k as u64).sum())
+    }
+}
+
+/// The points of one z slice of an occlusion grid and how they are
+/// sampled: everything [`PointDepths::slice`] needs but the volume.
+struct Slices<'a> {
+    /// Grid points per axis.
+    g: [usize; 3],
+    /// The volume's far corner, voxels.
+    hi: [f32; 3],
+    /// The step the occluder's depths are for.
+    step: f32,
+    /// The largest extinction a sample counts with.
+    sigma_max: f32,
+    /// The index cells clear along rows, when skipping.
+    ranges: Option<&'a ClearRanges<'a>>,
+}
+
+/// What an occlusion grid's build reads from the volume: the mean
+/// extinction at the points of one slice. The one part of the build
+/// specialised per occluder and per volume layout (one cursor per slice).
+trait PointDepths: Sync {
+    /// Fill `slice` (slice `z` of the grid, x fastest) with each point's
+    /// mean extinction over its eight samples (`row`: scratch space);
+    /// returns the samples taken.
+    fn slice(&self, s: &Slices<'_>, z: usize, slice: &mut [f32], row: &mut Vec<bool>) -> u64;
+}
+
+/// The depths of occluder `occ` (query `q`) over `src`.
+struct SourceDepths<'a, S, O: Occluder> {
+    src: &'a S,
+    occ: &'a O,
+    q: O::Query,
+}
+
+impl<S: VoxelSource, O: Occluder> PointDepths for SourceDepths<'_, S, O> {
+    fn slice(&self, s: &Slices<'_>, z: usize, slice: &mut [f32], row: &mut Vec<bool>) -> u64 {
+        let Slices {
+            g,
+            hi,
+            step,
+            sigma_max,
+            ranges,
+        } = *s;
+        let cell = OCCLUSION_CELL as f32;
+        let mut cur = self.src.cursor();
+        let mut taken = 0u64;
+        for (y, line) in slice.chunks_mut(g[0]).enumerate() {
+            // Which index cells along x are clear across the
+            // row's y and z: found once a row.
+            if let Some(r) = &ranges {
+                r.row(y, z, row);
+            }
+            for (x, out) in line.iter_mut().enumerate() {
+                // The samples lie within a quarter cell of the
+                // point: when every index cell that box
+                // touches is clear, so are they.
+                if ranges.as_ref().is_some_and(|r| r.clear_in_row(x, row)) {
+                    *out = 0.0;
+                    continue;
+                }
+                let centre = Vec3::new(
+                    (x * OCCLUSION_CELL) as f32,
+                    (y * OCCLUSION_CELL) as f32,
+                    (z * OCCLUSION_CELL) as f32,
+                );
+                let mut sum = 0.0f32;
+                for corner in 0..8 {
+                    let off = Vec3::new(
+                        if corner & 1 == 0 { -0.25 } else { 0.25 },
+                        if corner & 2 == 0 { -0.25 } else { 0.25 },
+                        if corner & 4 == 0 { -0.25 } else { 0.25 },
+                    ) * cell;
+                    let p = (centre + off).clamp(Vec3::ZERO, Vec3::new(hi[0], hi[1], hi[2]));
+                    taken += 1;
+                    let s = self.occ.depth(&mut cur, p, self.q) / step;
+                    sum += if s.is_nan() { 0.0 } else { s.min(sigma_max) };
+                }
+                *out = sum * 0.125;
+            }
+        }
+        taken
     }
 }
 

@@ -4,18 +4,17 @@
 
 use super::ao::{Ao, AoField, AoLookup, AoMethod, AoSource, Spiral};
 use super::light_grid::LightGrid;
-use super::occluder::{Classified, IsoInside, Occluder};
+use super::occluder::{IsoInside, Occluder};
 use super::occlusion_grid::{Intervals, OcclusionGrid, OCCLUSION_CELL};
 use super::{EffectStats, ShadowMethod, Shadows};
 use crate::accel::open_sky::OpenSky;
 use crate::accel::{ClearBoxes, FixedCells};
-use crate::classify::Classifier;
 use crate::error::RenderError;
-use crate::integrator::reconstruct::{Analytic, Central, Nearest, NoGradient, Trilinear};
+use crate::integrator::reconstruct::{Nearest, Trilinear};
 use crate::integrator::FrameGeometry;
 use crate::light::Light;
 use crate::sampler::HashSampler;
-use crate::settings::{GradientMethod, Interp, RenderSettings};
+use crate::settings::{Interp, RenderSettings};
 use glam::Vec3;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
 
@@ -63,7 +62,7 @@ pub fn open_skies(
 /// The grids a frame's lights read: one per directional light under the
 /// grid method (`None` for the other lights, which cast shadow rays),
 /// through `occ` with query `q`; and what building them cost.
-fn grids<O: Occluder>(
+pub fn light_grids<O: Occluder>(
     vol: &Volume,
     lights: &[Light],
     shadows: &Shadows,
@@ -140,80 +139,6 @@ impl<O: Occluder> VolumeVisitor for Build<'_, O> {
     }
 }
 
-/// Code to run with a DVR frame's occluder, of whichever concrete type
-/// the frame's reconstruction and gradient method make it.
-trait WithOccluder {
-    type Output;
-    fn with<O: Occluder<Query = ()>>(self, occ: &O) -> Self::Output;
-}
-
-/// Run `f` with the occluder of a DVR frame: the depth table `depth`
-/// (optical depth per `geom.step`), reconstructed as the frame
-/// reconstructs.
-fn dvr_occluder<K: Classifier, F: WithOccluder>(
-    settings: &RenderSettings,
-    geom: &FrameGeometry,
-    depth: &K,
-    f: F,
-) -> F::Output {
-    let (loc, inv) = (geom.locator, geom.inv_spacing);
-    macro_rules! with {
-        ($r:ty, $g:ty) => {
-            f.with(&Classified::<$r, $g, K>::new(depth, loc, inv))
-        };
-    }
-    use GradientMethod::{Analytic as A, Central as C};
-    match (settings.interp, K::NEEDS_GRADIENT, settings.gradient) {
-        (Interp::Trilinear, false, _) => with!(Trilinear, NoGradient),
-        (Interp::Trilinear, true, C) => with!(Trilinear, Central),
-        (Interp::Trilinear, true, A) => with!(Trilinear, Analytic),
-        (Interp::Nearest, false, _) => with!(Nearest, NoGradient),
-        (Interp::Nearest, true, C) => with!(Nearest, Central),
-        (Interp::Nearest, true, A) => with!(Nearest, Analytic),
-    }
-}
-
-/// The grids of a DVR frame, through the depth table `depth` (optical
-/// depth per `geom.step`), reconstructed as the frame reconstructs.
-pub fn dvr_grids<K: Classifier>(
-    vol: &Volume,
-    settings: &RenderSettings,
-    shadows: &Shadows,
-    geom: &FrameGeometry,
-    depth: &K,
-    clear: Option<&ClearBoxes<'_>>,
-) -> Result<(Vec<Option<LightGrid>>, EffectStats), RenderError> {
-    struct Grids<'a> {
-        vol: &'a Volume,
-        lights: &'a [Light],
-        shadows: &'a Shadows,
-        step: f32,
-        clear: Option<&'a ClearBoxes<'a>>,
-    }
-    impl WithOccluder for Grids<'_> {
-        type Output = Result<(Vec<Option<LightGrid>>, EffectStats), RenderError>;
-        fn with<O: Occluder<Query = ()>>(self, occ: &O) -> Self::Output {
-            grids(
-                self.vol,
-                self.lights,
-                self.shadows,
-                self.step,
-                occ,
-                (),
-                self.clear,
-            )
-        }
-    }
-    let g = Grids {
-        vol,
-        lights: &settings.lighting.lights,
-        shadows,
-        step: geom.step,
-        clear,
-    };
-    dvr_occluder(settings, geom, depth, g)
-}
-
 /// What a frame's ambient occlusion reads: the occlusion grid, the march
 /// of its rays, and the precomputed field when the method is one.
 pub struct AoParts {
@@ -259,7 +184,7 @@ pub fn ao_radius(vol: &Volume, ao: &Ao) -> f32 {
 /// Build what `ao` needs through `occ` (query `q`, depth per `step`),
 /// skipping samples in `clear`; adds the costs to `stats` (the grid's
 /// build counts in the frame, the field's is reported beside it).
-fn ao_parts<O: Occluder>(
+pub fn ao_parts<O: Occluder>(
     vol: &Volume,
     ao: &Ao,
     step: f32,
@@ -341,48 +266,6 @@ impl<O: Occluder> VolumeVisitor for BuildOcclusion<'_, O> {
     }
 }
 
-/// The AO of a DVR frame through the depth table `depth` (optical depth
-/// per `geom.step`); adds its costs to `stats`.
-pub fn dvr_ao<K: Classifier>(
-    vol: &Volume,
-    settings: &RenderSettings,
-    ao: &Ao,
-    geom: &FrameGeometry,
-    depth: &K,
-    clear: Option<&ClearBoxes<'_>>,
-    stats: &mut EffectStats,
-) -> Result<AoParts, RenderError> {
-    struct Parts<'a> {
-        vol: &'a Volume,
-        ao: &'a Ao,
-        step: f32,
-        clear: Option<&'a ClearBoxes<'a>>,
-        stats: &'a mut EffectStats,
-    }
-    impl WithOccluder for Parts<'_> {
-        type Output = Result<AoParts, RenderError>;
-        fn with<O: Occluder<Query = ()>>(self, occ: &O) -> Self::Output {
-            ao_parts(
-                self.vol,
-                self.ao,
-                self.step,
-                occ,
-                (),
-                self.clear,
-                self.stats,
-            )
-        }
-    }
-    let p = Parts {
-        vol,
-        ao,
-        step: geom.step,
-        clear,
-        stats,
-    };
-    dvr_occluder(settings, geom, depth, p)
-}
-
 /// The AO of an iso frame: values at or above `level` occlude (the outside
 /// is below it); adds its costs to `stats`.
 pub fn iso_ao(
@@ -420,11 +303,11 @@ pub fn iso_grids(
     match settings.interp {
         Interp::Trilinear => {
             let occ = IsoInside::<Trilinear>::new(level, geom.locator);
-            grids(vol, lights, shadows, geom.step, &occ, false, clear)
+            light_grids(vol, lights, shadows, geom.step, &occ, false, clear)
         }
         Interp::Nearest => {
             let occ = IsoInside::<Nearest>::new(level, geom.locator);
-            grids(vol, lights, shadows, geom.step, &occ, false, clear)
+            light_grids(vol, lights, shadows, geom.step, &occ, false, clear)
         }
     }
 }

@@ -1,16 +1,23 @@
 //! Iso-surfaces: the first crossing, refined by bisection, shaded.
 
 use super::march::{march, Flow, RayMarch, RaySteps};
-use super::reconstruct::{Gradient, Reconstruct};
+use super::reconstruct::{Analytic, Central, Gradient, Nearest, Reconstruct, Trilinear};
 use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::skip::{ISO_ABOVE, ISO_BELOW};
 use crate::accel::{Accel, IsoSides};
-use crate::effects::{AoSource, IsoInside, ShadowCaster};
+use crate::classify::srgb_to_linear;
+use crate::effects::setup::{iso_ao, iso_grids, shadow_geometry};
+use crate::effects::{AoSource, EffectStats, IsoInside, LightGrid, ShadowCaster, ShadowMethod};
+use crate::error::RenderError;
+use crate::film::Film;
 use crate::ray::Ray;
+use crate::settings::{GradientMethod, Interp, RenderSettings};
 use crate::shade::Lighting;
+use crate::tiles::Tiles;
 use glam::Vec3;
 use std::marker::PhantomData;
-use volcore::Cursor;
+use volcore::{Cursor, Volume};
+use volindex::MajorantIndex;
 
 /// Bisection steps refining a crossing (the bracket shrinks 2^-20-fold).
 const BISECTIONS: u32 = 20;
@@ -19,11 +26,11 @@ const BISECTIONS: u32 = 20;
 /// level, NaN counting as below) changes between consecutive samples;
 /// outside the volume counts as below. The crossing is bracketed by those
 /// two samples and refined by bisection, then shaded with the gradient
-/// from `G`. `A` skips cells whose every value is on the ray's side, and
-/// tells the class of a uniform cell without sampling it.
-pub struct Iso<'a, R, G, A> {
+/// from `G`. With skipping on, cells whose every value is on the ray's side
+/// are skipped, and a uniform cell's class is known without a sample.
+pub struct Iso<'a, R, G> {
     geom: FrameGeometry,
-    accel: A,
+    skip: Option<&'a IsoSides<'a>>,
     level: f32,
     /// Linear surface colour.
     colour: Vec3,
@@ -38,14 +45,14 @@ pub struct Iso<'a, R, G, A> {
 /// Shadows on an iso-surface: its inside blocks light.
 pub type IsoCaster<'a, R> = ShadowCaster<'a, IsoInside<R>, IsoSides<'a>>;
 
-impl<'a, R, G, A> Iso<'a, R, G, A> {
+impl<'a, R, G> Iso<'a, R, G> {
     /// The integrator for iso value `level`, surface colour `colour`
-    /// (linear) lit by `lighting`, shadowed by `shadows` and occluded by
-    /// `ao` when given.
+    /// (linear) lit by `lighting`, skipping by `skip`, shadowed by
+    /// `shadows` and occluded by `ao` when given.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         geom: FrameGeometry,
-        accel: A,
+        skip: Option<&'a IsoSides<'a>>,
         level: f32,
         colour: Vec3,
         lighting: &'a Lighting,
@@ -54,7 +61,7 @@ impl<'a, R, G, A> Iso<'a, R, G, A> {
     ) -> Self {
         Iso {
             geom,
-            accel,
+            skip,
             level,
             colour,
             lighting,
@@ -65,7 +72,7 @@ impl<'a, R, G, A> Iso<'a, R, G, A> {
     }
 }
 
-impl<R: Reconstruct, G: Gradient, A: Accel<bool>> Integrator for Iso<'_, R, G, A> {
+impl<R: Reconstruct, G: Gradient> Integrator for Iso<'_, R, G> {
     fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, pixel: [u32; 2], span: Span) -> RayResult {
         let steps = RaySteps::for_span(&self.geom, ray, span);
         let mut st = IsoRay {
@@ -83,13 +90,13 @@ impl<R: Reconstruct, G: Gradient, A: Accel<bool>> Integrator for Iso<'_, R, G, A
         // the last sample of one share and the first of the next is found
         // by the next (its bisection starts at the sample before, `k0`
         // being the whole ray's).
-        let skips = march(&mut st, &self.accel, cur, &steps);
+        let skips = march(&mut st, &self.skip, cur, &steps);
         RayResult { skips, ..st.out }
     }
 }
 
-struct IsoRay<'i, 'a, R, G, A> {
-    iso: &'i Iso<'a, R, G, A>,
+struct IsoRay<'i, 'a, R, G> {
+    iso: &'i Iso<'a, R, G>,
     steps: &'i RaySteps,
     ray: &'i Ray,
     pixel: [u32; 2],
@@ -99,7 +106,7 @@ struct IsoRay<'i, 'a, R, G, A> {
     out: RayResult,
 }
 
-impl<R: Reconstruct, G: Gradient, A: Accel<bool>> RayMarch for IsoRay<'_, '_, R, G, A> {
+impl<R: Reconstruct, G: Gradient> RayMarch for IsoRay<'_, '_, R, G> {
     type Query = bool;
     const CACHE_BUSY: bool = false;
 
@@ -119,7 +126,7 @@ impl<R: Reconstruct, G: Gradient, A: Accel<bool>> RayMarch for IsoRay<'_, '_, R,
     ) -> Flow {
         let iso = self.iso;
         // A uniform cell tells the class without a sample.
-        let known = match cell.map(|c| iso.accel.flag(c)) {
+        let known = match cell.map(|c| iso.skip.flag(c)) {
             Some(ISO_ABOVE) => Some(true),
             Some(ISO_BELOW) => Some(false),
             _ => None,
@@ -144,7 +151,7 @@ impl<R: Reconstruct, G: Gradient, A: Accel<bool>> RayMarch for IsoRay<'_, '_, R,
     }
 }
 
-impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, '_, R, G, A> {
+impl<R: Reconstruct, G: Gradient> IsoRay<'_, '_, R, G> {
     /// Bisect `[a, b]`, where the class at `b` is `class_b` and at `a` the
     /// opposite, down to `BISECTIONS` halvings; returns the midpoint.
     fn refine<C: Cursor>(&self, cur: &mut C, mut a: f32, mut b: f32, class_b: bool) -> f32 {
@@ -172,7 +179,7 @@ impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, '_, R, G, A> {
         let outside = self.prev;
         let fx = &mut self.out.effects;
         let ao = iso.ao.map_or(1.0, |src| {
-            let n = crate::effects::caster::outward_normal(if outside { -g } else { g });
+            let n = crate::effects::outward_normal(if outside { -g } else { g });
             src.occlusion(at, n, self.pixel, 0, fx)
         });
         let c = if g.length() > 0.0 {
@@ -194,5 +201,129 @@ impl<R: Reconstruct, G: Gradient, A> IsoRay<'_, '_, R, G, A> {
         self.out.rgba = [c.x, c.y, c.z, 1.0];
         self.out.value = v as f64;
         self.out.depth = t;
+    }
+}
+
+/// What an iso frame's shadows need besides its settings.
+struct IsoShadows {
+    /// Shadow-ray sample placement (the shadow step).
+    geom: FrameGeometry,
+    /// Per light: its transmittance grid, or `None` for shadow rays.
+    grids: Vec<Option<LightGrid>>,
+    /// What building the grids cost.
+    stats: EffectStats,
+    /// Voxels along the light a grid read moves off the surface.
+    grid_offset: f32,
+}
+
+/// Render an iso-surface frame of `vol` at `level`, skipping over `index`
+/// when given: the uniform cells, the shadows' grids and the occlusion
+/// are built first, then the frame traced with the integrator of the
+/// frame's reconstruction and gradient method.
+pub fn render_frame(
+    vol: &Volume,
+    index: Option<&MajorantIndex>,
+    tiles: &Tiles<'_>,
+    geom: FrameGeometry,
+    settings: &RenderSettings,
+    level: f32,
+) -> Result<Film, RenderError> {
+    let sides = index.map(|ix| IsoSides::new(ix, level));
+    let boxes = sides.as_ref().map(|c| c.clear_boxes_below());
+    let sgeom = shadow_geometry(&geom, settings.shadows.as_ref());
+    let mut ao_stats = EffectStats::default();
+    let ao_parts = match &settings.ao {
+        Some(ao) => Some(iso_ao(
+            vol,
+            settings,
+            ao,
+            &sgeom,
+            level,
+            boxes.as_ref(),
+            &mut ao_stats,
+        )?),
+        None => None,
+    };
+    let min_spacing = vol.meta.min_spacing();
+    let ao = ao_parts
+        .as_ref()
+        .map(|p| p.source(tiles.hi, 1.5, min_spacing));
+    let shadows = match &settings.shadows {
+        Some(sh) => {
+            let (grids, stats) = iso_grids(vol, settings, sh, &sgeom, level, boxes.as_ref())?;
+            let grid_offset = match sh.method {
+                ShadowMethod::Grid { divisor } => 1.5 * divisor as f32,
+                ShadowMethod::Ray => 0.0,
+            };
+            Some(IsoShadows {
+                geom: sgeom,
+                grids,
+                stats,
+                grid_offset,
+            })
+        }
+        None => None,
+    };
+    let frame = IsoFrame {
+        vol,
+        tiles,
+        geom,
+        level,
+        colour: Vec3::from(settings.iso_colour.map(srgb_to_linear)),
+        lighting: &settings.lighting,
+        skip: sides.as_ref(),
+        shadows: shadows.as_ref(),
+        ao: ao.as_ref(),
+    };
+    let mut film = match (settings.interp, settings.gradient) {
+        (Interp::Trilinear, GradientMethod::Central) => frame.trace::<Trilinear, Central>(),
+        (Interp::Trilinear, GradientMethod::Analytic) => frame.trace::<Trilinear, Analytic>(),
+        (Interp::Nearest, GradientMethod::Central) => frame.trace::<Nearest, Central>(),
+        (Interp::Nearest, GradientMethod::Analytic) => frame.trace::<Nearest, Analytic>(),
+    }?;
+    if let Some(sh) = &shadows {
+        film.add_grid_stats(&sh.stats);
+    }
+    film.add_grid_stats(&ao_stats);
+    Ok(film)
+}
+
+/// An iso frame's parts, before its types are chosen.
+struct IsoFrame<'a> {
+    vol: &'a Volume,
+    tiles: &'a Tiles<'a>,
+    geom: FrameGeometry,
+    level: f32,
+    colour: Vec3,
+    lighting: &'a Lighting,
+    skip: Option<&'a IsoSides<'a>>,
+    shadows: Option<&'a IsoShadows>,
+    ao: Option<&'a AoSource<'a>>,
+}
+
+impl IsoFrame<'_> {
+    /// Trace the frame with reconstruction `R` and gradient method `G`.
+    fn trace<R: Reconstruct, G: Gradient>(&self) -> Result<Film, RenderError> {
+        let caster = self.shadows.map(|sh| {
+            let occ = IsoInside::<R>::new(self.level, sh.geom.locator);
+            ShadowCaster::new(
+                occ,
+                self.skip,
+                sh.geom,
+                self.tiles.hi,
+                &sh.grids,
+                sh.grid_offset,
+            )
+        });
+        let iso = Iso::<R, G>::new(
+            self.geom,
+            self.skip,
+            self.level,
+            self.colour,
+            self.lighting,
+            caster.as_ref(),
+            self.ao,
+        );
+        self.tiles.render(self.vol, &iso)
     }
 }

@@ -183,17 +183,18 @@ pub fn one_by_one<M: RayMarch + ?Sized, C: Cursor>(
     Flow::Next
 }
 
-/// Walk the samples of `s` with `m`, skipping where `accel` allows;
-/// returns the number of skips made.
+/// Walk the samples of `steps` with the ray state `state`, skipping where
+/// `accel` allows (when it is active for the frame); returns the number of
+/// skips made. `k` is always a sample index (`t = k·step`).
 #[inline(always)]
 pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
-    m: &mut M,
+    state: &mut M,
     accel: &A,
     cur: &mut C,
-    s: &RaySteps,
+    steps: &RaySteps,
 ) -> u32 {
     let mut skips = 0;
-    let mut k = s.start;
+    let mut k = steps.start;
     // With CACHE_BUSY, samples up to `busy_until` lie in (or just past) a
     // level-0 cell found not skippable: they need no further check (its
     // flags are fixed for the frame, and taking a sample is never wrong).
@@ -202,29 +203,34 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     // or all of them when nothing is skipped) read their values at once
     // where the integrator and the cursor allow it; the rest of a run
     // goes one by one.
-    let batch = M::BATCH && (M::CACHE_BUSY || !A::ON) && cur.batches();
-    let (o, d) = (s.ray.o.to_array(), s.ray.d.to_array());
+    let on = A::ON && accel.active();
+    let batch = M::BATCH && (M::CACHE_BUSY || !on) && cur.batches();
+    let (o, d) = (steps.ray.o.to_array(), steps.ray.d.to_array());
     // When a run of eight would cross the end of a busy cell, the loop
     // looks one sample ahead: if that sample's cell is busy too, the busy
     // stretch grows to its exit (the same samples are taken, in longer
     // runs); otherwise the answer is kept for when the loop reaches it.
     let mut ahead: Option<(i64, Step)> = None;
-    while k <= s.k1 {
+    while k <= steps.k1 {
         if batch {
-            if A::ON && k <= busy_until && busy_until < s.k1 && k.saturating_add(7) > busy_until {
+            if on && k <= busy_until && busy_until < steps.k1 && k.saturating_add(7) > busy_until {
                 let next = busy_until + 1;
                 if ahead.is_none_or(|(at, _)| at != next) {
-                    let step = accel.step(s.at(s.t(next)), &s.ray, m.query());
+                    let step = accel.step(steps.at(steps.t(next)), &steps.ray, state.query());
                     ahead = Some((next, step));
                     if let Step::Busy { exit, .. } = step {
-                        busy_until = busy_until.max(s.last_before(exit));
+                        busy_until = busy_until.max(steps.last_before(exit));
                     }
                 }
             }
-            let last = if A::ON { busy_until.min(s.k1) } else { s.k1 };
+            let last = if on {
+                busy_until.min(steps.k1)
+            } else {
+                steps.k1
+            };
             if k.saturating_add(7) <= last {
-                if let Some(run) = cur.trilinear8(o, d, k, s.step) {
-                    if m.sample8(cur, k, &run.t, &run.v, s) == Flow::Stop {
+                if let Some(run) = cur.trilinear8(o, d, k, steps.step) {
+                    if state.sample8(cur, k, &run.t, &run.v, steps) == Flow::Stop {
                         break;
                     }
                     k += 8;
@@ -232,20 +238,20 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
                 }
             }
         }
-        let t = s.t(k);
-        let p = s.at(t);
+        let t = steps.t(k);
+        let p = steps.at(t);
         let mut cell = None;
-        if A::ON && (!M::CACHE_BUSY || k > busy_until) {
+        if on && (!M::CACHE_BUSY || k > busy_until) {
             let step = match ahead {
                 Some((at, step)) if at == k => step,
-                _ => accel.step(p, &s.ray, m.query()),
+                _ => accel.step(p, &steps.ray, state.query()),
             };
             match step {
                 Step::Skip { until, cell: c } => {
-                    if let Some(kn) = s.after_skip(k, until) {
+                    if let Some(kn) = steps.after_skip(k, until) {
                         // A jump may end past the ray's last sample: only
                         // the ray's own samples were skipped.
-                        m.skipped(k, kn.min(s.k1.saturating_add(1)));
+                        state.skipped(k, kn.min(steps.k1.saturating_add(1)));
                         k = kn;
                         skips += 1;
                         continue;
@@ -254,14 +260,14 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
                 }
                 Step::Busy { exit, cell: c } => {
                     if M::CACHE_BUSY {
-                        busy_until = s.last_before(exit);
+                        busy_until = steps.last_before(exit);
                     }
                     cell = Some(c);
                     // A busy stretch's first eight samples go in lanes too
                     // (integrators that batch read no cell).
-                    if batch && k.saturating_add(7) <= busy_until.min(s.k1) {
-                        if let Some(run) = cur.trilinear8(o, d, k, s.step) {
-                            if m.sample8(cur, k, &run.t, &run.v, s) == Flow::Stop {
+                    if batch && k.saturating_add(7) <= busy_until.min(steps.k1) {
+                        if let Some(run) = cur.trilinear8(o, d, k, steps.step) {
+                            if state.sample8(cur, k, &run.t, &run.v, steps) == Flow::Stop {
                                 break;
                             }
                             k += 8;
@@ -271,7 +277,7 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
                 }
             }
         }
-        if m.sample(cur, k, t, p, cell) == Flow::Stop {
+        if state.sample(cur, k, t, p, cell) == Flow::Stop {
             break;
         }
         k += 1;

@@ -1,16 +1,25 @@
 //! Maximum and minimum intensity projection.
 
 use super::march::{march, Flow, RayMarch, RaySteps};
-use super::reconstruct::Reconstruct;
+use super::reconstruct::{Nearest, Reconstruct, Trilinear};
 use super::{FrameGeometry, Integrator, RayResult, Span};
-use crate::accel::Accel;
+use crate::accel::{Accel, RunningMax, RunningMin};
+use crate::error::RenderError;
+use crate::film::Film;
 use crate::ray::Ray;
+use crate::settings::Interp;
+use crate::tiles::Tiles;
 use glam::Vec3;
 use std::marker::PhantomData;
-use volcore::Cursor;
+use volcore::{Cursor, Volume};
+use volindex::MajorantIndex;
 
 /// Which extreme a projection keeps.
 pub trait Extreme: Copy + Send + Sync + 'static {
+    /// The skipping rule: cells whose range cannot beat the running value.
+    type Skip<'a>: Accel<f32>;
+    /// The rule over `index`.
+    fn skip(index: &MajorantIndex) -> Self::Skip<'_>;
     /// The value before any sample.
     const START: f32;
     /// Whether `v` beats `best`.
@@ -28,6 +37,10 @@ pub struct Maximum;
 pub struct Minimum;
 
 impl Extreme for Maximum {
+    type Skip<'a> = RunningMax<'a>;
+    fn skip(index: &MajorantIndex) -> RunningMax<'_> {
+        RunningMax::new(index)
+    }
     const START: f32 = f32::NEG_INFINITY;
     #[inline(always)]
     fn beats(v: f32, best: f32) -> bool {
@@ -40,6 +53,10 @@ impl Extreme for Maximum {
 }
 
 impl Extreme for Minimum {
+    type Skip<'a> = RunningMin<'a>;
+    fn skip(index: &MajorantIndex) -> RunningMin<'_> {
+        RunningMin::new(index)
+    }
     const START: f32 = f32::INFINITY;
     #[inline(always)]
     fn beats(v: f32, best: f32) -> bool {
@@ -54,23 +71,28 @@ impl Extreme for Minimum {
 /// The extreme sample value along the ray (`D` says which); NaN samples
 /// are ignored. With `stop_at_extreme`, a ray stops once its running value
 /// reaches the volume's own extreme (nothing can beat it; checked only
-/// when the value improves). `A` skips cells whose range cannot beat the
-/// running value.
-pub struct Mip<R, D, A> {
+/// when the value improves). With skipping on, cells whose range cannot
+/// beat the running value are skipped ([`Extreme::Skip`]).
+pub struct Mip<'a, R, D: Extreme> {
     geom: FrameGeometry,
-    accel: A,
+    skip: Option<D::Skip<'a>>,
     stop_at_extreme: bool,
     extreme: f32,
-    _choices: PhantomData<(R, D)>,
+    _choices: PhantomData<R>,
 }
 
-impl<R, D, A> Mip<R, D, A> {
-    /// The integrator; `extreme` is the volume's largest (MIP) or smallest
-    /// (MinIP) value.
-    pub fn new(geom: FrameGeometry, accel: A, stop_at_extreme: bool, extreme: f32) -> Self {
+impl<'a, R, D: Extreme> Mip<'a, R, D> {
+    /// The integrator, skipping over `index` when given; `extreme` is the
+    /// volume's largest (MIP) or smallest (MinIP) value.
+    pub fn new(
+        geom: FrameGeometry,
+        index: Option<&'a MajorantIndex>,
+        stop_at_extreme: bool,
+        extreme: f32,
+    ) -> Self {
         Mip {
             geom,
-            accel,
+            skip: index.map(D::skip),
             stop_at_extreme,
             extreme,
             _choices: PhantomData,
@@ -78,16 +100,46 @@ impl<R, D, A> Mip<R, D, A> {
     }
 }
 
-impl<R: Reconstruct, D: Extreme, A: Accel<f32>> Integrator for Mip<R, D, A> {
+/// Render a MIP (`maximum`) or MinIP frame of `vol`, skipping over
+/// `index` when given; rays stop at the volume's `extreme` when
+/// `stop_at_extreme`.
+#[allow(clippy::too_many_arguments)]
+pub fn render_frame(
+    vol: &Volume,
+    index: Option<&MajorantIndex>,
+    tiles: &Tiles<'_>,
+    geom: FrameGeometry,
+    interp: Interp,
+    maximum: bool,
+    stop_at_extreme: bool,
+    extreme: f32,
+) -> Result<Film, RenderError> {
+    fn go<R: Reconstruct, D: Extreme>(
+        vol: &Volume,
+        tiles: &Tiles<'_>,
+        mip: Mip<'_, R, D>,
+    ) -> Result<Film, RenderError> {
+        tiles.render(vol, &mip)
+    }
+    let (g, ix, s, e) = (geom, index, stop_at_extreme, extreme);
+    match (interp, maximum) {
+        (Interp::Trilinear, true) => go(vol, tiles, Mip::<Trilinear, Maximum>::new(g, ix, s, e)),
+        (Interp::Trilinear, false) => go(vol, tiles, Mip::<Trilinear, Minimum>::new(g, ix, s, e)),
+        (Interp::Nearest, true) => go(vol, tiles, Mip::<Nearest, Maximum>::new(g, ix, s, e)),
+        (Interp::Nearest, false) => go(vol, tiles, Mip::<Nearest, Minimum>::new(g, ix, s, e)),
+    }
+}
+
+impl<R: Reconstruct, D: Extreme> Integrator for Mip<'_, R, D> {
     fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, _pixel: [u32; 2], span: Span) -> RayResult {
         let steps = RaySteps::for_span(&self.geom, ray, span);
-        let mut st = MipRay::<R, D, A> {
+        let mut st = MipRay::<R, D> {
             mip: self,
             best: D::START,
             depth: f32::NAN,
             samples: 0,
         };
-        let skips = march(&mut st, &self.accel, cur, &steps);
+        let skips = march(&mut st, &self.skip, cur, &steps);
         RayResult {
             // An infinite sample is a value like any other (it shows white
             // in MIP, black in MinIP); only no sample at all is no value.
@@ -104,14 +156,14 @@ impl<R: Reconstruct, D: Extreme, A: Accel<f32>> Integrator for Mip<R, D, A> {
     }
 }
 
-struct MipRay<'m, R, D, A> {
-    mip: &'m Mip<R, D, A>,
+struct MipRay<'m, 'a, R, D: Extreme> {
+    mip: &'m Mip<'a, R, D>,
     best: f32,
     depth: f32,
     samples: u32,
 }
 
-impl<R: Reconstruct, D: Extreme, A> RayMarch for MipRay<'_, R, D, A> {
+impl<R: Reconstruct, D: Extreme> RayMarch for MipRay<'_, '_, R, D> {
     type Query = f32;
     const CACHE_BUSY: bool = false;
 

@@ -1,14 +1,16 @@
 //! The integrators: what happens along one ray, per mode.
 //!
 //! Each integrator is a type ([`Dvr`], [`Mip`], [`Xray`], [`Iso`]) that
-//! owns its configuration and is generic over the choices that change its
-//! inner loop (reconstruction, gradient method, classifier, shading,
-//! termination, skipping rule), each a small type, so
-//! [`crate::dispatch`] builds exactly one specialised loop per frame and
-//! a choice that is off costs nothing: with shading off no gradient is
-//! computed, MIP, MinIP and X-ray never touch a transfer function, and a
-//! frame without skipping has no skipping code. They all walk the ray's
-//! samples with one loop, [`march::march`].
+//! owns its configuration and is generic only over the choices that change
+//! its inner loop's memory reads or arithmetic (reconstruction, gradient
+//! method, classifier, shading, MIP or MinIP), each a small type; the
+//! rest (early termination, skipping on or off, the lights, shadows and
+//! occlusion) are values checked per ray or per shaded sample. Each
+//! integrator's frame set-up sits beside it and picks its types once per
+//! frame; a choice that is off costs nothing but that check: with shading
+//! off no gradient is computed, and MIP, MinIP and X-ray never touch a
+//! transfer function. They all walk the ray's samples with one loop,
+//! [`march::march`].
 
 pub mod dvr;
 pub mod iso;
@@ -17,10 +19,8 @@ pub mod mip;
 pub mod reconstruct;
 pub mod xray;
 
-pub use dvr::{
-    Dvr, NoTermination, OpacityThreshold, Phong, PhongLights, PhongShading, Shading, Termination,
-    Unshaded,
-};
+pub use dvr::shading::{Phong, Shading, Unshaded};
+pub use dvr::Dvr;
 pub use iso::Iso;
 pub use mip::{Maximum, Minimum, Mip};
 pub use reconstruct::{Analytic, Central, Gradient, Nearest, NoGradient, Reconstruct, Trilinear};

@@ -1,13 +1,17 @@
 //! X-ray: the line integral, or the mean, of the value along the ray.
 
 use super::march::{march, Flow, RayMarch, RaySteps};
-use super::reconstruct::Reconstruct;
+use super::reconstruct::{Nearest, Reconstruct, Trilinear};
 use super::{FrameGeometry, Integrator, RayResult, Span};
-use crate::accel::Accel;
+use crate::accel::FixedCells;
+use crate::error::RenderError;
+use crate::film::Film;
 use crate::ray::Ray;
+use crate::settings::Interp;
+use crate::tiles::Tiles;
 use glam::Vec3;
 use std::marker::PhantomData;
-use volcore::Cursor;
+use volcore::{Cursor, Volume};
 
 /// What an X-ray pixel reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -18,38 +22,54 @@ pub enum XrayOutput {
     Mean,
 }
 
-/// X-ray projection (see [`XrayOutput`]). NaN samples count as 0; `A`
-/// skips cells holding only zeros (counting their samples, so the mean
-/// stays exact). Accumulates in f64.
-pub struct Xray<R, A> {
+/// X-ray projection (see [`XrayOutput`]). NaN samples count as 0; with
+/// skipping on, cells holding only zeros are skipped (their samples
+/// counted, so the mean stays exact). Accumulates in f64.
+pub struct Xray<'a, R> {
     geom: FrameGeometry,
-    accel: A,
+    skip: Option<&'a FixedCells<'a>>,
     output: XrayOutput,
     _choices: PhantomData<R>,
 }
 
-impl<R, A> Xray<R, A> {
-    /// The integrator.
-    pub fn new(geom: FrameGeometry, accel: A, output: XrayOutput) -> Self {
+impl<'a, R> Xray<'a, R> {
+    /// The integrator, skipping the zero cells of `skip` when given.
+    pub fn new(geom: FrameGeometry, skip: Option<&'a FixedCells<'a>>, output: XrayOutput) -> Self {
         Xray {
             geom,
-            accel,
+            skip,
             output,
             _choices: PhantomData,
         }
     }
 }
 
-impl<R: Reconstruct, A: Accel<()>> Integrator for Xray<R, A> {
+/// Render an X-ray frame of `vol`, skipping the zero cells of `skip` when
+/// given.
+pub fn render_frame(
+    vol: &Volume,
+    skip: Option<&FixedCells<'_>>,
+    tiles: &Tiles<'_>,
+    geom: FrameGeometry,
+    interp: Interp,
+    output: XrayOutput,
+) -> Result<Film, RenderError> {
+    match interp {
+        Interp::Trilinear => tiles.render(vol, &Xray::<Trilinear>::new(geom, skip, output)),
+        Interp::Nearest => tiles.render(vol, &Xray::<Nearest>::new(geom, skip, output)),
+    }
+}
+
+impl<R: Reconstruct> Integrator for Xray<'_, R> {
     fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, _pixel: [u32; 2], span: Span) -> RayResult {
         let steps = RaySteps::for_span(&self.geom, ray, span);
-        let mut st = XrayRay::<R, A> {
+        let mut st = XrayRay::<R> {
             xray: self,
             sum: 0.0,
             count: 0,
             samples: 0,
         };
-        let skips = march(&mut st, &self.accel, cur, &steps);
+        let skips = march(&mut st, &self.skip, cur, &steps);
         // Kept in f64: a sum of values near f32's largest overflows f32.
         // Rounded through f32 where it fits, so ordinary frames are
         // exactly what an f32 result gave.
@@ -76,14 +96,14 @@ impl<R: Reconstruct, A: Accel<()>> Integrator for Xray<R, A> {
     }
 }
 
-struct XrayRay<'x, R, A> {
-    xray: &'x Xray<R, A>,
+struct XrayRay<'x, 'a, R> {
+    xray: &'x Xray<'a, R>,
     sum: f64,
     count: i64,
     samples: u32,
 }
 
-impl<R: Reconstruct, A> RayMarch for XrayRay<'_, R, A> {
+impl<R: Reconstruct> RayMarch for XrayRay<'_, '_, R> {
     type Query = ();
     const CACHE_BUSY: bool = false;
 

@@ -447,7 +447,9 @@ impl<'a> PathTracer<'a> {
     }
 }
 
-/// One pass over every row, generic over the volume's source.
+/// One pass over every row: the rows in parallel (compiled once), each
+/// traced by a [`PassRows`] (the part specialised per medium and per
+/// volume layout).
 struct Pass<'e, 'r, M: Medium> {
     est: &'e Estimator<'e, M>,
     rows: &'r mut [[f64; 4]],
@@ -456,33 +458,59 @@ struct Pass<'e, 'r, M: Medium> {
     spp: u64,
 }
 
+/// Traces the samples of one row of a pass.
+trait PassRows: Sync {
+    /// Add samples `start .. start + spp` to each pixel of row `y`.
+    fn row(&self, y: usize, row: &mut [[f64; 4]], start: u64, spp: u64) -> PathCounters;
+}
+
+/// An estimator over one sample source (one cursor per row).
+struct SourceRows<'a, S, M: Medium> {
+    src: &'a S,
+    est: &'a Estimator<'a, M>,
+}
+
+impl<S: VoxelSource, M: Medium> PassRows for SourceRows<'_, S, M> {
+    fn row(&self, y: usize, row: &mut [[f64; 4]], start: u64, spp: u64) -> PathCounters {
+        let mut cur = self.src.cursor();
+        let mut n = PathCounters::default();
+        for (x, px) in row.iter_mut().enumerate() {
+            for i in start..start + spp {
+                let l = self.est.radiance(&mut cur, x as u32, y as u32, i, &mut n);
+                let (r, g, b) = (l.x as f64, l.y as f64, l.z as f64);
+                let lum = accum::luminance(r, g, b);
+                px[0] += r;
+                px[1] += g;
+                px[2] += b;
+                px[3] += lum * lum;
+            }
+        }
+        n
+    }
+}
+
+/// Every row of a pass with `tracer`, in parallel.
+fn pass_rows(
+    tracer: &dyn PassRows,
+    rows: &mut [[f64; 4]],
+    width: usize,
+    start: u64,
+    spp: u64,
+) -> PathCounters {
+    rows.par_chunks_mut(width.max(1))
+        .enumerate()
+        .map(|(y, row)| tracer.row(y, row, start, spp))
+        .reduce(PathCounters::default, |mut a, b| {
+            a += b;
+            a
+        })
+}
+
 impl<M: Medium> VolumeVisitor for Pass<'_, '_, M> {
     type Output = PathCounters;
 
     fn visit<S: VoxelSource>(self, src: &S) -> PathCounters {
-        let (est, start, spp) = (self.est, self.start, self.spp);
-        self.rows
-            .par_chunks_mut(self.width.max(1))
-            .enumerate()
-            .map(|(y, row)| {
-                let mut cur = src.cursor();
-                let mut n = PathCounters::default();
-                for (x, px) in row.iter_mut().enumerate() {
-                    for i in start..start + spp {
-                        let l = est.radiance(&mut cur, x as u32, y as u32, i, &mut n);
-                        let (r, g, b) = (l.x as f64, l.y as f64, l.z as f64);
-                        let lum = accum::luminance(r, g, b);
-                        px[0] += r;
-                        px[1] += g;
-                        px[2] += b;
-                        px[3] += lum * lum;
-                    }
-                }
-                n
-            })
-            .reduce(PathCounters::default, |mut a, b| {
-                a += b;
-                a
-            })
+        let tracer = SourceRows { src, est: self.est };
+        pass_rows(&tracer, self.rows, self.width, self.start, self.spp)
     }
 }

@@ -1,269 +1,70 @@
 //! Emission-absorption compositing, front to back.
+//!
+//! The integrator ([`Dvr`]) is generic only over what changes its inner
+//! loop: reconstruction, gradient method, classifier (1D or 2D) and
+//! shading ([`shading`]: unshaded or Blinn-Phong). Early termination and
+//! empty-space skipping are runtime values, decided once per ray; the
+//! frame's set-up ([`setup`]) picks the types.
+
+pub mod setup;
+pub mod shading;
 
 use super::march::{march, one_by_one, Flow, RayMarch, RaySteps};
 use super::reconstruct::{Gradient, Reconstruct};
 use super::{FrameGeometry, Integrator, RayResult, Span};
-use crate::accel::Accel;
+use crate::accel::FixedCells;
 use crate::classify::Classifier;
-use crate::effects::RayEffects;
-use crate::light::Light;
 use crate::ray::Ray;
-use crate::shade::{Lanes3, Lighting, ViewShading};
 use glam::Vec3;
+use shading::Shading;
 use std::marker::PhantomData;
 use volcore::grid::Locator;
 use volcore::Cursor;
 
-/// When a ray may stop before it leaves the volume.
-pub trait Termination: Copy + Send + Sync + 'static {
-    /// Whether accumulated opacity `alpha` ends the ray.
-    fn reached(&self, alpha: f32) -> bool;
-}
-
-/// Rays run to the end of the volume.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct NoTermination;
-
-/// Early ray termination: a ray stops once its opacity reaches the
-/// threshold (what it would still gather is at most `1 − threshold`).
-#[derive(Clone, Copy, Debug)]
-pub struct OpacityThreshold(pub f32);
-
-impl Termination for NoTermination {
-    #[inline(always)]
-    fn reached(&self, _: f32) -> bool {
-        false
-    }
-}
-
-impl Termination for OpacityThreshold {
-    #[inline(always)]
-    fn reached(&self, alpha: f32) -> bool {
-        alpha >= self.0
-    }
-}
-
-/// How a classified sample's colour is lit.
-pub trait Shading: Sync {
-    /// What the shading works out once per ray (and what it counts along
-    /// it).
-    type PerRay;
-    /// Whether it shades at all (then the integrator computes gradients
-    /// of visible samples).
-    const ON: bool;
-    /// The per-ray part for `ray` through `pixel`.
-    fn for_ray(&self, ray: &Ray, pixel: [u32; 2]) -> Self::PerRay;
-    /// `colour` lit at ray parameter `t`, where the world-space gradient
-    /// is `grad`, of squared length `len2`; effects that sample the volume
-    /// (shadows) read it through `cur`.
-    fn shade<C: Cursor>(
-        &self,
-        per_ray: &mut Self::PerRay,
-        cur: &mut C,
-        colour: Vec3,
-        grad: Vec3,
-        len2: f32,
-        t: f32,
-    ) -> Vec3;
-    /// What the effects did along the ray (nothing, for plain shading).
-    #[inline(always)]
-    fn effects(_per_ray: &Self::PerRay) -> RayEffects {
-        RayEffects::default()
-    }
-    /// Whether [`Shading::shade8`] may shade runs of eight samples (it
-    /// then reads nothing through a cursor).
-    const LANES: bool = false;
-    /// [`Shading::shade`] of eight samples at ray parameters `t` of
-    /// colours `colour` and world gradients `grad` (per component, then
-    /// per lane), bit for bit, for the lanes set in `visible` (the others
-    /// are garbage); `None` where it cannot here (then the samples go one
-    /// by one).
-    #[inline(always)]
-    fn shade8(
-        &self,
-        _per_ray: &mut Self::PerRay,
-        _colour: &Lanes3,
-        _grad: &Lanes3,
-        _t: &[f32; 8],
-        _visible: u8,
-    ) -> Option<Lanes3> {
-        None
-    }
-}
-
-/// Classified colour as is.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Unshaded;
-
-impl Shading for Unshaded {
-    type PerRay = ();
-    const ON: bool = false;
-    #[inline(always)]
-    fn for_ray(&self, _: &Ray, _: [u32; 2]) {}
-    #[inline(always)]
-    fn shade<C: Cursor>(
-        &self,
-        _: &mut (),
-        _: &mut C,
-        colour: Vec3,
-        _: Vec3,
-        _: f32,
-        _: f32,
-    ) -> Vec3 {
-        colour
-    }
-}
-
-/// Blinn-Phong with one light that arrives from the same direction all
-/// along a ray (a headlight or a directional light): the light's part of
-/// the shading is worked out once per ray. Samples whose gradient is too
-/// short to give a normal keep their colour.
-#[derive(Clone, Copy, Debug)]
-pub struct Phong<'a> {
-    lighting: &'a Lighting,
-    light: Light,
-    threshold2: f32,
-}
-
-/// Blinn-Phong with any lights (point lights, several lights): every
-/// light is evaluated at each shaded sample.
-#[derive(Clone, Copy, Debug)]
-pub struct PhongLights<'a> {
-    lighting: &'a Lighting,
-    threshold2: f32,
-}
-
-/// Blinn-Phong shading of a frame, as the lights allow it to be computed.
-#[derive(Clone, Copy, Debug)]
-pub enum PhongShading<'a> {
-    /// One per-ray light.
-    OneLight(Phong<'a>),
-    /// Any lights.
-    Lights(PhongLights<'a>),
-}
-
-impl<'a> PhongShading<'a> {
-    /// Shading with `lighting`, where the squared gradient length exceeds
-    /// `threshold2`: the per-ray form when the lighting allows it.
-    pub fn new(lighting: &'a Lighting, threshold2: f32) -> PhongShading<'a> {
-        match lighting.single_per_ray_light() {
-            Some(light) => PhongShading::OneLight(Phong {
-                lighting,
-                light,
-                threshold2,
-            }),
-            None => PhongShading::Lights(PhongLights {
-                lighting,
-                threshold2,
-            }),
-        }
-    }
-}
-
-impl Shading for Phong<'_> {
-    type PerRay = ViewShading;
-    const ON: bool = true;
-    #[inline(always)]
-    fn for_ray(&self, ray: &Ray, _: [u32; 2]) -> ViewShading {
-        self.lighting.for_view(self.light, ray.dir)
-    }
-    #[inline(always)]
-    fn shade<C: Cursor>(
-        &self,
-        view: &mut ViewShading,
-        _: &mut C,
-        colour: Vec3,
-        grad: Vec3,
-        len2: f32,
-        _: f32,
-    ) -> Vec3 {
-        if len2 > self.threshold2 {
-            view.shade_normal(colour, grad * len2.sqrt().recip())
-        } else {
-            colour
-        }
-    }
-    const LANES: bool = true;
-    #[inline(always)]
-    fn shade8(
-        &self,
-        view: &mut ViewShading,
-        colour: &Lanes3,
-        grad: &Lanes3,
-        _: &[f32; 8],
-        _: u8,
-    ) -> Option<Lanes3> {
-        view.shade8(colour, grad, self.threshold2, None)
-    }
-}
-
-impl Shading for PhongLights<'_> {
-    type PerRay = Ray;
-    const ON: bool = true;
-    #[inline(always)]
-    fn for_ray(&self, ray: &Ray, _: [u32; 2]) -> Ray {
-        *ray
-    }
-    #[inline(always)]
-    fn shade<C: Cursor>(
-        &self,
-        ray: &mut Ray,
-        _: &mut C,
-        colour: Vec3,
-        grad: Vec3,
-        len2: f32,
-        t: f32,
-    ) -> Vec3 {
-        if len2 > self.threshold2 {
-            let p = ray.origin + ray.dir * t;
-            self.lighting.shade_at(colour, grad, ray.dir, p)
-        } else {
-            colour
-        }
-    }
-}
-
 /// Emission-absorption: composite `C += (1 − A)·α·c`, `A += (1 − A)·α`
 /// front to back over the samples, each classified by `K` (reading its
-/// gradient, from `G`, when `K` asks for it), lit by `S`, skipping
-/// transparent cells with `A`, stopping by `T`.
-pub struct Dvr<'a, R, G, K, S, T, A> {
+/// gradient, from `G`, when `K` asks for it), lit by `S`, skipping the
+/// cells the frame found transparent (when skipping is on), stopping once
+/// the opacity reaches the termination threshold (infinite when early
+/// termination is off).
+pub struct Dvr<'a, R, G, K, S> {
     geom: FrameGeometry,
     classifier: &'a K,
     shading: S,
-    termination: T,
-    accel: A,
+    termination: f32,
+    skip: Option<&'a FixedCells<'a>>,
     _choices: PhantomData<(R, G)>,
 }
 
-impl<'a, R, G, K, S, T, A> Dvr<'a, R, G, K, S, T, A> {
-    /// The integrator from its parts.
+impl<'a, R, G, K, S> Dvr<'a, R, G, K, S> {
+    /// The integrator from its parts: rays stop once their opacity reaches
+    /// `termination` (`None`: they run to the end of the volume), and skip
+    /// the cells of `skip` (`None`: no skipping).
     pub fn new(
         geom: FrameGeometry,
         classifier: &'a K,
         shading: S,
-        termination: T,
-        accel: A,
+        termination: Option<f32>,
+        skip: Option<&'a FixedCells<'a>>,
     ) -> Self {
         Dvr {
             geom,
             classifier,
             shading,
-            termination,
-            accel,
+            // An opacity never reaches infinity: no ray stops early.
+            termination: termination.unwrap_or(f32::INFINITY),
+            skip,
             _choices: PhantomData,
         }
     }
 }
 
-impl<R, G, K, S, T, A> Integrator for Dvr<'_, R, G, K, S, T, A>
+impl<R, G, K, S> Integrator for Dvr<'_, R, G, K, S>
 where
     R: Reconstruct,
     G: Gradient,
     K: Classifier,
     S: Shading,
-    T: Termination,
-    A: Accel<()>,
 {
     fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, pixel: [u32; 2], span: Span) -> RayResult {
         let steps = RaySteps::for_span(&self.geom, ray, span);
@@ -276,7 +77,7 @@ where
             alpha: 0.0,
             samples: 0,
         };
-        let skips = march(&mut st, &self.accel, cur, &steps);
+        let skips = march(&mut st, &self.skip, cur, &steps);
         RayResult {
             rgba: [st.colour.x, st.colour.y, st.colour.z, st.alpha],
             samples: st.samples,
@@ -287,8 +88,8 @@ where
     }
 }
 
-struct DvrRay<'d, 'a, R, G, K, S: Shading, T, A> {
-    dvr: &'d Dvr<'a, R, G, K, S, T, A>,
+struct DvrRay<'d, 'a, R, G, K, S: Shading> {
+    dvr: &'d Dvr<'a, R, G, K, S>,
     // Copies of the frame geometry the samples read, local to the ray so
     // they stay in registers.
     loc: Locator,
@@ -299,13 +100,12 @@ struct DvrRay<'d, 'a, R, G, K, S: Shading, T, A> {
     samples: u32,
 }
 
-impl<R, G, K, S, T, A> RayMarch for DvrRay<'_, '_, R, G, K, S, T, A>
+impl<R, G, K, S> RayMarch for DvrRay<'_, '_, R, G, K, S>
 where
     R: Reconstruct,
     G: Gradient,
     K: Classifier,
     S: Shading,
-    T: Termination,
 {
     type Query = ();
     const CACHE_BUSY: bool = true;
@@ -364,13 +164,12 @@ where
     }
 }
 
-impl<R, G, K, S, T, A> DvrRay<'_, '_, R, G, K, S, T, A>
+impl<R, G, K, S> DvrRay<'_, '_, R, G, K, S>
 where
     R: Reconstruct,
     G: Gradient,
     K: Classifier,
     S: Shading,
-    T: Termination,
 {
     /// Classify, shade and composite the sample of value `v` at ray
     /// parameter `t`, point `p` (`early`: what reading `v` gave the
@@ -441,7 +240,7 @@ where
         let weight = (1.0 - self.alpha) * alpha;
         self.colour += c * weight;
         self.alpha += weight;
-        if self.dvr.termination.reached(self.alpha) {
+        if self.alpha >= self.dvr.termination {
             Flow::Stop
         } else {
             Flow::Next
@@ -499,7 +298,7 @@ where
             if visible >> i & 1 == 1 {
                 reached |= 1 << i;
                 alpha += (1.0 - alpha) * e[3];
-                if d.termination.reached(alpha) {
+                if alpha >= d.termination {
                     break;
                 }
             }

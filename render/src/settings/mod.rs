@@ -1,5 +1,8 @@
-//! What a frame is asked to be: the user's choices, before they are
-//! resolved into concrete integrator types (see [`crate::dispatch`]).
+//! What a frame is asked to be: the user's choices, before each frame's
+//! set-up resolves them into the concrete integrator it traces
+//! ([`crate::integrator`]), and the checks they pass first ([`check`]).
+
+pub mod check;
 
 use crate::effects::{Ao, Shadows};
 use crate::shade::Lighting;
