@@ -128,6 +128,7 @@ pub fn render_film(
         step: settings.step,
         inv_spacing: inv_spacing(vol),
         locator: volcore::grid::Locator::new(vol.dims()),
+        interp: settings.interp,
     };
     let skip_index = if settings.ess { index } else { None };
     let hi = Vec3::from(vol.meta.world_extent());
@@ -163,10 +164,7 @@ pub fn render_film(
             let range = value_range(vol);
             let extreme = if maximum { range.1 } else { range.0 };
             let stop = settings.ert.is_some();
-            let interp = settings.interp;
-            mip::render_frame(
-                vol, skip_index, &tiles, geom, interp, maximum, stop, extreme,
-            )?
+            mip::render_frame(vol, skip_index, &tiles, geom, maximum, stop, extreme)?
         }
         Mode::XraySum | Mode::XrayMean => {
             let zero = skip_index.map(FixedCells::zero);
@@ -175,7 +173,7 @@ pub fn render_film(
             } else {
                 XrayOutput::Sum
             };
-            xray::render_frame(vol, zero.as_ref(), &tiles, geom, settings.interp, output)?
+            xray::render_frame(vol, zero.as_ref(), &tiles, geom, output)?
         }
         Mode::Iso(level) => iso::render_frame(vol, skip_index, &tiles, geom, settings, level)?,
     };

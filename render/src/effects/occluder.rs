@@ -1,7 +1,8 @@
 //! What blocks light: the optical depth one shadow sample adds.
 
 use crate::classify::Classifier;
-use crate::integrator::reconstruct::{Gradient, Reconstruct};
+use crate::integrator::reconstruct::{Gradient, Interp};
+use crate::integrator::FrameGeometry;
 use glam::Vec3;
 use std::marker::PhantomData;
 use volcore::grid::Locator;
@@ -16,10 +17,16 @@ pub trait Occluder: Sync {
     /// step the occluder was built for: 0 clear, infinite opaque, never
     /// negative or NaN.
     fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, q: Self::Query) -> f32;
-    /// Whether a sample's depth follows from its trilinear value alone
-    /// (then [`Occluder::depth8`] gives it, and shadow rays read
-    /// values eight at a time).
+    /// Whether a sample's depth follows from its value alone (then, where
+    /// the frame reconstructs trilinearly, [`Occluder::depth8`] gives it,
+    /// and shadow rays read values eight at a time).
     const FROM_VALUE: bool = false;
+    /// Whether samples are reconstructed trilinearly (asked once per
+    /// shadow ray, where [`Occluder::FROM_VALUE`] holds).
+    #[inline(always)]
+    fn trilinear(&self) -> bool {
+        true
+    }
     /// The depths of eight samples of trilinear values `v`, where
     /// [`Occluder::FROM_VALUE`] holds: [`Occluder::depth`] bit for bit.
     #[inline(always)]
@@ -33,36 +40,42 @@ pub trait Occluder: Sync {
 /// opacity for the shadow step, read from a depth table
 /// ([`Classifier::to_optical_depth`]); gradients from `G` when the
 /// classifier reads them.
-pub struct Classified<'a, R, G, K> {
+pub struct Classified<'a, G, K> {
     table: &'a K,
     loc: Locator,
     inv_spacing: Vec3,
-    _choices: PhantomData<(R, G)>,
+    interp: Interp,
+    _gradient: PhantomData<G>,
 }
 
-impl<'a, R, G, K> Classified<'a, R, G, K> {
+impl<'a, G, K> Classified<'a, G, K> {
     /// The occluder reading `depth_table` (built by
-    /// [`Classifier::to_optical_depth`]).
-    pub fn new(depth_table: &'a K, loc: Locator, inv_spacing: Vec3) -> Self {
+    /// [`Classifier::to_optical_depth`]) in a frame of geometry `geom`.
+    pub fn new(depth_table: &'a K, geom: &FrameGeometry) -> Self {
         Classified {
             table: depth_table,
-            loc,
-            inv_spacing,
-            _choices: PhantomData,
+            loc: geom.locator,
+            inv_spacing: geom.inv_spacing,
+            interp: geom.interp,
+            _gradient: PhantomData,
         }
     }
 }
 
-impl<R: Reconstruct, G: Gradient, K: Classifier> Occluder for Classified<'_, R, G, K> {
+impl<G: Gradient, K: Classifier> Occluder for Classified<'_, G, K> {
     type Query = ();
-    const FROM_VALUE: bool = R::TRILINEAR && G::FROM_VALUE.is_some() && !K::NEEDS_GRADIENT;
+    const FROM_VALUE: bool = G::FROM_VALUE.is_some() && !K::NEEDS_GRADIENT;
+    #[inline(always)]
+    fn trilinear(&self) -> bool {
+        self.interp.is_trilinear()
+    }
     #[inline(always)]
     fn depth8(&self, v: &[f32; 8], _: ()) -> [f32; 8] {
         self.table.alpha8(v)
     }
     #[inline(always)]
     fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, _: ()) -> f32 {
-        let (v, early) = G::value::<C, R>(&self.loc, cur, p);
+        let (v, early) = G::value(self.interp, &self.loc, cur, p);
         let g = if K::NEEDS_GRADIENT {
             (G::gradient(early, &self.loc, cur, p) * self.inv_spacing).length()
         } else {
@@ -76,26 +89,30 @@ impl<R: Reconstruct, G: Gradient, K: Classifier> Occluder for Classified<'_, R, 
 /// level from the outside blocks all light. The query is the outside's
 /// side (`true`: values at or above the level; a surface seen from inside
 /// lights its inside).
-pub struct IsoInside<R> {
+pub struct IsoInside {
     level: f32,
     loc: Locator,
-    _r: PhantomData<R>,
+    interp: Interp,
 }
 
-impl<R> IsoInside<R> {
-    /// The inside for iso value `level`.
-    pub fn new(level: f32, loc: Locator) -> Self {
+impl IsoInside {
+    /// The inside for iso value `level` in a frame of geometry `geom`.
+    pub fn new(level: f32, geom: &FrameGeometry) -> Self {
         IsoInside {
             level,
-            loc,
-            _r: PhantomData,
+            loc: geom.locator,
+            interp: geom.interp,
         }
     }
 }
 
-impl<R: Reconstruct> Occluder for IsoInside<R> {
+impl Occluder for IsoInside {
     type Query = bool;
-    const FROM_VALUE: bool = R::TRILINEAR;
+    const FROM_VALUE: bool = true;
+    #[inline(always)]
+    fn trilinear(&self) -> bool {
+        self.interp.is_trilinear()
+    }
     #[inline(always)]
     fn depth8(&self, v: &[f32; 8], outside_above: bool) -> [f32; 8] {
         v.map(|v| {
@@ -108,7 +125,7 @@ impl<R: Reconstruct> Occluder for IsoInside<R> {
     }
     #[inline(always)]
     fn depth<C: Cursor>(&self, cur: &mut C, p: Vec3, outside_above: bool) -> f32 {
-        if (R::value(&self.loc, cur, p) >= self.level) != outside_above {
+        if (self.interp.value(&self.loc, cur, p) >= self.level) != outside_above {
             f32::INFINITY
         } else {
             0.0

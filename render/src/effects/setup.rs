@@ -10,11 +10,10 @@ use super::{EffectStats, ShadowMethod, Shadows};
 use crate::accel::open_sky::OpenSky;
 use crate::accel::{ClearBoxes, FixedCells};
 use crate::error::RenderError;
-use crate::integrator::reconstruct::{Nearest, Trilinear};
 use crate::integrator::FrameGeometry;
 use crate::light::Light;
 use crate::sampler::HashSampler;
-use crate::settings::{Interp, RenderSettings};
+use crate::settings::RenderSettings;
 use glam::Vec3;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
 
@@ -270,23 +269,14 @@ impl<O: Occluder> VolumeVisitor for BuildOcclusion<'_, O> {
 /// is below it); adds its costs to `stats`.
 pub fn iso_ao(
     vol: &Volume,
-    settings: &RenderSettings,
     ao: &Ao,
     geom: &FrameGeometry,
     level: f32,
     clear: Option<&ClearBoxes<'_>>,
     stats: &mut EffectStats,
 ) -> Result<AoParts, RenderError> {
-    match settings.interp {
-        Interp::Trilinear => {
-            let occ = IsoInside::<Trilinear>::new(level, geom.locator);
-            ao_parts(vol, ao, geom.step, &occ, false, clear, stats)
-        }
-        Interp::Nearest => {
-            let occ = IsoInside::<Nearest>::new(level, geom.locator);
-            ao_parts(vol, ao, geom.step, &occ, false, clear, stats)
-        }
-    }
+    let occ = IsoInside::new(level, geom);
+    ao_parts(vol, ao, geom.step, &occ, false, clear, stats)
 }
 
 /// The grids of an iso frame: values at or above `level` block light (the
@@ -300,14 +290,6 @@ pub fn iso_grids(
     clear: Option<&ClearBoxes<'_>>,
 ) -> Result<(Vec<Option<LightGrid>>, EffectStats), RenderError> {
     let lights = &settings.lighting.lights;
-    match settings.interp {
-        Interp::Trilinear => {
-            let occ = IsoInside::<Trilinear>::new(level, geom.locator);
-            light_grids(vol, lights, shadows, geom.step, &occ, false, clear)
-        }
-        Interp::Nearest => {
-            let occ = IsoInside::<Nearest>::new(level, geom.locator);
-            light_grids(vol, lights, shadows, geom.step, &occ, false, clear)
-        }
-    }
+    let occ = IsoInside::new(level, geom);
+    light_grids(vol, lights, shadows, geom.step, &occ, false, clear)
 }

@@ -79,6 +79,11 @@ impl<O: Occluder> RayMarch for ShadowMarch<'_, O> {
     const BATCH: bool = O::FROM_VALUE;
 
     #[inline(always)]
+    fn reads_trilinear(&self) -> bool {
+        self.occ.trilinear()
+    }
+
+    #[inline(always)]
     fn sample8<C: Cursor>(
         &mut self,
         _: &mut C,

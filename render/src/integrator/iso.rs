@@ -1,7 +1,7 @@
 //! Iso-surfaces: the first crossing, refined by bisection, shaded.
 
 use super::march::{march, Flow, RayMarch, RaySteps};
-use super::reconstruct::{Analytic, Central, Gradient, Nearest, Reconstruct, Trilinear};
+use super::reconstruct::{Analytic, Central, Gradient};
 use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::skip::{ISO_ABOVE, ISO_BELOW};
 use crate::accel::{Accel, IsoSides};
@@ -11,7 +11,7 @@ use crate::effects::{AoSource, EffectStats, IsoInside, LightGrid, ShadowCaster, 
 use crate::error::RenderError;
 use crate::film::Film;
 use crate::ray::Ray;
-use crate::settings::{GradientMethod, Interp, RenderSettings};
+use crate::settings::{GradientMethod, RenderSettings};
 use crate::shade::Lighting;
 use crate::tiles::Tiles;
 use glam::Vec3;
@@ -28,7 +28,7 @@ const BISECTIONS: u32 = 20;
 /// two samples and refined by bisection, then shaded with the gradient
 /// from `G`. With skipping on, cells whose every value is on the ray's side
 /// are skipped, and a uniform cell's class is known without a sample.
-pub struct Iso<'a, R, G> {
+pub struct Iso<'a, G> {
     geom: FrameGeometry,
     skip: Option<&'a IsoSides<'a>>,
     level: f32,
@@ -36,16 +36,16 @@ pub struct Iso<'a, R, G> {
     colour: Vec3,
     lighting: &'a Lighting,
     /// Shadows, if the frame casts them.
-    shadows: Option<&'a IsoCaster<'a, R>>,
+    shadows: Option<&'a IsoCaster<'a>>,
     /// Ambient occlusion, if the frame asks for it.
     ao: Option<&'a AoSource<'a>>,
-    _choices: PhantomData<(R, G)>,
+    _gradient: PhantomData<G>,
 }
 
 /// Shadows on an iso-surface: its inside blocks light.
-pub type IsoCaster<'a, R> = ShadowCaster<'a, IsoInside<R>, IsoSides<'a>>;
+pub type IsoCaster<'a> = ShadowCaster<'a, IsoInside, IsoSides<'a>>;
 
-impl<'a, R, G> Iso<'a, R, G> {
+impl<'a, G> Iso<'a, G> {
     /// The integrator for iso value `level`, surface colour `colour`
     /// (linear) lit by `lighting`, skipping by `skip`, shadowed by
     /// `shadows` and occluded by `ao` when given.
@@ -56,7 +56,7 @@ impl<'a, R, G> Iso<'a, R, G> {
         level: f32,
         colour: Vec3,
         lighting: &'a Lighting,
-        shadows: Option<&'a IsoCaster<'a, R>>,
+        shadows: Option<&'a IsoCaster<'a>>,
         ao: Option<&'a AoSource<'a>>,
     ) -> Self {
         Iso {
@@ -67,12 +67,12 @@ impl<'a, R, G> Iso<'a, R, G> {
             lighting,
             shadows,
             ao,
-            _choices: PhantomData,
+            _gradient: PhantomData,
         }
     }
 }
 
-impl<R: Reconstruct, G: Gradient> Integrator for Iso<'_, R, G> {
+impl<G: Gradient> Integrator for Iso<'_, G> {
     fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, pixel: [u32; 2], span: Span) -> RayResult {
         let steps = RaySteps::for_span(&self.geom, ray, span);
         let mut st = IsoRay {
@@ -95,8 +95,8 @@ impl<R: Reconstruct, G: Gradient> Integrator for Iso<'_, R, G> {
     }
 }
 
-struct IsoRay<'i, 'a, R, G> {
-    iso: &'i Iso<'a, R, G>,
+struct IsoRay<'i, 'a, G> {
+    iso: &'i Iso<'a, G>,
     steps: &'i RaySteps,
     ray: &'i Ray,
     pixel: [u32; 2],
@@ -106,7 +106,7 @@ struct IsoRay<'i, 'a, R, G> {
     out: RayResult,
 }
 
-impl<R: Reconstruct, G: Gradient> RayMarch for IsoRay<'_, '_, R, G> {
+impl<G: Gradient> RayMarch for IsoRay<'_, '_, G> {
     type Query = bool;
     const CACHE_BUSY: bool = false;
 
@@ -135,7 +135,7 @@ impl<R: Reconstruct, G: Gradient> RayMarch for IsoRay<'_, '_, R, G> {
             Some(c) => c,
             None => {
                 self.out.samples += 1;
-                R::value(&iso.geom.locator, cur, p) >= iso.level
+                iso.geom.interp.value(&iso.geom.locator, cur, p) >= iso.level
             }
         };
         if class != self.prev {
@@ -151,14 +151,16 @@ impl<R: Reconstruct, G: Gradient> RayMarch for IsoRay<'_, '_, R, G> {
     }
 }
 
-impl<R: Reconstruct, G: Gradient> IsoRay<'_, '_, R, G> {
+impl<G: Gradient> IsoRay<'_, '_, G> {
     /// Bisect `[a, b]`, where the class at `b` is `class_b` and at `a` the
     /// opposite, down to `BISECTIONS` halvings; returns the midpoint.
     fn refine<C: Cursor>(&self, cur: &mut C, mut a: f32, mut b: f32, class_b: bool) -> f32 {
-        let loc = &self.iso.geom.locator;
+        let geom = &self.iso.geom;
         for _ in 0..BISECTIONS {
             let m = 0.5 * (a + b);
-            if (R::value(loc, cur, self.steps.at(m)) >= self.iso.level) == class_b {
+            if (geom.interp.value(&geom.locator, cur, self.steps.at(m)) >= self.iso.level)
+                == class_b
+            {
                 b = m;
             } else {
                 a = m;
@@ -171,7 +173,7 @@ impl<R: Reconstruct, G: Gradient> IsoRay<'_, '_, R, G> {
         let iso = self.iso;
         let loc = &iso.geom.locator;
         let p = self.steps.at(t);
-        let (v, early) = G::value::<C, R>(loc, cur, p);
+        let (v, early) = G::value(iso.geom.interp, loc, cur, p);
         let g = G::gradient(early, loc, cur, p) * iso.geom.inv_spacing;
         let at = self.ray.origin + self.ray.dir * t;
         // The side the view ray arrived from is the outside: the gradient
@@ -235,7 +237,6 @@ pub fn render_frame(
     let ao_parts = match &settings.ao {
         Some(ao) => Some(iso_ao(
             vol,
-            settings,
             ao,
             &sgeom,
             level,
@@ -275,11 +276,9 @@ pub fn render_frame(
         shadows: shadows.as_ref(),
         ao: ao.as_ref(),
     };
-    let mut film = match (settings.interp, settings.gradient) {
-        (Interp::Trilinear, GradientMethod::Central) => frame.trace::<Trilinear, Central>(),
-        (Interp::Trilinear, GradientMethod::Analytic) => frame.trace::<Trilinear, Analytic>(),
-        (Interp::Nearest, GradientMethod::Central) => frame.trace::<Nearest, Central>(),
-        (Interp::Nearest, GradientMethod::Analytic) => frame.trace::<Nearest, Analytic>(),
+    let mut film = match settings.gradient {
+        GradientMethod::Central => frame.trace::<Central>(),
+        GradientMethod::Analytic => frame.trace::<Analytic>(),
     }?;
     if let Some(sh) = &shadows {
         film.add_grid_stats(&sh.stats);
@@ -302,10 +301,10 @@ struct IsoFrame<'a> {
 }
 
 impl IsoFrame<'_> {
-    /// Trace the frame with reconstruction `R` and gradient method `G`.
-    fn trace<R: Reconstruct, G: Gradient>(&self) -> Result<Film, RenderError> {
+    /// Trace the frame with gradient method `G`.
+    fn trace<G: Gradient>(&self) -> Result<Film, RenderError> {
         let caster = self.shadows.map(|sh| {
-            let occ = IsoInside::<R>::new(self.level, sh.geom.locator);
+            let occ = IsoInside::new(self.level, &sh.geom);
             ShadowCaster::new(
                 occ,
                 self.skip,
@@ -315,7 +314,7 @@ impl IsoFrame<'_> {
                 sh.grid_offset,
             )
         });
-        let iso = Iso::<R, G>::new(
+        let iso = Iso::<G>::new(
             self.geom,
             self.skip,
             self.level,

@@ -148,6 +148,12 @@ pub trait RayMarch {
     /// [`RayMarch::sample8`] with their trilinear values read at once (the
     /// samples read nothing else to find their value, nor their cell).
     const BATCH: bool = false;
+    /// Whether this ray's samples are trilinear values (asked once per
+    /// ray; a frame that reconstructs otherwise takes them one by one).
+    #[inline(always)]
+    fn reads_trilinear(&self) -> bool {
+        true
+    }
     /// Take samples `k .. k + 8` at ray parameters `t` (points
     /// `s.at(t[i])`), whose trilinear values are `v`, in order, exactly as
     /// [`RayMarch::sample`] would one by one; stop where it would.
@@ -204,7 +210,7 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     // where the integrator and the cursor allow it; the rest of a run
     // goes one by one.
     let on = A::ON && accel.active();
-    let batch = M::BATCH && (M::CACHE_BUSY || !on) && cur.batches();
+    let batch = M::BATCH && state.reads_trilinear() && (M::CACHE_BUSY || !on) && cur.batches();
     let (o, d) = (steps.ray.o.to_array(), steps.ray.d.to_array());
     // When a run of eight would cross the end of a busy cell, the loop
     // looks one sample ahead: if that sample's cell is busy too, the busy

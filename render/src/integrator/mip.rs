@@ -1,13 +1,11 @@
 //! Maximum and minimum intensity projection.
 
 use super::march::{march, Flow, RayMarch, RaySteps};
-use super::reconstruct::{Nearest, Reconstruct, Trilinear};
 use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::{Accel, RunningMax, RunningMin};
 use crate::error::RenderError;
 use crate::film::Film;
 use crate::ray::Ray;
-use crate::settings::Interp;
 use crate::tiles::Tiles;
 use glam::Vec3;
 use std::marker::PhantomData;
@@ -73,15 +71,15 @@ impl Extreme for Minimum {
 /// reaches the volume's own extreme (nothing can beat it; checked only
 /// when the value improves). With skipping on, cells whose range cannot
 /// beat the running value are skipped ([`Extreme::Skip`]).
-pub struct Mip<'a, R, D: Extreme> {
+pub struct Mip<'a, D: Extreme> {
     geom: FrameGeometry,
     skip: Option<D::Skip<'a>>,
     stop_at_extreme: bool,
     extreme: f32,
-    _choices: PhantomData<R>,
+    _extreme: PhantomData<D>,
 }
 
-impl<'a, R, D: Extreme> Mip<'a, R, D> {
+impl<'a, D: Extreme> Mip<'a, D> {
     /// The integrator, skipping over `index` when given; `extreme` is the
     /// volume's largest (MIP) or smallest (MinIP) value.
     pub fn new(
@@ -95,7 +93,7 @@ impl<'a, R, D: Extreme> Mip<'a, R, D> {
             skip: index.map(D::skip),
             stop_at_extreme,
             extreme,
-            _choices: PhantomData,
+            _extreme: PhantomData,
         }
     }
 }
@@ -103,37 +101,27 @@ impl<'a, R, D: Extreme> Mip<'a, R, D> {
 /// Render a MIP (`maximum`) or MinIP frame of `vol`, skipping over
 /// `index` when given; rays stop at the volume's `extreme` when
 /// `stop_at_extreme`.
-#[allow(clippy::too_many_arguments)]
 pub fn render_frame(
     vol: &Volume,
     index: Option<&MajorantIndex>,
     tiles: &Tiles<'_>,
     geom: FrameGeometry,
-    interp: Interp,
     maximum: bool,
     stop_at_extreme: bool,
     extreme: f32,
 ) -> Result<Film, RenderError> {
-    fn go<R: Reconstruct, D: Extreme>(
-        vol: &Volume,
-        tiles: &Tiles<'_>,
-        mip: Mip<'_, R, D>,
-    ) -> Result<Film, RenderError> {
-        tiles.render(vol, &mip)
-    }
     let (g, ix, s, e) = (geom, index, stop_at_extreme, extreme);
-    match (interp, maximum) {
-        (Interp::Trilinear, true) => go(vol, tiles, Mip::<Trilinear, Maximum>::new(g, ix, s, e)),
-        (Interp::Trilinear, false) => go(vol, tiles, Mip::<Trilinear, Minimum>::new(g, ix, s, e)),
-        (Interp::Nearest, true) => go(vol, tiles, Mip::<Nearest, Maximum>::new(g, ix, s, e)),
-        (Interp::Nearest, false) => go(vol, tiles, Mip::<Nearest, Minimum>::new(g, ix, s, e)),
+    if maximum {
+        tiles.render(vol, &Mip::<Maximum>::new(g, ix, s, e))
+    } else {
+        tiles.render(vol, &Mip::<Minimum>::new(g, ix, s, e))
     }
 }
 
-impl<R: Reconstruct, D: Extreme> Integrator for Mip<'_, R, D> {
+impl<D: Extreme> Integrator for Mip<'_, D> {
     fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, _pixel: [u32; 2], span: Span) -> RayResult {
         let steps = RaySteps::for_span(&self.geom, ray, span);
-        let mut st = MipRay::<R, D> {
+        let mut st = MipRay::<D> {
             mip: self,
             best: D::START,
             depth: f32::NAN,
@@ -156,14 +144,14 @@ impl<R: Reconstruct, D: Extreme> Integrator for Mip<'_, R, D> {
     }
 }
 
-struct MipRay<'m, 'a, R, D: Extreme> {
-    mip: &'m Mip<'a, R, D>,
+struct MipRay<'m, 'a, D: Extreme> {
+    mip: &'m Mip<'a, D>,
     best: f32,
     depth: f32,
     samples: u32,
 }
 
-impl<R: Reconstruct, D: Extreme> RayMarch for MipRay<'_, '_, R, D> {
+impl<D: Extreme> RayMarch for MipRay<'_, '_, D> {
     type Query = f32;
     const CACHE_BUSY: bool = false;
 
@@ -181,7 +169,8 @@ impl<R: Reconstruct, D: Extreme> RayMarch for MipRay<'_, '_, R, D> {
         p: Vec3,
         _: Option<usize>,
     ) -> Flow {
-        let v = R::value(&self.mip.geom.locator, cur, p);
+        let geom = &self.mip.geom;
+        let v = geom.interp.value(&geom.locator, cur, p);
         self.samples += 1;
         if D::beats(v, self.best) {
             self.best = v;

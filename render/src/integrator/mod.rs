@@ -2,10 +2,11 @@
 //!
 //! Each integrator is a type ([`Dvr`], [`Mip`], [`Xray`], [`Iso`]) that
 //! owns its configuration and is generic only over the choices that change
-//! its inner loop's memory reads or arithmetic (reconstruction, gradient
-//! method, classifier, shading, MIP or MinIP), each a small type; the
-//! rest (early termination, skipping on or off, the lights, shadows and
-//! occlusion) are values checked per ray or per shaded sample. Each
+//! its inner loop's memory reads or arithmetic (gradient method,
+//! classifier, shading, MIP or MinIP), each a small type; the rest
+//! (reconstruction, early termination, skipping on or off, the lights,
+//! shadows and occlusion) are values checked per ray or per sample taken
+//! one by one. Each
 //! integrator's frame set-up sits beside it and picks its types once per
 //! frame; a choice that is off costs nothing but that check: with shading
 //! off no gradient is computed, and MIP, MinIP and X-ray never touch a
@@ -23,7 +24,7 @@ pub use dvr::shading::{Phong, Shading, Unshaded};
 pub use dvr::Dvr;
 pub use iso::Iso;
 pub use mip::{Maximum, Minimum, Mip};
-pub use reconstruct::{Analytic, Central, Gradient, Nearest, NoGradient, Reconstruct, Trilinear};
+pub use reconstruct::{Analytic, Central, Gradient, NoGradient};
 pub use xray::Xray;
 
 use crate::ray::Ray;
@@ -76,6 +77,8 @@ pub struct FrameGeometry {
     pub inv_spacing: Vec3,
     /// Locates sample points in the volume.
     pub locator: Locator,
+    /// How values between voxels are reconstructed.
+    pub interp: crate::settings::Interp,
 }
 
 /// What one ray produced.

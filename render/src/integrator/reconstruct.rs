@@ -1,57 +1,51 @@
-//! Reconstruction and gradients at a point, one zero-sized type per
-//! choice, so an integrator is compiled for exactly the ones it uses.
+//! Reconstruction and gradients at a point. The reconstruction is a value
+//! chosen per frame ([`Interp`]): a branch per sample taken one by one,
+//! none in the runs of eight most trilinear samples are read in. The
+//! gradient method is a zero-sized type per choice, so an integrator is
+//! compiled for exactly the ones it uses (they read different cells).
 
+pub use crate::settings::Interp;
 use glam::Vec3;
 use volcore::grid::{blend, Locator};
 use volcore::Cursor;
 
-/// How a value between voxels is reconstructed.
-pub trait Reconstruct: Copy + Send + Sync + 'static {
-    /// Whether [`Reconstruct::value`] is the trilinear value
-    /// ([`Cursor::trilinear`]), which cursors can read eight at a time.
-    const TRILINEAR: bool;
+impl Interp {
+    /// Whether this is trilinear interpolation ([`Cursor::trilinear`]),
+    /// whose values cursors can read eight at a time.
+    #[inline(always)]
+    pub fn is_trilinear(self) -> bool {
+        matches!(self, Interp::Trilinear)
+    }
+
     /// The value at voxel-space point `p`.
-    fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32;
+    #[inline(always)]
+    pub fn value<C: Cursor>(self, loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
+        let (base, t) = loc.locate(p.into());
+        match self {
+            Interp::Trilinear => cur.cell_blend(base[0], base[1], base[2], t),
+            // Halves round up, as `Cursor::nearest` does for the clamped,
+            // non-negative coordinates.
+            Interp::Nearest => {
+                let d = cur.dims().as_array();
+                let pick = |a: usize| (base[a] + (t[a] >= 0.5) as u64).min(d[a] - 1);
+                cur.voxel(pick(0), pick(1), pick(2))
+            }
+        }
+    }
+
     /// The value at offsets `t` inside the cell whose corner values are
     /// `c` (corners ordered `dx + 2·dy + 4·dz`).
-    fn in_cell(c: &[f32; 8], t: [f32; 3]) -> f32;
-}
-
-/// Trilinear interpolation.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Trilinear;
-
-/// The nearest voxel (halves round up, as `Cursor::nearest` does for the
-/// clamped, non-negative coordinates).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Nearest;
-
-impl Reconstruct for Trilinear {
-    const TRILINEAR: bool = true;
     #[inline(always)]
-    fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
-        let (base, t) = loc.locate(p.into());
-        cur.cell_blend(base[0], base[1], base[2], t)
-    }
-    #[inline(always)]
-    fn in_cell(c: &[f32; 8], t: [f32; 3]) -> f32 {
-        blend(c, t)
-    }
-}
-
-impl Reconstruct for Nearest {
-    const TRILINEAR: bool = false;
-    #[inline(always)]
-    fn value<C: Cursor>(loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
-        let (base, t) = loc.locate(p.into());
-        let d = cur.dims().as_array();
-        let pick = |a: usize| (base[a] + (t[a] >= 0.5) as u64).min(d[a] - 1);
-        cur.voxel(pick(0), pick(1), pick(2))
-    }
-    #[inline(always)]
-    fn in_cell(c: &[f32; 8], t: [f32; 3]) -> f32 {
-        let i = (t[0] >= 0.5) as usize + 2 * (t[1] >= 0.5) as usize + 4 * (t[2] >= 0.5) as usize;
-        c[i]
+    pub fn in_cell(self, c: &[f32; 8], t: [f32; 3]) -> f32 {
+        match self {
+            Interp::Trilinear => blend(c, t),
+            Interp::Nearest => {
+                let i = (t[0] >= 0.5) as usize
+                    + 2 * (t[1] >= 0.5) as usize
+                    + 4 * (t[2] >= 0.5) as usize;
+                c[i]
+            }
+        }
     }
 }
 
@@ -68,8 +62,9 @@ pub trait Gradient: Copy + Send + Sync + 'static {
     /// Whether this is [`Central`] (whose blends cursors can read for eight
     /// samples at once).
     const CENTRAL: bool = false;
-    /// The value at `p`, and what the gradient can reuse.
-    fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Self::Early);
+    /// The value at `p` (reconstructed by `interp`), and what the gradient
+    /// can reuse.
+    fn value<C: Cursor>(interp: Interp, loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Self::Early);
     /// The gradient at `p`, given what [`Gradient::value`] returned there.
     fn gradient<C: Cursor>(early: Self::Early, loc: &Locator, cur: &mut C, p: Vec3) -> Vec3;
 }
@@ -91,8 +86,8 @@ impl Gradient for NoGradient {
     type Early = ();
     const FROM_VALUE: Option<()> = Some(());
     #[inline(always)]
-    fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
-        (R::value(loc, cur, p), ())
+    fn value<C: Cursor>(interp: Interp, loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
+        (interp.value(loc, cur, p), ())
     }
     #[inline(always)]
     fn gradient<C: Cursor>(_: (), _: &Locator, _: &mut C, _: Vec3) -> Vec3 {
@@ -105,8 +100,8 @@ impl Gradient for Central {
     const FROM_VALUE: Option<()> = Some(());
     const CENTRAL: bool = true;
     #[inline(always)]
-    fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
-        (R::value(loc, cur, p), ())
+    fn value<C: Cursor>(interp: Interp, loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
+        (interp.value(loc, cur, p), ())
     }
     #[inline(always)]
     fn gradient<C: Cursor>(_: (), loc: &Locator, cur: &mut C, p: Vec3) -> Vec3 {
@@ -118,10 +113,10 @@ impl Gradient for Analytic {
     type Early = Vec3;
     const FROM_VALUE: Option<Vec3> = None;
     #[inline(always)]
-    fn value<C: Cursor, R: Reconstruct>(loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Vec3) {
+    fn value<C: Cursor>(interp: Interp, loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Vec3) {
         let (base, t) = loc.locate(p.into());
         let c = cur.cell(base[0], base[1], base[2]);
-        (R::in_cell(&c, t), cell_gradient(&c, t))
+        (interp.in_cell(&c, t), cell_gradient(&c, t))
     }
     #[inline(always)]
     fn gradient<C: Cursor>(early: Vec3, _: &Locator, _: &mut C, _: Vec3) -> Vec3 {
@@ -191,7 +186,7 @@ mod tests {
         let mut cur = v.cursor();
         let loc = Locator::new(d);
         let p = Vec3::new(3.25, 2.5, 1.5);
-        let (val, g) = Analytic::value::<_, Trilinear>(&loc, &mut cur, p);
+        let (val, g) = Analytic::value(Interp::Trilinear, &loc, &mut cur, p);
         assert!((val - 80.0 * 3.25 / 8.0).abs() < 1e-4);
         assert!((g - Vec3::new(10.0, 0.0, 0.0)).length() < 1e-5);
         let c = Central::gradient((), &loc, &mut cur, p);
@@ -229,18 +224,21 @@ mod tests {
                 rng.f32() * 5.0 - 0.5,
             );
             assert_eq!(
-                Nearest::value(&loc, &mut cur, p),
+                Interp::Nearest.value(&loc, &mut cur, p),
                 cur.nearest(p.into()),
                 "{p}"
             );
-            assert_eq!(Trilinear::value(&loc, &mut cur, p), cur.trilinear(p.into()));
+            assert_eq!(
+                Interp::Trilinear.value(&loc, &mut cur, p),
+                cur.trilinear(p.into())
+            );
             // The value read alongside the analytic gradient is the same.
             assert_eq!(
-                Analytic::value::<_, Nearest>(&loc, &mut cur, p).0,
+                Analytic::value(Interp::Nearest, &loc, &mut cur, p).0,
                 cur.nearest(p.into())
             );
             assert_eq!(
-                Analytic::value::<_, Trilinear>(&loc, &mut cur, p).0,
+                Analytic::value(Interp::Trilinear, &loc, &mut cur, p).0,
                 cur.trilinear(p.into())
             );
         }

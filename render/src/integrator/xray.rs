@@ -1,16 +1,13 @@
 //! X-ray: the line integral, or the mean, of the value along the ray.
 
 use super::march::{march, Flow, RayMarch, RaySteps};
-use super::reconstruct::{Nearest, Reconstruct, Trilinear};
 use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::FixedCells;
 use crate::error::RenderError;
 use crate::film::Film;
 use crate::ray::Ray;
-use crate::settings::Interp;
 use crate::tiles::Tiles;
 use glam::Vec3;
-use std::marker::PhantomData;
 use volcore::{Cursor, Volume};
 
 /// What an X-ray pixel reports.
@@ -25,22 +22,16 @@ pub enum XrayOutput {
 /// X-ray projection (see [`XrayOutput`]). NaN samples count as 0; with
 /// skipping on, cells holding only zeros are skipped (their samples
 /// counted, so the mean stays exact). Accumulates in f64.
-pub struct Xray<'a, R> {
+pub struct Xray<'a> {
     geom: FrameGeometry,
     skip: Option<&'a FixedCells<'a>>,
     output: XrayOutput,
-    _choices: PhantomData<R>,
 }
 
-impl<'a, R> Xray<'a, R> {
+impl<'a> Xray<'a> {
     /// The integrator, skipping the zero cells of `skip` when given.
     pub fn new(geom: FrameGeometry, skip: Option<&'a FixedCells<'a>>, output: XrayOutput) -> Self {
-        Xray {
-            geom,
-            skip,
-            output,
-            _choices: PhantomData,
-        }
+        Xray { geom, skip, output }
     }
 }
 
@@ -51,19 +42,15 @@ pub fn render_frame(
     skip: Option<&FixedCells<'_>>,
     tiles: &Tiles<'_>,
     geom: FrameGeometry,
-    interp: Interp,
     output: XrayOutput,
 ) -> Result<Film, RenderError> {
-    match interp {
-        Interp::Trilinear => tiles.render(vol, &Xray::<Trilinear>::new(geom, skip, output)),
-        Interp::Nearest => tiles.render(vol, &Xray::<Nearest>::new(geom, skip, output)),
-    }
+    tiles.render(vol, &Xray::new(geom, skip, output))
 }
 
-impl<R: Reconstruct> Integrator for Xray<'_, R> {
+impl Integrator for Xray<'_> {
     fn trace<C: Cursor>(&self, cur: &mut C, ray: &Ray, _pixel: [u32; 2], span: Span) -> RayResult {
         let steps = RaySteps::for_span(&self.geom, ray, span);
-        let mut st = XrayRay::<R> {
+        let mut st = XrayRay {
             xray: self,
             sum: 0.0,
             count: 0,
@@ -96,14 +83,14 @@ impl<R: Reconstruct> Integrator for Xray<'_, R> {
     }
 }
 
-struct XrayRay<'x, 'a, R> {
-    xray: &'x Xray<'a, R>,
+struct XrayRay<'x, 'a> {
+    xray: &'x Xray<'a>,
     sum: f64,
     count: i64,
     samples: u32,
 }
 
-impl<R: Reconstruct> RayMarch for XrayRay<'_, '_, R> {
+impl RayMarch for XrayRay<'_, '_> {
     type Query = ();
     const CACHE_BUSY: bool = false;
 
@@ -124,7 +111,8 @@ impl<R: Reconstruct> RayMarch for XrayRay<'_, '_, R> {
         p: Vec3,
         _: Option<usize>,
     ) -> Flow {
-        let v = R::value(&self.xray.geom.locator, cur, p);
+        let geom = &self.xray.geom;
+        let v = geom.interp.value(&geom.locator, cur, p);
         self.samples += 1;
         if !v.is_nan() {
             self.sum += v as f64;

@@ -1,16 +1,17 @@
 //! Emission-absorption compositing, front to back.
 //!
 //! The integrator ([`Dvr`]) is generic only over what changes its inner
-//! loop: reconstruction, gradient method, classifier (1D or 2D) and
-//! shading ([`shading`]: unshaded or Blinn-Phong). Early termination and
-//! empty-space skipping are runtime values, decided once per ray; the
-//! frame's set-up ([`setup`]) picks the types.
+//! loop: gradient method, classifier (1D or 2D) and shading ([`shading`]:
+//! unshaded or Blinn-Phong). The reconstruction, early termination and
+//! empty-space skipping are runtime values, decided once per ray or per
+//! sample taken one by one; the frame's set-up ([`setup`]) picks the
+//! types.
 
 pub mod setup;
 pub mod shading;
 
 use super::march::{march, one_by_one, Flow, RayMarch, RaySteps};
-use super::reconstruct::{Gradient, Reconstruct};
+use super::reconstruct::Gradient;
 use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::FixedCells;
 use crate::classify::Classifier;
@@ -27,16 +28,16 @@ use volcore::Cursor;
 /// cells the frame found transparent (when skipping is on), stopping once
 /// the opacity reaches the termination threshold (infinite when early
 /// termination is off).
-pub struct Dvr<'a, R, G, K, S> {
+pub struct Dvr<'a, G, K, S> {
     geom: FrameGeometry,
     classifier: &'a K,
     shading: S,
     termination: f32,
     skip: Option<&'a FixedCells<'a>>,
-    _choices: PhantomData<(R, G)>,
+    _gradient: PhantomData<G>,
 }
 
-impl<'a, R, G, K, S> Dvr<'a, R, G, K, S> {
+impl<'a, G, K, S> Dvr<'a, G, K, S> {
     /// The integrator from its parts: rays stop once their opacity reaches
     /// `termination` (`None`: they run to the end of the volume), and skip
     /// the cells of `skip` (`None`: no skipping).
@@ -54,14 +55,13 @@ impl<'a, R, G, K, S> Dvr<'a, R, G, K, S> {
             // An opacity never reaches infinity: no ray stops early.
             termination: termination.unwrap_or(f32::INFINITY),
             skip,
-            _choices: PhantomData,
+            _gradient: PhantomData,
         }
     }
 }
 
-impl<R, G, K, S> Integrator for Dvr<'_, R, G, K, S>
+impl<G, K, S> Integrator for Dvr<'_, G, K, S>
 where
-    R: Reconstruct,
     G: Gradient,
     K: Classifier,
     S: Shading,
@@ -88,8 +88,8 @@ where
     }
 }
 
-struct DvrRay<'d, 'a, R, G, K, S: Shading> {
-    dvr: &'d Dvr<'a, R, G, K, S>,
+struct DvrRay<'d, 'a, G, K, S: Shading> {
+    dvr: &'d Dvr<'a, G, K, S>,
     // Copies of the frame geometry the samples read, local to the ray so
     // they stay in registers.
     loc: Locator,
@@ -100,9 +100,8 @@ struct DvrRay<'d, 'a, R, G, K, S: Shading> {
     samples: u32,
 }
 
-impl<R, G, K, S> RayMarch for DvrRay<'_, '_, R, G, K, S>
+impl<G, K, S> RayMarch for DvrRay<'_, '_, G, K, S>
 where
-    R: Reconstruct,
     G: Gradient,
     K: Classifier,
     S: Shading,
@@ -113,7 +112,12 @@ where
     #[inline(always)]
     fn query(&self) {}
 
-    const BATCH: bool = R::TRILINEAR && G::FROM_VALUE.is_some();
+    const BATCH: bool = G::FROM_VALUE.is_some();
+
+    #[inline(always)]
+    fn reads_trilinear(&self) -> bool {
+        self.dvr.geom.interp.is_trilinear()
+    }
 
     #[inline(always)]
     fn sample<C: Cursor>(
@@ -124,7 +128,7 @@ where
         p: Vec3,
         _: Option<usize>,
     ) -> Flow {
-        let (v, early) = G::value::<C, R>(&self.loc, cur, p);
+        let (v, early) = G::value(self.dvr.geom.interp, &self.loc, cur, p);
         self.take(cur, t, p, v, early, None)
     }
 
@@ -164,9 +168,8 @@ where
     }
 }
 
-impl<R, G, K, S> DvrRay<'_, '_, R, G, K, S>
+impl<G, K, S> DvrRay<'_, '_, G, K, S>
 where
-    R: Reconstruct,
     G: Gradient,
     K: Classifier,
     S: Shading,

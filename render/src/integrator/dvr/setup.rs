@@ -5,9 +5,9 @@
 //! tile loop.
 //!
 //! The choices that become types are matched here once per frame, in
-//! this order: the classifier's kind ([`Tables`]), the reconstruction,
-//! then the gradient method and shading together. Everything else
-//! (termination, skipping, the lights, shadows and occlusion) is a value.
+//! this order: the classifier's kind ([`Tables`]), then the gradient
+//! method and shading together. Everything else (the reconstruction,
+//! termination, skipping, the lights, shadows and occlusion) is a value.
 
 use super::shading::{DvrCaster, Phong, Shading, Unshaded};
 use super::Dvr;
@@ -17,11 +17,9 @@ use crate::effects::setup::{ao_parts, light_grids, open_skies, shadow_geometry};
 use crate::effects::{Classified, EffectStats, ShadowCaster};
 use crate::error::RenderError;
 use crate::film::Film;
-use crate::integrator::reconstruct::{
-    Analytic, Central, Gradient, Nearest, NoGradient, Reconstruct, Trilinear,
-};
+use crate::integrator::reconstruct::{Analytic, Central, Gradient, NoGradient};
 use crate::integrator::FrameGeometry;
-use crate::settings::{GradientMethod, Interp, RenderSettings};
+use crate::settings::{GradientMethod, RenderSettings};
 use crate::tf::Tf;
 use crate::tiles::Tiles;
 use glam::Vec3;
@@ -46,10 +44,9 @@ impl ReadGradient for TfTable2d {
     type Of<G: Gradient> = G;
 }
 
-/// What blocks light in a DVR frame with reconstruction `R`, gradient
-/// method `G` and classifier `K`: the classified volume, reading the
-/// gradient `K` needs.
-pub type DvrOccluder<'a, R, G, K> = Classified<'a, R, <K as ReadGradient>::Of<G>, K>;
+/// What blocks light in a DVR frame with gradient method `G` and
+/// classifier `K`: the classified volume, reading the gradient `K` needs.
+pub type DvrOccluder<'a, G, K> = Classified<'a, <K as ReadGradient>::Of<G>, K>;
 
 /// A DVR frame's classifier tables, of the transfer function's kind: for
 /// the view step, and for the shadow step when the frame has effects.
@@ -223,45 +220,35 @@ impl DvrFrame<'_> {
                 ..tiles
             },
         };
-        let mut film = match s.interp {
-            Interp::Trilinear => self.reconstructed::<Trilinear, K>(&parts),
-            Interp::Nearest => self.reconstructed::<Nearest, K>(&parts),
-        }?;
+        let mut film = self.shaded::<K>(&parts)?;
         film.set_culled_blocks(busy.as_ref().map_or(0, |b| b.culled()) as u64);
         Ok(film)
     }
 
-    /// Render with reconstruction `R`: the gradient method and shading.
-    fn reconstructed<R: Reconstruct, K: ReadGradient>(
-        &self,
-        parts: &Parts<'_, K>,
-    ) -> Result<Film, RenderError> {
+    /// Render with classifier `K`: the gradient method and shading.
+    fn shaded<K: ReadGradient>(&self, parts: &Parts<'_, K>) -> Result<Film, RenderError> {
         use GradientMethod as M;
         match (self.settings.shading, self.settings.gradient) {
             // A 1D table reads no gradient: both arms are one type.
-            (false, M::Central) => self.trace::<R, K::Of<Central>, K, _>(parts, Unshaded),
-            (false, M::Analytic) => self.trace::<R, K::Of<Analytic>, K, _>(parts, Unshaded),
-            (true, M::Central) => self.lit::<R, Central, K>(parts),
-            (true, M::Analytic) => self.lit::<R, Analytic, K>(parts),
+            (false, M::Central) => self.trace::<K::Of<Central>, K, _>(parts, Unshaded),
+            (false, M::Analytic) => self.trace::<K::Of<Analytic>, K, _>(parts, Unshaded),
+            (true, M::Central) => self.lit::<Central, K>(parts),
+            (true, M::Analytic) => self.lit::<Analytic, K>(parts),
         }
     }
 
     /// Render shaded, with gradient method `G`: Blinn-Phong, with the
     /// frame's shadows and occlusion when it has them, through its
     /// occluder.
-    fn lit<R: Reconstruct, G: Gradient, K: ReadGradient>(
-        &self,
-        parts: &Parts<'_, K>,
-    ) -> Result<Film, RenderError> {
+    fn lit<G: Gradient, K: ReadGradient>(&self, parts: &Parts<'_, K>) -> Result<Film, RenderError> {
         let s = self.settings;
         let Some(alpha) = parts.shadow else {
-            let phong =
-                Phong::<DvrOccluder<R, G, K>>::new(&s.lighting, parts.threshold2, None, None);
-            return self.trace::<R, G, K, _>(parts, phong);
+            let phong = Phong::<DvrOccluder<G, K>>::new(&s.lighting, parts.threshold2, None, None);
+            return self.trace::<G, K, _>(parts, phong);
         };
         let sgeom = shadow_geometry(&self.geom, s.shadows.as_ref());
         let depth = alpha.to_optical_depth();
-        let occ = DvrOccluder::<R, G, K>::new(&depth, sgeom.locator, sgeom.inv_spacing);
+        let occ = DvrOccluder::<G, K>::new(&depth, &sgeom);
         // Cells clear for shadow and occlusion rays.
         let clear = transparent_cells(self.skip_index, alpha, &parts.gradients)?;
         let boxes = clear.as_ref().map(|c| c.clear_boxes());
@@ -295,18 +282,18 @@ impl DvrFrame<'_> {
             ShadowCaster::new(occ, clear.as_ref(), sgeom, hi, &grids, 0.0).with_open_skies(&skies);
         let caster = s.shadows.is_some().then_some(&caster);
         let phong = Phong::new(&s.lighting, parts.threshold2, caster, ao_source.as_ref());
-        let mut film = self.trace::<R, G, K, _>(parts, phong)?;
+        let mut film = self.trace::<G, K, _>(parts, phong)?;
         film.add_grid_stats(&stats);
         Ok(film)
     }
 
     /// Trace the frame with the integrator of these types.
-    fn trace<R: Reconstruct, G: Gradient, K: Classifier, S: Shading>(
+    fn trace<G: Gradient, K: Classifier, S: Shading>(
         &self,
         parts: &Parts<'_, K>,
         shading: S,
     ) -> Result<Film, RenderError> {
-        let dvr = Dvr::<R, G, K, S>::new(
+        let dvr = Dvr::<G, K, S>::new(
             self.geom,
             parts.table,
             shading,
