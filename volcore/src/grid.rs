@@ -330,6 +330,54 @@ pub(crate) fn cross_diffs_from<T: Sample>(
     [diffs(ox), diffs(oy), diffs(oz)]
 }
 
+// ----------------------------------------------------------- any layout --
+
+/// Any cursor behind a trait object: one compiled copy of a loop serves
+/// every sample type and layout, at the cost of a call per read. For the
+/// paths that are not worth a copy per layout (fallbacks for CPUs without
+/// the vector units the fast copy is compiled for); the values are the
+/// wrapped cursor's, bit for bit.
+pub struct DynCursor<'a>(pub &'a mut dyn Cursor);
+
+impl Cursor for DynCursor<'_> {
+    fn dims(&self) -> Dims {
+        self.0.dims()
+    }
+    fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
+        self.0.voxel(x, y, z)
+    }
+    fn cell(&mut self, i: u64, j: u64, k: u64) -> [f32; 8] {
+        self.0.cell(i, j, k)
+    }
+    fn cross_diffs(&mut self, i: u64, j: u64, k: u64) -> [[f32; 8]; 3] {
+        self.0.cross_diffs(i, j, k)
+    }
+    fn cell_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> f32 {
+        self.0.cell_blend(i, j, k, t)
+    }
+    fn cross_blend(&mut self, i: u64, j: u64, k: u64, t: [f32; 3]) -> [f32; 3] {
+        self.0.cross_blend(i, j, k, t)
+    }
+    fn trilinear8(&mut self, o: [f32; 3], d: [f32; 3], k: i64, step: f64) -> Option<Samples8> {
+        self.0.trilinear8(o, d, k, step)
+    }
+    fn cross_blend8(&mut self, o: [f32; 3], d: [f32; 3], k: i64, step: f64) -> Option<Cross8> {
+        self.0.cross_blend8(o, d, k, step)
+    }
+    fn batches(&self) -> bool {
+        self.0.batches()
+    }
+    fn trilinear(&mut self, p: [f32; 3]) -> f32 {
+        self.0.trilinear(p)
+    }
+    fn nearest(&mut self, p: [f32; 3]) -> f32 {
+        self.0.nearest(p)
+    }
+    fn gradient(&mut self, p: [f32; 3]) -> [f32; 3] {
+        self.0.gradient(p)
+    }
+}
+
 // ---------------------------------------------------------------- sliced --
 
 /// The order of a sliced grid's samples in storage.

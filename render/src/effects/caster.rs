@@ -12,6 +12,7 @@ use crate::lanes::Lanes3;
 use crate::light::Incident;
 use crate::ray::{intersect_box, Ray};
 use glam::Vec3;
+use volcore::grid::DynCursor;
 use volcore::Cursor;
 
 /// Transmittance from a point toward each light of a frame.
@@ -160,8 +161,9 @@ impl<O, A> ShadowCaster<'_, O, A> {
 }
 
 /// [`transmittance`], compiled for AVX2 where the CPU has it (so the
-/// eight-sample reads and lookups inline into the march) and as usual
-/// elsewhere; the same bits either way.
+/// eight-sample reads and lookups inline into the march) and otherwise
+/// once for every layout, reading through a [`DynCursor`]; the same bits
+/// either way.
 #[inline(always)]
 fn march_shadow<C: Cursor, O: Occluder, A: Accel<O::Query>>(
     avx2: bool,
@@ -177,7 +179,20 @@ fn march_shadow<C: Cursor, O: Occluder, A: Accel<O::Query>>(
         return unsafe { transmittance_avx2(occ, accel, cur, steps, q) };
     }
     let _ = avx2;
-    transmittance(occ, accel, cur, steps, q)
+    transmittance_any_layout(occ, accel, cur, steps, q)
+}
+
+/// [`transmittance`] through a cursor of any layout: the march for CPUs
+/// without AVX2, compiled once per occluder rather than once per layout.
+#[inline(never)]
+fn transmittance_any_layout<O: Occluder, A: Accel<O::Query>>(
+    occ: &O,
+    accel: &A,
+    cur: &mut dyn Cursor,
+    steps: &RaySteps,
+    q: O::Query,
+) -> (f32, u32) {
+    transmittance(occ, accel, &mut DynCursor(cur), steps, q)
 }
 
 /// [`transmittance`] compiled with AVX2.
@@ -194,4 +209,73 @@ unsafe fn transmittance_avx2<C: Cursor, O: Occluder, A: Accel<O::Query>>(
     q: O::Query,
 ) -> (f32, u32) {
     transmittance(occ, accel, cur, steps, q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::NoSkipping;
+    use crate::classify::{Classifier, TfTable};
+    use crate::effects::Classified;
+    use crate::integrator::NoGradient;
+    use crate::settings::Interp;
+    use crate::tf::TransferFunction;
+    use volcore::grid::Locator;
+    use volcore::region::pack_sliced;
+    use volcore::scene::{NoiseKind, NoiseScene, SceneSource};
+    use volcore::{Dims, VoxelSource};
+
+    /// The march for CPUs without AVX2 (through a cursor of any layout)
+    /// gives the AVX2 march's bits, samples and all.
+    #[test]
+    fn every_march_gives_the_same_transmittance() {
+        let d = Dims::new(23, 19, 17).unwrap();
+        let scene = NoiseScene::new(d, 3, NoiseKind::Value, 4.0, 2, 100.0);
+        let grid = volcore::SlicedGrid::new(
+            d,
+            volcore::Data::Owned(pack_sliced(&SceneSource::<u8>::new(&scene))),
+        )
+        .unwrap();
+        let mut rng = fastrand::Rng::with_seed(9);
+        let mut partial = 0;
+        for interp in [Interp::Trilinear, Interp::Nearest] {
+            let geom = FrameGeometry {
+                step: 0.37,
+                inv_spacing: Vec3::ONE,
+                locator: Locator::new(d),
+                interp,
+            };
+            let tf = TransferFunction::preset("grey", (0.0, 100.0)).unwrap();
+            let depth = TfTable::new(&tf, 0.0, 100.0, 256, geom.step).to_optical_depth();
+            let occ = Classified::<NoGradient, _>::new(&depth, &geom);
+            let hi = Vec3::new(22.0, 18.0, 16.0);
+            let (mut a, mut b) = (grid.cursor(), grid.cursor());
+            for _ in 0..200 {
+                let p = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * hi;
+                let dir = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
+                let Some(dir) = crate::ray::unit(dir) else {
+                    continue;
+                };
+                let ray = Ray { origin: p, dir };
+                let Some((_, t1)) = intersect_box(&ray, Vec3::ZERO, hi) else {
+                    continue;
+                };
+                let steps = RaySteps::new(&geom, &ray, geom.step, t1);
+                let any = transmittance_any_layout(&occ, &NoSkipping, &mut a, &steps, ());
+                let plain = transmittance(&occ, &NoSkipping, &mut b, &steps, ());
+                assert_eq!(any.0.to_bits(), plain.0.to_bits());
+                assert_eq!(any.1, plain.1);
+                partial += usize::from(any.0 > 0.0 && any.0 < 1.0);
+                #[cfg(target_arch = "x86_64")]
+                if volcore::lanes::avx2_available() {
+                    // SAFETY: AVX2 was found.
+                    let fast = unsafe { transmittance_avx2(&occ, &NoSkipping, &mut b, &steps, ()) };
+                    assert_eq!(any.0.to_bits(), fast.0.to_bits());
+                    assert_eq!(any.1, fast.1);
+                }
+            }
+        }
+        // Most rays end partly shadowed, not at the cutoff or clear.
+        assert!(partial > 200, "{partial} of 400 rays partly shadowed");
+    }
 }
