@@ -319,3 +319,15 @@ pub fn transparent_cells<'a>(
         })
         .transpose()
 }
+
+// Checked when the crate compiles. Bug: with analytic gradients and a 1D
+// table, shadow rays read the gradient the table ignores and lost the
+// 8-lane march; `ReadGradient` now gives view and shadow rays their
+// gradient by one rule.
+const _: () = {
+    use crate::effects::Occluder;
+    assert!(<DvrOccluder<'static, Analytic, TfTable> as Occluder>::FROM_VALUE);
+    assert!(<DvrOccluder<'static, Central, TfTable> as Occluder>::FROM_VALUE);
+    assert!(!<DvrOccluder<'static, Analytic, TfTable2d> as Occluder>::FROM_VALUE);
+    assert!(!<DvrOccluder<'static, Central, TfTable2d> as Occluder>::FROM_VALUE);
+};
