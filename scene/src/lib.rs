@@ -6,8 +6,9 @@
 //! A render goes through these steps, each its own call:
 //!
 //! 1. [`Request`]: the options as given: parsed from a command line
-//!    ([`Request::parse`], or clap's matches), then the scene file under
-//!    them ([`Request::with_scene_file`]).
+//!    ([`Request::parse`], or clap's matches), or from name/value pairs
+//!    with the flags' names ([`Request::from_pairs`]), then the scene
+//!    file under them ([`Request::with_scene_file`]).
 //! 2. [`Source::open`]: the volume and its index.
 //! 3. [`Plan::for_source`]: the options resolved against the volume
 //!    (defaults, checks, notes, the effective [`Scene`]).
@@ -27,6 +28,7 @@ pub mod file;
 pub mod image;
 pub mod merge;
 pub mod options;
+pub mod pairs;
 pub mod parse;
 pub mod path;
 pub mod plan;
