@@ -21,6 +21,8 @@
 //! its [`ErrorKind`] (a bad option, a file problem, the renderer,
 //! cancelled).
 
+#![warn(missing_docs)]
+
 pub mod choices;
 pub mod effective;
 pub mod error;
