@@ -297,7 +297,7 @@ fn png(data: &[u8], scratch: &Path) {
 }
 
 fn scene(data: &[u8]) {
-    use volkit_cli::scene::{to_toml, Scene};
+    use volscene::file::{to_toml, Scene};
     let text = String::from_utf8_lossy(data);
     let Ok(s) = Scene::parse(&text) else {
         return;

@@ -6,7 +6,6 @@ pub mod json;
 pub mod progress;
 pub mod raw;
 pub mod run;
-pub mod scene;
 
 pub use raw::RawSpec;
-pub use run::{parse, run, usage};
+pub use run::{is_usage, parse, run, usage};

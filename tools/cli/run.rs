@@ -53,6 +53,16 @@ pub fn usage(msg: impl Into<String>) -> anyhow::Error {
     anyhow::Error::new(Usage(msg.into()))
 }
 
+/// Whether an error is a usage error: a [`Usage`], or a render option
+/// that [`volscene`] refuses as one.
+pub fn is_usage(e: &anyhow::Error) -> bool {
+    e.downcast_ref::<Usage>().is_some()
+        || e.chain().any(|c| {
+            c.downcast_ref::<volscene::Error>()
+                .is_some_and(|e| e.kind() == volscene::ErrorKind::Usage)
+        })
+}
+
 /// Run a tool's body and turn an error into `tool: message` on stderr (the
 /// whole context chain on one line, no backtrace, control characters
 /// escaped) and exit status 1, or 2 for a [`Usage`] error; a closed
@@ -63,7 +73,7 @@ pub fn run(tool: &str, body: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
         Err(e) if is_broken_pipe(&e) => ExitCode::from(EXIT_BROKEN_PIPE),
         Err(e) => {
             report_error(tool, &format!("{e:#}"));
-            if e.downcast_ref::<Usage>().is_some() {
+            if is_usage(&e) {
                 ExitCode::from(EXIT_USAGE)
             } else {
                 ExitCode::from(EXIT_FAILURE)

@@ -10,9 +10,7 @@
 //! report. A failure on any rank ends every rank after the phase it
 //! happened in, with one line from rank 0.
 
-use crate::args::Cli;
-use crate::plan::Plan;
-use crate::{load_index, report, scene, write_outputs, RankReport, Times};
+use crate::{print_report, write_outputs};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::Vec3;
 use mpi::collective::SystemOperation;
@@ -27,13 +25,16 @@ use volcore::{Shard, Volume};
 use volformats::{open_volume, vvol};
 use volindex::shard::{build_shard, merge_parts, IndexPart};
 use volindex::{BuildOptions, MajorantIndex};
-use volkit_cli::scene::ModeArg;
 use volkit_cli::{noteln, outln};
 use volrender::classify::srgb_to_linear;
 use volrender::distributed::{composite_for, strip_rows, Layout};
 use volrender::distributed::{Composite, Fields};
 use volrender::film::{Film, FrameStats};
 use volrender::frame::{busy_cells, display_for, render_film};
+use volscene::options::ModeArg;
+use volscene::report::{frame_report, peak_rss_mb, Context as ReportContext, Extra};
+use volscene::source::{load_index, start_threads};
+use volscene::{Image, Options as Cli, Plan, Rendered, Request, Times};
 
 /// Edge of the blocks the volume is split by, in voxels (a multiple of
 /// the usual brick edges, so ranks rarely share a brick).
@@ -68,12 +69,13 @@ pub fn main() -> ExitCode {
         // Every rank parses the same command line; rank 0 speaks.
         volkit_cli::run::silence();
     }
-    let (mut cli, matches) = match volkit_cli::run::parse_matches::<Cli>("vol-render") {
+    let (cli, matches) = match volkit_cli::run::parse_matches::<Cli>("vol-render") {
         Ok(parsed) => parsed,
         Err(code) => return code,
     };
     volkit_cli::run("vol-render", || {
-        let volume = agree(&world, crate::resolve_cli(&mut cli, &matches))?;
+        let request = Request::from_matches(cli, &matches);
+        let (cli, volume) = agree(&world, crate::resolve_cli(request))?;
         job(&world, &cli, &volume)
     })
 }
@@ -84,7 +86,7 @@ pub fn main() -> ExitCode {
 fn agree<T>(world: &SimpleCommunicator, mine: Result<T>) -> Result<T> {
     let flag: i32 = match &mine {
         Ok(_) => 0,
-        Err(e) if e.downcast_ref::<volkit_cli::run::Usage>().is_some() => 2,
+        Err(e) if volkit_cli::is_usage(e) => 2,
         Err(_) => 1,
     };
     let mut worst = 0i32;
@@ -200,7 +202,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
     let name = volume.display().to_string();
     let t = Instant::now();
     let opened = refuse(cli).and_then(|()| {
-        crate::start_threads(cli)?;
+        start_threads(cli)?;
         let opts = vvol::OpenOptions::default();
         let vol = open_volume(volume, opts, None).with_context(|| name.clone())?;
         let index = match &cli.index {
@@ -222,12 +224,11 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
 
     let plan = agree(
         world,
-        Plan::new(cli, &vol, index.as_ref()).with_context(|| name.clone()),
+        Plan::new(cli, &vol, index.as_ref()).map_err(|e| anyhow::Error::new(e.context(&name))),
     )?;
-    let effective = scene::effective(cli, &plan.resolved);
     if cli.print_scene {
         if rank == 0 {
-            outln!("{}", volkit_cli::scene::to_toml(&effective)?)?;
+            outln!("{}", volscene::file::to_toml(&plan.scene)?)?;
         }
         return Ok(());
     }
@@ -288,7 +289,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
         composite_s,
         sent: traffic.0,
         received: traffic.1,
-        peak_rss_mb: crate::peak_rss_mb().unwrap_or(0.0),
+        peak_rss_mb: peak_rss_mb().unwrap_or(0.0),
         voxels: layout
             .voxels(rank)
             .iter()
@@ -314,22 +315,30 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
     film.set_stats(total);
     let bg = Vec3::from(settings.background.map(srgb_to_linear));
     let frame = film.resolve(display_for(&vol, settings.mode), bg);
-    write_outputs(cli, output, &frame)?;
-    let times = Times {
-        load_s,
-        index_s,
-        render_s: frame_s,
-        runs: &frames,
+    let rendered = Rendered {
+        image: Image::Frame(frame),
+        times: Times {
+            load_s,
+            index_s,
+            render_s: frame_s,
+            runs: frames,
+        },
+    };
+    write_outputs(cli, output, &rendered)?;
+    let Image::Frame(frame) = &rendered.image else {
+        bail!("not a frame")
     };
     let ranks = rank_report(&layout, &all);
-    report(
-        cli,
+    let scene = serde_json::to_value(&plan.scene)?;
+    let cx = ReportContext {
+        options: cli,
         volume,
-        output,
-        &frame,
-        &times,
-        serde_json::to_value(&effective)?,
-        Some(&ranks),
+        output: Some(output),
+        scene: &scene,
+    };
+    print_report(
+        cli,
+        &frame_report(&cx, frame, &rendered.times, Some(&ranks)),
     )
 }
 
@@ -561,7 +570,7 @@ fn gather_figures(world: &SimpleCommunicator, mine: &RankFigures) -> Option<Vec<
 }
 
 /// The per-rank part of the report.
-fn rank_report(layout: &Layout, all: &[RankFigures]) -> RankReport {
+fn rank_report(layout: &Layout, all: &[RankFigures]) -> Extra {
     let per_rank: Vec<serde_json::Value> = all
         .iter()
         .enumerate()
@@ -599,5 +608,5 @@ fn rank_report(layout: &Layout, all: &[RankFigures]) -> RankReport {
         max(|f| f.composite_s),
         bytes as f64 / 1e6
     );
-    RankReport { json, line }
+    Extra { json, line }
 }

@@ -1,78 +1,14 @@
 //! Scene files: everything one render needs, in TOML, with the same keys
 //! as vol-render's command-line options (`look-at = [0, 0, 0]` is
 //! `--look-at 0,0,0`), plus `[[lights]]` and `ambient`. This module reads,
-//! checks and writes the file; vol-render fills its command line from it.
-//!
-//! The option types the file shares with the command line (`--mode`,
-//! `--interp`, `--shading`, `--gradient`, `--up`) live here too, so the
-//! file's reader is a library that the fuzz targets can call.
+//! checks and writes the file; [`crate::merge`] fills the options from it.
 
-use anyhow::{bail, Result};
-use clap::ValueEnum;
+pub use crate::choices::{GradientArg, InterpArg, ModeArg, ShadingArg, TonemapArg, UpArg};
+use crate::error::{Error, Result};
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use volrender::Light;
-
-/// `--mode`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ModeArg {
-    /// Emission-absorption through the transfer function.
-    Dvr,
-    /// Maximum intensity projection.
-    Mip,
-    /// Minimum intensity projection.
-    Minip,
-    /// X-ray: line integral of the value (value × world length).
-    Xray,
-    /// X-ray: mean sample value along the ray.
-    XrayMean,
-    /// Iso-surface at --iso.
-    Iso,
-    /// Monte Carlo volumetric path tracing (delta tracking over the
-    /// majorant grid, next-event estimation, progressive).
-    Path,
-}
-
-/// `--interp`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum InterpArg {
-    /// The nearest voxel.
-    Nearest,
-    /// Trilinear interpolation.
-    Trilinear,
-}
-
-/// `--shading`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ShadingArg {
-    /// Classified colour as is.
-    None,
-    /// Blinn-Phong with the light.
-    Phong,
-}
-
-/// `--gradient`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum GradientArg {
-    /// Central differences.
-    Central,
-    /// The analytic gradient of the trilinear cell.
-    Analytic,
-}
-
-/// `--up`: a vector, or the patient's superior direction.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum UpArg {
-    /// This vector (any nonzero length).
-    Vector(Vec3),
-    /// The data's superior direction, from its geometry.
-    Patient,
-}
 
 /// A scene file as written: every key optional (the command line and the
 /// defaults fill the rest).
@@ -222,18 +158,6 @@ pub struct Scene {
     pub tonemap: Option<TonemapArg>,
 }
 
-/// `--tonemap`: how linear radiance becomes the PNG's display values.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum TonemapArg {
-    /// Clamp to [0, 1].
-    Clamp,
-    /// Reinhard: x / (1 + x).
-    Reinhard,
-    /// The ACES filmic curve (Narkowicz's fit).
-    Aces,
-}
-
 /// `up`: a vector or a name (`"patient"`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
@@ -246,7 +170,7 @@ pub enum Up {
 
 impl Up {
     /// As the command line's `--up`.
-    pub fn arg(&self) -> Result<UpArg, String> {
+    pub fn arg(&self) -> std::result::Result<UpArg, String> {
         match self {
             Up::Vector(v) => {
                 let v = Vec3::from(*v);
@@ -329,7 +253,7 @@ pub enum LightSpec {
 
 impl LightSpec {
     /// The light, or what is wrong with it.
-    pub fn light(&self) -> Result<Light, String> {
+    pub fn light(&self) -> std::result::Result<Light, String> {
         let radiance = |colour: &Option<Colour>, intensity: &Option<f32>| {
             let c = colour.map_or(Vec3::ONE, Colour::rgb);
             let i = intensity.unwrap_or(1.0);
@@ -406,22 +330,36 @@ impl Scene {
         let text = match std::fs::read(path) {
             Ok(bytes) => match String::from_utf8(bytes) {
                 Ok(t) => t,
-                Err(_) => bail!("{name}: not a UTF-8 text file"),
+                Err(_) => return Err(Error::file(format!("{name}: not a UTF-8 text file"))),
             },
-            Err(e) => bail!("{name}: {e}"),
+            Err(e) => return Err(Error::file(format!("{name}: {e}"))),
         };
-        Scene::parse(&text).map_err(|e| anyhow::anyhow!("{name}: {e}"))
+        Scene::parse(&text).map_err(|e| Error::file(format!("{name}: {e}")))
     }
 
     /// Parse scene text; an error says where (line and key) and what.
-    pub fn parse(text: &str) -> Result<Scene, String> {
+    pub fn parse(text: &str) -> std::result::Result<Scene, String> {
         let scene: Scene = toml::from_str(text).map_err(|e| describe(text, &e))?;
         scene.check()?;
         Ok(scene)
     }
 
+    /// Read and check a scene from JSON, with the file's keys (a viewer's
+    /// state, Python's keywords); an error says which key and what.
+    pub fn from_json(value: serde_json::Value) -> std::result::Result<Scene, String> {
+        let scene: Scene = serde_json::from_value(value).map_err(|e| {
+            let what = e.to_string();
+            match what.split_once(", expected one of") {
+                Some((head, _)) => head.replace("unknown field", "unknown key"),
+                None => what,
+            }
+        })?;
+        scene.check()?;
+        Ok(scene)
+    }
+
     /// Checks serde cannot make: lights that are lights, finite numbers.
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> std::result::Result<(), String> {
         if let Some(lights) = &self.lights {
             for (i, l) in lights.iter().enumerate() {
                 l.light().map_err(|e| format!("lights[{i}]: {e}"))?;
@@ -520,7 +458,7 @@ fn describe(text: &str, e: &toml::de::Error) -> String {
 
 /// The scene as TOML text.
 pub fn to_toml(scene: &Scene) -> Result<String> {
-    Ok(toml::to_string(scene)?)
+    toml::to_string(scene).map_err(|e| Error::option(e.to_string()))
 }
 
 #[cfg(test)]

@@ -1,10 +1,12 @@
-//! The parsed command line resolved against the volume: the camera, the
-//! render settings and the transfer function a frame needs, with every
-//! default filled in from the volume's size, spacing and value range.
+//! The options resolved against the volume: the camera, the render
+//! settings and the transfer function a frame needs, with every default
+//! filled in from the volume's size, spacing and value range, every check
+//! made, the notes for the user and the effective scene.
 
-use crate::args::{Cli, GradientArg, InterpArg, ModeArg, ShadingArg, UpArg};
-use crate::scene::Resolved;
-use anyhow::{bail, Context, Result};
+use crate::effective::{effective, Resolved};
+use crate::error::{Error, ErrorKind, Kind, Result};
+use crate::file::Scene;
+use crate::options::{GradientArg, InterpArg, ModeArg, Options, ShadingArg, UpArg};
 use glam::{DMat3, DVec3, Vec3};
 use std::path::Path;
 use volcore::Volume;
@@ -17,8 +19,8 @@ use volrender::{
     Camera, GradientMethod, Interp, Light, Lighting, Mode, Projection, RenderSettings,
 };
 
-/// What one frame of `vol-render` is: everything but the volume and its
-/// index.
+/// What one render is: everything but the volume and its index.
+#[derive(Clone, Debug)]
 pub struct Plan {
     /// The camera and image size.
     pub camera: Camera,
@@ -33,12 +35,16 @@ pub struct Plan {
     pub notes: Vec<String>,
     /// Path tracing (`--mode path`): the scene and when to stop.
     pub path: Option<(PathSettings, Budget)>,
+    /// The effective scene: every key the render depends on, defaults
+    /// resolved (`--print-scene`, and `scene` in the report).
+    pub scene: Scene,
 }
 
 impl Plan {
     /// Resolve `cli` for `vol`; `index`, when there is one, gives the
     /// finite value range for defaults and `--tf auto` its histogram.
-    pub fn new(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Plan> {
+    /// Errors do not name the volume (the caller does).
+    pub fn new(cli: &Options, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Plan> {
         let mut notes = Vec::new();
         let tf = match cli.mode {
             ModeArg::Dvr => Some(transfer_function(cli, vol, index, &mut notes)?),
@@ -95,6 +101,7 @@ impl Plan {
             spp: path.as_ref().and_then(|(_, b)| b.spp),
             env: path.as_ref().map(|(p, _)| p.lights.env),
         };
+        let scene = effective(cli, &resolved);
         Ok(Plan {
             camera,
             settings,
@@ -102,6 +109,7 @@ impl Plan {
             resolved,
             notes,
             path,
+            scene,
         })
     }
 }
@@ -115,20 +123,21 @@ fn value_range(vol: &Volume) -> (f32, f32) {
 /// `tf-text`. `ct` on data that does not look like Hounsfield units adds a
 /// note suggesting `auto`.
 fn transfer_function(
-    cli: &Cli,
+    cli: &Options,
     vol: &Volume,
     index: Option<&MajorantIndex>,
     notes: &mut Vec<String>,
 ) -> Result<Tf> {
     if let Some(text) = &cli.tf_text {
-        return parse_any(text).context("the scene's tf-text");
+        return parse_any(text).kind_ctx(ErrorKind::Option, "the scene's tf-text");
     }
     let range = value_range(vol);
     if let Some(tail) = auto_tail(&cli.tf)? {
         let window = auto_window(vol, index, tail)?;
-        return Ok(Tf::OneD(
-            TransferFunction::preset("auto", window).context("the auto preset")?,
-        ));
+        return match TransferFunction::preset("auto", window) {
+            Some(tf) => Ok(Tf::OneD(tf)),
+            None => Err(Error::option("the auto preset")),
+        };
     }
     if cli.tf == "ct" && !looks_like_hounsfield(range) {
         notes.push(format!(
@@ -143,14 +152,15 @@ fn transfer_function(
         return Ok(tf);
     }
     let path = Path::new(&cli.tf);
-    let text = std::fs::read_to_string(path).with_context(|| {
+    let text = std::fs::read_to_string(path).kind_ctx(
+        ErrorKind::File,
         format!(
             "{}: not a preset ({}) and not a readable file",
             cli.tf,
             PRESETS.join(", ")
-        )
-    })?;
-    parse_any(&text).with_context(|| cli.tf.clone())
+        ),
+    )?;
+    parse_any(&text).kind_ctx(ErrorKind::File, &cli.tf)
 }
 
 /// The tail percentile of `--tf auto` or `auto:P`; `None` for other names.
@@ -163,7 +173,7 @@ fn auto_tail(name: &str) -> Result<Option<f64>> {
     };
     match p.parse::<f64>() {
         Ok(p) if (0.0..50.0).contains(&p) => Ok(Some(p)),
-        _ => Err(volkit_cli::usage(format!(
+        _ => Err(Error::usage(format!(
             "--tf auto:{}: the auto percentile must be a number in 0..50",
             volcore::text::excerpt(p)
         ))),
@@ -179,7 +189,7 @@ fn auto_window(vol: &Volume, index: Option<&MajorantIndex>, tail: f64) -> Result
         Some(ix) => ix,
         None => {
             built = MajorantIndex::build_volume(vol, &BuildOptions::default(), 0)
-                .context("the histogram for --tf auto")?;
+                .kind_ctx(ErrorKind::File, "the histogram for --tf auto")?;
             &built
         }
     };
@@ -202,23 +212,25 @@ fn patient_up(vol: &Volume) -> Result<Vec3> {
     );
     let det = d.determinant().abs();
     if det.is_nan() || det <= 1e-9 {
-        bail!("--up patient: the volume's direction matrix is singular");
+        return Err(Error::option(
+            "--up patient: the volume's direction matrix is singular",
+        ));
     }
     Ok((d.inverse() * DVec3::Z).as_vec3())
 }
 
 /// The camera, the point it looks at, and the orbit that placed it (when
 /// no `--eye` did).
-fn camera(cli: &Cli, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
+fn camera(cli: &Options, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
     let hi = Vec3::from(vol.meta.world_extent());
     let Some(diagonal64) = volrender::frame::world_diagonal(vol) else {
         let (d, s) = (vol.dims(), vol.meta.spacing);
-        bail!(
+        return Err(Error::option(format!(
             "the volume's extent (dims {d} x spacing {},{},{}) is too large for f32 world coordinates",
             s[0],
             s[1],
             s[2]
-        );
+        )));
     };
     let centre = hi * 0.5;
     // The default framing sees 1.8 diagonals, at any scale; glam's length
@@ -240,17 +252,15 @@ fn camera(cli: &Cli, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
     };
     let (w, h) = cli.size;
     let target = cli.look_at.unwrap_or(centre);
-    let orbit = match (cli.eye, cli.orbit) {
-        (Some(_), _) => None,
-        (None, Some(o)) => Some(o),
-        (None, None) => Some(Vec3::new(30.0, 20.0, 1.8 * diagonal)),
+    let (cam, orbit) = match cli.eye {
+        Some(eye) => (Camera::look_at(eye, target, up, projection, w, h), None),
+        None => {
+            let o = cli.orbit.unwrap_or(Vec3::new(30.0, 20.0, 1.8 * diagonal));
+            let cam = Camera::orbit_up(target, o.x, o.y, o.z, up, projection, w, h);
+            (cam, Some(o))
+        }
     };
-    let cam = match (cli.eye, orbit) {
-        (Some(eye), _) => Camera::look_at(eye, target, up, projection, w, h),
-        (None, Some(o)) => Camera::orbit_up(target, o.x, o.y, o.z, up, projection, w, h),
-        (None, None) => unreachable!("an orbit is chosen whenever no eye is given"),
-    };
-    Ok((cam?, target, orbit))
+    Ok((cam.map_err(Error::from_render)?, target, orbit))
 }
 
 /// `--mode iso` without `--iso`: the middle of the value range, or of the
@@ -266,17 +276,20 @@ fn default_iso(vol: &Volume, index: Option<&MajorantIndex>) -> Result<f32> {
         Some(h) if h.lo().is_finite() && h.hi().is_finite() && h.total() > 0 => {
             Ok(mid(h.lo(), h.hi()))
         }
-        Some(_) => bail!("--mode iso: the volume has no finite samples; give --iso"),
-        None => bail!(
+        Some(_) => Err(Error::option(
+            "--mode iso: the volume has no finite samples; give --iso",
+        )),
+        None => Err(Error::option(format!(
             "--mode iso: the value range {}..{} is not finite and without an index (--no-ess) \
              its finite part is unknown; give --iso",
-            r.min,
-            r.max
-        ),
+            r.min, r.max
+        ))),
     }
 }
 
-fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<RenderSettings> {
+/// The ray caster's settings (in path mode, its defaults: the path
+/// tracer reads [`crate::path::settings`]).
+fn settings(cli: &Options, vol: &Volume, index: Option<&MajorantIndex>) -> Result<RenderSettings> {
     let mode = match cli.mode {
         ModeArg::Dvr => Mode::Dvr,
         ModeArg::Mip => Mode::Mip,
@@ -294,51 +307,56 @@ fn settings(cli: &Cli, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Re
     if cli.mode == ModeArg::Path
         && (cli.shadows.is_some() || cli.ao.is_some() || cli.ao_field.is_some())
     {
-        bail!("--shadows, --ao and --ao-field are the ray caster's effects: the path tracer casts its own shadow rays and scatters light");
+        return Err(Error::option("--shadows, --ao and --ao-field are the ray caster's effects: the path tracer casts its own shadow rays and scatters light"));
     }
     if cli.iso.is_some() && cli.mode != ModeArg::Iso {
-        bail!("--iso needs --mode iso");
+        return Err(Error::option("--iso needs --mode iso"));
     }
     let lights = match (cli.light, &cli.lights) {
         (Some(l), _) => match Light::directional(l) {
             Some(light) => vec![light],
-            None => bail!("--light must not be the zero vector"),
+            None => return Err(Error::option("--light must not be the zero vector")),
         },
         (None, Some(lights)) => lights
             .iter()
             .enumerate()
-            .map(|(i, l)| l.light().map_err(|e| anyhow::anyhow!("lights[{i}]: {e}")))
+            .map(|(i, l)| {
+                l.light()
+                    .map_err(|e| Error::option(format!("lights[{i}]: {e}")))
+            })
             .collect::<Result<_>>()?,
         (None, None) => vec![Light::HEADLIGHT],
     };
     let shadows = match &cli.shadows {
         None => None,
         Some(name) => Some(volrender::Shadows {
-            method: crate::args::shadow_method(name)
-                .map_err(|e| volkit_cli::usage(format!("--shadows {e}")))?,
+            method: crate::parse::shadow_method(name)
+                .map_err(|e| Error::usage(format!("--shadows {e}")))?,
             step: cli.shadow_step,
         }),
     };
     if cli.shadow_step.is_some() && shadows.is_none() {
-        bail!("--shadow-step needs --shadows");
+        return Err(Error::option("--shadow-step needs --shadows"));
     }
     let ao_of = |flag: &str, spec: &str, method: fn(u32) -> volrender::AoMethod| {
-        crate::args::ao_spec(spec)
+        crate::parse::ao_spec(spec)
             .map(|(n, radius)| volrender::Ao {
                 method: method(n),
                 radius,
                 seed: 0,
             })
-            .map_err(|e| volkit_cli::usage(format!("{flag} {e}")))
+            .map_err(|e| Error::usage(format!("{flag} {e}")))
     };
     if cli.ao_field_cell.is_some() && cli.ao_field.is_none() {
-        return Err(volkit_cli::usage(
+        return Err(Error::usage(
             "--ao-field-cell (ao-field-cell) needs --ao-field (ao-field)",
         ));
     }
     let ao = match (&cli.ao, &cli.ao_field) {
         (Some(_), Some(_)) => {
-            bail!("--ao and --ao-field are two ways to the same effect: give one")
+            return Err(Error::option(
+                "--ao and --ao-field are two ways to the same effect: give one",
+            ))
         }
         (Some(s), None) => Some(ao_of("--ao", s, |n| volrender::AoMethod::Rays { n })?),
         (None, Some(s)) => {

@@ -1,0 +1,163 @@
+//! Options from name/value pairs: the names are vol-render's flags and
+//! the scene file's keys (`look-at`, or `look_at` as Python spells a
+//! keyword), the values JSON values (`[0, 0, 0]`, `"ct"`, `true`). Each
+//! pair becomes the command-line argument that says the same, and clap
+//! parses those with the one definition of the options ([`Options`]),
+//! so a pair is checked, parsed and defaulted exactly as the flag is.
+//!
+//! Two scene-file keys have no flag: `lights` (a list of tables, as in
+//! the file) and `tf-text`; they are read as the scene file reads them.
+
+use crate::error::{Error, Result};
+use crate::file::Scene;
+use crate::options::Options;
+use crate::request::{clap_error, Request};
+use clap::{ArgAction, CommandFactory, FromArgMatches};
+use serde_json::Value;
+use std::collections::BTreeSet;
+
+/// The keys that only a scene file (or a pair) can give: no flag says them.
+pub const SCENE_ONLY: [&str; 2] = ["lights", "tf_text"];
+
+/// What a list of pairs says, taken apart.
+#[derive(Clone, Debug, Default)]
+pub struct Pairs {
+    /// The vol-render arguments that say the same as the pairs with a
+    /// flag (without the program's name): `--look-at=0,0,0`.
+    pub args: Vec<String>,
+    /// The pairs without a flag (`lights`, `tf-text`), as a scene.
+    pub scene_only: Scene,
+    /// The ids of every option named (`look_at`), `null` values aside.
+    pub given: BTreeSet<String>,
+}
+
+/// `name` as an option's id: `look-at` and `look_at` are `look_at`.
+pub fn id_of(name: &str) -> String {
+    name.trim().replace('-', "_")
+}
+
+/// Take `pairs` apart into arguments and scene-only keys. An unknown
+/// name is refused naming it; a `null` value is as if the pair were not
+/// there.
+pub fn split<I, K>(pairs: I) -> Result<Pairs>
+where
+    I: IntoIterator<Item = (K, Value)>,
+    K: AsRef<str>,
+{
+    let cmd = Options::command();
+    let mut out = Pairs::default();
+    let mut positional = Vec::new();
+    let mut scene_only = serde_json::Map::new();
+    for (name, value) in pairs {
+        let name = name.as_ref();
+        let id = id_of(name);
+        if value.is_null() {
+            continue;
+        }
+        if SCENE_ONLY.contains(&id.as_str()) {
+            scene_only.insert(id.replace('_', "-"), value);
+            out.given.insert(id);
+            continue;
+        }
+        let Some(arg) = cmd.get_arguments().find(|a| a.get_id().as_str() == id) else {
+            return Err(Error::usage(format!(
+                "unknown option `{}`",
+                volcore::text::clip(&volcore::text::escape(name), 40)
+            )));
+        };
+        let bad = |what: &str| {
+            Error::usage(format!(
+                "option `{}`: {what}",
+                volcore::text::clip(&volcore::text::escape(name), 40)
+            ))
+        };
+        let Some(long) = arg.get_long() else {
+            // The volume, vol-render's one positional argument.
+            positional.push(text(&value).ok_or_else(|| bad("expected a path"))?);
+            out.given.insert(id);
+            continue;
+        };
+        match (arg.get_action(), &value) {
+            (ArgAction::SetTrue, Value::Bool(b)) => {
+                if *b {
+                    out.args.push(format!("--{long}"));
+                }
+            }
+            (ArgAction::SetTrue, _) => return Err(bad("expected true or false")),
+            (ArgAction::Append, Value::Array(items)) => {
+                for item in items {
+                    let t = text(item).ok_or_else(|| bad("expected a list of texts"))?;
+                    out.args.push(format!("--{long}={t}"));
+                }
+            }
+            // An option whose value may be left out (`--ortho`).
+            (_, Value::Bool(b)) if arg.get_num_args().is_some_and(|n| n.min_values() == 0) => {
+                if *b {
+                    out.args.push(format!("--{long}"));
+                }
+            }
+            (_, v) => {
+                let t = text(v).ok_or_else(|| bad("expected a value"))?;
+                out.args.push(format!("--{long}={t}"));
+            }
+        }
+        out.given.insert(id);
+    }
+    if !positional.is_empty() {
+        out.args.push("--".into());
+        out.args.extend(positional);
+    }
+    if !scene_only.is_empty() {
+        out.scene_only = Scene::from_json(Value::Object(scene_only)).map_err(Error::usage)?;
+    }
+    Ok(out)
+}
+
+/// A value as the text a flag takes: a string as it is, a number as
+/// written, a list as its items joined by commas (`[700, 700]` is
+/// `700,700`, which `--size` reads as `700x700`).
+fn text(v: &Value) -> Option<String> {
+    match v {
+        Value::String(s) => Some(s.clone()),
+        Value::Number(n) => Some(n.to_string()),
+        Value::Bool(b) => Some(b.to_string()),
+        Value::Array(items) => items
+            .iter()
+            .map(|i| match i {
+                Value::String(s) => Some(s.clone()),
+                Value::Number(n) => Some(n.to_string()),
+                _ => None,
+            })
+            .collect::<Option<Vec<_>>>()
+            .map(|v| v.join(",")),
+        Value::Null | Value::Object(_) => None,
+    }
+}
+
+impl Request {
+    /// The render that `pairs` ask for: each name an option's (as a flag
+    /// or a scene-file key), each value parsed and checked as the flag's
+    /// would be. Options not named keep their defaults, which a scene
+    /// file (the `scene` pair, then [`Request::with_scene_file`]) fills.
+    pub fn from_pairs<I, K>(pairs: I) -> Result<Request>
+    where
+        I: IntoIterator<Item = (K, Value)>,
+        K: AsRef<str>,
+    {
+        let p = split(pairs)?;
+        let argv = std::iter::once("vol-render".to_string()).chain(p.args);
+        let matches = Options::command()
+            .try_get_matches_from(argv)
+            .map_err(clap_error)?;
+        let mut options = Options::from_arg_matches(&matches).map_err(clap_error)?;
+        if p.scene_only.tf_text.is_some() && p.given.contains("tf") {
+            return Err(Error::usage("give `tf` or `tf-text`, not both"));
+        }
+        if p.scene_only.lights.is_some() && p.given.contains("light") {
+            return Err(Error::usage("give `light` or `lights`, not both"));
+        }
+        options.lights = p.scene_only.lights;
+        options.tf_text = p.scene_only.tf_text;
+        Ok(Request::new(options, p.given))
+    }
+}

@@ -1,0 +1,213 @@
+//! Run one resolved render: the ray caster's frame (`--repeat` times,
+//! the median time kept) or the path tracer's passes (continuing from and
+//! saving an `--accumulate` state), stopping between tiles or passes
+//! when the caller raises a [`Cancel`] flag.
+
+use crate::error::{Error, ErrorKind, Kind, Result};
+use crate::options::Options;
+use crate::plan::Plan;
+use crate::source::Source;
+use std::time::Instant;
+use volindex::{BuildOptions, MajorantIndex};
+use volrender::path::{Accumulator, PathCounters, PathTracer};
+use volrender::{render_tf, Cancel, Frame};
+
+/// Bytes a path-traced frame needs per pixel (f64 sums, the mean image
+/// and its encodings), for the memory check.
+const BYTES_PER_PIXEL: u64 = 32 + 12 + 12 + 8;
+
+/// What a render made: the image and the seconds it took.
+pub struct Rendered {
+    /// The ray caster's frame, or the path tracer's accumulated passes.
+    pub image: Image,
+    /// How long each part took.
+    pub times: Times,
+}
+
+/// The image of a render.
+pub enum Image {
+    /// A ray-cast frame.
+    Frame(Frame),
+    /// Path-traced passes.
+    Path(Traced),
+}
+
+/// A path-traced render: the sums of every pass (those of a state it
+/// continued from too) and the tracer's counters for the passes added.
+pub struct Traced {
+    /// The per-pixel sums; `spp()` counts every sample in them.
+    pub acc: Accumulator,
+    /// The counters of the passes this render added.
+    pub counters: PathCounters,
+    /// Samples per pixel this render added.
+    pub spp_added: u64,
+    /// The fraction of majorant cells that are empty.
+    pub empty_fraction: f64,
+}
+
+/// How long each part of a render took, seconds.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Times {
+    /// Opening the volume.
+    pub load_s: f64,
+    /// Reading or building the index (in path mode, also the build a
+    /// render without one needs).
+    pub index_s: f64,
+    /// The frame (the median of `runs`), or the passes.
+    pub render_s: f64,
+    /// Each ray-cast frame's time (`--repeat`), as rendered, sorted.
+    pub runs: Vec<f64>,
+}
+
+/// How far a path-traced render is, after each pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Progress {
+    /// Samples per pixel added so far.
+    pub spp_added: u64,
+    /// The image's relative standard error, when there is an estimate.
+    pub relative_error: Option<f64>,
+}
+
+/// Render `plan` from `source`: frames or passes as `options` say,
+/// `progress` called after each path-traced pass; the error
+/// [`ErrorKind::Cancelled`] when `cancel` is raised first. Errors name
+/// the volume, as vol-render prints them.
+pub fn render(
+    options: &Options,
+    source: &Source,
+    plan: &Plan,
+    cancel: &Cancel,
+    progress: impl FnMut(&Progress),
+) -> Result<Rendered> {
+    match &plan.path {
+        Some(_) => trace(options, source, plan, cancel, progress),
+        None => cast(options, source, plan, cancel),
+    }
+}
+
+/// The ray caster: `--repeat` frames, the last kept, the median timed.
+fn cast(options: &Options, source: &Source, plan: &Plan, cancel: &Cancel) -> Result<Rendered> {
+    let name = source.name();
+    let vol = &source.volume;
+    let mut settings = plan.settings.clone();
+    settings.cancel = cancel.clone();
+    let mut runs = Vec::new();
+    let mut frame = None;
+    for _ in 0..options.repeat.max(1) {
+        let f = render_tf(
+            vol,
+            source.index.as_ref(),
+            plan.tf.as_ref(),
+            &plan.camera,
+            &settings,
+        )
+        .map_err(|e| Error::from_render(e).context(&name))?;
+        runs.push(f.stats.render_s);
+        frame = Some(f);
+    }
+    let Some(frame) = frame else {
+        return Err(Error::new(ErrorKind::Render, "nothing rendered"));
+    };
+    if let Some(e) = vol.error() {
+        return Err(Error::file(format!("{name}: {e}")));
+    }
+    runs.sort_by(f64::total_cmp);
+    let render_s = runs[runs.len() / 2];
+    Ok(Rendered {
+        image: Image::Frame(frame),
+        times: Times {
+            load_s: source.load_s,
+            index_s: source.index_s,
+            render_s,
+            runs,
+        },
+    })
+}
+
+/// The path tracer: passes until the budget is spent, from and into the
+/// `--accumulate` state.
+fn trace(
+    options: &Options,
+    source: &Source,
+    plan: &Plan,
+    cancel: &Cancel,
+    mut progress: impl FnMut(&Progress),
+) -> Result<Rendered> {
+    let Some((settings, budget)) = &plan.path else {
+        return Err(Error::option("not a path-traced render"));
+    };
+    let name = source.name();
+    let vol = &source.volume;
+    let (w, h) = (plan.camera.width(), plan.camera.height());
+    let need = u64::from(w) * u64::from(h) * BYTES_PER_PIXEL;
+    if need > volrender::frame::FRAME_MEMORY_BUDGET {
+        return Err(Error::option(format!(
+            "a {w}x{h} path-traced frame needs about {:.1} GiB, more than the budget of {} GiB: ask for a smaller --size",
+            need as f64 / (1u64 << 30) as f64,
+            volrender::frame::FRAME_MEMORY_BUDGET >> 30
+        )));
+    }
+    // Tracking needs the index's majorants, even under --no-ess.
+    let built;
+    let (index, index_s) = match source.index.as_ref() {
+        Some(ix) => (ix, source.index_s),
+        None => {
+            let t = Instant::now();
+            built = MajorantIndex::build_volume(vol, &BuildOptions::default(), 0)
+                .kind_ctx(ErrorKind::File, format_args!("{name}: building the index"))?;
+            (&built, source.index_s + t.elapsed().as_secs_f64())
+        }
+    };
+    let tracer = PathTracer::new(vol, index, &plan.camera, settings)
+        .map_err(|e| Error::from_render(e).context(&name))?
+        .with_cancel(cancel.clone());
+    let volume_id = match volformats::fingerprint(&source.path) {
+        Ok(f) => f,
+        Err(e) if options.accumulate.is_some() => {
+            return Err(Error::file(format!(
+                "--accumulate needs a volume file it can recognise again: {name}: {e}"
+            )))
+        }
+        Err(_) => 0,
+    };
+    let key = tracer.key(volume_id);
+    let state = |p: &std::path::Path| volcore::text::escape(&p.display().to_string());
+    let mut acc = match &options.accumulate {
+        Some(p) if p.exists() => Accumulator::load(p, w, h, key)
+            .map_err(|e| Error::file(format!("{}: {e}", state(p))))?,
+        _ => Accumulator::new(w, h, key),
+    };
+    let start_spp = acc.spp();
+    let t = Instant::now();
+    let counters = tracer
+        .render(&mut acc, budget, |a, _| {
+            progress(&Progress {
+                spp_added: a.spp() - start_spp,
+                relative_error: a.relative_error(),
+            })
+        })
+        .map_err(|e| Error::from_render(e).context(&name))?;
+    let render_s = t.elapsed().as_secs_f64();
+    if let Some(e) = vol.error() {
+        return Err(Error::file(format!("{name}: {e}")));
+    }
+    if let Some(p) = &options.accumulate {
+        acc.save(p).kind_ctx(ErrorKind::File, state(p))?;
+    }
+    let spp_added = acc.spp() - start_spp;
+    let empty_fraction = tracer.empty_fraction();
+    Ok(Rendered {
+        image: Image::Path(Traced {
+            acc,
+            counters,
+            spp_added,
+            empty_fraction,
+        }),
+        times: Times {
+            load_s: source.load_s,
+            index_s,
+            render_s,
+            runs: vec![render_s],
+        },
+    })
+}

@@ -1,0 +1,123 @@
+//! The volume a render reads and its index, opened and loaded (or built)
+//! as the options say, with the time each took.
+
+use crate::error::{Error, ErrorKind, Kind, Result};
+use crate::options::Options;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use volcore::Volume;
+use volformats::{open_volume, vvol};
+use volindex::{BuildOptions, MajorantIndex};
+
+/// A volume ready to render: the data, its empty-space-skipping index
+/// (none under `--no-ess`), where it came from, and the seconds spent.
+pub struct Source {
+    /// The volume.
+    pub volume: Volume,
+    /// Its index (`--index`, or built in memory with `--cell`); `None`
+    /// when skipping is off.
+    pub index: Option<MajorantIndex>,
+    /// The volume's path (errors name it; `--accumulate` fingerprints it).
+    pub path: PathBuf,
+    /// Seconds to open the volume.
+    pub load_s: f64,
+    /// Seconds to read or build the index.
+    pub index_s: f64,
+}
+
+impl Source {
+    /// Open the volume at `path` (`--in-memory` as the options say) and
+    /// read or build its index.
+    pub fn open(options: &Options, path: &Path) -> Result<Source> {
+        let t = Instant::now();
+        let volume = open(options, path)?;
+        let load_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let index = load_index(options, path, &volume)?;
+        let index_s = t.elapsed().as_secs_f64();
+        Ok(Source {
+            volume,
+            index,
+            path: path.to_path_buf(),
+            load_s,
+            index_s,
+        })
+    }
+
+    /// A volume already in memory (a caller's array), its index built
+    /// as the options say (`--index` is read and checked against the file
+    /// at `path`); `path` names the volume in messages.
+    pub fn from_volume(options: &Options, volume: Volume, path: &Path) -> Result<Source> {
+        let t = Instant::now();
+        let index = load_index(options, path, &volume)?;
+        let index_s = t.elapsed().as_secs_f64();
+        Ok(Source {
+            volume,
+            index,
+            path: path.to_path_buf(),
+            load_s: 0.0,
+            index_s,
+        })
+    }
+
+    /// The volume as errors name it.
+    pub fn name(&self) -> String {
+        self.path.display().to_string()
+    }
+}
+
+/// Open the volume at `path` (in memory with `--in-memory`).
+pub fn open(options: &Options, path: &Path) -> Result<Volume> {
+    let opts = vvol::OpenOptions {
+        in_memory: options.in_memory,
+        ..Default::default()
+    };
+    open_volume(path, opts, None).kind_ctx(ErrorKind::File, path.display())
+}
+
+/// The index the options ask for: none under `--no-ess`, the `--index`
+/// file (checked against the volume at `path`), else one built in memory
+/// with `--cell`.
+pub fn load_index(options: &Options, path: &Path, vol: &Volume) -> Result<Option<MajorantIndex>> {
+    if options.no_ess {
+        return Ok(None);
+    }
+    match &options.index {
+        Some(p) => {
+            let name = p.display().to_string();
+            let fp = volformats::fingerprint(path).kind_ctx(ErrorKind::File, path.display())?;
+            let file = std::fs::File::open(p).kind_ctx(ErrorKind::File, &name)?;
+            let mut f = std::io::BufReader::new(file);
+            let ix = MajorantIndex::read_for_volume(&mut f, &vol.meta, fp)
+                .kind_ctx(ErrorKind::File, &name)?;
+            Ok(Some(ix))
+        }
+        None => {
+            let opts = BuildOptions {
+                cell_edge: options.cell,
+                ..Default::default()
+            };
+            let ix = MajorantIndex::build_volume(vol, &opts, 0).kind_ctx(
+                ErrorKind::File,
+                format_args!("{}: building the index", path.display()),
+            )?;
+            Ok(Some(ix))
+        }
+    }
+}
+
+/// Start the worker pool with `--threads` workers (rayon's default, one
+/// per core, without it). The pool is the process's: a second call with
+/// `--threads` fails.
+pub fn start_threads(options: &Options) -> Result<()> {
+    if let Some(n) = options.threads {
+        if n == 0 {
+            return Err(Error::option("--threads must be at least 1"));
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .kind_ctx(ErrorKind::Render, "cannot start the worker threads")?;
+    }
+    Ok(())
+}
