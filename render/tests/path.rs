@@ -11,9 +11,9 @@ use volcore::{Dims, Volume};
 use volindex::{BuildOptions, MajorantIndex};
 use volrender::path::{
     Accumulator, Budget, EnvMap, MajorantMode, MediumSpec, PathCounters, PathLights, PathSettings,
-    PathTracer, Sun,
+    PathTracer,
 };
-use volrender::{Camera, Projection};
+use volrender::{Camera, Light, Projection};
 
 fn index(v: &Volume) -> MajorantIndex {
     MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
@@ -44,11 +44,10 @@ fn env(l: f32) -> PathLights {
 
 fn sun_and_env() -> PathLights {
     PathLights {
-        suns: vec![Sun {
-            travel: Vec3::new(-1.0, -1.2, 0.4).normalize(),
-            irradiance: Vec3::splat(4.0),
+        lights: vec![Light::Directional {
+            towards: -Vec3::new(-1.0, -1.2, 0.4).normalize(),
+            radiance: Vec3::splat(4.0),
         }],
-        points: vec![],
         env: Vec3::splat(0.1),
         env_map: None,
     }
@@ -270,7 +269,10 @@ fn hard_cases_stay_finite() {
     // The sun travelling along the view direction, and straight at it.
     for sign in [1.0, -1.0] {
         let mut l = sun_and_env();
-        l.suns[0].travel = cam.forward() * sign;
+        l.lights[0] = Light::Directional {
+            towards: -cam.forward() * sign,
+            radiance: Vec3::splat(4.0),
+        };
         let (acc, n) = render(&v, &ix, &cam, &settings(0.5, 0.8, l), 4);
         assert!(acc.mean_rgb().iter().all(|c| c.is_finite() && *c >= 0.0));
         assert!(n.shadow_rays > 0);
@@ -387,9 +389,9 @@ fn single_scattering_in_a_slab_matches_the_closed_form() {
             0.1,
             0.8,
             PathLights {
-                suns: vec![Sun {
-                    travel,
-                    irradiance: Vec3::splat(4.0),
+                lights: vec![Light::Directional {
+                    towards: -travel,
+                    radiance: Vec3::splat(4.0),
                 }],
                 ..Default::default()
             },
@@ -416,7 +418,7 @@ fn single_scattering_in_a_slab_matches_the_closed_form() {
         0.1,
         0.8,
         PathLights {
-            points: vec![volrender::path::PointLight {
+            lights: vec![Light::Point {
                 position: Vec3::new(31.5, 31.5, 2.0) - travel * far,
                 intensity: Vec3::splat(4.0 * far * far),
             }],

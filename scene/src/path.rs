@@ -8,9 +8,7 @@ use crate::parse::sun_spec;
 use glam::Vec3;
 use std::path::Path;
 use volrender::classify::srgb_to_linear;
-use volrender::path::{
-    Budget, EnvMap, MajorantMode, MediumSpec, PathLights, PathSettings, PointLight, Sun,
-};
+use volrender::path::{Budget, EnvMap, MajorantMode, MediumSpec, PathLights, PathSettings};
 use volrender::tf::Tf;
 use volrender::Light;
 
@@ -39,9 +37,9 @@ pub fn refuse_path_options(cli: &Options) -> Result<()> {
     }
 }
 
-/// The path tracer's settings and budget from the command line (and the
-/// scene file's lights: directional ones are suns, point lights stay
-/// point lights, the headlight has no place in a path-traced scene).
+/// The path tracer's settings and budget from the command line (`--sun`
+/// gives directional lights, after which come the scene file's lights,
+/// but the headlight, which has no place in a path-traced scene).
 pub fn settings(
     cli: &Options,
     lights: &[Light],
@@ -68,7 +66,8 @@ pub fn settings(
             ))
         }
     };
-    let mut suns = Vec::new();
+    // Suns first, then the lights (the order the estimator sums them in).
+    let mut path_lights = Vec::new();
     for s in &cli.sun {
         let (dir, e) = sun_spec(s).map_err(|e| Error::usage(format!("--sun {e}")))?;
         let Some(travel) = volrender::ray::unit(dir) else {
@@ -76,28 +75,17 @@ pub fn settings(
                 "--sun {s}: the direction must be finite and not zero"
             )));
         };
-        suns.push(Sun {
-            travel,
-            irradiance: Vec3::splat(e),
+        path_lights.push(Light::Directional {
+            towards: -travel,
+            radiance: Vec3::splat(e),
         });
     }
-    let mut points = Vec::new();
     // Lights from --light or the scene file; the default headlight is
     // not one the user asked for.
     if cli.light.is_some() || cli.lights.is_some() {
         for l in lights {
             match *l {
-                Light::Directional { towards, radiance } => suns.push(Sun {
-                    travel: -towards,
-                    irradiance: radiance,
-                }),
-                Light::Point {
-                    position,
-                    intensity,
-                } => points.push(PointLight {
-                    position,
-                    intensity,
-                }),
+                Light::Directional { .. } | Light::Point { .. } => path_lights.push(*l),
                 Light::Headlight { .. } => {
                     notes.push("the headlight does not light a path-traced scene".into())
                 }
@@ -113,13 +101,13 @@ pub fn settings(
         }
         None => None,
     };
-    let env = cli.env.unwrap_or(
-        if suns.is_empty() && points.is_empty() && env_map.is_none() {
+    let env = cli
+        .env
+        .unwrap_or(if path_lights.is_empty() && env_map.is_none() {
             Vec3::ONE
         } else {
             Vec3::ZERO
-        },
-    );
+        });
     let majorant = match cli.majorant.as_str() {
         "grid" => MajorantMode::Grid,
         "global" => MajorantMode::Global,
@@ -185,8 +173,7 @@ pub fn settings(
         hybrid,
         majorant,
         lights: PathLights {
-            suns,
-            points,
+            lights: path_lights,
             env,
             env_map,
         },

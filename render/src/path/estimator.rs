@@ -193,18 +193,18 @@ impl<M: Medium> Estimator<'_, M> {
         n: &mut PathCounters,
     ) -> Vec3 {
         let mut l = Vec3::ZERO;
-        for sun in &self.lights.suns {
-            let f = self.lobe_f(lobe, d, -sun.travel);
+        for (towards, irradiance) in self.lights.directional() {
+            let f = self.lobe_f(lobe, d, towards);
             if f.max_element() <= 0.0 {
                 continue;
             }
-            let tr = self.transmittance(cur, p, -sun.travel, f32::INFINITY, rng, n);
+            let tr = self.transmittance(cur, p, towards, f32::INFINITY, rng, n);
             if tr > 0.0 {
-                l += sun.irradiance * (f * tr);
+                l += irradiance * (f * tr);
             }
         }
-        for pl in &self.lights.points {
-            let to = pl.position - p;
+        for (position, intensity) in self.lights.points() {
+            let to = position - p;
             let d2 = to.length_squared().max(MIN_DISTANCE2);
             let dist = d2.sqrt();
             let Some(wi) = crate::ray::unit(to) else {
@@ -216,7 +216,7 @@ impl<M: Medium> Estimator<'_, M> {
             }
             let tr = self.transmittance(cur, p, wi, dist, rng, n);
             if tr > 0.0 {
-                l += pl.intensity * (f * tr / d2);
+                l += intensity * (f * tr / d2);
             }
         }
         l

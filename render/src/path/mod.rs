@@ -37,6 +37,7 @@ pub use tracking::MajorantMode;
 use crate::accel::majorant::MajorantGrid;
 use crate::camera::Camera;
 use crate::error::RenderError;
+use crate::light::Light;
 use crate::tf::TransferFunction;
 use estimator::Estimator;
 use glam::Vec3;
@@ -48,31 +49,15 @@ use tracking::Tracker;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
 use volindex::MajorantIndex;
 
-/// A directional light: parallel rays travelling along `travel`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Sun {
-    /// Unit direction the light travels.
-    pub travel: Vec3,
-    /// Irradiance on a surface facing it, linear RGB.
-    pub irradiance: Vec3,
-}
-
-/// A point light with inverse-square falloff.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PointLight {
-    /// Position, world units.
-    pub position: Vec3,
-    /// Intensity (radiance at unit distance), linear RGB.
-    pub intensity: Vec3,
-}
-
-/// The lights of a path-traced scene.
+/// The lights of a path-traced scene: the ray caster's light model
+/// ([`Light`], one direction convention: `towards` points from the scene
+/// to the light), less the headlight, which lights nothing a path tracer
+/// sees; and the sky.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PathLights {
-    /// Directional lights.
-    pub suns: Vec<Sun>,
-    /// Point lights.
-    pub points: Vec<PointLight>,
+    /// Directional lights (whose radiance is the irradiance on a surface
+    /// facing them) and point lights.
+    pub lights: Vec<Light>,
     /// Constant environment radiance, linear RGB (zero: none).
     pub env: Vec3,
     /// An environment map (instead of the constant radiance), sampled at
@@ -186,6 +171,28 @@ pub struct Budget {
 /// bounds it.
 pub const MAX_SPP: u64 = 1 << 16;
 
+impl PathLights {
+    /// The directional lights, in order: toward each (unit) and its
+    /// irradiance on a surface facing it.
+    pub fn directional(&self) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
+        self.lights.iter().filter_map(|l| match *l {
+            Light::Directional { towards, radiance } => Some((towards, radiance)),
+            _ => None,
+        })
+    }
+
+    /// The point lights, in order: position and intensity.
+    pub fn points(&self) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
+        self.lights.iter().filter_map(|l| match *l {
+            Light::Point {
+                position,
+                intensity,
+            } => Some((position, intensity)),
+            _ => None,
+        })
+    }
+}
+
 /// The medium resolved for the volume.
 enum AnyMedium {
     Density(DensityMedium),
@@ -233,14 +240,21 @@ impl<'a> PathTracer<'a> {
         }
         let l = &settings.lights;
         let radiance_ok = |c: Vec3| c.is_finite() && c.min_element() >= 0.0;
+        if l.lights
+            .iter()
+            .any(|l| matches!(l, Light::Headlight { .. }))
+        {
+            return Err(RenderError::Setting(
+                "a headlight does not light a path-traced scene: give directional or point lights"
+                    .into(),
+            ));
+        }
         if !radiance_ok(l.env)
             || !settings.background.is_none_or(radiance_ok)
-            || l.suns
-                .iter()
-                .any(|s| !radiance_ok(s.irradiance) || !s.travel.is_finite())
-            || l.points
-                .iter()
-                .any(|p| !radiance_ok(p.intensity) || !p.position.is_finite())
+            || l.directional()
+                .any(|(towards, e)| !radiance_ok(e) || !towards.is_finite())
+            || l.points()
+                .any(|(position, i)| !radiance_ok(i) || !position.is_finite())
         {
             return Err(RenderError::Setting(
                 "light and background radiances must be finite and not negative".into(),
