@@ -8,13 +8,14 @@ use glam::Vec3;
 use volrender::path::{
     Accumulator, Budget, MajorantMode, MediumSpec, PathLights, PathSettings, PathTracer,
 };
+use volrender::tf::TransferFunction;
 use volrender::{render_tf, Cancel, Mode, RenderError, RenderSettings, Tf};
 
 #[test]
 fn a_raised_flag_stops_a_frame_and_an_idle_one_changes_nothing() {
     let (v, ix) = common::shapes();
     let cam = common::orbit_camera();
-    let tf = Tf::OneD(Tf::preset("shapes", (0.0, 255.0)).unwrap());
+    let tf = Tf::OneD(TransferFunction::preset("shapes", (0.0, 255.0)).unwrap());
     for mode in [Mode::Dvr, Mode::Mip, Mode::XraySum, Mode::Iso(50.0)] {
         let plain = RenderSettings {
             mode,
