@@ -5,8 +5,7 @@
 //! nothing half-written left behind). The README's "Hard cases" section
 //! lists them.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
