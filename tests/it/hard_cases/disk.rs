@@ -4,6 +4,7 @@
 
 use super::*;
 
+/// Bug: `vol-gen --dims 16777216,16777216,1` started writing 281 TB (fixed in c80723a).
 #[test]
 fn gen_refuses_an_output_larger_than_the_disk() {
     let d = tmp();

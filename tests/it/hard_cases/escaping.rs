@@ -3,6 +3,7 @@
 
 use super::*;
 
+/// Bug: NRRD header lines went raw into errors, terminal escapes too (fixed in 4543c7c).
 #[test]
 fn nrrd_control_bytes_in_a_header_line_are_escaped() {
     let d = tmp();
@@ -23,6 +24,7 @@ fn nrrd_control_bytes_in_a_header_line_are_escaped() {
     assert_eq!(err.lines().count(), 1);
 }
 
+/// Bug: NRRD header lines went raw into errors, kilobytes of binary too (fixed in 4543c7c).
 #[test]
 fn nrrd_binary_header_excerpt_is_cut_short() {
     let d = tmp();
@@ -48,6 +50,7 @@ fn nrrd_binary_header_excerpt_is_cut_short() {
     );
 }
 
+/// Bug: bad NRRD header values were quoted raw, terminal escapes too (fixed in 4543c7c).
 #[test]
 fn nrrd_bad_values_are_named_and_escaped() {
     let d = tmp();
@@ -73,6 +76,7 @@ fn nrrd_bad_values_are_named_and_escaped() {
     }
 }
 
+/// Bug: a crafted MetaImage header sent terminal escapes through an error (fixed in ce689a4).
 #[test]
 fn mhd_control_bytes_are_escaped() {
     let d = tmp();
@@ -91,6 +95,7 @@ fn mhd_control_bytes_are_escaped() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("MET_\\x1b[5mLONG"));
 }
 
+/// Bug: a crafted PFM header sent escapes and kilobytes of text into an error (fixed in ce689a4).
 #[test]
 fn pfm_header_tokens_are_escaped_and_cut() {
     let d = tmp();

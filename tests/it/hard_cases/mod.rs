@@ -5,8 +5,10 @@
 //! nothing half-written left behind). The README's "Hard cases" section
 //! lists them.
 //!
-//! One module per topic; this module holds only the helpers they share:
-//! each topic takes them, and the imports below, with `use super::*`.
+//! One module per topic; a case that began as a bug says so in a `Bug:`
+//! line naming the fix (the commit). This module holds only the helpers
+//! the topics share: each takes them, and the imports below, with
+//! `use super::*`.
 
 mod degenerate;
 mod disk;

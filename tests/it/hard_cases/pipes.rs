@@ -21,6 +21,7 @@ fn quiet_pipe_end(cmd: &mut Command) {
     assert!(c == 141 || c == 0, "{cmd:?}: status {c}");
 }
 
+/// Bug: `vol-info x | head -1` panicked in println! (fixed in bffd864).
 #[test]
 fn broken_pipe_vol_info_ends_quietly() {
     let d = tmp();
@@ -138,6 +139,7 @@ fn broken_pipe_help_and_version_do_not_panic() {
     }
 }
 
+/// Bug: vol-render printed with println!, which panics on a closed stdout (issue 14, 2aca2eb).
 #[test]
 fn broken_pipe_vol_render_json_ends_quietly() {
     let d = tmp();
@@ -151,6 +153,7 @@ fn broken_pipe_vol_render_json_ends_quietly() {
     );
 }
 
+/// Bug: vol-accuracy wrote with eprintln!, which panics on a closed stderr (issue 14, 2aca2eb).
 #[test]
 fn vol_accuracy_with_a_closed_stderr_does_not_panic() {
     let d = tmp();

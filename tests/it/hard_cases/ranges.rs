@@ -4,6 +4,7 @@
 
 use super::*;
 
+/// Bug: vol-gen accepted --octaves 0 and 17 (fixed in c80723a).
 #[test]
 fn gen_octaves_outside_1_to_16_are_refused() {
     let d = tmp();
@@ -21,6 +22,7 @@ fn gen_octaves_outside_1_to_16_are_refused() {
     );
 }
 
+/// Bug: vol-gen accepted --value 300 for u8 (fixed in c80723a).
 #[test]
 fn gen_value_must_fit_the_sample_type() {
     let d = tmp();
@@ -107,8 +109,8 @@ fn gen_zero_and_overflowing_dims_are_refused() {
     }
 }
 
-/// Dimensions whose bricked bytes pass u64 (found by the unwrap audit: the
-/// header's data length multiplied unchecked) are refused with one line.
+/// Dimensions whose bricked bytes pass u64 are refused with one line.
+/// Bug: the header's data length was multiplied unchecked (unwrap audit, f67a976).
 #[test]
 fn a_bricked_volume_whose_bytes_pass_u64_is_refused() {
     let dir = tempfile::tempdir().unwrap();

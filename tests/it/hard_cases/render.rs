@@ -34,6 +34,7 @@ fn png_bytes(dir: &Path, name: &str) -> Vec<u8> {
     std::fs::read(dir.join(format!("{name}.png"))).unwrap()
 }
 
+/// Bug: a spacing or step could make vol-render spin on endless rays (issue 14, bf1eac0).
 #[test]
 fn render_spacing_that_implies_endless_rays_is_refused() {
     let d = tmp();
@@ -76,6 +77,7 @@ fn render_spacing_that_implies_endless_rays_is_refused() {
     );
 }
 
+/// Bug: infinities or ±FLT_MAX gave NaN or black MIP/MinIP images (issue 14, ea4de32).
 #[test]
 fn render_mip_and_minip_with_infinities_and_flt_max_are_finite() {
     let d = tmp();
@@ -118,6 +120,7 @@ fn render_mip_and_minip_with_infinities_and_flt_max_are_finite() {
     }
 }
 
+/// Bug: extreme f32 values gave NaN or black X-ray images (issue 14, ea4de32).
 #[test]
 fn render_xray_of_a_1e38_cube_is_not_black() {
     let d = tmp();
@@ -194,6 +197,7 @@ fn render_huge_and_tiny_camera_vectors_keep_their_direction() {
     );
 }
 
+/// Bug: --orbit ignored --up (issue 14, 2aca2eb).
 #[test]
 fn render_orbit_turns_around_up() {
     let d = tmp();
@@ -268,6 +272,7 @@ fn render_up_patient_follows_the_direction_matrix() {
     assert_ne!(r(&plain, "pp2", "patient"), r(&plain, "py", "0,1,0"));
 }
 
+/// Bug: default framing took a diagonal of at least 1: tiny at spacing 1e-3 (issue 14, 2aca2eb).
 #[test]
 fn render_default_framing_at_spacing_1e_3_shows_the_volume() {
     let d = tmp();
@@ -306,6 +311,7 @@ fn render_default_framing_at_spacing_1e_3_shows_the_volume() {
     );
 }
 
+/// Bug: the default iso was the midpoint of a range with infinities (issue 14, 2aca2eb).
 #[test]
 fn render_iso_default_on_an_infinite_range_is_finite_or_refused_clearly() {
     let d = tmp();
@@ -330,6 +336,7 @@ fn render_iso_default_on_an_infinite_range_is_finite_or_refused_clearly() {
     assert!(!line.contains("must be finite"), "{line}");
 }
 
+/// Bug: a huge --size or --tile could abort vol-render on its buffers (issue 14, bf1eac0).
 #[test]
 fn render_tile_and_size_allocations_are_bounded() {
     let d = tmp();
