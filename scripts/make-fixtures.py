@@ -17,7 +17,7 @@ tools of each format, so volkit is tested against files it did not write:
   (2 x 4 x 2 x 6 x 5, uint8).
 - tifffile_zstd_i32.tif: int32 pages, zstd-compressed (needs imagecodecs).
 
-Values follow formulas the Rust tests repeat (tests/formats.rs):
+Values follow formulas the Rust tests repeat (tests/it/formats.rs):
   NIfTI: stored = i + 10 j + 100 k, real = 2 stored - 10
   CT: stored = 10 (x + 2 y + 3 k) at the k-th slice from the lowest z,
       HU = stored - 1024

@@ -20,10 +20,13 @@ have_mpi() {
         pkg-config --exists ompi 2>/dev/null
 }
 
+# The MPI tests are the module `mpi` of the end-to-end test binary `it`,
+# compiled only with the feature; the filter runs just them (the rest of
+# that binary already ran above).
 if have_mpi; then
     # Only the root package is built again (with the feature).
-    echo "== MPI: cargo test --release -p volkit --features mpi --test mpi"
-    cargo test --release -p volkit --features mpi --test mpi
+    echo "== MPI: cargo test --release -p volkit --features mpi --test it mpi::"
+    cargo test --release -p volkit --features mpi --test it mpi::
 elif [ "${VOLKIT_REQUIRE_MPI:-0}" = 1 ]; then
     echo "test.sh: Open MPI not found (mpirun, pkg-config ompi); install libopenmpi-dev openmpi-bin libclang-dev pkg-config" >&2
     exit 1

@@ -1,7 +1,6 @@
 //! End to end: vol-render through files.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 fn gen(dir: &Path, name: &str, args: &[&str]) -> PathBuf {

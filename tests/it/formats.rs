@@ -3,9 +3,7 @@
 //! orientation and values; round trips through every header format with
 //! geometry; every tool reading every format; malformed files refused.
 
-mod common;
-
-use common::{fails, json, leftovers, ok, tool};
+use crate::common::{fails, json, leftovers, ok, tool};
 use std::path::{Path, PathBuf};
 
 fn fixture(name: &str) -> PathBuf {

@@ -5,12 +5,10 @@
 //! box work; a failure on one rank ends the job with one line from rank 0
 //! and no output; effects that stay single-node are refused.
 //!
-//! Run with `cargo test --features mpi --test mpi` (needs `mpirun`).
+//! Compiled only with the cargo feature `mpi` (see `main.rs`); run with
+//! `cargo test -p volkit --features mpi --test it mpi::` (needs `mpirun`).
 
-#![cfg(feature = "mpi")]
-
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

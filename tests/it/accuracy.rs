@@ -2,9 +2,7 @@
 //! quick study runs, writes the CSV with every knob's rows, and the error
 //! falls as the step shrinks.
 
-mod common;
-
-use common::{fails, ok, tool};
+use crate::common::{fails, ok, tool};
 use std::collections::HashMap;
 
 /// One parsed CSV row: (scene, knob, value) -> (median_s, samples, psnr_db).

@@ -1,8 +1,7 @@
 //! End to end: vol-render scene files (`--scene`, `--print-scene`), lights
 //! and the command line overriding a scene.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 /// Render `vol` from the tests' camera with `--json` and `extra`; the

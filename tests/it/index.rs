@@ -1,7 +1,6 @@
 //! End to end: vol-index on volumes written by vol-gen, and its --check.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 /// Offset of the fingerprint in a `.vidx` header (see index/FORMAT.md).

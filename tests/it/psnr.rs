@@ -1,7 +1,6 @@
 //! End to end: vol-psnr on images and volumes, its output and exit statuses.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 use volcompare::{write_pfm, write_png8};
 

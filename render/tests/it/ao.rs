@@ -1,9 +1,7 @@
 //! Ambient occlusion: closed forms, determinism, costs that are zero when
 //! off, and hard cases.
 
-mod common;
-
-use common::{orbit_camera, shapes};
+use crate::common::{orbit_camera, shapes};
 use glam::Vec3;
 use volcore::{Cursor, Dims, Volume, VolumeVisitor, VoxelSource};
 use volrender::effects::ao::{AoField, AoLookup, AoSource, Spiral};

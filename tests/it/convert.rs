@@ -1,8 +1,7 @@
 //! End to end: vol-convert on TIFF stacks, raw, NRRD, MetaImage, .vol and
 //! .vvol, checked voxel by voxel against vol-gen's output.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

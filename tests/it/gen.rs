@@ -1,7 +1,6 @@
 //! End to end: vol-gen and vol-info through files and pipes.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::io::Write;
 use std::path::Path;
 use std::process::Stdio;

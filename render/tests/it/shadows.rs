@@ -1,9 +1,7 @@
 //! Shadows: closed forms, determinism, costs that are zero when off, and
 //! hard cases.
 
-mod common;
-
-use common::{orbit_camera, shapes};
+use crate::common::{orbit_camera, shapes};
 use glam::Vec3;
 use volcore::{Dims, Volume};
 use volindex::{BuildOptions, MajorantIndex};

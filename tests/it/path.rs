@@ -3,8 +3,7 @@
 //! state from another scene and of options outside path mode, the scene
 //! file's path keys, and the outputs (PNG, PFM, EXR, noise map).
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 fn spheres(dir: &Path) -> PathBuf {

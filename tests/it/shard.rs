@@ -2,8 +2,7 @@
 //! and sharded indexing (`vol-index --shard K/N`, `--merge`) give the very
 //! bytes the unsharded runs give, and refuse incomplete or mixed parts.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::{Path, PathBuf};
 
 /// Convert `input` with `args` as `n` shards (run in reverse order, merged

@@ -11,8 +11,8 @@
 //! began to jump whole clear blocks of cells ahead of the ray (fewer such
 //! odd samples), with the same check. To see the current hashes, and
 //! beside them the hash without sample counts (after a deliberate change
-//! of output), run `GOLDEN_PRINT=1 cargo test -p volrender --test golden
-//! -- --nocapture`.
+//! of output), run `GOLDEN_PRINT=1 cargo test -p volrender --test it
+//! golden:: -- --nocapture`.
 
 use glam::Vec3;
 use volcore::region::pack_sliced;

@@ -2,7 +2,7 @@
 //! and a path-tracing render before its next pass, with
 //! `RenderError::Cancelled`; a flag never raised changes nothing.
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use volrender::path::{

@@ -1,0 +1,379 @@
+//! vol-render's bounds and numbers: rays, frames and allocations are
+//! bounded; extreme values, camera vectors, spacings and directions give
+//! finite, framed images.
+
+use super::*;
+
+/// vol-render on `vol` writing `dir/name.png`, with `args`.
+fn render_cmd(dir: &Path, vol: &Path, name: &str, args: &[&str]) -> Command {
+    let mut c = bin("vol-render");
+    c.arg(vol)
+        .arg("-o")
+        .arg(dir.join(format!("{name}.png")))
+        .arg("-q")
+        .args(args);
+    if !args.contains(&"--size") {
+        c.args(["--size", "24x24"]);
+    }
+    c
+}
+
+/// Render and return the linear float image (grey: the red channel).
+fn render_hdr(dir: &Path, vol: &Path, name: &str, args: &[&str]) -> Vec<f32> {
+    let hdr = dir.join(format!("{name}.pfm"));
+    ok(render_cmd(dir, vol, name, args).arg("--hdr").arg(&hdr));
+    volcompare::pfm::read_pfm(&hdr)
+        .unwrap()
+        .samples
+        .chunks(3)
+        .map(|p| p[0])
+        .collect()
+}
+
+fn png_bytes(dir: &Path, name: &str) -> Vec<u8> {
+    std::fs::read(dir.join(format!("{name}.png"))).unwrap()
+}
+
+/// Bug: a spacing or step could make vol-render spin on endless rays (issue 14, bf1eac0).
+#[test]
+fn render_spacing_that_implies_endless_rays_is_refused() {
+    let d = tmp();
+    let v = gen(
+        d.path(),
+        "thin.vvol",
+        &["solid", "--dims", "8,8,8", "--spacing", "1,1.1754944e-38,1"],
+    );
+    let out = run_within(
+        &mut render_cmd(d.path(), &v, "a", &[]),
+        Duration::from_secs(30),
+    );
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("thin.vvol") && err.contains("samples per ray"),
+        "{err}"
+    );
+    // A thesis .vol whose spacing field is damaged (1e-30 on y).
+    let good = std::fs::read(gen(d.path(), "a.vol", &["solid", "--dims", "8,8,8"])).unwrap();
+    let mut b = good.clone();
+    b[16..20].copy_from_slice(&1e-30f32.to_le_bytes());
+    let bad = d.path().join("bad.vol");
+    std::fs::write(&bad, &b).unwrap();
+    let out = run_within(
+        &mut render_cmd(d.path(), &bad, "b", &[]),
+        Duration::from_secs(30),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.lines().count() == 1, "{err}");
+    assert!(
+        err.contains("bad.vol") && err.contains("samples per ray"),
+        "{err}"
+    );
+    // An explicit step that implies too many samples per ray.
+    fails(
+        &mut render_cmd(d.path(), &v, "c", &["--step", "5e-7"]),
+        "samples per ray",
+    );
+}
+
+/// Bug: infinities or ±FLT_MAX gave NaN or black MIP/MinIP images (issue 14, ea4de32).
+#[test]
+fn render_mip_and_minip_with_infinities_and_flt_max_are_finite() {
+    let d = tmp();
+    // The front half of the volume at one extreme, the back half at the
+    // other; nearest samples (a trilinear blend of -inf and inf is NaN).
+    let n = 8 * 8 * 8;
+    for (lo, hi) in [
+        (f32::NEG_INFINITY, f32::INFINITY),
+        (-f32::MAX, f32::MAX),
+        (0.0, f32::INFINITY),
+    ] {
+        let v: Vec<f32> = (0..n).map(|i| if i / 64 < 4 { lo } else { hi }).collect();
+        let vol = raw_f32(d.path(), &format!("ext{lo}"), [8, 8, 8], &v);
+        for mode in ["mip", "minip"] {
+            let img = render_hdr(
+                d.path(),
+                &vol,
+                mode,
+                &[
+                    "--mode",
+                    mode,
+                    "--interp",
+                    "nearest",
+                    "--eye",
+                    "3.5,3.5,40",
+                    "--look-at",
+                    "3.5,3.5,0",
+                ],
+            );
+            assert!(
+                img.iter().all(|g| g.is_finite()),
+                "{mode} {lo}..{hi}: {img:?}"
+            );
+            // Every ray through the volume meets both halves: MIP shows
+            // white, MinIP black, at the centre.
+            let c = img[12 * 24 + 12];
+            let want = if mode == "mip" { 1.0 } else { 0.0 };
+            assert_eq!(c, want, "{mode} {lo}..{hi}");
+        }
+    }
+}
+
+/// Bug: extreme f32 values gave NaN or black X-ray images (issue 14, ea4de32).
+#[test]
+fn render_xray_of_a_1e38_cube_is_not_black() {
+    let d = tmp();
+    let vol = raw_f32(d.path(), "big", [16, 16, 16], &[1e38; 4096]);
+    let img = render_hdr(d.path(), &vol, "x", &["--mode", "xray"]);
+    assert!(img.iter().all(|g| g.is_finite()));
+    let top = img.iter().cloned().fold(0.0f32, f32::max);
+    assert!(top > 0.99, "brightest pixel {top}");
+    // The ordinary scale gives the same picture (the sum only scales).
+    let small = raw_f32(d.path(), "one", [16, 16, 16], &[1.0; 4096]);
+    let one = render_hdr(d.path(), &small, "y", &["--mode", "xray"]);
+    for (a, b) in img.iter().zip(&one) {
+        assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+    }
+}
+
+#[test]
+fn render_huge_and_tiny_camera_vectors_keep_their_direction() {
+    let d = tmp();
+    let v = gen(
+        d.path(),
+        "s.vvol",
+        &[
+            "shapes", "--dims", "24,24,24", "--count", "6", "--size", "6",
+        ],
+    );
+    let r = |name: &str, args: &[&str]| {
+        ok(&mut render_cmd(d.path(), &v, name, args));
+        png_bytes(d.path(), name)
+    };
+    let eye = [
+        "--eye",
+        "40,30,50",
+        "--look-at",
+        "12,12,12",
+        "--tf",
+        "shapes",
+    ];
+    let up1 = r("up1", &[&eye[..], &["--up=1,1,0"]].concat());
+    assert_eq!(r("up30", &[&eye[..], &["--up=1e30,1e30,0"]].concat()), up1);
+    assert_eq!(
+        r("up-25", &[&eye[..], &["--up=1e-25,1e-25,0"]].concat()),
+        up1
+    );
+    let phong = [&eye[..], &["--shading", "phong"]].concat();
+    let l1 = r("l1", &[&phong[..], &["--light=1,1,1"]].concat());
+    assert_eq!(
+        r("l30", &[&phong[..], &["--light=1e30,1e30,1e30"]].concat()),
+        l1
+    );
+    let lx = r("lx", &[&phong[..], &["--light=1,0,0"]].concat());
+    assert_eq!(
+        r("l-25", &[&phong[..], &["--light=1e-25,0,0"]].concat()),
+        lx
+    );
+    // An eye so far that f32 positions cannot tell samples apart: refused
+    // for that reason, not as "the same point".
+    let line = fails(
+        &mut render_cmd(
+            d.path(),
+            &v,
+            "far",
+            &["--eye=1e20,1e20,1e20", "--look-at", "12,12,12"],
+        ),
+        "too far",
+    );
+    assert!(
+        line.contains("s.vvol") && !line.contains("same point"),
+        "{line}"
+    );
+    fails(
+        &mut render_cmd(d.path(), &v, "same", &["--eye=3,3,3", "--look-at", "3,3,3"]),
+        "same point",
+    );
+}
+
+/// Bug: --orbit ignored --up (issue 14, 2aca2eb).
+#[test]
+fn render_orbit_turns_around_up() {
+    let d = tmp();
+    let v = gen(
+        d.path(),
+        "s.vvol",
+        &[
+            "shapes", "--dims", "24,24,24", "--count", "6", "--size", "6",
+        ],
+    );
+    let r = |name: &str, args: &[&str]| {
+        ok(&mut render_cmd(
+            d.path(),
+            &v,
+            name,
+            &[&["--tf", "shapes"][..], args].concat(),
+        ));
+        png_bytes(d.path(), name)
+    };
+    // Azimuth 0, elevation 0 puts the eye on the +z side whatever up is
+    // (for up = x): exactly --eye there with that up.
+    let orbit = r("o", &["--orbit", "0,0,60", "--up", "1,0,0"]);
+    let eye = r(
+        "e",
+        &[
+            "--eye",
+            "11.5,11.5,71.5",
+            "--look-at",
+            "11.5,11.5,11.5",
+            "--up",
+            "1,0,0",
+        ],
+    );
+    assert_eq!(orbit, eye, "--orbit ignored --up");
+    assert_ne!(orbit, r("y", &["--orbit", "0,0,60"]));
+    // Same framing, different up: different images.
+    assert_ne!(
+        r("z", &["--orbit", "30,20,60", "--up", "0,0,1"]),
+        r("w", &["--orbit", "30,20,60"])
+    );
+}
+
+#[test]
+fn render_up_patient_follows_the_direction_matrix() {
+    let d = tmp();
+    let data: Vec<u8> = (0..8 * 8 * 8).map(|i| ((i * 37) % 251) as u8).collect();
+    // Index axis y points superior: the patient's up is +y in the
+    // renderer's world; with the identity geometry it is +z.
+    let coronal = nrrd(
+        d.path(),
+        "cor.nrrd",
+        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 8\nencoding: raw\nspace: left-posterior-superior\nspace directions: (1,0,0) (0,0,1) (0,1,0)\nspace origin: (0,0,0)\n\n",
+        &data,
+    );
+    let plain = nrrd(
+        d.path(),
+        "ax.nrrd",
+        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 8\nencoding: raw\n\n",
+        &data,
+    );
+    let r = |vol: &Path, name: &str, up: &str| {
+        ok(&mut render_cmd(
+            d.path(),
+            vol,
+            name,
+            &["--orbit", "30,20,30", "--up", up],
+        ));
+        png_bytes(d.path(), name)
+    };
+    assert_eq!(r(&coronal, "cp", "patient"), r(&coronal, "cy", "0,1,0"));
+    assert_eq!(r(&plain, "pp", "patient"), r(&plain, "pz", "0,0,1"));
+    assert_ne!(r(&plain, "pp2", "patient"), r(&plain, "py", "0,1,0"));
+}
+
+/// Bug: default framing took a diagonal of at least 1: tiny at spacing 1e-3 (issue 14, 2aca2eb).
+#[test]
+fn render_default_framing_at_spacing_1e_3_shows_the_volume() {
+    let d = tmp();
+    let v = gen(
+        d.path(),
+        "mm.vvol",
+        &[
+            "solid",
+            "--dims",
+            "16,16,16",
+            "--spacing",
+            "0.001,0.001,0.001",
+        ],
+    );
+    let img = render_hdr(d.path(), &v, "a", &["--mode", "mip"]);
+    assert!(
+        img[12 * 24 + 12] > 0.5,
+        "centre pixel {}",
+        img[12 * 24 + 12]
+    );
+    let huge = gen(
+        d.path(),
+        "huge.vvol",
+        &[
+            "solid",
+            "--dims",
+            "16,16,16",
+            "--spacing",
+            "3.4e38,3.4e38,3.4e38",
+        ],
+    );
+    let line = fails(&mut render_cmd(d.path(), &huge, "b", &[]), "too large");
+    assert!(
+        line.contains("huge.vvol") && !line.contains("orbit distance"),
+        "{line}"
+    );
+}
+
+/// Bug: the default iso was the midpoint of a range with infinities (issue 14, 2aca2eb).
+#[test]
+fn render_iso_default_on_an_infinite_range_is_finite_or_refused_clearly() {
+    let d = tmp();
+    let mut v = vec![10.0f32; 512];
+    v[0] = f32::INFINITY;
+    v[1] = f32::NEG_INFINITY;
+    for (i, x) in v.iter_mut().enumerate().skip(2) {
+        *x = (i % 8) as f32 * 10.0;
+    }
+    let vol = raw_f32(d.path(), "inf", [8, 8, 8], &v);
+    // The midpoint of the finite samples (0..70): 35.
+    let out = run(&mut render_cmd(d.path(), &vol, "a", &["--mode", "iso"]));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let img = render_hdr(d.path(), &vol, "a", &["--mode", "iso"]);
+    assert!(img.iter().any(|&g| g > 0.0) && img.iter().all(|g| g.is_finite()));
+    // Without an index the finite range is unknown: refused with the reason.
+    let line = fails(
+        &mut render_cmd(d.path(), &vol, "b", &["--mode", "iso", "--no-ess"]),
+        "give --iso",
+    );
+    assert!(!line.contains("must be finite"), "{line}");
+}
+
+/// Bug: a huge --size or --tile could abort vol-render on its buffers (issue 14, bf1eac0).
+#[test]
+fn render_tile_and_size_allocations_are_bounded() {
+    let d = tmp();
+    let v = gen(d.path(), "s.vvol", &["solid", "--dims", "8,8,8"]);
+    ok(&mut render_cmd(
+        d.path(),
+        &v,
+        "a",
+        &["--tile", "4", "--size", "16x16"],
+    ));
+    let want = png_bytes(d.path(), "a");
+    let out = run_within(
+        &mut render_cmd(d.path(), &v, "b", &["--tile", "100000", "--size", "16x16"]),
+        Duration::from_secs(30),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(png_bytes(d.path(), "b"), want);
+    // The widest allowed image, one row: within the budget, so it renders.
+    ok(&mut render_cmd(
+        d.path(),
+        &v,
+        "w",
+        &["--size", "32768x1", "--tile", "32768"],
+    ));
+    let out = run_within(
+        &mut render_cmd(d.path(), &v, "c", &["--size", "32768x32768"]),
+        Duration::from_secs(30),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.lines().count() == 1, "{err}");
+    assert!(
+        err.contains("budget") && !err.contains("allocation"),
+        "{err}"
+    );
+    assert!(!d.path().join("c.png").exists());
+}

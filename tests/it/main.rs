@@ -1,0 +1,25 @@
+//! The end-to-end tests: they run the built tools on files and pipes. One
+//! test binary with a module per topic, so that the workspace is linked
+//! into one test executable instead of one per topic file. Run one topic
+//! with a filter, e.g. `cargo test -p volkit --test it convert::`.
+//!
+//! `tests/fixtures/` holds the small files other tools wrote; tests find
+//! them through `CARGO_MANIFEST_DIR`.
+
+mod accuracy;
+mod common;
+mod convert;
+mod formats;
+mod gen;
+mod hard_cases;
+mod index;
+mod path;
+mod psnr;
+mod render;
+mod scene;
+mod shard;
+
+// The data-parallel renderer under mpirun: only with the cargo feature
+// `mpi`, which scripts/test.sh runs on its own (`--test it mpi::`).
+#[cfg(feature = "mpi")]
+mod mpi;
