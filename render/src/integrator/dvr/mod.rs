@@ -11,7 +11,7 @@ pub mod setup;
 pub mod shading;
 
 use super::march::{march, one_by_one, Flow, RayMarch, RaySteps};
-use super::reconstruct::Gradient;
+use super::reconstruct::{Gradient, Interp};
 use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::FixedCells;
 use crate::classify::Classifier;
@@ -72,6 +72,7 @@ where
             dvr: self,
             loc: self.geom.locator,
             inv_spacing: self.geom.inv_spacing,
+            interp: self.geom.interp,
             view: self.shading.for_ray(ray, pixel),
             colour: Vec3::ZERO,
             alpha: 0.0,
@@ -94,6 +95,7 @@ struct DvrRay<'d, 'a, G, K, S: Shading> {
     // they stay in registers.
     loc: Locator,
     inv_spacing: Vec3,
+    interp: Interp,
     view: S::PerRay,
     colour: Vec3,
     alpha: f32,
@@ -116,7 +118,7 @@ where
 
     #[inline(always)]
     fn reads_trilinear(&self) -> bool {
-        self.dvr.geom.interp.is_trilinear()
+        self.interp.is_trilinear()
     }
 
     #[inline(always)]
@@ -128,7 +130,7 @@ where
         p: Vec3,
         _: Option<usize>,
     ) -> Flow {
-        let (v, early) = G::value(self.dvr.geom.interp, &self.loc, cur, p);
+        let (v, early) = G::value(self.interp, &self.loc, cur, p);
         self.take(cur, t, p, v, early, None)
     }
 
