@@ -254,7 +254,7 @@ fn tiff(data: &[u8], scratch: &Path) {
 }
 
 fn vidx(data: &[u8]) {
-    let _ = volindex::MajorantIndex::read_from(&mut Cursor::new(data), None);
+    let _ = volindex::MinMaxIndex::read_from(&mut Cursor::new(data), None);
 }
 
 fn vpart(data: &[u8], scratch: &Path) {

@@ -12,7 +12,7 @@ use volcore::region::pack_sliced;
 use volcore::scene::{SceneSource, ShapesScene};
 use volcore::volume::IntoVolumeData;
 use volcore::{Dims, SampleType, Volume};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 
 fn generate<T: IntoVolumeData>(scene: &ShapesScene, dims: Dims) -> Result<Volume, String> {
     let samples = pack_sliced(&SceneSource::<T>::new(scene));
@@ -56,7 +56,7 @@ fn run() -> Result<(), String> {
     let mut index = None;
     for run in 0..runs {
         let t = Instant::now();
-        let ix = MajorantIndex::build_volume(&vol, &opts, 0).map_err(|e| e.to_string())?;
+        let ix = MinMaxIndex::build_volume(&vol, &opts, 0).map_err(|e| e.to_string())?;
         let secs = t.elapsed().as_secs_f64();
         let gb = dims.count() as f64 * ty.size() as f64 / 1e9;
         println!(

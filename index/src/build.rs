@@ -33,7 +33,7 @@
 
 use crate::error::IndexError;
 use crate::histogram::{self, Histogram, DEFAULT_BINS, MAX_BINS};
-use crate::index::MajorantIndex;
+use crate::index::MinMaxIndex;
 use crate::level::{cell_count, level_shapes, try_zeroed, Level};
 use crate::piece::{cells_meeting, piece_shape, CellBox, PieceRanges};
 use crate::scan::{range_to_f32, Avx2, ExactCounts, ScanSample};
@@ -100,7 +100,7 @@ pub fn build_source<S: VoxelSource>(
     src: &S,
     opts: &BuildOptions,
     fingerprint: u64,
-) -> Result<MajorantIndex, IndexError> {
+) -> Result<MinMaxIndex, IndexError> {
     opts.validate()?;
     let edge = u64::from(opts.cell_edge);
     let index = match <S::Sample as Sample>::TYPE {
@@ -129,7 +129,7 @@ pub fn build_volume(
     vol: &Volume,
     opts: &BuildOptions,
     fingerprint: u64,
-) -> Result<MajorantIndex, IndexError> {
+) -> Result<MinMaxIndex, IndexError> {
     opts.validate()?;
     match &vol.data {
         VolumeData::U8(g) => build_grid(g, opts, fingerprint),
@@ -144,7 +144,7 @@ fn build_grid<T: ScanSample>(
     grid: &TypedGrid<T>,
     opts: &BuildOptions,
     fingerprint: u64,
-) -> Result<MajorantIndex, IndexError> {
+) -> Result<MinMaxIndex, IndexError> {
     let edge = u64::from(opts.cell_edge);
     match grid {
         TypedGrid::Sliced(grid) => match grid.order() {
@@ -155,7 +155,7 @@ fn build_grid<T: ScanSample>(
             ),
             SliceOrder::ZFastest => {
                 let bands = BandWalk::new(SlicedBands::transposed(grid), edge);
-                build_walk(&bands, opts, fingerprint).map(MajorantIndex::transposed_xz)
+                build_walk(&bands, opts, fingerprint).map(MinMaxIndex::transposed_xz)
             }
         },
         TypedGrid::Bricked(grid) => build_walk(&BrickedWalk::new(grid), opts, fingerprint),
@@ -256,7 +256,7 @@ fn build_walk<T: ScanSample>(
     walk: &dyn Walk<T>,
     opts: &BuildOptions,
     fingerprint: u64,
-) -> Result<MajorantIndex, IndexError> {
+) -> Result<MinMaxIndex, IndexError> {
     build_walk_with(walk, opts, fingerprint, Avx2::detect())
 }
 
@@ -267,7 +267,7 @@ fn build_walk_with<T: ScanSample>(
     opts: &BuildOptions,
     fingerprint: u64,
     avx2: Option<Avx2>,
-) -> Result<MajorantIndex, IndexError> {
+) -> Result<MinMaxIndex, IndexError> {
     let dims = walk.dims();
     let shapes = level_shapes(dims, opts.cell_edge);
     let Scanned {
@@ -289,7 +289,7 @@ fn build_walk_with<T: ScanSample>(
     } else {
         float_histogram(walk, range, opts.histogram_bins)?
     };
-    MajorantIndex::from_parts(dims, T::TYPE, fingerprint, range, hist, levels)
+    MinMaxIndex::from_parts(dims, T::TYPE, fingerprint, range, hist, levels)
 }
 
 /// The level-0 cell ranges of a walk and its exact value counts.
@@ -585,7 +585,7 @@ mod tests {
     use volcore::scene::{SceneSource, ShapesScene};
     use volcore::{Data, Dims, ValueRange, VolumeVisitor};
 
-    fn to_bytes(ix: &MajorantIndex) -> Vec<u8> {
+    fn to_bytes(ix: &MinMaxIndex) -> Vec<u8> {
         let mut out = Vec::new();
         ix.write_to(&mut out).unwrap();
         out
@@ -593,7 +593,7 @@ mod tests {
 
     /// Every level's cells against a brute-force range over the cell's
     /// voxel footprint, and against the union of their children.
-    fn check_against_brute_force(ix: &MajorantIndex, f: &[f32], what: &str) {
+    fn check_against_brute_force(ix: &MinMaxIndex, f: &[f32], what: &str) {
         let dims = ix.dims();
         for (l, lv) in ix.levels().iter().enumerate() {
             let c = lv.cells();
@@ -629,7 +629,7 @@ mod tests {
     }
 
     /// Histogram totals, NaN count and per-bin counts by brute force.
-    fn check_histogram(ix: &MajorantIndex, f: &[f32], what: &str) {
+    fn check_histogram(ix: &MinMaxIndex, f: &[f32], what: &str) {
         let h = ix.histogram();
         let mut want = vec![0u64; h.bins()];
         for &v in f.iter().filter(|v| !v.is_nan()) {
@@ -657,8 +657,8 @@ mod tests {
 
     /// Trilinear values at random points of every cell lie in the range of
     /// the cell holding the point, at every level.
-    fn check_conservative(ix: &MajorantIndex, vol: &Volume, seed: u64, what: &str) {
-        struct Check<'a>(&'a MajorantIndex, u64, &'a str);
+    fn check_conservative(ix: &MinMaxIndex, vol: &Volume, seed: u64, what: &str) {
+        struct Check<'a>(&'a MinMaxIndex, u64, &'a str);
         impl VolumeVisitor for Check<'_> {
             type Output = ();
             fn visit<S: VoxelSource>(self, src: &S) {
@@ -709,7 +709,7 @@ mod tests {
                         cell_edge: edge,
                         ..BuildOptions::default()
                     };
-                    let ix = MajorantIndex::build_volume(&vol, &opts, 7).unwrap();
+                    let ix = MinMaxIndex::build_volume(&vol, &opts, 7).unwrap();
                     let f = vol.to_f32_vec();
                     check_against_brute_force(&ix, &f, &what);
                     check_histogram(&ix, &f, &what);
@@ -755,7 +755,7 @@ mod tests {
             cell_edge: 4,
             ..BuildOptions::default()
         };
-        let ix = MajorantIndex::build_volume(&vol, &opts, 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&vol, &opts, 0).unwrap();
         check_against_brute_force(&ix, &vol.to_f32_vec(), "nan block");
         // Cells (0..2, 0..2, 0) read voxels 0..=8 on x and y, 0..=4 on z.
         for c in [[0, 0, 0], [1, 1, 0], [1, 0, 0]] {
@@ -766,7 +766,7 @@ mod tests {
         // Only NaNs: every cell empty, the global range too.
         let dims = Dims::new(5, 3, 2).unwrap();
         let vol = volume(dims, vec![f32::NAN; 30]);
-        let ix = MajorantIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
         assert_eq!(ix.empty_fraction(-1e30), 1.0);
         assert!(ix.value_range().0 > ix.value_range().1);
         assert_eq!(ix.histogram().nan_count(), 30);
@@ -778,8 +778,7 @@ mod tests {
         let dims = Dims::new(16, 8, 8).unwrap();
         let mut s = vec![0u8; 128 * 8];
         s[dims.index(15, 0, 0) as usize] = 9; // only cell x = 1 sees it
-        let ix =
-            MajorantIndex::build_volume(&volume(dims, s), &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&volume(dims, s), &BuildOptions::default(), 0).unwrap();
         assert_eq!(ix.level(0).cells(), [2, 1, 1]);
         assert_eq!(ix.empty_fraction(0.0), 0.5);
         assert_eq!(ix.empty_fraction(9.0), 1.0);
@@ -788,8 +787,7 @@ mod tests {
         // Voxel x = 8 belongs to cell 1 and is the apron of cell 0.
         let mut s = vec![0u8; 128 * 8];
         s[dims.index(8, 3, 3) as usize] = 1;
-        let ix =
-            MajorantIndex::build_volume(&volume(dims, s), &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&volume(dims, s), &BuildOptions::default(), 0).unwrap();
         assert_eq!(ix.empty_fraction(0.0), 0.0);
     }
 
@@ -835,7 +833,7 @@ mod tests {
             cell_edge: edge,
             ..BuildOptions::default()
         };
-        let reference = to_bytes(&MajorantIndex::build(&sliced, &opts, 5).unwrap());
+        let reference = to_bytes(&MinMaxIndex::build(&sliced, &opts, 5).unwrap());
         let in_file = SlicedGrid::new(dims, file_data(&samples, 8)).unwrap();
         assert!(in_file.data().reads_file() == cfg!(unix));
         // The folds compiled for AVX2 and without give the same bits.
@@ -855,10 +853,10 @@ mod tests {
             assert!(bits_with(&small, avx2) == reference, "{what}, {avx2:?}");
         }
         let vol = volume_of(dims, TypedGrid::Sliced(in_file));
-        let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+        let got = to_bytes(&MinMaxIndex::build_volume(&vol, &opts, 5).unwrap());
         assert!(got == reference, "{} sliced from a file differs", T::TYPE);
         let vol = volume(dims, samples.clone());
-        let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+        let got = to_bytes(&MinMaxIndex::build_volume(&vol, &opts, 5).unwrap());
         assert!(got == reference, "{} sliced in memory differs", T::TYPE);
         // z fastest (the thesis's order): indexed as its transpose, in a
         // file and in memory, and through rows gathered across the order.
@@ -871,15 +869,15 @@ mod tests {
         }
         for data in [file_data(&z_fastest, 8), Data::Owned(z_fastest.clone())] {
             let grid = SlicedGrid::with_order(dims, SliceOrder::ZFastest, data).unwrap();
-            let got = to_bytes(&MajorantIndex::build(&grid, &opts, 5).unwrap());
+            let got = to_bytes(&MinMaxIndex::build(&grid, &opts, 5).unwrap());
             assert!(got == reference, "{} z-fastest by rows differs", T::TYPE);
             let vol = volume_of(dims, TypedGrid::Sliced(grid));
-            let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+            let got = to_bytes(&MinMaxIndex::build_volume(&vol, &opts, 5).unwrap());
             assert!(got == reference, "{} z-fastest differs", T::TYPE);
         }
         for brick in [2, 5, 16, 64] {
             let grid = bricked(&sliced, brick);
-            let got = to_bytes(&MajorantIndex::build(&grid, &opts, 5).unwrap());
+            let got = to_bytes(&MinMaxIndex::build(&grid, &opts, 5).unwrap());
             assert!(got == reference, "{} bricked:{brick} differs", T::TYPE);
             for avx2 in [None, Avx2::detect()] {
                 let walk = BrickedWalk::new(&grid);
@@ -888,7 +886,7 @@ mod tests {
             }
             for pad in [0, 3] {
                 let vol = volume_of(dims, TypedGrid::Bricked(bricked_in_file(&grid, pad)));
-                let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+                let got = to_bytes(&MinMaxIndex::build_volume(&vol, &opts, 5).unwrap());
                 assert!(
                     got == reference,
                     "{} bricked:{brick} from a file (pad {pad}) differs",
@@ -896,7 +894,7 @@ mod tests {
                 );
             }
             let vol = volume_of(dims, TypedGrid::Bricked(grid));
-            let got = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap());
+            let got = to_bytes(&MinMaxIndex::build_volume(&vol, &opts, 5).unwrap());
             assert!(
                 got == reference,
                 "{} bricked:{brick} in memory differs",
@@ -909,7 +907,7 @@ mod tests {
                 .build()
                 .unwrap();
             let got =
-                pool.install(|| to_bytes(&MajorantIndex::build_volume(&vol, &opts, 5).unwrap()));
+                pool.install(|| to_bytes(&MinMaxIndex::build_volume(&vol, &opts, 5).unwrap()));
             assert!(got == reference, "{} on {threads} threads differs", T::TYPE);
         }
         reference
@@ -934,7 +932,7 @@ mod tests {
             let dims = Dims::new(dims.0, dims.1, dims.2).unwrap();
             for kind in [0, 2] {
                 let bytes = check_layout_and_threads::<u8>(dims, kind, edge);
-                let ix = MajorantIndex::read_from(&mut &bytes[..], None).unwrap();
+                let ix = MinMaxIndex::read_from(&mut &bytes[..], None).unwrap();
                 let samples: Vec<u8> = random_samples(dims, 99, kind);
                 let f: Vec<f32> = samples.iter().map(|&v| f32::from(v)).collect();
                 let what = format!("{dims} edge {edge} kind {kind}");
@@ -952,7 +950,7 @@ mod tests {
                 cell_edge,
                 histogram_bins,
             };
-            let err = MajorantIndex::build_volume(&vol, &opts, 0).unwrap_err();
+            let err = MinMaxIndex::build_volume(&vol, &opts, 0).unwrap_err();
             assert!(matches!(err, IndexError::Options(_)), "{err}");
         }
     }
@@ -970,7 +968,7 @@ mod tests {
         }
         let vol = volume(dims, samples);
         let start = std::time::Instant::now();
-        let ix = MajorantIndex::build_volume(&vol, &BuildOptions::default(), 1).unwrap();
+        let ix = MinMaxIndex::build_volume(&vol, &BuildOptions::default(), 1).unwrap();
         let took = start.elapsed();
         let stats = ix.stats();
         eprintln!("256^3 u8 index built in {took:?}: {stats:?}");

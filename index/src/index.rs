@@ -10,7 +10,7 @@ use volcore::{Dims, SampleType, Volume, VoxelSource};
 /// Min/max macrocell pyramid of one volume, plus its value range and
 /// histogram (see the crate docs).
 #[derive(Clone, Debug)]
-pub struct MajorantIndex {
+pub struct MinMaxIndex {
     dims: Dims,
     sample_type: SampleType,
     fingerprint: u64,
@@ -35,14 +35,14 @@ pub struct IndexStats {
     pub nan_count: u64,
 }
 
-impl MajorantIndex {
+impl MinMaxIndex {
     /// Build the index of `src` (see [`crate::build`]) on the current rayon
     /// pool; `fingerprint` identifies the volume and is stored as given.
     pub fn build<S: VoxelSource>(
         src: &S,
         opts: &BuildOptions,
         fingerprint: u64,
-    ) -> Result<MajorantIndex, IndexError> {
+    ) -> Result<MinMaxIndex, IndexError> {
         build::build_source(src, opts, fingerprint)
     }
 
@@ -51,7 +51,7 @@ impl MajorantIndex {
         vol: &Volume,
         opts: &BuildOptions,
         fingerprint: u64,
-    ) -> Result<MajorantIndex, IndexError> {
+    ) -> Result<MinMaxIndex, IndexError> {
         build::build_volume(vol, opts, fingerprint)
     }
 
@@ -64,7 +64,7 @@ impl MajorantIndex {
         range: (f32, f32),
         histogram: Histogram,
         levels: Vec<Level>,
-    ) -> Result<MajorantIndex, IndexError> {
+    ) -> Result<MinMaxIndex, IndexError> {
         let edge = levels.first().map_or(0, |l| l.edge());
         let edge32 = u32::try_from(edge).unwrap_or(0);
         let shapes = level_shapes(dims, edge32);
@@ -80,7 +80,7 @@ impl MajorantIndex {
                 "levels do not form the pyramid of a {dims} volume with cell edge {edge}"
             )));
         }
-        Ok(MajorantIndex {
+        Ok(MinMaxIndex {
             dims,
             sample_type,
             fingerprint,
@@ -94,9 +94,9 @@ impl MajorantIndex {
     /// volume is indexed as the x-fastest volume its storage order spells,
     /// then transposed: every per-cell range and global figure is the same
     /// under the swap, as the cells' bounds are the same on every axis).
-    pub(crate) fn transposed_xz(self) -> MajorantIndex {
+    pub(crate) fn transposed_xz(self) -> MinMaxIndex {
         let d = self.dims;
-        MajorantIndex {
+        MinMaxIndex {
             dims: Dims::new(d.z, d.y, d.x).unwrap_or(d),
             levels: self.levels.iter().map(Level::transposed_xz).collect(),
             ..self

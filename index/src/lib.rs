@@ -1,6 +1,6 @@
 //! volindex: the empty-space-skipping (majorant) index of a volume.
 //!
-//! A [`MajorantIndex`] splits the volume into *macrocells* of `N³` voxels
+//! A [`MinMaxIndex`] splits the volume into *macrocells* of `N³` voxels
 //! (default `N = 8`) and stores, per cell, the smallest and largest sample
 //! of the cell's interpolation footprint: along each axis cell `c` covers
 //! the points `[c·N, c·N + N)` and therefore reads voxels `c·N ..= c·N + N`
@@ -48,6 +48,6 @@ mod testutil;
 pub use build::BuildOptions;
 pub use error::IndexError;
 pub use histogram::Histogram;
-pub use index::{IndexStats, MajorantIndex};
+pub use index::{IndexStats, MinMaxIndex};
 pub use level::Level;
 pub use rangemax::RangeMaxTable;

@@ -17,7 +17,7 @@
 use crate::build::{float_histogram, for_each_row, scan_walk, BuildOptions};
 use crate::error::IndexError;
 use crate::histogram::Histogram;
-use crate::index::MajorantIndex;
+use crate::index::MinMaxIndex;
 use crate::level::{level_shapes, Level};
 use crate::scan::{Avx2, ScanSample};
 use crate::walk::{BandWalk, BrickedWalk, CompressedWalk, SlicedBands, Walk, ZClip};
@@ -250,7 +250,7 @@ fn shard_walk<T: ScanSample>(
 
 /// Join the parts of all `N` shards of one index (any order) into the
 /// index the unsharded build makes.
-pub fn merge_parts(mut parts: Vec<IndexPart>) -> Result<MajorantIndex, IndexError> {
+pub fn merge_parts(mut parts: Vec<IndexPart>) -> Result<MinMaxIndex, IndexError> {
     let bad = IndexError::Shard;
     if parts.is_empty() {
         return Err(bad("no parts given".into()));
@@ -364,7 +364,7 @@ pub fn merge_parts(mut parts: Vec<IndexPart>) -> Result<MajorantIndex, IndexErro
     };
     let mut hist = hist;
     hist.set_nan_count(nans);
-    MajorantIndex::from_parts(dims, p0.sample_type, p0.fingerprint, range, hist, levels)
+    MinMaxIndex::from_parts(dims, p0.sample_type, p0.fingerprint, range, hist, levels)
 }
 
 impl IndexPart {
@@ -527,7 +527,7 @@ mod tests {
     use volcore::region::{pack_bricks, Rows};
     use volcore::{BrickGeometry, BrickedGrid, Data, SlicedGrid, ValueRange};
 
-    fn to_bytes(ix: &MajorantIndex) -> Vec<u8> {
+    fn to_bytes(ix: &MinMaxIndex) -> Vec<u8> {
         let mut out = Vec::new();
         ix.write_to(&mut out).unwrap();
         out
@@ -556,7 +556,7 @@ mod tests {
             },
         ];
         for v in &mut out {
-            let ix = MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap();
+            let ix = MinMaxIndex::build_volume(v, &BuildOptions::default(), 0).unwrap();
             let (lo, hi) = ix.value_range();
             v.meta.range = ValueRange {
                 min: f64::from(lo),
@@ -575,7 +575,7 @@ mod tests {
                 histogram_bins: 64,
             };
             for vol in volumes::<T>(dims, random_samples(dims, 7, kind)) {
-                let whole = to_bytes(&MajorantIndex::build_volume(&vol, &opts, 42).unwrap());
+                let whole = to_bytes(&MinMaxIndex::build_volume(&vol, &opts, 42).unwrap());
                 for n in [1, 2, 3, 5, 40] {
                     let parts: Vec<IndexPart> = (0..n)
                         .rev()
@@ -652,7 +652,7 @@ mod tests {
         assert!(build_shard(&inf, &opts, 1, s).is_err());
         inf.meta.range = ValueRange::EMPTY;
         // A recorded range wider than the samples' is caught at the merge.
-        let whole = MajorantIndex::build_volume(&vol, &opts, 1).unwrap();
+        let whole = MinMaxIndex::build_volume(&vol, &opts, 1).unwrap();
         let (lo, hi) = whole.value_range();
         vol.meta.range = ValueRange {
             min: f64::from(lo) - 1.0,

@@ -10,7 +10,7 @@
 
 use crate::error::IndexError;
 use crate::histogram::{Histogram, MAX_BINS};
-use crate::index::MajorantIndex;
+use crate::index::MinMaxIndex;
 use crate::level::{cell_count, level_shapes, Level};
 use byteorder::{ByteOrder, LittleEndian, ReadBytesExt, WriteBytesExt};
 use std::io::{self, Read, Write};
@@ -155,7 +155,7 @@ struct Header {
 }
 
 impl Header {
-    fn of(ix: &MajorantIndex) -> Header {
+    fn of(ix: &MinMaxIndex) -> Header {
         let h = ix.histogram();
         Header {
             sample_type: ix.sample_type(),
@@ -277,7 +277,7 @@ fn read_up_to(r: &mut impl Read, buf: &mut [u8]) -> Result<usize, IndexError> {
     Ok(got)
 }
 
-impl MajorantIndex {
+impl MinMaxIndex {
     /// Write the index in `.vidx` format. Writes in chunks; wrap files in a
     /// `BufWriter` anyway to keep the header's small writes cheap.
     pub fn write_to(&self, w: &mut impl Write) -> Result<(), IndexError> {
@@ -304,7 +304,7 @@ impl MajorantIndex {
     pub fn read_from(
         r: &mut impl Read,
         expected_fingerprint: Option<u64>,
-    ) -> Result<MajorantIndex, IndexError> {
+    ) -> Result<MinMaxIndex, IndexError> {
         read(r, expected_fingerprint, None)
     }
 
@@ -315,7 +315,7 @@ impl MajorantIndex {
         r: &mut impl Read,
         meta: &VolumeMeta,
         fingerprint: u64,
-    ) -> Result<MajorantIndex, IndexError> {
+    ) -> Result<MinMaxIndex, IndexError> {
         read(r, Some(fingerprint), Some((meta.dims, meta.sample_type)))
     }
 }
@@ -324,7 +324,7 @@ fn read(
     r: &mut impl Read,
     fingerprint: Option<u64>,
     volume: Option<(Dims, SampleType)>,
-) -> Result<MajorantIndex, IndexError> {
+) -> Result<MinMaxIndex, IndexError> {
     let mut r = CrcReader {
         inner: r,
         crc: crc32fast::Hasher::new(),
@@ -378,7 +378,7 @@ fn read(
     }
     check_contents(&h, &counts, &levels)?;
     let hist = Histogram::from_parts(h.hist_lo, h.hist_hi, counts, h.nan_count);
-    MajorantIndex::from_parts(h.dims, h.sample_type, h.fingerprint, h.range, hist, levels)
+    MinMaxIndex::from_parts(h.dims, h.sample_type, h.fingerprint, h.range, hist, levels)
 }
 
 /// Checks a checksum cannot make: the histogram accounts for every voxel
@@ -446,20 +446,20 @@ mod tests {
         assert_eq!(encode(SampleType::I16), i16s);
     }
 
-    fn sample_index(fingerprint: u64) -> (MajorantIndex, Vec<u8>) {
+    fn sample_index(fingerprint: u64) -> (MinMaxIndex, Vec<u8>) {
         let dims = Dims::new(19, 11, 7).unwrap();
         let vol = volume::<f32>(dims, random_samples(dims, 4, 0));
         let opts = BuildOptions {
             cell_edge: 4,
             ..BuildOptions::default()
         };
-        let ix = MajorantIndex::build_volume(&vol, &opts, fingerprint).unwrap();
+        let ix = MinMaxIndex::build_volume(&vol, &opts, fingerprint).unwrap();
         let mut bytes = Vec::new();
         ix.write_to(&mut bytes).unwrap();
         (ix, bytes)
     }
 
-    fn same(a: &MajorantIndex, b: &MajorantIndex) {
+    fn same(a: &MinMaxIndex, b: &MinMaxIndex) {
         assert_eq!(a.dims(), b.dims());
         assert_eq!(a.sample_type(), b.sample_type());
         assert_eq!(a.fingerprint(), b.fingerprint());
@@ -485,9 +485,9 @@ mod tests {
             HEADER_LEN + 8 * ix.histogram().bins() + 8 * cells + 4
         );
         assert_eq!(&bytes[..8], b"VOLKIDX\0");
-        let back = MajorantIndex::read_from(&mut &bytes[..], Some(0xDEAD_BEEF_0123_4567)).unwrap();
+        let back = MinMaxIndex::read_from(&mut &bytes[..], Some(0xDEAD_BEEF_0123_4567)).unwrap();
         same(&ix, &back);
-        let back = MajorantIndex::read_from(&mut &bytes[..], None).unwrap();
+        let back = MinMaxIndex::read_from(&mut &bytes[..], None).unwrap();
         let mut again = Vec::new();
         back.write_to(&mut again).unwrap();
         assert!(again == bytes);
@@ -502,10 +502,10 @@ mod tests {
             volume::<i16>(dims, random_samples(dims, 1, 1)),
         ];
         for vol in &vols {
-            let ix = MajorantIndex::build_volume(vol, &BuildOptions::default(), 3).unwrap();
+            let ix = MinMaxIndex::build_volume(vol, &BuildOptions::default(), 3).unwrap();
             let mut bytes = Vec::new();
             ix.write_to(&mut bytes).unwrap();
-            let back = MajorantIndex::read_for_volume(&mut &bytes[..], &vol.meta, 3).unwrap();
+            let back = MinMaxIndex::read_for_volume(&mut &bytes[..], &vol.meta, 3).unwrap();
             same(&ix, &back);
             // Level bounds take the sample type's size, not an f32's.
             let cells: usize = ix.levels().iter().map(|l| l.min().len()).sum();
@@ -519,10 +519,10 @@ mod tests {
     fn truncated_files_are_rejected() {
         let (_, bytes) = sample_index(1);
         for len in 0..bytes.len() {
-            let err = MajorantIndex::read_from(&mut &bytes[..len], Some(1)).unwrap_err();
+            let err = MinMaxIndex::read_from(&mut &bytes[..len], Some(1)).unwrap_err();
             assert!(matches!(err, IndexError::Truncated(_)), "{len}: {err}");
         }
-        let err = MajorantIndex::read_from(&mut &bytes[..HEADER_LEN + 3], None).unwrap_err();
+        let err = MinMaxIndex::read_from(&mut &bytes[..HEADER_LEN + 3], None).unwrap_err();
         assert_eq!(
             err.to_string(),
             "index file is truncated: it ends inside the histogram"
@@ -532,7 +532,7 @@ mod tests {
     #[test]
     fn wrong_fingerprint_dims_or_type_is_rejected() {
         let (ix, bytes) = sample_index(1);
-        let err = MajorantIndex::read_from(&mut &bytes[..], Some(2)).unwrap_err();
+        let err = MinMaxIndex::read_from(&mut &bytes[..], Some(2)).unwrap_err();
         assert!(matches!(
             err,
             IndexError::Fingerprint {
@@ -542,18 +542,18 @@ mod tests {
         ));
         assert!(err.to_string().contains("another volume"), "{err}");
         // The levels are not read: a file cut after the header still says so.
-        let err = MajorantIndex::read_from(&mut &bytes[..HEADER_LEN], Some(2)).unwrap_err();
+        let err = MinMaxIndex::read_from(&mut &bytes[..HEADER_LEN], Some(2)).unwrap_err();
         assert!(matches!(err, IndexError::Fingerprint { .. }));
 
         let mut meta = VolumeMeta::sliced(Dims::new(19, 11, 8).unwrap(), SampleType::F32);
-        let err = MajorantIndex::read_for_volume(&mut &bytes[..], &meta, 1).unwrap_err();
+        let err = MinMaxIndex::read_for_volume(&mut &bytes[..], &meta, 1).unwrap_err();
         assert_eq!(
             err.to_string(),
             "index is for a 19x11x7 volume, but the volume is 19x11x8"
         );
         meta.dims = ix.dims();
         meta.sample_type = SampleType::U16;
-        let err = MajorantIndex::read_for_volume(&mut &bytes[..], &meta, 1).unwrap_err();
+        let err = MinMaxIndex::read_for_volume(&mut &bytes[..], &meta, 1).unwrap_err();
         assert!(matches!(err, IndexError::SampleType { .. }), "{err}");
         assert!(ix.check_volume(ix.dims(), SampleType::U16).is_err());
         assert!(ix.check_volume(ix.dims(), SampleType::F32).is_ok());
@@ -562,7 +562,7 @@ mod tests {
     #[test]
     fn bad_magic_version_fields_and_checksum_are_rejected() {
         let (_, bytes) = sample_index(1);
-        let read = |b: &[u8]| MajorantIndex::read_from(&mut &b[..], None).unwrap_err();
+        let read = |b: &[u8]| MinMaxIndex::read_from(&mut &b[..], None).unwrap_err();
         let patched = |off: usize, v: &[u8]| {
             let mut b = bytes.clone();
             b[off..off + v.len()].copy_from_slice(v);
@@ -603,7 +603,7 @@ mod tests {
         b[40..44].copy_from_slice(&2u32.to_le_bytes());
         b[44..48].copy_from_slice(&24u32.to_le_bytes());
         b.extend(std::iter::repeat_n(0, 8 * 256 + 1000));
-        let err = MajorantIndex::read_from(&mut &b[..], None).unwrap_err();
+        let err = MinMaxIndex::read_from(&mut &b[..], None).unwrap_err();
         assert!(matches!(err, IndexError::Truncated("level data")), "{err}");
     }
 }

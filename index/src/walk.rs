@@ -292,7 +292,7 @@ impl<'a, T: Sample> SlicedBands<'a, T> {
 
     /// The bands of a z-fastest grid read as the x-fastest grid of its
     /// transpose (dimensions z, y, x): an index built from them is the
-    /// grid's own after [`crate::MajorantIndex::transposed_xz`].
+    /// grid's own after [`crate::MinMaxIndex::transposed_xz`].
     pub(crate) fn transposed(grid: &'a SlicedGrid<T>) -> Self {
         let d = grid.dims();
         SlicedBands {

@@ -18,7 +18,7 @@ use crate::tiles::Tiles;
 use glam::Vec3;
 use std::time::Instant;
 use volcore::Volume;
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// The most samples one ray may take. Settings that imply more (a step
 /// tiny against the volume's size, or a voxel spacing so small or so
@@ -78,7 +78,7 @@ fn inv_spacing(vol: &Volume) -> Vec3 {
 /// [`render_tf`]).
 pub fn render(
     vol: &Volume,
-    index: Option<&MajorantIndex>,
+    index: Option<&MinMaxIndex>,
     tf: Option<&TransferFunction>,
     camera: &Camera,
     settings: &RenderSettings,
@@ -92,7 +92,7 @@ pub fn render(
 /// `settings.ess` is on (it must belong to `vol`).
 pub fn render_tf(
     vol: &Volume,
-    index: Option<&MajorantIndex>,
+    index: Option<&MinMaxIndex>,
     tf: Option<&Tf>,
     camera: &Camera,
     settings: &RenderSettings,
@@ -107,7 +107,7 @@ pub fn render_tf(
 /// (a rank's part of a data-parallel frame, see [`crate::distributed`]).
 pub fn render_film(
     vol: &Volume,
-    index: Option<&MajorantIndex>,
+    index: Option<&MinMaxIndex>,
     tf: Option<&Tf>,
     camera: &Camera,
     settings: &RenderSettings,
@@ -193,7 +193,7 @@ pub fn render_film(
 /// split balances ranks by these counts ([`crate::distributed`]).
 pub fn busy_cells(
     vol: &Volume,
-    index: &MajorantIndex,
+    index: &MinMaxIndex,
     tf: Option<&Tf>,
     settings: &RenderSettings,
 ) -> Result<Vec<bool>, RenderError> {

@@ -10,7 +10,7 @@ use crate::options::{GradientArg, InterpArg, ModeArg, Options, ShadingArg, UpArg
 use glam::{DMat3, DVec3, Vec3};
 use std::path::Path;
 use volcore::Volume;
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::path::{Budget, PathSettings};
 use volrender::tf::{
     looks_like_hounsfield, parse::parse_any, Tf, TransferFunction, AUTO_TAIL_PERCENT, PRESETS,
@@ -44,7 +44,7 @@ impl Plan {
     /// Resolve `cli` for `vol`; `index`, when there is one, gives the
     /// finite value range for defaults and `--tf auto` its histogram.
     /// Errors do not name the volume (the caller does).
-    pub fn new(cli: &Options, vol: &Volume, index: Option<&MajorantIndex>) -> Result<Plan> {
+    pub fn new(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<Plan> {
         let mut notes = Vec::new();
         let tf = match cli.mode {
             ModeArg::Dvr => Some(transfer_function(cli, vol, index, &mut notes)?),
@@ -125,7 +125,7 @@ fn value_range(vol: &Volume) -> (f32, f32) {
 fn transfer_function(
     cli: &Options,
     vol: &Volume,
-    index: Option<&MajorantIndex>,
+    index: Option<&MinMaxIndex>,
     notes: &mut Vec<String>,
 ) -> Result<Tf> {
     if let Some(text) = &cli.tf_text {
@@ -183,12 +183,12 @@ fn auto_tail(name: &str) -> Result<Option<f64>> {
 /// The `auto` window: the `tail`-th and (100 − `tail`)-th percentiles of
 /// the index's histogram (built here when rendering without an index); the
 /// whole value range when they coincide (one value) or nothing is binned.
-fn auto_window(vol: &Volume, index: Option<&MajorantIndex>, tail: f64) -> Result<(f32, f32)> {
+fn auto_window(vol: &Volume, index: Option<&MinMaxIndex>, tail: f64) -> Result<(f32, f32)> {
     let built;
     let ix = match index {
         Some(ix) => ix,
         None => {
-            built = MajorantIndex::build_volume(vol, &BuildOptions::default(), 0)
+            built = MinMaxIndex::build_volume(vol, &BuildOptions::default(), 0)
                 .kind_ctx(ErrorKind::File, "the histogram for --tf auto")?;
             &built
         }
@@ -266,7 +266,7 @@ fn camera(cli: &Options, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
 /// `--mode iso` without `--iso`: the middle of the value range, or of the
 /// finite samples' range (the index histogram's) when the range has an
 /// infinity.
-fn default_iso(vol: &Volume, index: Option<&MajorantIndex>) -> Result<f32> {
+fn default_iso(vol: &Volume, index: Option<&MinMaxIndex>) -> Result<f32> {
     let r = vol.meta.range;
     let mid = |lo: f64, hi: f64| ((lo + hi) * 0.5) as f32;
     if r.min.is_finite() && r.max.is_finite() {
@@ -289,7 +289,7 @@ fn default_iso(vol: &Volume, index: Option<&MajorantIndex>) -> Result<f32> {
 
 /// The ray caster's settings (in path mode, its defaults: the path
 /// tracer reads [`crate::path::settings`]).
-fn settings(cli: &Options, vol: &Volume, index: Option<&MajorantIndex>) -> Result<RenderSettings> {
+fn settings(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<RenderSettings> {
     let mode = match cli.mode {
         ModeArg::Dvr => Mode::Dvr,
         ModeArg::Mip => Mode::Mip,

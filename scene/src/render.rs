@@ -8,7 +8,7 @@ use crate::options::Options;
 use crate::plan::Plan;
 use crate::source::Source;
 use std::time::Instant;
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::path::{Accumulator, PathCounters, PathTracer};
 use volrender::{render_tf, Cancel, Frame};
 
@@ -153,7 +153,7 @@ fn trace(
         Some(ix) => (ix, source.index_s),
         None => {
             let t = Instant::now();
-            built = MajorantIndex::build_volume(vol, &BuildOptions::default(), 0)
+            built = MinMaxIndex::build_volume(vol, &BuildOptions::default(), 0)
                 .kind_ctx(ErrorKind::File, format_args!("{name}: building the index"))?;
             (&built, source.index_s + t.elapsed().as_secs_f64())
         }

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use volcore::Volume;
 use volformats::{open_volume, vvol};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 
 /// A volume ready to render: the data, its empty-space-skipping index
 /// (none under `--no-ess`), where it came from, and the seconds spent.
@@ -16,7 +16,7 @@ pub struct Source {
     pub volume: Volume,
     /// Its index (`--index`, or built in memory with `--cell`); `None`
     /// when skipping is off.
-    pub index: Option<MajorantIndex>,
+    pub index: Option<MinMaxIndex>,
     /// The volume's path (errors name it; `--accumulate` fingerprints it).
     pub path: PathBuf,
     /// Seconds to open the volume.
@@ -78,7 +78,7 @@ pub fn open(options: &Options, path: &Path) -> Result<Volume> {
 /// The index the options ask for: none under `--no-ess`, the `--index`
 /// file (checked against the volume at `path`), else one built in memory
 /// with `--cell`.
-pub fn load_index(options: &Options, path: &Path, vol: &Volume) -> Result<Option<MajorantIndex>> {
+pub fn load_index(options: &Options, path: &Path, vol: &Volume) -> Result<Option<MinMaxIndex>> {
     if options.no_ess {
         return Ok(None);
     }
@@ -88,7 +88,7 @@ pub fn load_index(options: &Options, path: &Path, vol: &Volume) -> Result<Option
             let fp = volformats::fingerprint(path).kind_ctx(ErrorKind::File, path.display())?;
             let file = std::fs::File::open(p).kind_ctx(ErrorKind::File, &name)?;
             let mut f = std::io::BufReader::new(file);
-            let ix = MajorantIndex::read_for_volume(&mut f, &vol.meta, fp)
+            let ix = MinMaxIndex::read_for_volume(&mut f, &vol.meta, fp)
                 .kind_ctx(ErrorKind::File, &name)?;
             Ok(Some(ix))
         }
@@ -97,7 +97,7 @@ pub fn load_index(options: &Options, path: &Path, vol: &Volume) -> Result<Option
                 cell_edge: options.cell,
                 ..Default::default()
             };
-            let ix = MajorantIndex::build_volume(vol, &opts, 0).kind_ctx(
+            let ix = MinMaxIndex::build_volume(vol, &opts, 0).kind_ctx(
                 ErrorKind::File,
                 format_args!("{}: building the index", path.display()),
             )?;

@@ -15,7 +15,7 @@ use volformats::{thesis, FileKind, ReadOptions};
 use volindex::build::DEFAULT_CELL_EDGE;
 use volindex::histogram::DEFAULT_BINS;
 use volindex::shard::{IndexPart, PART_EXTENSION};
-use volindex::{BuildOptions, Histogram, IndexError, MajorantIndex};
+use volindex::{BuildOptions, Histogram, IndexError, MinMaxIndex};
 use volkit_cli::{noteln, outln, usage, RawSpec};
 
 /// Build the min/max macrocell index of a volume (any format vol-convert
@@ -211,7 +211,7 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
     let load_s = start.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let ix = MajorantIndex::build_volume(&vol, &opts, fp).map_err(at(&vname))?;
+    let ix = MinMaxIndex::build_volume(&vol, &opts, fp).map_err(at(&vname))?;
     if let Some(e) = vol.error() {
         bail!("{vname}: {e}");
     }
@@ -385,7 +385,7 @@ fn write_atomic(
 }
 
 /// Write `ix` to `path` through a temporary file; the bytes written.
-fn write_index(ix: &MajorantIndex, path: &Path) -> Result<u64, IndexError> {
+fn write_index(ix: &MinMaxIndex, path: &Path) -> Result<u64, IndexError> {
     write_atomic(path, |w| ix.write_to(w))
 }
 
@@ -409,7 +409,7 @@ fn check(cli: &Cli, volume: &Path, index: &Path) -> Result<()> {
     let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
     let (dims, sample_type) = volume_shape(volume, &opts)?;
     let file = std::fs::File::open(index).map_err(at(&iname))?;
-    let ix = MajorantIndex::read_from(&mut BufReader::with_capacity(1 << 20, file), Some(fp))
+    let ix = MinMaxIndex::read_from(&mut BufReader::with_capacity(1 << 20, file), Some(fp))
         .and_then(|ix| ix.check_volume(dims, sample_type).map(|()| ix))
         .map_err(|e| match e {
             IndexError::Fingerprint { .. } => {
@@ -443,7 +443,7 @@ fn check(cli: &Cli, volume: &Path, index: &Path) -> Result<()> {
 }
 
 /// A value for JSON: `null` when the range is empty (only NaNs).
-fn range_json(ix: &MajorantIndex) -> (Value, Value) {
+fn range_json(ix: &MinMaxIndex) -> (Value, Value) {
     let (lo, hi) = ix.value_range();
     if lo <= hi {
         (json!(f64::from(lo)), json!(f64::from(hi)))
@@ -477,7 +477,7 @@ fn bin_label(h: &Histogram, i: usize) -> String {
 }
 
 /// The figures both modes report, as a JSON object.
-fn summary(ix: &MajorantIndex, volume: &Path, index: &Path) -> Value {
+fn summary(ix: &MinMaxIndex, volume: &Path, index: &Path) -> Value {
     let s = ix.stats();
     let h = ix.histogram();
     let (min, max) = range_json(ix);
@@ -520,7 +520,7 @@ fn summary(ix: &MajorantIndex, volume: &Path, index: &Path) -> Value {
 }
 
 /// The --stats text.
-fn print_stats(ix: &MajorantIndex, volume: &Path) -> std::io::Result<()> {
+fn print_stats(ix: &MinMaxIndex, volume: &Path) -> std::io::Result<()> {
     let s = ix.stats();
     let h = ix.histogram();
     outln!(

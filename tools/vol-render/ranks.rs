@@ -3,7 +3,7 @@
 //! the volume; the index is built in z-slabs, one per rank, and the parts
 //! exchanged and merged (or read from `--index`); the volume is split into
 //! one box per rank, balanced by the cells the frame can see
-//! ([`volrender::distributed::Layout`]); each rank renders its box's share
+//! ([`volrender::distributed::Split`]); each rank renders its box's share
 //! of every ray; the films are composited by direct send (rank `j`
 //! composites row strip `j` from every rank's film in visibility order)
 //! and the strips gathered on rank 0, which writes the outputs and the
@@ -24,10 +24,10 @@ use std::time::Instant;
 use volcore::{Shard, Volume};
 use volformats::{open_volume, vvol};
 use volindex::shard::{build_shard, merge_parts, IndexPart};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volkit_cli::{noteln, outln};
 use volrender::classify::srgb_to_linear;
-use volrender::distributed::{composite_for, strip_rows, Layout};
+use volrender::distributed::{composite_for, strip_rows, Split};
 use volrender::distributed::{Composite, Fields};
 use volrender::film::{Film, FrameStats};
 use volrender::frame::{busy_cells, display_for, render_film};
@@ -350,7 +350,7 @@ fn shared_index(
     cli: &Cli,
     vol: &Volume,
     name: &str,
-) -> Result<MajorantIndex> {
+) -> Result<MinMaxIndex> {
     let opts = BuildOptions {
         cell_edge: cli.cell,
         ..Default::default()
@@ -393,12 +393,12 @@ fn shared_index(
 /// can see when there is an index.
 fn split(
     vol: &Volume,
-    index: Option<&MajorantIndex>,
+    index: Option<&MinMaxIndex>,
     plan: &Plan,
     ranks: usize,
     w: u32,
     h: u32,
-) -> Result<Layout> {
+) -> Result<Split> {
     // Messages count in i32 elements (bytes here): every rank's whole
     // film must fit one (records and a bitmap byte per pixel at most).
     let px_bytes = Fields::ALL.pixel_bytes() as u64 + 1;
@@ -414,7 +414,7 @@ fn split(
         })
         .transpose()?;
     let busy = busy.as_ref().map(|(b, c)| (&b[..], u64::from(*c)));
-    Ok(Layout::new(
+    Ok(Split::new(
         vol.dims(),
         vol.meta.spacing,
         BLOCK,
@@ -570,7 +570,7 @@ fn gather_figures(world: &SimpleCommunicator, mine: &RankFigures) -> Option<Vec<
 }
 
 /// The per-rank part of the report.
-fn rank_report(layout: &Layout, all: &[RankFigures]) -> Extra {
+fn rank_report(layout: &Split, all: &[RankFigures]) -> Extra {
     let per_rank: Vec<serde_json::Value> = all
         .iter()
         .enumerate()

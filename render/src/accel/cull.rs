@@ -16,7 +16,7 @@
 
 use crate::camera::Camera;
 use glam::Vec3;
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// Most cells projected per frame.
 pub const MAX_CELLS: usize = 1 << 15;
@@ -54,7 +54,7 @@ impl BlockMask {
 /// inside that box ([`crate::distributed::ShareBox`]).
 pub fn busy_blocks(
     camera: &Camera,
-    index: &MajorantIndex,
+    index: &MinMaxIndex,
     spacing: Vec3,
     within: Option<(Vec3, Vec3)>,
     busy: impl Fn(usize, usize) -> bool,
@@ -135,7 +135,7 @@ mod tests {
     #[test]
     fn culling_keeps_every_block_that_can_see_a_busy_cell() {
         let vol = block([40, 8, 20], [47, 15, 23]);
-        let ix = MajorantIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
         let busy = |l: usize, c: usize| ix.level(l).max()[c] > 0.0;
         let (lo, hi) = (Vec3::new(39.0, 7.0, 19.0), Vec3::new(49.0, 17.0, 25.0));
         for (eye, proj) in [

@@ -137,7 +137,7 @@ mod tests {
     use volcore::region::pack_sliced;
     use volcore::scene::{SceneSource, ShapesScene};
     use volcore::Dims;
-    use volindex::{BuildOptions, MajorantIndex};
+    use volindex::{BuildOptions, MinMaxIndex};
 
     /// Segments tile the ray's range in order, and every point inside a
     /// segment (away from its ends by more than rounding) is in the
@@ -152,7 +152,7 @@ mod tests {
             ))),
         )
         .unwrap();
-        let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
         let loc = Locator::new(dims);
         let hi = [60.0, 39.0, 32.0];
         let mut rng = fastrand::Rng::with_seed(7);
@@ -208,7 +208,7 @@ mod tests {
     fn an_empty_range_gives_no_segment_and_a_point_gives_one() {
         let dims = Dims::new(16, 16, 16).unwrap();
         let v = volcore::Volume::from_samples(dims, vec![0u8; 16 * 16 * 16]).unwrap();
-        let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
         let vr = VoxelRay::new(Vec3::new(-1.0, 3.0, 3.0), Vec3::X);
         let hi = [15.0; 3];
         assert_eq!(segments(ix.level(0), hi, &vr, 5.0, 4.0).count(), 0);

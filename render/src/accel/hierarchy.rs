@@ -20,11 +20,11 @@
 use super::VoxelRay;
 use glam::Vec3;
 use volcore::grid::Locator;
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// An index's levels, ready for point queries along rays.
 pub struct Hierarchy<'a> {
-    index: &'a MajorantIndex,
+    index: &'a MinMaxIndex,
     /// Finds the voxel the sampler reads first at a point.
     locator: Locator,
     margin: f32,
@@ -73,7 +73,7 @@ pub enum Step {
 
 impl<'a> Hierarchy<'a> {
     /// The hierarchy of `index`'s levels.
-    pub fn new(index: &'a MajorantIndex) -> Hierarchy<'a> {
+    pub fn new(index: &'a MinMaxIndex) -> Hierarchy<'a> {
         let dims = index.dims();
         let largest = dims.x.max(dims.y).max(dims.z) as f32;
         let mut offset = 0;
@@ -105,7 +105,7 @@ impl<'a> Hierarchy<'a> {
     }
 
     /// The index behind the hierarchy.
-    pub fn index(&self) -> &'a MajorantIndex {
+    pub fn index(&self) -> &'a MinMaxIndex {
         self.index
     }
 

@@ -3,7 +3,7 @@
 //! index's value ranges go through a function of the range (a transfer
 //! function's range-maximum table, or a density mapping), once per frame.
 
-use volindex::{MajorantIndex, RangeMaxTable};
+use volindex::{MinMaxIndex, RangeMaxTable};
 
 /// Per-cell majorants of one index level.
 #[derive(Clone, Debug)]
@@ -18,7 +18,7 @@ impl MajorantGrid {
     /// must bound the extinction of every value in `[lo, hi]` (cells whose
     /// range is empty, `lo > hi`, hold only NaN and get 0).
     pub fn from_ranges(
-        index: &MajorantIndex,
+        index: &MinMaxIndex,
         level: usize,
         bound: impl Fn(f32, f32) -> f32,
     ) -> MajorantGrid {
@@ -39,7 +39,7 @@ impl MajorantGrid {
 
     /// Majorants from a table of extinction per value bin: each cell's
     /// largest table value over its range.
-    pub fn from_table(index: &MajorantIndex, level: usize, table: &RangeMaxTable) -> MajorantGrid {
+    pub fn from_table(index: &MinMaxIndex, level: usize, table: &RangeMaxTable) -> MajorantGrid {
         MajorantGrid::from_ranges(index, level, |lo, hi| table.max_over(lo, hi))
     }
 
@@ -93,7 +93,7 @@ mod tests {
             ))),
         )
         .unwrap();
-        let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
         let density = |x: f32| 0.3 * x.max(0.0) / 255.0;
         let table = RangeMaxTable::from_fn(-255.0, 255.0, 512, |x| (x / 100.0).powi(2)).unwrap();
         let sq = |x: f32| (x / 100.0).powi(2);

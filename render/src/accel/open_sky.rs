@@ -20,7 +20,7 @@
 //! skipping hierarchy's margins are.
 
 use glam::Vec3;
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// Most pixels a map may have (64 MiB of heights).
 const MAX_PIXELS: usize = 1 << 24;
@@ -116,7 +116,7 @@ impl OpenSky {
     /// cells (linear index) the skipping rule keeps. `None` when the
     /// direction has none.
     pub fn build(
-        index: &MajorantIndex,
+        index: &MinMaxIndex,
         busy: impl Fn(usize) -> bool,
         toward: Vec3,
     ) -> Option<OpenSky> {
@@ -229,7 +229,7 @@ mod tests {
     use volcore::Dims;
     use volindex::BuildOptions;
 
-    fn index(dims: [u64; 3], busy_voxels: &[[u64; 3]]) -> MajorantIndex {
+    fn index(dims: [u64; 3], busy_voxels: &[[u64; 3]]) -> MinMaxIndex {
         let n = (dims[0] * dims[1] * dims[2]) as usize;
         let mut v = vec![0u8; n];
         for b in busy_voxels {
@@ -241,11 +241,11 @@ mod tests {
             cell_edge: 8,
             ..BuildOptions::default()
         };
-        MajorantIndex::build_volume(&vol, &opts, 0).unwrap()
+        MinMaxIndex::build_volume(&vol, &opts, 0).unwrap()
     }
 
     /// The level-0 cell the sampler reads at `p`.
-    fn cell_at(ix: &MajorantIndex, loc: &Locator, p: Vec3) -> usize {
+    fn cell_at(ix: &MinMaxIndex, loc: &Locator, p: Vec3) -> usize {
         let l0 = &ix.levels()[0];
         let (c, e) = (l0.cells(), l0.edge());
         let v = loc.voxel(p.to_array());

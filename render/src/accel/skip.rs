@@ -5,11 +5,11 @@
 use super::distance::OctantDistances;
 use super::{Accel, Hierarchy, Step, VoxelRay};
 use glam::Vec3;
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// A flag per cell of every level, from a per-cell test of its range, in
 /// the hierarchy's flat order (finest level first).
-fn flags_of(index: &MajorantIndex, f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
+fn flags_of(index: &MinMaxIndex, f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
     let levels = index.levels();
     let mut flags = Vec::with_capacity(levels.iter().map(|l| l.len()).sum());
     for l in levels {
@@ -37,7 +37,7 @@ impl<'a> FixedCells<'a> {
     /// The transparent-cell rule from per-level, per-cell flags (`true`:
     /// every sample the cell can produce has zero opacity), as a
     /// classifier computes them.
-    pub fn transparent(index: &'a MajorantIndex, transparent: Vec<Vec<bool>>) -> Self {
+    pub fn transparent(index: &'a MinMaxIndex, transparent: Vec<Vec<bool>>) -> Self {
         // Level by level: a flattening iterator would go cell by cell.
         let mut flags = Vec::with_capacity(transparent.iter().map(Vec::len).sum());
         for level in &transparent {
@@ -47,7 +47,7 @@ impl<'a> FixedCells<'a> {
     }
 
     /// The zero-cell rule: cells holding only zeros (or only NaN).
-    pub fn zero(index: &'a MajorantIndex) -> Self {
+    pub fn zero(index: &'a MinMaxIndex) -> Self {
         Self::with_flags(
             index,
             flags_of(index, |lo, hi| ((lo == 0.0 && hi == 0.0) || lo > hi) as u8),
@@ -56,7 +56,7 @@ impl<'a> FixedCells<'a> {
 
     /// The rule from its flags (flat order), with the level-0 distances
     /// computed from them.
-    fn with_flags(index: &'a MajorantIndex, flags: Vec<u8>) -> Self {
+    fn with_flags(index: &'a MinMaxIndex, flags: Vec<u8>) -> Self {
         let n = index
             .levels()
             .first()
@@ -74,7 +74,7 @@ impl<'a> FixedCells<'a> {
     }
 
     /// The index the rule flags.
-    pub fn index(&self) -> &'a MajorantIndex {
+    pub fn index(&self) -> &'a MinMaxIndex {
         self.h.index()
     }
 
@@ -117,7 +117,7 @@ pub struct RunningMax<'a> {
 
 impl<'a> RunningMax<'a> {
     /// The rule for `index`.
-    pub fn new(index: &'a MajorantIndex) -> Self {
+    pub fn new(index: &'a MinMaxIndex) -> Self {
         RunningMax {
             h: Hierarchy::new(index),
         }
@@ -141,7 +141,7 @@ pub struct RunningMin<'a> {
 
 impl<'a> RunningMin<'a> {
     /// The rule for `index`.
-    pub fn new(index: &'a MajorantIndex) -> Self {
+    pub fn new(index: &'a MinMaxIndex) -> Self {
         RunningMin {
             h: Hierarchy::new(index),
         }
@@ -175,7 +175,7 @@ impl<'a> IsoSides<'a> {
     /// The rule for iso value `iso`: [`ISO_BELOW`] when every value is
     /// below it, [`ISO_ABOVE`] when every value is at or above it (only
     /// when the volume holds no NaN, which counts as below), else 0.
-    pub fn new(index: &'a MajorantIndex, iso: f32) -> Self {
+    pub fn new(index: &'a MinMaxIndex, iso: f32) -> Self {
         let nan_free = index.stats().nan_count == 0;
         IsoSides {
             h: Hierarchy::new(index),
@@ -212,7 +212,7 @@ pub struct ClearBoxes<'a> {
 }
 
 impl<'a> ClearBoxes<'a> {
-    fn new(index: &'a MajorantIndex, flags: &[u8], clear: impl Fn(u8) -> bool) -> Self {
+    fn new(index: &'a MinMaxIndex, flags: &[u8], clear: impl Fn(u8) -> bool) -> Self {
         let level = index.level(0);
         let edge = level.edge();
         ClearBoxes {
@@ -318,7 +318,7 @@ mod tests {
         let samples = pack_sliced(&SceneSource::<u8>::new(&scene));
         let vol = volcore::Volume::from_samples(dims, samples.clone()).unwrap();
         let grid = volcore::SlicedGrid::new(dims, volcore::Data::Owned(samples)).unwrap();
-        let ix = MajorantIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
         let zero = FixedCells::zero(&ix);
         let loc = Locator::new(dims);
         let mut cur = grid.cursor();
@@ -396,7 +396,7 @@ mod tests {
         let scene = ShapesScene::new(dims, 4, 12, 20, 100.0);
         let vol = volcore::Volume::from_samples(dims, pack_sliced(&SceneSource::<u8>::new(&scene)))
             .unwrap();
-        let ix = MajorantIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
         let zero = FixedCells::zero(&ix);
         let boxes = zero.clear_boxes();
         let cells = boxes.cells();

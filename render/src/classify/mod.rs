@@ -16,7 +16,7 @@ pub use table2d::TfTable2d;
 use crate::error::RenderError;
 use crate::settings::GradientMethod;
 use glam::Vec3;
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// How gradients are computed in the frame, for bounding their length
 /// over a cell.
@@ -68,7 +68,7 @@ pub trait Classifier: Sync {
     /// frame's gradient method can give there) has nonzero opacity.
     fn transparent_cells(
         &self,
-        index: &MajorantIndex,
+        index: &MinMaxIndex,
         gradients: &GradientBound,
     ) -> Result<Vec<Vec<bool>>, RenderError>;
 }

@@ -5,7 +5,7 @@ use super::entry;
 use super::{Classifier, GradientBound};
 use crate::error::RenderError;
 use crate::tf::TransferFunction;
-use volindex::{MajorantIndex, RangeMaxTable};
+use volindex::{MinMaxIndex, RangeMaxTable};
 
 /// Equal bins over a domain `[lo, hi]`, and the bin of a value.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -201,7 +201,7 @@ impl Classifier for TfTable {
 
     fn transparent_cells(
         &self,
-        index: &MajorantIndex,
+        index: &MinMaxIndex,
         _: &GradientBound,
     ) -> Result<Vec<Vec<bool>>, RenderError> {
         let bounds = self.opacity_bounds()?;

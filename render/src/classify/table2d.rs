@@ -20,7 +20,7 @@ use crate::error::RenderError;
 use crate::settings::GradientMethod;
 use crate::tf::TransferFunction2d;
 use rayon::prelude::*;
-use volindex::{MajorantIndex, RangeMaxTable};
+use volindex::{MinMaxIndex, RangeMaxTable};
 
 /// Gradient-magnitude bins of a 2D table.
 pub const GRADIENT_BINS: usize = 64;
@@ -124,7 +124,7 @@ impl Classifier for TfTable2d {
 
     fn transparent_cells(
         &self,
-        index: &MajorantIndex,
+        index: &MinMaxIndex,
         gb: &GradientBound,
     ) -> Result<Vec<Vec<bool>>, RenderError> {
         let bounds = self.prefix_bounds()?;

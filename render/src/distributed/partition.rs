@@ -2,7 +2,7 @@
 //! tree over a grid of blocks (bricks, or groups of macrocells), each cut
 //! at the block plane, on whichever axis, that best balances the ranks'
 //! work as the blocks' weights measure it (ties to the longest axis; the
-//! weights are the caller's: [`super::Layout`] counts the cells a frame
+//! weights are the caller's: [`super::Split`] counts the cells a frame
 //! can see, scaled by the camera's ray density). Each rank owns one convex box
 //! of whole blocks; the tree gives the order in which the boxes must be
 //! composited for any viewer, inside the volume or out.

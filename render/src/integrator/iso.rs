@@ -17,7 +17,7 @@ use crate::tiles::Tiles;
 use glam::Vec3;
 use std::marker::PhantomData;
 use volcore::{Cursor, Volume};
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// Bisection steps refining a crossing (the bracket shrinks 2^-20-fold).
 const BISECTIONS: u32 = 20;
@@ -224,7 +224,7 @@ struct IsoShadows {
 /// frame's reconstruction and gradient method.
 pub fn render_frame(
     vol: &Volume,
-    index: Option<&MajorantIndex>,
+    index: Option<&MinMaxIndex>,
     tiles: &Tiles<'_>,
     geom: FrameGeometry,
     settings: &RenderSettings,

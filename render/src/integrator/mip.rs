@@ -10,14 +10,14 @@ use crate::tiles::Tiles;
 use glam::Vec3;
 use std::marker::PhantomData;
 use volcore::{Cursor, Volume};
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// Which extreme a projection keeps.
 pub trait Extreme: Copy + Send + Sync + 'static {
     /// The skipping rule: cells whose range cannot beat the running value.
     type Skip<'a>: Accel<f32>;
     /// The rule over `index`.
-    fn skip(index: &MajorantIndex) -> Self::Skip<'_>;
+    fn skip(index: &MinMaxIndex) -> Self::Skip<'_>;
     /// The value before any sample.
     const START: f32;
     /// Whether `v` beats `best`.
@@ -36,7 +36,7 @@ pub struct Minimum;
 
 impl Extreme for Maximum {
     type Skip<'a> = RunningMax<'a>;
-    fn skip(index: &MajorantIndex) -> RunningMax<'_> {
+    fn skip(index: &MinMaxIndex) -> RunningMax<'_> {
         RunningMax::new(index)
     }
     const START: f32 = f32::NEG_INFINITY;
@@ -52,7 +52,7 @@ impl Extreme for Maximum {
 
 impl Extreme for Minimum {
     type Skip<'a> = RunningMin<'a>;
-    fn skip(index: &MajorantIndex) -> RunningMin<'_> {
+    fn skip(index: &MinMaxIndex) -> RunningMin<'_> {
         RunningMin::new(index)
     }
     const START: f32 = f32::INFINITY;
@@ -84,7 +84,7 @@ impl<'a, D: Extreme> Mip<'a, D> {
     /// volume's largest (MIP) or smallest (MinIP) value.
     pub fn new(
         geom: FrameGeometry,
-        index: Option<&'a MajorantIndex>,
+        index: Option<&'a MinMaxIndex>,
         stop_at_extreme: bool,
         extreme: f32,
     ) -> Self {
@@ -103,7 +103,7 @@ impl<'a, D: Extreme> Mip<'a, D> {
 /// `stop_at_extreme`.
 pub fn render_frame(
     vol: &Volume,
-    index: Option<&MajorantIndex>,
+    index: Option<&MinMaxIndex>,
     tiles: &Tiles<'_>,
     geom: FrameGeometry,
     maximum: bool,

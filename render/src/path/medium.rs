@@ -18,7 +18,7 @@ use crate::error::RenderError;
 use crate::tf::TransferFunction;
 use glam::Vec3;
 use volcore::SampleType;
-use volindex::{MajorantIndex, RangeMaxTable};
+use volindex::{MinMaxIndex, RangeMaxTable};
 
 /// The largest extinction a medium takes, per world unit: a transfer
 /// function's opacity 1 (infinite optical depth) is this, so tracking
@@ -38,7 +38,7 @@ pub trait Medium: Sync {
     /// The largest albedo component anywhere (0: the medium only absorbs).
     fn max_albedo(&self) -> f32;
     /// Majorants of `index`'s level `level`.
-    fn majorants(&self, index: &MajorantIndex, level: usize) -> Result<MajorantGrid, RenderError>;
+    fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError>;
 }
 
 /// `σt = scale × normalised value` with a constant albedo.
@@ -111,7 +111,7 @@ impl Medium for DensityMedium {
         self.albedo.max_element()
     }
 
-    fn majorants(&self, index: &MajorantIndex, level: usize) -> Result<MajorantGrid, RenderError> {
+    fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError> {
         // σt rises with the value: the cell's largest value bounds it.
         // Rounding: the bound is computed as the samples are, and widened
         // by a hair.
@@ -187,7 +187,7 @@ impl Medium for TableMedium {
         self.max_albedo
     }
 
-    fn majorants(&self, index: &MajorantIndex, level: usize) -> Result<MajorantGrid, RenderError> {
+    fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError> {
         let (lo, hi) = self.bins.domain();
         let table =
             RangeMaxTable::from_bin_maxima(lo, hi, self.entries.iter().map(|e| e[3]).collect())

@@ -47,7 +47,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use tracking::Tracker;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// The lights of a path-traced scene: the ray caster's light model
 /// ([`Light`], one direction convention: `towards` points from the scene
@@ -203,7 +203,7 @@ enum AnyMedium {
 /// its majorant grid are built once and serve every pass.
 pub struct PathTracer<'a> {
     vol: &'a Volume,
-    index: &'a MajorantIndex,
+    index: &'a MinMaxIndex,
     camera: &'a Camera,
     settings: &'a PathSettings,
     medium: AnyMedium,
@@ -219,7 +219,7 @@ impl<'a> PathTracer<'a> {
     /// Resolve the medium and build its majorant grid.
     pub fn new(
         vol: &'a Volume,
-        index: &'a MajorantIndex,
+        index: &'a MinMaxIndex,
         camera: &'a Camera,
         settings: &'a PathSettings,
     ) -> Result<PathTracer<'a>, RenderError> {

@@ -5,15 +5,15 @@ use glam::Vec3;
 use volcore::region::pack_sliced;
 use volcore::scene::{Scene, SceneSource, ShapesScene};
 use volcore::{Dims, Volume};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::{Camera, Projection};
 
 /// 48 × 40 × 44 voxels of 12 shapes, and its index.
-pub fn shapes() -> (Volume, MajorantIndex) {
+pub fn shapes() -> (Volume, MinMaxIndex) {
     let scene = ShapesScene::new(Dims::new(48, 40, 44).unwrap(), 2, 12, 14, 100.0);
     let v =
         Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<u8>::new(&scene))).unwrap();
-    let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+    let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
     (v, ix)
 }
 

@@ -12,9 +12,9 @@ use glam::Vec3;
 use volcore::region::pack_sliced;
 use volcore::scene::{SceneSource, ShapesScene};
 use volcore::{Dims, Volume};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::distributed::Fields;
-use volrender::distributed::{composite_for, strip_rows, Layout};
+use volrender::distributed::{composite_for, strip_rows, Split};
 use volrender::film::Film;
 use volrender::frame::{busy_cells, render_film};
 use volrender::tf::{Tf, TransferFunction};
@@ -23,11 +23,11 @@ use volrender::{render_tf, Camera, Frame, Mode, Projection, RenderSettings};
 /// Block edge of the split (voxels).
 const BLOCK: u64 = 8;
 
-fn scene() -> (Volume, MajorantIndex) {
+fn scene() -> (Volume, MinMaxIndex) {
     let dims = Dims::new(64, 56, 72).unwrap();
     let s = ShapesScene::new(dims, 5, 14, 9, 100.0);
     let v = Volume::from_samples(dims, pack_sliced(&SceneSource::<u8>::new(&s))).unwrap();
-    let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+    let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
     (v, ix)
 }
 
@@ -67,7 +67,7 @@ fn cameras() -> Vec<(&'static str, Camera)> {
 /// each strip composited from every rank's, the strips gathered as bytes.
 fn data_parallel(
     v: &Volume,
-    ix: &MajorantIndex,
+    ix: &MinMaxIndex,
     tf: &Tf,
     cam: &Camera,
     s: &RenderSettings,
@@ -75,7 +75,7 @@ fn data_parallel(
 ) -> Frame {
     let busy = busy_cells(v, ix, Some(tf), s).unwrap();
     let cell = u64::from(ix.cell_edge());
-    let layout = Layout::new(
+    let layout = Split::new(
         v.dims(),
         v.meta.spacing,
         BLOCK,

@@ -18,7 +18,7 @@ use glam::Vec3;
 use volcore::region::pack_sliced;
 use volcore::scene::{NoiseKind, NoiseScene, Scene, SceneSource, ShapesScene};
 use volcore::{Dims, Sample, Volume};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::tf::TransferFunction;
 use volrender::{render, Camera, Frame, GradientMethod, Interp, Mode, Projection, RenderSettings};
 
@@ -82,7 +82,7 @@ fn demo_thesis_frame_is_unchanged() {
         22,
         100.0,
     ));
-    let ix = MajorantIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+    let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
     let tf = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
     let cam = Camera::look_at(
         Vec3::splat(352.0),
@@ -237,7 +237,7 @@ fn one_frame_per_mode_is_unchanged() {
         ("shapes", &shapes, &shapes_tf),
         ("noise", &noise, &noise_tf),
     ] {
-        let ix = MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap();
+        let ix = MinMaxIndex::build_volume(v, &BuildOptions::default(), 0).unwrap();
         let d = v.dims().as_array();
         let c = Vec3::new((d[0] - 1) as f32, (d[1] - 1) as f32, (d[2] - 1) as f32) * 0.5;
         let cam =

@@ -8,15 +8,15 @@ use glam::Vec3;
 use volcore::region::pack_sliced;
 use volcore::scene::{SceneSource, ShapesScene};
 use volcore::{Dims, Volume};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::path::{
     Accumulator, Budget, EnvMap, MajorantMode, MediumSpec, PathCounters, PathLights, PathSettings,
     PathTracer,
 };
 use volrender::{Camera, Light, Projection};
 
-fn index(v: &Volume) -> MajorantIndex {
-    MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
+fn index(v: &Volume) -> MinMaxIndex {
+    MinMaxIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
 }
 
 fn settings(scale: f32, albedo: f32, lights: PathLights) -> PathSettings {
@@ -56,7 +56,7 @@ fn sun_and_env() -> PathLights {
 /// `spp` samples per pixel in one pass.
 fn render(
     v: &Volume,
-    ix: &MajorantIndex,
+    ix: &MinMaxIndex,
     cam: &Camera,
     s: &PathSettings,
     spp: u64,

@@ -7,7 +7,7 @@ use volcore::scene::{
     BoxScene, NoiseKind, NoiseScene, Scene, SceneSource, ShapesScene, SphereScene,
 };
 use volcore::{Dims, Sample, Volume};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::tf::{TfPoint, TransferFunction};
 use volrender::{render, Camera, Frame, GradientMethod, Interp, Mode, Projection, RenderSettings};
 
@@ -15,8 +15,8 @@ fn volume<T: Sample + volcore::volume::IntoVolumeData>(scene: &dyn Scene) -> Vol
     Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<T>::new(scene))).unwrap()
 }
 
-fn index(v: &Volume) -> MajorantIndex {
-    MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
+fn index(v: &Volume) -> MinMaxIndex {
+    MinMaxIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
 }
 
 fn constant_tf(alpha: f32) -> TransferFunction {
@@ -69,7 +69,7 @@ fn orbit(v: &Volume, az: f32, el: f32, w: u32) -> Camera {
 /// The frame rendered with empty-space skipping as `s` asks, and without.
 fn with_and_without_skipping(
     v: &Volume,
-    ix: &MajorantIndex,
+    ix: &MinMaxIndex,
     tf: &TransferFunction,
     cam: &Camera,
     s: &RenderSettings,
@@ -200,7 +200,7 @@ fn mip_of_a_sphere_finds_its_peak_and_iso_lands_on_the_radius() {
     }
 }
 
-fn shapes_scene() -> (Volume, MajorantIndex) {
+fn shapes_scene() -> (Volume, MinMaxIndex) {
     let v = volume::<u8>(&ShapesScene::new(
         Dims::new(96, 80, 72).unwrap(),
         2,

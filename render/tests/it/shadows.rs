@@ -4,7 +4,7 @@
 use crate::common::{orbit_camera, shapes};
 use glam::Vec3;
 use volcore::{Dims, Volume};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::tf::{TfRange, TransferFunction};
 use volrender::{
     render, Camera, Frame, Interp, Light, Lighting, Mode, Projection, RenderSettings, ShadowMethod,
@@ -88,7 +88,7 @@ fn lit_from_above(shadows: Option<Shadows>, step: f32) -> RenderSettings {
 }
 
 fn frame(v: &Volume, tf: &TransferFunction, s: &RenderSettings) -> Frame {
-    let ix = MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap();
+    let ix = MinMaxIndex::build_volume(v, &BuildOptions::default(), 0).unwrap();
     render(v, Some(&ix), Some(tf), &side_camera(), s).unwrap()
 }
 
@@ -383,7 +383,7 @@ fn iso_surfaces_cast_hard_shadows() {
         }
     }
     let vol = Volume::from_samples(d, v).unwrap();
-    let ix = MajorantIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
+    let ix = MinMaxIndex::build_volume(&vol, &BuildOptions::default(), 0).unwrap();
     // Straight down, orthographic over the whole floor.
     let cam = Camera::look_at(
         Vec3::new(31.5, 7.5, 100.0),

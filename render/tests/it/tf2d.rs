@@ -6,7 +6,7 @@ use glam::Vec3;
 use volcore::region::pack_sliced;
 use volcore::scene::{NoiseKind, NoiseScene, Scene, SceneSource, ShapesScene, SphereScene};
 use volcore::{Dims, Sample, Volume};
-use volindex::{BuildOptions, MajorantIndex};
+use volindex::{BuildOptions, MinMaxIndex};
 use volrender::tf::parse::parse_any;
 use volrender::tf::{Tf, TransferFunction, TransferFunction2d};
 use volrender::{render_tf, Camera, Frame, GradientMethod, Interp, Projection, RenderSettings};
@@ -15,8 +15,8 @@ fn volume<T: Sample + volcore::volume::IntoVolumeData>(scene: &dyn Scene) -> Vol
     Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<T>::new(scene))).unwrap()
 }
 
-fn index(v: &Volume) -> MajorantIndex {
-    MajorantIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
+fn index(v: &Volume) -> MinMaxIndex {
+    MinMaxIndex::build_volume(v, &BuildOptions::default(), 0).unwrap()
 }
 
 fn image_bits(f: &Frame) -> Vec<u32> {

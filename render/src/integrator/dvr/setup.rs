@@ -24,7 +24,7 @@ use crate::tf::Tf;
 use crate::tiles::Tiles;
 use glam::Vec3;
 use volcore::Volume;
-use volindex::MajorantIndex;
+use volindex::MinMaxIndex;
 
 /// The gradient a classifier has samples read when the frame's method is
 /// `G` but nothing else asks for one (an unshaded frame, a shadow sample):
@@ -114,7 +114,7 @@ impl Tables {
     /// a sample there (the cells it does not make transparent).
     pub fn busy_cells(
         &self,
-        index: &MajorantIndex,
+        index: &MinMaxIndex,
         gradients: &GradientBound,
     ) -> Result<Vec<bool>, RenderError> {
         let mut levels = match self {
@@ -135,7 +135,7 @@ pub struct DvrFrame<'a> {
     /// The volume.
     pub vol: &'a Volume,
     /// The index to skip with, when skipping is on.
-    pub skip_index: Option<&'a MajorantIndex>,
+    pub skip_index: Option<&'a MinMaxIndex>,
     /// The transfer function.
     pub tf: &'a Tf,
     /// Sample placement.
@@ -307,7 +307,7 @@ impl DvrFrame<'_> {
 /// The cells `classifier` makes transparent, as a skipping rule, when
 /// skipping is on.
 pub fn transparent_cells<'a>(
-    index: Option<&'a MajorantIndex>,
+    index: Option<&'a MinMaxIndex>,
     classifier: &impl Classifier,
     gradients: &GradientBound,
 ) -> Result<Option<FixedCells<'a>>, RenderError> {

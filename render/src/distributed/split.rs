@@ -1,4 +1,4 @@
-//! A frame's data-parallel layout: the volume's block grid, its split among
+//! A frame's data-parallel split: the volume's block grid, its split among
 //! ranks weighted by the cells the frame can see, each rank's box in world
 //! and voxel coordinates, the composite rule and order for the camera.
 
@@ -11,7 +11,7 @@ use volcore::Dims;
 
 /// The split of one volume among ranks (see the module docs).
 #[derive(Clone, Debug)]
-pub struct Layout {
+pub struct Split {
     tree: KdTree,
     dims: [u64; 3],
     block: u64,
@@ -19,7 +19,7 @@ pub struct Layout {
     spacing: [f32; 3],
 }
 
-impl Layout {
+impl Split {
     /// Split a volume of `dims` and voxel `spacing` into blocks of `block`
     /// voxels a side among `ranks` ranks. `busy` flags the cells of edge
     /// `cell` (x fastest, as [`crate::frame::busy_cells`] gives them): a
@@ -37,7 +37,7 @@ impl Layout {
         busy: Option<(&[bool], u64)>,
         ranks: usize,
         camera: Option<&Camera>,
-    ) -> Layout {
+    ) -> Split {
         let block = block.max(1);
         let dims = dims.as_array();
         let shape = dims.map(|n| n.div_ceil(block));
@@ -83,7 +83,7 @@ impl Layout {
                 }
             }
         }
-        Layout {
+        Split {
             tree: KdTree::split(&weights, shape, ranks.max(1)),
             dims,
             block,
@@ -223,7 +223,7 @@ mod tests {
         let dims = Dims::new(64, 64, 64).unwrap();
         let cells = 8u64 * 8 * 8;
         let flags: Vec<bool> = (0..cells).map(|i| i % 8 < 2).collect();
-        let l = Layout::new(dims, [1.0; 3], 16, Some((&flags, 8)), 2, None);
+        let l = Split::new(dims, [1.0; 3], 16, Some((&flags, 8)), 2, None);
         let w: Vec<u64> = l.tree().leaves().iter().map(|f| f.weight).collect();
         assert_eq!(
             w.iter().sum::<u64>(),
@@ -231,7 +231,7 @@ mod tests {
         );
         assert_eq!(w[0], w[1], "balanced: {w:?}");
         // Without flags: every block weighs one.
-        let u = Layout::new(dims, [1.0; 3], 16, None, 3, None);
+        let u = Split::new(dims, [1.0; 3], 16, None, 3, None);
         assert_eq!(u.tree().leaves().iter().map(|f| f.weight).sum::<u64>(), 64);
     }
 
@@ -251,7 +251,7 @@ mod tests {
         };
         // Looking down -x from x = 200: the near half (x >= 32) is
         // closer, so a split by ray density gives it fewer blocks.
-        let near = Layout::new(
+        let near = Split::new(
             dims,
             [1.0; 3],
             16,
@@ -259,12 +259,12 @@ mod tests {
             2,
             Some(&cam(Projection::Perspective(30.0))),
         );
-        let v = |l: &Layout, r| l.voxels(r)[0].clone();
+        let v = |l: &Split, r| l.voxels(r)[0].clone();
         let (a, b) = (v(&near, 0), v(&near, 1));
         let far_x = if a.start == 0 { &a } else { &b };
         assert!(far_x.end > 32, "{a:?} {b:?}");
         // Orthographic: every block alike, the even split.
-        let flat = Layout::new(
+        let flat = Split::new(
             dims,
             [1.0; 3],
             16,
@@ -275,7 +275,7 @@ mod tests {
         let w: Vec<u64> = flat.tree().leaves().iter().map(|f| f.weight).collect();
         assert_eq!(w, vec![32, 32]);
         // A narrow view of the middle: the corner blocks are off the image.
-        let narrow = Layout::new(
+        let narrow = Split::new(
             dims,
             [1.0; 3],
             16,
@@ -283,7 +283,7 @@ mod tests {
             1,
             Some(&cam(Projection::Perspective(5.0))),
         );
-        let all = Layout::new(
+        let all = Split::new(
             dims,
             [1.0; 3],
             16,
@@ -297,7 +297,7 @@ mod tests {
     #[test]
     fn boxes_cover_the_volume_once_and_empty_ranks_get_no_share() {
         let dims = Dims::new(40, 33, 17).unwrap();
-        let l = Layout::new(dims, [0.5, 1.0, 2.0], 16, None, 20, None);
+        let l = Split::new(dims, [0.5, 1.0, 2.0], 16, None, 20, None);
         let mut voxels = 0u64;
         let mut empty = 0;
         for r in 0..l.ranks() {
