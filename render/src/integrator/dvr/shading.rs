@@ -110,6 +110,8 @@ pub struct Phong<'a, O> {
     one_light: Option<Light>,
     caster: Option<&'a DvrCaster<'a, O>>,
     ao: Option<&'a AoSource<'a>>,
+    /// Whether the frame has shadows or ambient occlusion.
+    effects: bool,
 }
 
 impl<'a, O> Phong<'a, O> {
@@ -127,13 +129,8 @@ impl<'a, O> Phong<'a, O> {
             one_light: lighting.single_per_ray_light(),
             caster,
             ao,
+            effects: caster.is_some() || ao.is_some(),
         }
-    }
-
-    /// Whether the frame has shadows or ambient occlusion.
-    #[inline(always)]
-    fn has_effects(&self) -> bool {
-        self.caster.is_some() || self.ao.is_some()
     }
 }
 
@@ -171,18 +168,19 @@ impl<O: crate::effects::Occluder<Query = ()>> Shading for Phong<'_, O> {
         len2: f32,
         t: f32,
     ) -> Vec3 {
-        let lit = len2 > self.threshold2;
-        if !self.has_effects() {
-            return match (&st.view, lit) {
-                (_, false) => colour,
-                (Some(view), true) => view.shade_normal(colour, grad * len2.sqrt().recip()),
-                (None, true) => {
-                    let p = st.ray.origin + st.ray.dir * t;
-                    self.lighting.shade_at(colour, grad, st.ray.dir, p)
-                }
-            };
+        if self.effects {
+            return self.shade_effects(st, cur, colour, grad, len2, t);
         }
-        self.shade_effects(st, cur, colour, grad, len2, t)
+        // Too short a gradient (or NaN) for a normal: the colour as is.
+        let lit = len2 > self.threshold2;
+        match (&st.view, lit) {
+            (_, false) => colour,
+            (Some(view), true) => view.shade_normal(colour, grad * len2.sqrt().recip()),
+            (None, true) => {
+                let p = st.ray.origin + st.ray.dir * t;
+                self.lighting.shade_at(colour, grad, st.ray.dir, p)
+            }
+        }
     }
     #[inline(always)]
     fn effects(st: &PhongRay) -> RayEffects {
@@ -205,11 +203,10 @@ impl<O: crate::effects::Occluder<Query = ()>> Shading for Phong<'_, O> {
         t: &[f32; 8],
         visible: u8,
     ) -> Option<Lanes3> {
-        let view = st.view.as_ref()?;
-        if !self.has_effects() {
-            return view.shade8(colour, grad, self.threshold2, None);
+        if self.effects {
+            return self.shade8_effects(st, colour, grad, t, visible);
         }
-        self.shade8_effects(st, colour, grad, t, visible)
+        st.view.as_ref()?.shade8(colour, grad, self.threshold2, None)
     }
 }
 
