@@ -833,17 +833,27 @@ fn plot(out: &Path, scene: &str, rows: &[Row], smoke: bool) -> Result<()> {
     let cols = knobs.len().clamp(1, 3) as u32;
     let panel_rows = (knobs.len() as u32).div_ceil(cols).max(1);
     let size = (cols * 400, 60 + panel_rows * 330);
-    {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
-        draw(root, scene, rows, smoke)
-            .with_context(|| format!("{}: cannot draw", png.display()))?;
-    }
+    draw_png(&png, size, |root| draw(root, scene, rows, smoke))?;
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();
         draw(root, scene, rows, smoke)
             .with_context(|| format!("{}: cannot draw", svg.display()))?;
     }
     Ok(())
+}
+
+/// Draw into an RGB buffer and write it through volformats' PNG encoder
+/// (the `image` crate the workspace already builds), so plotters needs no
+/// `bitmap_encoder` and no second, older `image` of its own.
+fn draw_png<F>(png: &Path, (w, h): (u32, u32), draw: F) -> Result<()>
+where
+    F: FnOnce(DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>) -> Result<()>,
+{
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    draw(BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area())
+        .with_context(|| format!("{}: cannot draw", png.display()))?;
+    volformats::image::write_png8(png, w, h, 3, &rgb)
+        .with_context(|| format!("{}: cannot write", png.display()))
 }
 
 /// The knobs with a finite PSNR, in sweep order.

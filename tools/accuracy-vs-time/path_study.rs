@@ -10,7 +10,7 @@
 //! O(n^−1/2) line drawn beside the curves). Time is the sum of the passes'
 //! render seconds (the volume load and index build are not in it).
 
-use super::{path_arg, psnr, seconds, strs, tool, Ctx, COLOURS};
+use super::{draw_png, path_arg, psnr, seconds, strs, tool, Ctx, COLOURS};
 use anyhow::{anyhow, bail, Context, Result};
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -356,11 +356,7 @@ fn plot(out: &Path, scene: &str, rows: &[PathRow], smoke: bool) -> Result<()> {
     let png = out.join(format!("path-{scene}.png"));
     let svg = out.join(format!("path-{scene}.svg"));
     let size = (1100, 480);
-    {
-        let root = BitMapBackend::new(&png, size).into_drawing_area();
-        draw(root, scene, rows, smoke)
-            .with_context(|| format!("{}: cannot draw", png.display()))?;
-    }
+    draw_png(&png, size, |root| draw(root, scene, rows, smoke))?;
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();
         draw(root, scene, rows, smoke)
