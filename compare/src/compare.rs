@@ -266,10 +266,10 @@ pub fn compare_volumes(a: &Volume, b: &Volume, opts: &VolumeOptions) -> Result<V
     let map: Option<Vec<AtomicU32>> = opts
         .error_map
         .then(|| (0..plane).map(|_| AtomicU32::new(0)).collect());
-    let (acc, range) = a.visit(Outer {
-        b,
-        map: map.as_deref(),
-    })?;
+    let map_ref = map.as_deref();
+    let (acc, range) = a.visit(WithRows(|ra: &dyn Rows| {
+        b.visit(WithRows(|rb: &dyn Rows| scan(ra, rb, map_ref)))
+    }))?;
     for (name, v) in [("A", a), ("B", b)] {
         if let Some(e) = v.error() {
             return Err(Error::invalid(format!("{name}: {e}")));
@@ -299,37 +299,53 @@ pub fn compare_volumes(a: &Volume, b: &Volume, opts: &VolumeOptions) -> Result<V
     })
 }
 
-/// Visits the reference, then the other volume inside it, so the scan runs
-/// with both concrete sources.
-struct Outer<'a> {
-    b: &'a Volume,
-    map: Option<&'a [AtomicU32]>,
+/// A volume's rows as f32, read by one task at a time: the one part of a
+/// comparison specialised per sample type and layout (the scan itself is
+/// compiled once, not once per pair of volumes' types).
+trait Rows: Sync {
+    /// The volume's dimensions.
+    fn dims(&self) -> volcore::Dims;
+    /// A reader of whole rows (`y`, `z`) into `out`, with its own buffer.
+    fn reader(&self) -> Box<dyn FnMut(u64, u64, &mut [f32]) + '_>;
 }
 
-struct Inner<'a, SA> {
-    a: &'a SA,
-    map: Option<&'a [AtomicU32]>,
-}
+/// The rows of one sample source.
+struct SourceRows<'a, S>(&'a S);
 
-impl VolumeVisitor for Outer<'_> {
-    type Output = Result<(Accumulator, ValueRange)>;
-    fn visit<SA: VoxelSource>(self, a: &SA) -> Self::Output {
-        self.b.visit(Inner { a, map: self.map })
+impl<S: VoxelSource> Rows for SourceRows<'_, S> {
+    fn dims(&self) -> volcore::Dims {
+        self.0.dims()
+    }
+    fn reader(&self) -> Box<dyn FnMut(u64, u64, &mut [f32]) + '_> {
+        let mut buf = Vec::new();
+        Box::new(move |y, z, out: &mut [f32]| {
+            buf.resize(out.len(), S::Sample::default());
+            self.0.read_row(0, y, z, &mut buf);
+            for (o, v) in out.iter_mut().zip(&buf) {
+                *o = v.to_f32();
+            }
+        })
     }
 }
 
-impl<SA: VoxelSource> VolumeVisitor for Inner<'_, SA> {
-    type Output = Result<(Accumulator, ValueRange)>;
-    fn visit<SB: VoxelSource>(self, b: &SB) -> Self::Output {
-        scan(self.a, b, self.map)
+/// Visits a volume to hand its rows to `f`.
+struct WithRows<F>(F);
+
+impl<F, T> VolumeVisitor for WithRows<F>
+where
+    F: FnOnce(&dyn Rows) -> T,
+{
+    type Output = T;
+    fn visit<S: VoxelSource>(self, src: &S) -> T {
+        (self.0)(&SourceRows(src))
     }
 }
 
 /// Accumulate over every voxel, in tasks of whole rows; the partial sums are
 /// merged in task order, so the figures do not depend on the thread count.
-fn scan<SA: VoxelSource, SB: VoxelSource>(
-    a: &SA,
-    b: &SB,
+fn scan(
+    a: &dyn Rows,
+    b: &dyn Rows,
     map: Option<&[AtomicU32]>,
 ) -> Result<(Accumulator, ValueRange)> {
     let d = a.dims();
@@ -346,16 +362,17 @@ fn scan<SA: VoxelSource, SB: VoxelSource>(
             let z = t / chunks_y;
             let y0 = (t % chunks_y) * rows_per_task;
             let y1 = (y0 + rows_per_task).min(d.y);
-            let mut ra = vec![SA::Sample::default(); nx];
-            let mut rb = vec![SB::Sample::default(); nx];
+            let (mut read_a, mut read_b) = (a.reader(), b.reader());
+            let mut ra = vec![0f32; nx];
+            let mut rb = vec![0f32; nx];
             let mut acc = Accumulator::default();
             let mut range = ValueRange::EMPTY;
             for y in y0..y1 {
-                a.read_row(0, y, z, &mut ra);
-                b.read_row(0, y, z, &mut rb);
+                read_a(y, z, &mut ra);
+                read_b(y, z, &mut rb);
                 let base = y as usize * nx;
-                for (x, (va, vb)) in ra.iter().zip(&rb).enumerate() {
-                    let (va, vb) = (va.to_f32() as f64, vb.to_f32() as f64);
+                for (x, (&va, &vb)) in ra.iter().zip(&rb).enumerate() {
+                    let (va, vb) = (va as f64, vb as f64);
                     if va.is_finite() {
                         range.add(va);
                     }

@@ -206,7 +206,9 @@ impl<O: crate::effects::Occluder<Query = ()>> Shading for Phong<'_, O> {
         if self.effects {
             return self.shade8_effects(st, colour, grad, t, visible);
         }
-        st.view.as_ref()?.shade8(colour, grad, self.threshold2, None)
+        st.view
+            .as_ref()?
+            .shade8(colour, grad, self.threshold2, None)
     }
 }
 
