@@ -299,6 +299,9 @@ pub fn compare_volumes(a: &Volume, b: &Volume, opts: &VolumeOptions) -> Result<V
     })
 }
 
+/// Reads row (`y`, `z`) of a volume into the slice, as f32.
+type RowReader<'a> = Box<dyn FnMut(u64, u64, &mut [f32]) + 'a>;
+
 /// A volume's rows as f32, read by one task at a time: the one part of a
 /// comparison specialised per sample type and layout (the scan itself is
 /// compiled once, not once per pair of volumes' types).
@@ -306,7 +309,7 @@ trait Rows: Sync {
     /// The volume's dimensions.
     fn dims(&self) -> volcore::Dims;
     /// A reader of whole rows (`y`, `z`) into `out`, with its own buffer.
-    fn reader(&self) -> Box<dyn FnMut(u64, u64, &mut [f32]) + '_>;
+    fn reader(&self) -> RowReader<'_>;
 }
 
 /// The rows of one sample source.
@@ -316,7 +319,7 @@ impl<S: VoxelSource> Rows for SourceRows<'_, S> {
     fn dims(&self) -> volcore::Dims {
         self.0.dims()
     }
-    fn reader(&self) -> Box<dyn FnMut(u64, u64, &mut [f32]) + '_> {
+    fn reader(&self) -> RowReader<'_> {
         let mut buf = Vec::new();
         Box::new(move |y, z, out: &mut [f32]| {
             buf.resize(out.len(), S::Sample::default());

@@ -102,9 +102,14 @@ impl Request {
     }
 }
 
-/// clap's error as one line: its message up to the usage block, without
-/// the `error: ` in front (as vol-render prints it, less `(see --help)`).
+/// clap's error as a usage error of one line (see [`clap_message`]).
 pub(crate) fn clap_error(e: clap::Error) -> Error {
+    Error::usage(clap_message(&e))
+}
+
+/// clap's error message on one line: the text up to its usage block,
+/// without the `error: ` in front; every tool prints its usage errors so.
+pub fn clap_message(e: &clap::Error) -> String {
     let text = e.to_string();
     let lines: Vec<&str> = text
         .lines()
@@ -112,5 +117,5 @@ pub(crate) fn clap_error(e: clap::Error) -> Error {
         .map(str::trim)
         .collect();
     let msg = lines.join(" ");
-    Error::usage(msg.trim_start_matches("error: "))
+    msg.trim_start_matches("error: ").to_string()
 }

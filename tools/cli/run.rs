@@ -172,15 +172,7 @@ fn clap_exit(tool: &str, e: clap::Error) -> ExitCode {
         }
         return ExitCode::from(if e.use_stderr() { EXIT_USAGE } else { 0 });
     }
-    // clap's message up to its usage block, on one line.
-    let text = e.to_string();
-    let lines: Vec<&str> = text
-        .lines()
-        .take_while(|l| !l.trim().is_empty())
-        .map(str::trim)
-        .collect();
-    let msg = lines.join(" ");
-    let msg = msg.trim_start_matches("error: ");
+    let msg = volscene::request::clap_message(&e);
     report_error(tool, &format!("{msg} (see --help)"));
     ExitCode::from(EXIT_USAGE)
 }
