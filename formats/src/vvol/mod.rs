@@ -313,6 +313,29 @@ impl Trailer {
         b
     }
 
+    /// Check that this trailer's value range is the header's, when the
+    /// header has one (a streamed writer leaves it empty): a file has one
+    /// range, and two that disagree mean one of them is damaged.
+    pub fn check_range(&self, header: &Header) -> Result<()> {
+        let (h, t) = (header.meta.range, self.range);
+        let same = |a: f64, b: f64| a.to_bits() == b.to_bits();
+        if h.is_empty() || (same(h.min, t.min) && same(h.max, t.max)) {
+            return Ok(());
+        }
+        let show = |r: ValueRange| {
+            if r.is_empty() {
+                "none".to_string()
+            } else {
+                format!("[{}, {}]", r.min, r.max)
+            }
+        };
+        Err(Error::invalid(format!(
+            "value ranges disagree: header {}, trailer {} (damaged header or trailer?)",
+            show(h),
+            show(t)
+        )))
+    }
+
     /// Decode 32 bytes.
     pub fn decode(b: &[u8]) -> Result<Trailer> {
         if b.len() < TRAILER_LEN as usize || b[0..8] != TRAILER_MAGIC {

@@ -78,6 +78,9 @@ fn check_len(h: &Header, len: u64) -> Result<()> {
 /// in place, compressed bricks are decoded on demand.
 pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
     let (h, t) = read_header(path)?;
+    if opts.verify {
+        t.check_range(&h)?;
+    }
     let file = File::open(path)?;
     // SAFETY: the map is read-only; like every reader of mapped files we
     // rely on the file not being truncated by another process meanwhile.
@@ -355,6 +358,7 @@ pub fn read_stream(r: &mut dyn Read) -> Result<Volume> {
     let mut t = [0u8; TRAILER_LEN as usize];
     r.read_exact(&mut t).map_err(truncated("trailer"))?;
     let t = Trailer::decode(&t)?;
+    t.check_range(&h)?;
     let crc = parallel_crc(&bytes);
     if crc != t.crc32 {
         return Err(Error::Checksum(format!(

@@ -103,6 +103,33 @@ fn vvol_brick_table_pointing_outside_is_refused() {
     fails(bin("vol-info").arg(&p), "outside the data");
 }
 
+/// Bug: `vol-info --verify` passed a file whose trailer range disagreed with its header's (issue 43).
+#[test]
+fn vvol_trailer_range_that_disagrees_with_the_header_fails_verify() {
+    let d = tmp();
+    for layout in ["sliced", "bricked:4"] {
+        let p = gen(
+            d.path(),
+            "r.vvol",
+            &[
+                "ramp", "--dims", "6,5,4", "--type", "u16", "--layout", layout,
+            ],
+        );
+        ok(bin("vol-info").arg("--verify").arg(&p));
+        let mut b = std::fs::read(&p).unwrap();
+        // The trailer's maximum (its last eight bytes) off by one.
+        let n = b.len();
+        let max = f64::from_le_bytes(b[n - 8..].try_into().unwrap());
+        b[n - 8..].copy_from_slice(&(max + 1.0).to_le_bytes());
+        std::fs::write(&p, &b).unwrap();
+        let line = fails(bin("vol-info").arg("--verify").arg(&p), "r.vvol");
+        assert!(
+            line.contains("range") && line.contains("header") && line.contains("trailer"),
+            "{line}"
+        );
+    }
+}
+
 /// CRC-32 (IEEE), as the .vvol trailer and brick table use.
 fn crc32(b: &[u8]) -> u32 {
     let mut c = flate2::Crc::new();
