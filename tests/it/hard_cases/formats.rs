@@ -630,6 +630,49 @@ fn tiff_page_larger_than_its_file_can_hold_is_refused() {
     assert!(line.contains("damaged directory"), "{line}");
 }
 
+/// Bug: an ASCII tag count past the decoder's limits printed the `tiff` crate's `dbg!` line first (issue 43).
+#[test]
+fn tiff_huge_ascii_count_prints_one_line() {
+    let d = tmp();
+    let src = d.path().join("src.tif");
+    bigtiff(&src, [8, 4, 3], false);
+    let good = std::fs::read(&src).unwrap();
+    let (off, n) = first_ifd(&good);
+    // BitsPerSample (read by the decoder itself) and ImageDescription (read
+    // by volkit) as ASCII with 2^40 characters, in the first directory.
+    for tag in [258u16, 270] {
+        let mut b = good.clone();
+        let mut patched = false;
+        for i in 0..n {
+            let e = off + 8 + i * 20;
+            if u16::from_le_bytes([b[e], b[e + 1]]) == tag {
+                b[e + 2..e + 4].copy_from_slice(&2u16.to_le_bytes());
+                b[e + 4..e + 12].copy_from_slice(&(1u64 << 40).to_le_bytes());
+                patched = true;
+            }
+        }
+        if !patched {
+            // No such entry: the last one (ResolutionUnit) becomes it.
+            let e = off + 8 + (n - 1) * 20;
+            b[e..e + 2].copy_from_slice(&tag.to_le_bytes());
+            b[e + 2..e + 4].copy_from_slice(&2u16.to_le_bytes());
+            b[e + 4..e + 12].copy_from_slice(&(1u64 << 40).to_le_bytes());
+        }
+        let p = d.path().join(format!("ascii{tag}.tif"));
+        std::fs::write(&p, &b).unwrap();
+        for tool in ["vol-info", "vol-convert"] {
+            let mut c = bin(tool);
+            c.arg(&p);
+            if tool == "vol-convert" {
+                c.arg("-o").arg(d.path().join("o.vvol"));
+            }
+            let line = fails(&mut c, &format!("ascii{tag}.tif"));
+            assert!(line.contains("damaged directory"), "{line}");
+        }
+        assert!(read_all(&p).is_err());
+    }
+}
+
 #[test]
 fn tiff_truncated_files_fail_cleanly() {
     let d = tmp();
