@@ -94,10 +94,15 @@ impl Request {
         self
     }
 
-    /// The volume's path, or the error that there is none.
+    /// The volume's path, or the error that there is none (naming the
+    /// `--scene` file, when one was given without a `volume`).
     pub fn volume(&self) -> Result<PathBuf> {
-        self.options.volume.clone().ok_or_else(|| {
-            Error::usage("no volume: give its path, or `volume` in the --scene file")
+        self.options.volume.clone().ok_or_else(|| match &self.options.scene {
+            Some(scene) => Error::usage(format!(
+                "{}: no volume: the scene file has no `volume`, and none was given on the command line",
+                volcore::text::escape(&scene.display().to_string())
+            )),
+            None => Error::usage("no volume: give its path, or `volume` in the --scene file"),
         })
     }
 }

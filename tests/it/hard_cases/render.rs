@@ -377,3 +377,23 @@ fn render_tile_and_size_allocations_are_bounded() {
     );
     assert!(!d.path().join("c.png").exists());
 }
+
+/// Bug: a scene file without `volume` gave "no volume" without naming the scene file (issue 43).
+#[test]
+fn render_scene_file_without_a_volume_is_named() {
+    let d = tmp();
+    let scene = d.path().join("novol.toml");
+    for text in ["", "tf = \"shapes\"\n"] {
+        std::fs::write(&scene, text).unwrap();
+        let line = fails(
+            bin("vol-render")
+                .arg("--scene")
+                .arg(&scene)
+                .arg("-o")
+                .arg(d.path().join("x.png")),
+            "novol.toml",
+        );
+        assert!(line.contains("no volume"), "{line}");
+        assert!(!d.path().join("x.png").exists());
+    }
+}
