@@ -31,6 +31,9 @@ pub enum ErrorKind {
 pub struct Error {
     kind: ErrorKind,
     message: String,
+    /// The message names its own input at fault (a transfer function or
+    /// environment map file), so [`Error::naming_volume`] leaves it as is.
+    named: bool,
 }
 
 impl Error {
@@ -39,6 +42,7 @@ impl Error {
         Error {
             kind,
             message: message.into(),
+            named: false,
         }
     }
 
@@ -78,6 +82,28 @@ impl Error {
         Error {
             kind: self.kind,
             message: format!("{what}: {}", self.message),
+            named: self.named,
+        }
+    }
+
+    /// The same error, marked as naming the input at fault itself: its
+    /// message starts with a file other than the volume (`wide.tf: ...`).
+    pub fn named(self) -> Error {
+        Error {
+            named: true,
+            ..self
+        }
+    }
+
+    /// The error of a render of the volume `name`: `name: ` before the
+    /// message, unless the message names its own input at fault (see
+    /// [`Error::named`]): a bad transfer function file is not the volume's
+    /// fault.
+    pub fn naming_volume(self, name: impl fmt::Display) -> Error {
+        if self.named {
+            self
+        } else {
+            self.context(name)
         }
     }
 

@@ -51,9 +51,10 @@ pub use volrender::Cancel;
 
 impl Plan {
     /// [`Plan::new`] for an opened volume, its errors naming the volume
-    /// (`shapes.vvol: --iso needs --mode iso`).
+    /// (`shapes.vvol: --iso needs --mode iso`) or the file at fault
+    /// (`wide.tf: ...`, see [`Error::naming_volume`]).
     pub fn for_source(options: &Options, source: &Source) -> Result<Plan> {
         Plan::new(options, &source.volume, source.index.as_ref())
-            .map_err(|e| e.context(source.name()))
+            .map_err(|e| e.naming_volume(source.name()))
     }
 }

@@ -97,7 +97,7 @@ pub fn settings(
             if cli.env.is_some() {
                 return Err(Error::option("give --env or --env-map, not both"));
             }
-            Some(std::sync::Arc::new(load_env_map(p)?))
+            Some(std::sync::Arc::new(load_env_map(p).map_err(Error::named)?))
         }
         None => None,
     };

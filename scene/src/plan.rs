@@ -152,15 +152,19 @@ fn transfer_function(
         return Ok(tf);
     }
     let path = Path::new(&cli.tf);
-    let text = std::fs::read_to_string(path).kind_ctx(
-        ErrorKind::File,
-        format!(
-            "{}: not a preset ({}) and not a readable file",
-            cli.tf,
-            PRESETS.join(", ")
-        ),
-    )?;
-    parse_any(&text).kind_ctx(ErrorKind::File, &cli.tf)
+    let text = std::fs::read_to_string(path)
+        .kind_ctx(
+            ErrorKind::File,
+            format!(
+                "{}: not a preset ({}) and not a readable file",
+                cli.tf,
+                PRESETS.join(", ")
+            ),
+        )
+        .map_err(Error::named)?;
+    parse_any(&text)
+        .kind_ctx(ErrorKind::File, &cli.tf)
+        .map_err(Error::named)
 }
 
 /// The tail percentile of `--tf auto` or `auto:P`; `None` for other names.

@@ -158,9 +158,9 @@ fn errors_say_whether_an_option_or_a_file_is_wrong() {
     let r = pairs(json!({"tf": "/nonexistent/x.tf"}));
     let e = Plan::for_source(r.options(), &source(&r).unwrap()).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::File);
+    // The TF file is the input at fault: named, without the volume before it.
     assert!(
-        e.message()
-            .starts_with("v.vvol: /nonexistent/x.tf: not a preset"),
+        e.message().starts_with("/nonexistent/x.tf: not a preset"),
         "{e}"
     );
     let e = Request::from_pairs([("shadows", json!("cone"))]).unwrap_err();

@@ -224,7 +224,8 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
 
     let plan = agree(
         world,
-        Plan::new(cli, &vol, index.as_ref()).map_err(|e| anyhow::Error::new(e.context(&name))),
+        Plan::new(cli, &vol, index.as_ref())
+            .map_err(|e| anyhow::Error::new(e.naming_volume(&name))),
     )?;
     if cli.print_scene {
         if rank == 0 {

@@ -158,6 +158,14 @@ pub fn parse_any(text: &str) -> Result<Tf, RenderError> {
                 if !(lo.is_finite() && hi.is_finite() && lo < hi) {
                     return Err(err("domain needs two finite numbers, low < high".into()));
                 }
+                // The table divides high - low into bins: in f32 it must
+                // be finite too.
+                if !(hi - lo).is_finite() {
+                    return Err(err(format!(
+                        "domain {lo:e} {hi:e} is too wide: high - low must be at most {:e}",
+                        f32::MAX
+                    )));
+                }
                 tf.domain = Some((lo, hi));
             }
             Some(Statement::GradientDomain(lo, hi)) => {

@@ -397,3 +397,40 @@ fn render_scene_file_without_a_volume_is_named() {
         assert!(!d.path().join("x.png").exists());
     }
 }
+
+/// Bug: `domain -3.4e38 3.4e38` in a TF file was blamed on the volume as a bad index table (issue 43).
+#[test]
+fn render_tf_domain_wider_than_f32_names_the_tf_file() {
+    let d = tmp();
+    let v = gen(d.path(), "vol.vvol", &["solid", "--dims", "8,8,8"]);
+    let tf = d.path().join("wide.tf");
+    for (text, mode) in [
+        ("domain -3.4e38 3.4e38\npoint 0 255 255 255 0.5\n", "dvr"),
+        ("domain -3.4e38 3.4e38\npoint 0 255 255 255 0.5\n", "path"),
+        (
+            "domain -3e38 3e38\ngradient-domain 0 10\nrect 0 1 0 1 255 255 255 0.5\n",
+            "dvr",
+        ),
+    ] {
+        std::fs::write(&tf, text).unwrap();
+        let line = fails(
+            &mut render_cmd(
+                d.path(),
+                &v,
+                "x",
+                &["--tf", tf.to_str().unwrap(), "--mode", mode],
+            ),
+            "wide.tf",
+        );
+        // The TF file is the input at fault: named first, the volume not at all.
+        assert!(
+            line.starts_with("vol-render: ") && line.contains("domain"),
+            "{line}"
+        );
+        assert!(
+            !line.contains("vol.vvol") && !line.contains("index"),
+            "{line}"
+        );
+        assert!(!d.path().join("x.png").exists());
+    }
+}
