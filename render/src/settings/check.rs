@@ -97,11 +97,12 @@ pub fn step(what: &str, s: f32, vol: &Volume) -> Result<f64, RenderError> {
     Ok(diagonal)
 }
 
-/// The finest step along rays of `vol` that [`frame`] accepts: at most
-/// [`MAX_SAMPLES_PER_RAY`] samples across the volume's diagonal and, with
-/// `camera`, no finer than f32 positions resolve between its eye and the
-/// far side of the volume. `None` when the volume's extent is not finite
-/// in f32 (no step is accepted then).
+/// The finest step along rays of `vol` that [`frame`] accepts: at least
+/// 1e-4 of the smallest voxel spacing, at most [`MAX_SAMPLES_PER_RAY`]
+/// samples across the volume's diagonal and, with `camera`, no finer than
+/// f32 positions resolve between its eye and the far side of the volume.
+/// `None` when the volume's extent is not finite in f32 (no step is
+/// accepted then).
 pub fn finest_step(vol: &Volume, camera: Option<&Camera>) -> Option<f32> {
     let diagonal = world_diagonal(vol)?;
     let per_ray = diagonal / MAX_SAMPLES_PER_RAY;
@@ -114,7 +115,7 @@ pub fn finest_step(vol: &Volume, camera: Option<&Camera>) -> Option<f32> {
     while (s as f64) < need {
         s = s.next_up();
     }
-    Some(s)
+    Some(s.max(vol.meta.min_spacing() * 1e-4))
 }
 
 /// Check the shadow settings: a mode and shading that have light to
