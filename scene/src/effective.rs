@@ -55,7 +55,7 @@ pub fn effective(cli: &Options, resolved: &Resolved) -> Scene {
         // A path-traced scene has no headlight: its lights are the ones
         // asked for.
         lights: (!path || cli.light.is_some() || cli.lights.is_some())
-            .then(|| resolved.lights.iter().map(LightSpec::of).collect()),
+            .then(|| lights(cli, resolved)),
         shadows: cli.shadows.clone(),
         shadow_step: cli.shadow_step,
         ao: cli.ao.clone(),
@@ -68,6 +68,31 @@ pub fn effective(cli: &Options, resolved: &Resolved) -> Scene {
         hdr: cli.hdr.as_deref().map(absolute),
         heatmap: cli.heatmap.as_deref().map(absolute),
         ..path_keys(cli, resolved)
+    }
+}
+
+/// The lights in a form that reads back to the same bits: a directional
+/// light's direction as given (`--light` negated, which is exact; a scene
+/// file's lights as written), not the resolved unit vector, whose
+/// normalisation again can change its last bits.
+fn lights(cli: &Options, resolved: &Resolved) -> Vec<LightSpec> {
+    match (cli.light, &cli.lights) {
+        (Some(towards), _) => resolved
+            .lights
+            .iter()
+            .map(|l| match LightSpec::of(l) {
+                LightSpec::Directional {
+                    colour, intensity, ..
+                } => LightSpec::Directional {
+                    direction: (-towards).to_array(),
+                    colour,
+                    intensity,
+                },
+                other => other,
+            })
+            .collect(),
+        (None, Some(given)) => given.clone(),
+        (None, None) => resolved.lights.iter().map(LightSpec::of).collect(),
     }
 }
 

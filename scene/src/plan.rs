@@ -54,7 +54,10 @@ impl Plan {
             _ => None,
         };
         let (camera, look_at, orbit) = camera(cli, vol)?;
-        let settings = settings(cli, vol, index)?;
+        let mut settings = settings(cli, vol, index)?;
+        if cli.step.is_none() {
+            settings.step = default_step(cli, vol, &camera, &mut notes);
+        }
         let path = match cli.mode {
             ModeArg::Path => Some(crate::path::settings(
                 cli,
@@ -267,6 +270,36 @@ fn camera(cli: &Options, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
     Ok((cam.map_err(Error::from_render)?, target, orbit))
 }
 
+/// The step when none is given: half the smallest voxel spacing, unless
+/// the frame's checks would refuse it for this volume: more samples per
+/// ray across its diagonal than the limit or, from the default camera,
+/// finer than f32 positions resolve at the eye. Then the finest step they
+/// accept, with a note saying so (in the ray caster's modes: the path
+/// tracer takes no step). So the defaults are always feasible; a step or
+/// a camera the user gives may still be refused.
+fn default_step(cli: &Options, vol: &Volume, camera: &Camera, notes: &mut Vec<String>) -> f32 {
+    let half = 0.5 * vol.meta.min_spacing();
+    let placed = cli.eye.is_some() || cli.orbit.is_some() || cli.look_at.is_some();
+    let Some(finest) = volrender::settings::check::finest_step(vol, (!placed).then_some(camera))
+    else {
+        // No step is feasible: the frame's check says why.
+        return half;
+    };
+    // A NaN `half` compares false: the finest step then too.
+    if half >= finest {
+        return half;
+    }
+    if cli.mode != ModeArg::Path {
+        notes.push(format!(
+            "the default step {half:?} (half the smallest voxel spacing) is finer than a frame \
+             of this volume allows (at most {:e} samples per ray, positions that f32 \
+             resolves): step {finest:?} instead",
+            volrender::frame::MAX_SAMPLES_PER_RAY
+        ));
+    }
+    finest
+}
+
 /// `--mode iso` without `--iso`: the middle of the value range, or of the
 /// finite samples' range (the index histogram's) when the range has an
 /// infinity.
@@ -380,6 +413,7 @@ fn settings(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<
     let defaults = Lighting::default();
     Ok(RenderSettings {
         mode,
+        // Without --step, the plan's default_step (which needs the camera).
         step: cli.step.unwrap_or(0.5 * vol.meta.min_spacing()),
         interp: match cli.interp {
             InterpArg::Nearest => Interp::Nearest,

@@ -97,6 +97,27 @@ pub fn step(what: &str, s: f32, vol: &Volume) -> Result<f64, RenderError> {
     Ok(diagonal)
 }
 
+/// The finest step along rays of `vol` that [`frame`] accepts: at least
+/// 1e-4 of the smallest voxel spacing, at most [`MAX_SAMPLES_PER_RAY`]
+/// samples across the volume's diagonal and, with `camera`, no finer than
+/// f32 positions resolve between its eye and the far side of the volume.
+/// `None` when the volume's extent is not finite in f32 (no step is
+/// accepted then).
+pub fn finest_step(vol: &Volume, camera: Option<&Camera>) -> Option<f32> {
+    let diagonal = world_diagonal(vol)?;
+    let per_ray = diagonal / MAX_SAMPLES_PER_RAY;
+    let need = match camera {
+        Some(c) => per_ray.max((c.eye().as_dvec3().length() + diagonal) * f32::EPSILON as f64),
+        None => per_ray,
+    };
+    // Rounded up to the f32 the checks compare (in f64) against `need`.
+    let mut s = (need as f32).max(f32::MIN_POSITIVE);
+    while (s as f64) < need {
+        s = s.next_up();
+    }
+    Some(s.max(vol.meta.min_spacing() * 1e-4))
+}
+
 /// Check the shadow settings: a mode and shading that have light to
 /// shadow, a valid grid divisor and shadow step.
 fn shadow_settings(

@@ -679,3 +679,55 @@ fn nan_samples_are_transparent_and_finite() {
         assert_eq!(bits(&on), bits(&off), "{:?}", s.mode);
     }
 }
+
+/// The step `check::finest_step` gives (vol-render's default when half the
+/// smallest spacing is too fine, issue 43) passes the frame's checks, and
+/// the f32 below it does not: feasible, and as fine as feasible.
+#[test]
+fn finest_step_is_the_finest_the_frame_checks_accept() {
+    use volrender::settings::check;
+    let scene = SphereScene::new(Dims::new(8, 8, 8).unwrap(), 3.0, 200.0);
+    for spacing in [
+        [1000.0, 1.0, 0.001],
+        [1.0, 1.1754944e-38, 1.0],
+        [3e-5, 7.0, 2e4],
+        [1.0, 1.0, 1.0],
+    ] {
+        let mut v = volume::<u8>(&scene);
+        v.meta.spacing = spacing;
+        let hi = Vec3::from(v.meta.world_extent());
+        let cam = Camera::orbit(
+            hi * 0.5,
+            30.0,
+            20.0,
+            1.8 * hi.length(),
+            Projection::Perspective(45.0),
+            8,
+            8,
+        )
+        .unwrap();
+        for camera in [None, Some(&cam)] {
+            let s = check::finest_step(&v, camera).unwrap();
+            let accepted = |step: f32| check::step("step", step, &v).is_ok();
+            assert!(accepted(s), "{spacing:?}: {s}");
+            let settings = |step| RenderSettings {
+                step,
+                ..Default::default()
+            };
+            match camera {
+                // Either limit may be the one that binds.
+                Some(c) => {
+                    assert!(
+                        check::frame(&settings(s), &v, c).is_ok(),
+                        "{spacing:?}: {s}"
+                    );
+                    assert!(
+                        check::frame(&settings(s.next_down()), &v, c).is_err(),
+                        "{spacing:?}: {s}"
+                    );
+                }
+                None => assert!(!accepted(s.next_down()), "{spacing:?}: {s}"),
+            }
+        }
+    }
+}
