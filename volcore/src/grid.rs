@@ -19,7 +19,7 @@
 use crate::brick::BrickGeometry;
 use crate::cache::BrickCache;
 use crate::dims::Dims;
-use crate::sample::Sample;
+use crate::sample::{Sample, SampleType};
 use crate::storage::Data;
 use std::sync::{Arc, OnceLock};
 
@@ -56,6 +56,14 @@ pub trait VoxelSource: Sync {
 pub trait Cursor {
     /// The volume's dimensions.
     fn dims(&self) -> Dims;
+
+    /// Whether every value this cursor reads, and every blend of them, is
+    /// finite (integer samples), so a reader may leave out its checks for
+    /// infinities and NaN. A constant for each sample type.
+    #[inline(always)]
+    fn finite(&self) -> bool {
+        false
+    }
 
     /// The voxel at integer coordinates inside the volume.
     fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32;
@@ -386,6 +394,9 @@ impl Cursor for DynCursor<'_> {
     fn dims(&self) -> Dims {
         self.0.dims()
     }
+    fn finite(&self) -> bool {
+        self.0.finite()
+    }
     fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
         self.0.voxel(x, y, z)
     }
@@ -552,6 +563,10 @@ impl<T: Sample> VoxelSource for SlicedGrid<T> {
 }
 
 impl<T: Sample> Cursor for SlicedCursor<'_, T> {
+    #[inline(always)]
+    fn finite(&self) -> bool {
+        matches!(T::TYPE, SampleType::U8 | SampleType::U16 | SampleType::I16)
+    }
     #[inline(always)]
     fn dims(&self) -> Dims {
         self.dims
@@ -802,6 +817,10 @@ impl<T: Sample> BrickedCursor<'_, T> {
 
 impl<T: Sample> Cursor for BrickedCursor<'_, T> {
     #[inline(always)]
+    fn finite(&self) -> bool {
+        matches!(T::TYPE, SampleType::U8 | SampleType::U16 | SampleType::I16)
+    }
+    #[inline(always)]
     fn dims(&self) -> Dims {
         self.grid.geom.dims()
     }
@@ -1047,6 +1066,10 @@ impl<T: Sample> VoxelSource for CompressedGrid<T> {
 }
 
 impl<T: Sample> Cursor for CompressedCursor<'_, T> {
+    #[inline(always)]
+    fn finite(&self) -> bool {
+        matches!(T::TYPE, SampleType::U8 | SampleType::U16 | SampleType::I16)
+    }
     #[inline(always)]
     fn dims(&self) -> Dims {
         self.grid.geom.dims()

@@ -174,7 +174,8 @@ impl<D: Extreme> RayMarch for MipRay<'_, '_, D> {
         // Next to an infinite (or ±FLT_MAX) voxel the blend overflows or
         // gives NaN (inf - inf): read the sample again by the extended
         // rule, so a ray past +inf shows white (MIP), past -inf black.
-        if !v.is_finite() {
+        // Integer samples never need it (the check compiles away).
+        if !cur.finite() && !v.is_finite() {
             v = geom.interp.value_extended(&geom.locator, cur, p);
         }
         self.samples += 1;
