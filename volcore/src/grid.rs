@@ -19,7 +19,7 @@
 use crate::brick::BrickGeometry;
 use crate::cache::BrickCache;
 use crate::dims::Dims;
-use crate::sample::Sample;
+use crate::sample::{Sample, SampleType};
 use crate::storage::Data;
 use std::sync::{Arc, OnceLock};
 
@@ -56,6 +56,14 @@ pub trait VoxelSource: Sync {
 pub trait Cursor {
     /// The volume's dimensions.
     fn dims(&self) -> Dims;
+
+    /// Whether every value this cursor reads, and every blend of them, is
+    /// finite (integer samples), so a reader may leave out its checks for
+    /// infinities and NaN. A constant for each sample type.
+    #[inline(always)]
+    fn finite(&self) -> bool {
+        false
+    }
 
     /// The voxel at integer coordinates inside the volume.
     fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32;
@@ -264,6 +272,49 @@ pub fn blend(c: &[f32; 8], t: [f32; 3]) -> f32 {
     lerp(y0, y1, t[2])
 }
 
+/// The trilinear interpolant of cell values `c` at offsets `t` where
+/// [`blend`] gives no finite value: infinite corners and finite ones near
+/// ±FLT_MAX. A corner whose weight is zero does not count; an infinite
+/// corner with weight gives its infinity (NaN when both infinities have
+/// weight, or a NaN corner does); finite corners are blended in f64, so
+/// values of opposite sign near ±FLT_MAX do not overflow. Equal to
+/// [`blend`] (up to rounding) wherever that is finite; MIP and MinIP read
+/// a sample through it when [`blend`] gives ±inf or NaN.
+pub fn blend_extended(c: &[f32; 8], t: [f32; 3]) -> f32 {
+    let (mut sum, mut pos, mut neg) = (0.0f64, false, false);
+    for (i, &v) in c.iter().enumerate() {
+        let w = (0..3)
+            .map(|a| {
+                let ta = t[a] as f64;
+                if i >> a & 1 == 1 {
+                    ta
+                } else {
+                    1.0 - ta
+                }
+            })
+            .product::<f64>();
+        if w <= 0.0 {
+            continue;
+        }
+        if v.is_nan() {
+            return f32::NAN;
+        }
+        if v == f32::INFINITY {
+            pos = true;
+        } else if v == f32::NEG_INFINITY {
+            neg = true;
+        } else {
+            sum += w * v as f64;
+        }
+    }
+    match (pos, neg) {
+        (true, true) => f32::NAN,
+        (true, false) => f32::INFINITY,
+        (false, true) => f32::NEG_INFINITY,
+        (false, false) => sum as f32,
+    }
+}
+
 /// [`blend`] of the cell whose first corner is `s[base]`, corners `ox`,
 /// `oy`, `oz` apart: the scalar [`Sample::cell_blend`].
 #[inline(always)]
@@ -342,6 +393,9 @@ pub struct DynCursor<'a>(pub &'a mut dyn Cursor);
 impl Cursor for DynCursor<'_> {
     fn dims(&self) -> Dims {
         self.0.dims()
+    }
+    fn finite(&self) -> bool {
+        self.0.finite()
     }
     fn voxel(&mut self, x: u64, y: u64, z: u64) -> f32 {
         self.0.voxel(x, y, z)
@@ -509,6 +563,10 @@ impl<T: Sample> VoxelSource for SlicedGrid<T> {
 }
 
 impl<T: Sample> Cursor for SlicedCursor<'_, T> {
+    #[inline(always)]
+    fn finite(&self) -> bool {
+        matches!(T::TYPE, SampleType::U8 | SampleType::U16 | SampleType::I16)
+    }
     #[inline(always)]
     fn dims(&self) -> Dims {
         self.dims
@@ -759,6 +817,10 @@ impl<T: Sample> BrickedCursor<'_, T> {
 
 impl<T: Sample> Cursor for BrickedCursor<'_, T> {
     #[inline(always)]
+    fn finite(&self) -> bool {
+        matches!(T::TYPE, SampleType::U8 | SampleType::U16 | SampleType::I16)
+    }
+    #[inline(always)]
     fn dims(&self) -> Dims {
         self.grid.geom.dims()
     }
@@ -1005,6 +1067,10 @@ impl<T: Sample> VoxelSource for CompressedGrid<T> {
 
 impl<T: Sample> Cursor for CompressedCursor<'_, T> {
     #[inline(always)]
+    fn finite(&self) -> bool {
+        matches!(T::TYPE, SampleType::U8 | SampleType::U16 | SampleType::I16)
+    }
+    #[inline(always)]
     fn dims(&self) -> Dims {
         self.grid.geom.dims()
     }
@@ -1047,6 +1113,29 @@ impl<T: Sample> Cursor for CompressedCursor<'_, T> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn blend_extended_follows_infinities_and_agrees_with_blend() {
+        use super::{blend, blend_extended};
+        let t = [0.25, 0.5, 0.75];
+        let finite = [1.0, -2.0, 3.5, 0.0, 7.0, 1e-3, -4.0, 2.0];
+        let (a, b) = (blend(&finite, t), blend_extended(&finite, t));
+        assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{a} vs {b}");
+        // An infinite corner with weight wins; without weight it is not read.
+        let mut c = [0.5f32; 8];
+        c[7] = f32::INFINITY;
+        assert_eq!(blend_extended(&c, t), f32::INFINITY);
+        assert!(blend(&c, t).is_nan() || blend(&c, t).is_infinite());
+        assert_eq!(blend_extended(&c, [0.0, 0.5, 0.5]), 0.5);
+        c[0] = f32::NEG_INFINITY;
+        assert!(blend_extended(&c, t).is_nan());
+        assert_eq!(blend_extended(&c, [1.0, 1.0, 0.5]), f32::INFINITY);
+        // Opposite values near FLT_MAX blend to their mean, not to inf.
+        let mut m = [f32::MAX; 8];
+        m[..4].fill(-f32::MAX);
+        assert_eq!(blend_extended(&m, [0.5, 0.5, 0.5]), 0.0);
+        assert!(blend_extended(&[f32::NAN; 8], t).is_nan());
+    }
     use super::*;
     use crate::region::{pack_bricks, Rows};
 

@@ -170,7 +170,14 @@ impl<D: Extreme> RayMarch for MipRay<'_, '_, D> {
         _: Option<usize>,
     ) -> Flow {
         let geom = &self.mip.geom;
-        let v = geom.interp.value(&geom.locator, cur, p);
+        let mut v = geom.interp.value(&geom.locator, cur, p);
+        // Next to an infinite (or ±FLT_MAX) voxel the blend overflows or
+        // gives NaN (inf - inf): read the sample again by the extended
+        // rule, so a ray past +inf shows white (MIP), past -inf black.
+        // Integer samples never need it (the check compiles away).
+        if !cur.finite() && !v.is_finite() {
+            v = geom.interp.value_extended(&geom.locator, cur, p);
+        }
         self.samples += 1;
         if D::beats(v, self.best) {
             self.best = v;

@@ -6,7 +6,7 @@
 
 pub use crate::settings::Interp;
 use glam::Vec3;
-use volcore::grid::{blend, Locator};
+use volcore::grid::{blend, blend_extended, Locator};
 use volcore::Cursor;
 
 impl Interp {
@@ -30,6 +30,22 @@ impl Interp {
                 let pick = |a: usize| (base[a] + (t[a] >= 0.5) as u64).min(d[a] - 1);
                 cur.voxel(pick(0), pick(1), pick(2))
             }
+        }
+    }
+
+    /// [`Interp::value`] where that is not finite, by the rule of
+    /// [`blend_extended`]: a sample next to an infinite voxel is that
+    /// infinity, not the NaN of `inf - inf` in a blend. Nearest samples are
+    /// voxels and need no second look.
+    #[cold]
+    #[inline(never)]
+    pub fn value_extended<C: Cursor>(self, loc: &Locator, cur: &mut C, p: Vec3) -> f32 {
+        match self {
+            Interp::Trilinear => {
+                let (base, t) = loc.locate(p.into());
+                blend_extended(&cur.cell(base[0], base[1], base[2]), t)
+            }
+            Interp::Nearest => self.value(loc, cur, p),
         }
     }
 

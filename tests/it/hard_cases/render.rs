@@ -122,6 +122,69 @@ fn render_mip_and_minip_with_infinities_and_flt_max_are_finite() {
     }
 }
 
+/// Bug: with trilinear reconstruction a sample between an infinite voxel
+/// and a finite one was NaN (`inf - inf` in the blend) and skipped, so a
+/// ray past +inf was not white in MIP nor past -inf black in MinIP
+/// (issue 43, item 5).
+#[test]
+fn render_mip_and_minip_trilinear_rays_past_an_infinite_voxel_reach_it() {
+    let d = tmp();
+    // A ramp along x, one infinite voxel at (4, 4, 4).
+    let (n, at) = (8usize, 4 + 4 * 8 + 4 * 64);
+    for (mode, inf, want) in [
+        ("mip", f32::INFINITY, 1.0),
+        ("minip", f32::NEG_INFINITY, 0.0),
+    ] {
+        let mut v: Vec<f32> = (0..n * n * n).map(|i| (i % n) as f32 / 8.0).collect();
+        v[at] = inf;
+        let vol = raw_f32(d.path(), mode, [8, 8, 8], &v);
+        // Close enough that the volume fills the frame: the four centre
+        // pixels' rays pass at x, y in (4, 5), where the voxel is their
+        // cells' first corner and the plain blend's `inf + (b - inf)·t`
+        // is NaN at every sample.
+        let look = [
+            "--mode",
+            mode,
+            "--eye",
+            "4.5,4.5,12",
+            "--look-at",
+            "4.5,4.5,0",
+        ];
+        let img = render_hdr(d.path(), &vol, mode, &look);
+        assert!(img.iter().all(|g| g.is_finite()), "{mode}: {img:?}");
+        // The centre ray crosses the cells around the voxel: it reaches
+        // the infinity.
+        assert_eq!(img[12 * 24 + 12], want, "{mode}");
+        // A ray far from it does not.
+        assert_ne!(img[2 * 24 + 2], want, "{mode}");
+    }
+    // Halves at opposite extremes, as in the nearest-sample case above:
+    // trilinear samples inside either half keep its value.
+    let v: Vec<f32> = (0..n * n * n)
+        .map(|i| {
+            if i / 64 < 4 {
+                f32::NEG_INFINITY
+            } else {
+                f32::INFINITY
+            }
+        })
+        .collect();
+    let vol = raw_f32(d.path(), "halves", [8, 8, 8], &v);
+    for (mode, want) in [("mip", 1.0), ("minip", 0.0)] {
+        let look = [
+            "--mode",
+            mode,
+            "--eye",
+            "3.5,3.5,40",
+            "--look-at",
+            "3.5,3.5,0",
+        ];
+        let img = render_hdr(d.path(), &vol, &format!("h{mode}"), &look);
+        assert!(img.iter().all(|g| g.is_finite()), "{mode}: {img:?}");
+        assert_eq!(img[12 * 24 + 12], want, "{mode}");
+    }
+}
+
 /// Bug: extreme f32 values gave NaN or black X-ray images (issue 14, ea4de32).
 #[test]
 fn render_xray_of_a_1e38_cube_is_not_black() {
