@@ -6,11 +6,20 @@
 //! The BRDF is a Lambertian lobe coloured by the medium's albedo plus a
 //! white glossy lobe (the energy-normalised modified Phong lobe around the
 //! mirror direction, `(e + 2) / 2π · cos^e α`), in proportions
-//! `1 − GLOSSY` and `GLOSSY`; both conserve energy, so the surface never
-//! reflects more than arrives. Sampling picks a lobe by the same
-//! proportions (cosine-weighted hemisphere, or `cos^e` around the mirror
-//! direction) and weights by the BRDF times the cosine over the mixture's
-//! density. Light from behind the surface does not reach it.
+//! `1 − GLOSSY` and `GLOSSY`. The glossy lobe alone reflects all that
+//! arrives only at normal incidence: away from it the cosine and the
+//! horizon cut its directional albedo `E(μ)` (μ the cosine of the eye
+//! direction to the normal) below 1, down to a fraction of it at grazing
+//! angles. That missing `GLOSSY × (1 − E(μ))` is folded back, white, into
+//! the Lambertian lobe, so a white surface reflects exactly what arrives
+//! at every angle (a white furnace stays white) and a coloured one never
+//! more. `E` is tabulated once by quadrature.
+//!
+//! Sampling picks the glossy lobe with probability `GLOSSY × E(μ)` (a
+//! `cos^e` draw around the mirror direction) and otherwise the
+//! cosine-weighted hemisphere, and weights by the BRDF times the cosine
+//! over the mixture's density. Light from behind the surface does not
+//! reach it.
 //!
 //! Directions follow [`super::phase`]: `d` is the path's direction of
 //! travel into the event, so light leaves toward the eye along `−d`.
@@ -18,11 +27,64 @@
 use super::phase::basis;
 use glam::Vec3;
 use std::f32::consts::PI;
+use std::sync::OnceLock;
 
 /// Share of the glossy lobe.
 pub const GLOSSY: f32 = 0.15;
 /// Exponent of the glossy lobe.
 pub const GLOSS_EXPONENT: f32 = 40.0;
+
+/// Intervals of the glossy albedo's table over μ in `[0, 1]`.
+const ALBEDO_TABLE: usize = 256;
+
+/// `E(μ)`, the glossy lobe's directional albedo (its BRDF × cosine over
+/// the hemisphere) for a path whose eye-ward direction has cosine `μ` to
+/// the normal: linear interpolation in a table built on first use.
+#[inline]
+pub fn glossy_albedo(mu: f32) -> f32 {
+    static TABLE: OnceLock<Vec<f32>> = OnceLock::new();
+    let t = TABLE.get_or_init(|| {
+        (0..=ALBEDO_TABLE)
+            .map(|i| glossy_albedo_quadrature(i as f64 / ALBEDO_TABLE as f64) as f32)
+            .collect()
+    });
+    let x = if mu.is_finite() {
+        mu.clamp(0.0, 1.0)
+    } else {
+        0.0
+    } * ALBEDO_TABLE as f32;
+    let i = (x as usize).min(ALBEDO_TABLE - 1);
+    let f = x - i as f32;
+    t[i] + (t[i + 1] - t[i]) * f
+}
+
+/// `E(μ)` by quadrature. Around the mirror direction `r` (at cosine μ to
+/// the normal `n`), with `t = cos α` and azimuth φ, `wi · n = μt + s √(1 −
+/// t²) cos φ` (`s = √(1 − μ²)`); the integral over φ of its positive part
+/// is closed-form, and `t = x^(1/(e+1))` turns `t^e dt` into `dx / (e+1)`,
+/// leaving a smooth integral over x in `[0, 1]` (midpoint rule).
+fn glossy_albedo_quadrature(mu: f64) -> f64 {
+    use std::f64::consts::TAU;
+    let e = GLOSS_EXPONENT as f64;
+    let s = (1.0 - mu * mu).max(0.0).sqrt();
+    let m = 4096;
+    let mut sum = 0.0;
+    for k in 0..m {
+        let x = (k as f64 + 0.5) / m as f64;
+        let t = x.powf(1.0 / (e + 1.0));
+        let (a, b) = (mu * t, s * (1.0 - t * t).max(0.0).sqrt());
+        // ∫₀^2π max(0, a + b cos φ) dφ
+        sum += if a >= b {
+            TAU * a
+        } else if a <= -b {
+            0.0
+        } else {
+            let p = (-a / b).acos();
+            2.0 * (a * p + b * p.sin())
+        };
+    }
+    (e + 2.0) / (TAU * (e + 1.0)) * sum / m as f64
+}
 
 /// A surface at a scattering event.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,6 +123,13 @@ impl Surface {
         d - 2.0 * d.dot(self.n) * self.n
     }
 
+    /// The probability [`Surface::sample`] draws from the glossy lobe
+    /// for a path travelling along `d`: `GLOSSY × E(μ)`.
+    #[inline(always)]
+    fn glossy_share(&self, d: Vec3) -> f32 {
+        GLOSSY * glossy_albedo(-d.dot(self.n))
+    }
+
     /// BRDF × cosine for light arriving from unit direction `wi` (toward
     /// the light) and leaving toward the eye of a path travelling along
     /// `d`.
@@ -70,7 +139,10 @@ impl Surface {
         if cos <= 0.0 {
             return Vec3::ZERO;
         }
-        let diffuse = self.albedo * ((1.0 - GLOSSY) / PI);
+        // The Lambertian lobe, and what the glossy lobe fails to reflect
+        // at this angle, white.
+        let diffuse = (self.albedo * (1.0 - GLOSSY) + Vec3::splat(GLOSSY - self.glossy_share(d)))
+            * (1.0 / PI);
         let a = wi.dot(self.mirror(d)).max(0.0);
         let glossy = GLOSSY * (GLOSS_EXPONENT + 2.0) / (2.0 * PI) * a.powf(GLOSS_EXPONENT);
         (diffuse + Vec3::splat(glossy)) * cos
@@ -84,9 +156,9 @@ impl Surface {
         if cos <= 0.0 {
             return 0.0;
         }
+        let pg = self.glossy_share(d);
         let a = wi.dot(self.mirror(d)).max(0.0);
-        (1.0 - GLOSSY) * cos / PI
-            + GLOSSY * (GLOSS_EXPONENT + 1.0) / (2.0 * PI) * a.powf(GLOSS_EXPONENT)
+        (1.0 - pg) * cos / PI + pg * (GLOSS_EXPONENT + 1.0) / (2.0 * PI) * a.powf(GLOSS_EXPONENT)
     }
 
     /// A new direction from `u` (which lobe, then the polar angle) and
@@ -95,15 +167,16 @@ impl Surface {
     #[inline]
     pub fn sample(&self, d: Vec3, u: f32, v: f32) -> Option<SurfaceSample> {
         let phi = 2.0 * PI * v;
-        let dir = if u < 1.0 - GLOSSY {
+        let pg = self.glossy_share(d);
+        let dir = if u < 1.0 - pg {
             // Cosine-weighted around the normal.
-            let s = u / (1.0 - GLOSSY);
+            let s = u / (1.0 - pg);
             let (sin, cos) = (s.sqrt(), (1.0 - s).max(0.0).sqrt());
             let (b1, b2) = basis(self.n);
             b1 * (sin * phi.cos()) + b2 * (sin * phi.sin()) + self.n * cos
         } else {
             // cos^e around the mirror direction.
-            let s = ((u - (1.0 - GLOSSY)) / GLOSSY).clamp(0.0, 1.0);
+            let s = ((u - (1.0 - pg)) / pg).clamp(0.0, 1.0);
             let cos = s.powf(1.0 / (GLOSS_EXPONENT + 1.0));
             let sin = (1.0 - cos * cos).max(0.0).sqrt();
             let r = self.mirror(d);
@@ -178,8 +251,8 @@ mod tests {
     }
 
     /// The directional albedo, ∫ BRDF cos dω over the hemisphere, by
-    /// sampling (E[weight]) and by quadrature agree, and never exceed 1 for
-    /// a white surface (energy is conserved at every angle).
+    /// sampling (E[weight]) and by quadrature agree, and is 1 for a white
+    /// surface at every angle (it neither absorbs nor creates energy).
     #[test]
     fn energy_is_conserved_and_sampling_is_unbiased() {
         let h = HashSampler::new(9);
@@ -212,13 +285,35 @@ mod tests {
                         * (std::f64::consts::TAU / np as f64);
                 }
             }
-            assert!(quad <= 1.0 + 2e-3, "tilt {tilt}: albedo {quad}");
-            assert!(quad > 0.8, "tilt {tilt}: albedo {quad}");
+            assert!((quad - 1.0).abs() < 3e-3, "tilt {tilt}: albedo {quad}");
             assert!(
                 (sampled - quad).abs() < 5e-3,
                 "tilt {tilt}: {sampled} vs {quad}"
             );
         }
+    }
+
+    /// The glossy lobe's albedo is 1 at normal incidence, falls toward
+    /// grazing angles, and its table interpolates the quadrature.
+    #[test]
+    fn the_glossy_albedo_table_matches_its_quadrature() {
+        assert!(
+            (glossy_albedo(1.0) - 1.0).abs() < 1e-4,
+            "{}",
+            glossy_albedo(1.0)
+        );
+        let mut last = 0.0;
+        for k in 0..=100 {
+            let mu = k as f32 / 100.0;
+            let e = glossy_albedo(mu);
+            assert!(e >= last && e <= 1.0 + 1e-4, "{mu}: {e}");
+            let q = glossy_albedo_quadrature(mu as f64) as f32;
+            assert!((e - q).abs() < 2e-3, "{mu}: {e} vs {q}");
+            last = e;
+        }
+        assert!(glossy_albedo(0.0) < 0.2);
+        assert_eq!(glossy_albedo(f32::NAN), glossy_albedo(0.0));
+        assert_eq!(glossy_albedo(2.0), glossy_albedo(1.0));
     }
 
     #[test]
