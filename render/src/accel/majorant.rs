@@ -3,6 +3,7 @@
 //! index's value ranges go through a function of the range (a transfer
 //! function's range-maximum table, or a density mapping), once per frame.
 
+use crate::path::medium::MAX_SIGMA_T;
 use volindex::{MinMaxIndex, RangeMaxTable};
 
 /// Per-cell majorants of one index level.
@@ -16,7 +17,9 @@ pub struct MajorantGrid {
 impl MajorantGrid {
     /// Majorants of `index`'s level `level` from `bound(lo, hi)`, which
     /// must bound the extinction of every value in `[lo, hi]` (cells whose
-    /// range is empty, `lo > hi`, hold only NaN and get 0).
+    /// range is empty, `lo > hi`, hold only NaN and get 0). Every majorant
+    /// is finite: clamped to `[0, MAX_SIGMA_T]`, a NaN bound taken as 0
+    /// (the media clamp their extinction alike).
     pub fn from_ranges(
         index: &MinMaxIndex,
         level: usize,
@@ -27,7 +30,19 @@ impl MajorantGrid {
             .min()
             .iter()
             .zip(l.max())
-            .map(|(&lo, &hi)| if lo > hi { 0.0 } else { bound(lo, hi).max(0.0) })
+            .map(|(&lo, &hi)| {
+                if lo > hi {
+                    0.0
+                } else {
+                    // NaN fails the comparison: 0.
+                    let b = bound(lo, hi);
+                    if b > 0.0 {
+                        b.min(MAX_SIGMA_T)
+                    } else {
+                        0.0
+                    }
+                }
+            })
             .collect();
         let global = values.iter().copied().fold(0.0, f32::max);
         MajorantGrid {

@@ -8,7 +8,17 @@
 //! whole stretch is one segment under the volume's largest majorant.
 //!
 //! Distances along the ray are f64 (a tiny step never stalls against a
-//! large `t`); every loop is bounded by [`MAX_COLLISIONS`].
+//! large `t`); every loop is bounded by [`MAX_COLLISIONS`], and both the
+//! extinction and the majorants are finite, at most
+//! [`super::medium::MAX_SIGMA_T`] (above it a medium is as opaque as at
+//! it).
+//!
+//! A sample next to an infinite voxel (or between values near ±FLT_MAX)
+//! is read by [`volcore::grid::blend_extended`] where the plain blend is
+//! not finite, as MIP does: a cell of `+inf` is `+inf` (extinction at the
+//! cap), not the NaN of `inf − inf` (extinction 0, under which every
+//! tentative collision at the capped majorant was a null one, a million
+//! per unit, and a frame of an infinite medium never ended).
 
 use super::medium::Medium;
 use super::PathCounters;
@@ -33,6 +43,28 @@ pub const MAX_COLLISIONS: u32 = 100_000_000;
 pub const ROULETTE_BELOW: f32 = 0.05;
 /// See [`ROULETTE_BELOW`].
 pub const ROULETTE_KILL: f32 = 0.75;
+
+/// The trilinear sample at voxel position `p`; where the plain blend is
+/// not finite (an infinite corner, or a blend of values near ±FLT_MAX),
+/// the extended blend's: an infinite corner with weight gives its
+/// infinity. Integer samples never take the second look.
+#[inline(always)]
+fn sample<C: Cursor>(cur: &mut C, p: [f32; 3]) -> f32 {
+    let v = cur.trilinear(p);
+    if cur.finite() || v.is_finite() {
+        v
+    } else {
+        sample_extended(cur, p)
+    }
+}
+
+/// The cold half of [`sample`].
+#[cold]
+#[inline(never)]
+fn sample_extended<C: Cursor>(cur: &mut C, p: [f32; 3]) -> f32 {
+    let (base, t) = volcore::grid::locate(p, cur.dims());
+    volcore::grid::blend_extended(&cur.cell(base[0], base[1], base[2]), t)
+}
 
 /// How tracking bounds extinction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -124,7 +156,7 @@ impl<M: Medium> Tracker<'_, M> {
     #[inline(always)]
     fn sigma_at<C: Cursor>(&self, cur: &mut C, ray: &VoxelRay, t: f64, m: f32) -> (f32, f32) {
         let p = ray.at(t as f32);
-        let v = cur.trilinear(p.to_array());
+        let v = sample(cur, p.to_array());
         let s = self.medium.sigma_t(v);
         // The majorant is read by the debug checks alone.
         #[cfg(not(debug_assertions))]
@@ -149,7 +181,7 @@ impl<M: Medium> Tracker<'_, M> {
         let hi = glam::Vec3::from(self.hi);
         let mut s = |q: glam::Vec3| {
             let q = q.clamp(glam::Vec3::ZERO, hi);
-            self.medium.sigma_t(cur.trilinear(q.to_array()))
+            self.medium.sigma_t(sample(cur, q.to_array()))
         };
         let (x, y, z) = (glam::Vec3::X, glam::Vec3::Y, glam::Vec3::Z);
         glam::Vec3::new(

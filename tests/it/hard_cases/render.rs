@@ -185,6 +185,39 @@ fn render_mip_and_minip_trilinear_rays_past_an_infinite_voxel_reach_it() {
     }
 }
 
+/// Bug: path tracing of an f32 volume of +inf never ended: its samples
+/// blended to NaN (`inf - inf`), extinction 0, under majorants at the cap,
+/// so every tentative collision was a null one, a million per unit per
+/// ray (issue 43, item 1).
+#[test]
+fn render_path_tracing_of_an_infinite_medium_ends_opaque() {
+    let d = tmp();
+    let n = 8 * 8 * 8;
+    // (A cell that mixes the cap with empty space still costs a million
+    // null collisions per unit: the open half of item 1.)
+    let cases: [(&str, Vec<f32>); 3] = [
+        ("inf", vec![f32::INFINITY; n]),
+        ("max", vec![f32::MAX; n]),
+        ("ninf", vec![f32::NEG_INFINITY; n]),
+    ];
+    for (name, v) in cases {
+        let vol = raw_f32(d.path(), name, [8, 8, 8], &v);
+        let hdr = d.path().join(format!("{name}.pfm"));
+        let mut cmd = render_cmd(
+            d.path(),
+            &vol,
+            name,
+            &["--mode", "path", "--density-scale", "1", "--spp", "4"],
+        );
+        cmd.arg("--hdr").arg(&hdr);
+        let out = run_within(&mut cmd, Duration::from_secs(30));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{name}: {err}");
+        let img = volcompare::pfm::read_pfm(&hdr).unwrap().samples;
+        assert!(img.iter().all(|g| g.is_finite()), "{name}");
+    }
+}
+
 /// Bug: extreme f32 values gave NaN or black X-ray images (issue 14, ea4de32).
 #[test]
 fn render_xray_of_a_1e38_cube_is_not_black() {
