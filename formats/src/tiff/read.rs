@@ -406,13 +406,23 @@ pub struct TiffStackReader {
 }
 
 /// A decoder of the file at `path`, with limits from its length and, once
-/// known, the stack's page size.
+/// known, the stack's page size; its directories checked first
+/// ([`check_directories`]).
 fn open_file(path: &Path, page_bytes: Option<u64>) -> CResult<FileDec> {
     let mut f = File::open(path).at(path)?;
     let len = f.metadata().at(path)?.len();
     // Checked unbuffered: a seek would empty a 256 KiB buffer per directory.
     check_directories(&mut f, len).at(path)?;
     f.rewind().at(path)?;
+    new_decoder(BufReader::with_capacity(256 << 10, f), len, page_bytes).at(path)
+}
+
+/// [`open_file`] for a file whose directories were checked when its stack
+/// was opened: another decoder for a reading thread, without walking a
+/// chain of thousands of pages again.
+fn reopen_file(path: &Path, page_bytes: Option<u64>) -> CResult<FileDec> {
+    let f = File::open(path).at(path)?;
+    let len = f.metadata().at(path)?.len();
     new_decoder(BufReader::with_capacity(256 << 10, f), len, page_bytes).at(path)
 }
 
@@ -426,7 +436,8 @@ fn open_decoder<R: Read + Seek>(
     new_decoder(r, file_len, page_bytes)
 }
 
-/// The decoder of a file whose directories [`check_directories`] passed.
+/// The decoder of a file whose directories [`check_directories`] passed
+/// (now or when its stack was opened).
 fn new_decoder<R: Read + Seek>(
     r: R,
     file_len: u64,
@@ -687,7 +698,7 @@ impl TiffStackReader {
         let mut d = match taken {
             Some(d) => d,
             None => {
-                let mut d = open_file(path, Some(self.page_bytes))?;
+                let mut d = reopen_file(path, Some(self.page_bytes))?;
                 // Walk the chain once so later seeks go straight to a page.
                 if let Some(&last) = ifds.last() {
                     d.seek_to_image(last).map_err(tiff_err).at(path)?;
