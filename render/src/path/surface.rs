@@ -35,7 +35,7 @@ pub const GLOSSY: f32 = 0.15;
 pub const GLOSS_EXPONENT: f32 = 40.0;
 
 /// Intervals of the glossy albedo's table over μ in `[0, 1]`.
-const ALBEDO_TABLE: usize = 256;
+const ALBEDO_TABLE: usize = 128;
 
 /// `E(μ)`, the glossy lobe's directional albedo (its BRDF × cosine over
 /// the hemisphere) for a path whose eye-ward direction has cosine `μ` to
@@ -62,12 +62,15 @@ pub fn glossy_albedo(mu: f32) -> f32 {
 /// the normal `n`), with `t = cos α` and azimuth φ, `wi · n = μt + s √(1 −
 /// t²) cos φ` (`s = √(1 − μ²)`); the integral over φ of its positive part
 /// is closed-form, and `t = x^(1/(e+1))` turns `t^e dt` into `dx / (e+1)`,
-/// leaving a smooth integral over x in `[0, 1]` (midpoint rule).
+/// leaving a smooth integral over x in `[0, 1]` (midpoint rule; 512
+/// points are within 1.3e-5 of 8,192, and the 128-interval table
+/// interpolates within 2e-5, so building it costs about a millisecond of
+/// a hybrid render's start, not the 20 ms of 257 × 4,096 points).
 fn glossy_albedo_quadrature(mu: f64) -> f64 {
     use std::f64::consts::TAU;
     let e = GLOSS_EXPONENT as f64;
     let s = (1.0 - mu * mu).max(0.0).sqrt();
-    let m = 4096;
+    let m = 512;
     let mut sum = 0.0;
     for k in 0..m {
         let x = (k as f64 + 0.5) / m as f64;
