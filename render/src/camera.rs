@@ -1,7 +1,7 @@
 //! Pinhole and orthographic cameras, rays through pixel centres.
 
 use crate::error::RenderError;
-use crate::ray::{unit, Ray};
+use crate::ray::{unit, EyeRay};
 use glam::Vec3;
 
 /// How the image plane maps to rays.
@@ -208,20 +208,24 @@ impl Camera {
     /// `None` when a perspective camera does not see it in front of the
     /// eye (or the result is not finite).
     pub fn project(&self, p: Vec3) -> Option<[f32; 2]> {
-        let d = p - self.eye;
+        // In f64: an eye far from the volume is still a point, not a
+        // rounding of one.
+        let d = p.as_dvec3() - self.eye.as_dvec3();
+        let (right, up) = (self.right.as_dvec3(), self.up.as_dvec3());
         let (a, b) = match self.projection {
             Projection::Perspective(_) => {
-                let z = d.dot(self.forward);
+                let z = d.dot(self.forward.as_dvec3());
                 // In front of the eye only (NaN is not).
                 if z.is_nan() || z <= 0.0 {
                     return None;
                 }
-                (d.dot(self.right) / z, d.dot(self.up) / z)
+                (d.dot(right) / z, d.dot(up) / z)
             }
-            Projection::Orthographic(_) => (d.dot(self.right), d.dot(self.up)),
+            Projection::Orthographic(_) => (d.dot(right), d.dot(up)),
         };
-        let x = (a / self.half.0 + 1.0) * 0.5 * self.width as f32 - 0.5;
-        let y = (1.0 - b / self.half.1) * 0.5 * self.height as f32 - 0.5;
+        let x = (a / f64::from(self.half.0) + 1.0) * 0.5 * f64::from(self.width) - 0.5;
+        let y = (1.0 - b / f64::from(self.half.1)) * 0.5 * f64::from(self.height) - 0.5;
+        let (x, y) = (x as f32, y as f32);
         (x.is_finite() && y.is_finite()).then_some([x, y])
     }
 
@@ -247,25 +251,28 @@ impl Camera {
 
     /// The ray through the centre of pixel `(x, y)`, row 0 at the top.
     #[inline]
-    pub fn ray(&self, x: u32, y: u32) -> Ray {
+    pub fn ray(&self, x: u32, y: u32) -> EyeRay {
         self.ray_at(x as f32 + 0.5, y as f32 + 0.5)
     }
 
     /// The ray through image-plane position `(fx, fy)` in pixel units,
     /// `(0, 0)` the top-left corner of the image and pixel `(x, y)`
-    /// covering `[x, x + 1) × [y, y + 1)` (jittered samples).
+    /// covering `[x, x + 1) × [y, y + 1)` (jittered samples). Its origin
+    /// is in f64 ([`EyeRay::near`] rounds it for marching).
     #[inline]
-    pub fn ray_at(&self, fx: f32, fy: f32) -> Ray {
+    pub fn ray_at(&self, fx: f32, fy: f32) -> EyeRay {
         let u = (fx / self.width as f32) * 2.0 - 1.0;
         let v = 1.0 - (fy / self.height as f32) * 2.0;
         let offset = self.right * (u * self.half.0) + self.up * (v * self.half.1);
         match self.projection {
-            Projection::Perspective(_) => Ray {
-                origin: self.eye,
+            Projection::Perspective(_) => EyeRay {
+                origin: self.eye.as_dvec3(),
                 dir: (self.forward + offset).normalize(),
             },
-            Projection::Orthographic(_) => Ray {
-                origin: self.eye + offset,
+            // The sum rounded to f32 is the f32 sum (an f64 sum of two
+            // f32 numbers is exact unless their exponents are 29 apart).
+            Projection::Orthographic(_) => EyeRay {
+                origin: self.eye.as_dvec3() + offset.as_dvec3(),
                 dir: self.forward,
             },
         }
@@ -306,7 +313,7 @@ mod tests {
             let c =
                 Camera::look_at(eye, Vec3::new(10.0, 20.0, 30.0), Vec3::Y, proj, 64, 48).unwrap();
             for (x, y) in [(0, 0), (63, 47), (17, 30), (32, 24)] {
-                let r = c.ray(x, y);
+                let r = c.ray(x, y).rounded();
                 for t in [1.0f32, 50.0, 700.0] {
                     let [px, py] = c.project(r.origin + r.dir * t).unwrap();
                     assert!(

@@ -1,6 +1,6 @@
 //! Rays and the robust ray–box test.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// A ray `origin + t·dir` with a unit direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,19 +41,27 @@ pub fn unit(v: Vec3) -> Option<Vec3> {
 /// rays grazing an edge count as inside. No NaN can arise: only finite
 /// values are divided by nonzero ones and compared.
 pub fn intersect_box(ray: &Ray, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
-    let mut t0 = 0.0f32;
-    let mut t1 = f32::INFINITY;
+    slabs(
+        ray.origin.to_array(),
+        ray.dir.to_array(),
+        lo.to_array(),
+        hi.to_array(),
+    )
+}
+
+/// The slab test of [`intersect_box`] in f32 or f64.
+fn slabs<F: Real>(o: [F; 3], d: [F; 3], lo: [F; 3], hi: [F; 3]) -> Option<(F, F)> {
+    let mut t0 = F::ZERO;
+    let mut t1 = F::INFINITY;
     for a in 0..3 {
-        let o = ray.origin[a];
-        let d = ray.dir[a];
-        if d == 0.0 {
-            if o < lo[a] || o > hi[a] {
+        if d[a] == F::ZERO {
+            if o[a] < lo[a] || o[a] > hi[a] {
                 return None;
             }
             continue;
         }
-        let inv = 1.0 / d;
-        let (mut near, mut far) = ((lo[a] - o) * inv, (hi[a] - o) * inv);
+        let inv = F::ONE / d[a];
+        let (mut near, mut far) = ((lo[a] - o[a]) * inv, (hi[a] - o[a]) * inv);
         if near > far {
             std::mem::swap(&mut near, &mut far);
         }
@@ -67,7 +75,116 @@ pub fn intersect_box(ray: &Ray, lo: Vec3, hi: Vec3) -> Option<(f32, f32)> {
             return None;
         }
     }
-    (t1.is_finite() && t0 <= t1).then_some((t0, t1))
+    (t1.finite() && t0 <= t1).then_some((t0, t1))
+}
+
+/// The float types the slab test runs in.
+trait Real:
+    Copy
+    + PartialOrd
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+{
+    const ZERO: Self;
+    const ONE: Self;
+    const INFINITY: Self;
+    fn finite(self) -> bool;
+}
+
+impl Real for f32 {
+    const ZERO: f32 = 0.0;
+    const ONE: f32 = 1.0;
+    const INFINITY: f32 = f32::INFINITY;
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+}
+
+impl Real for f64 {
+    const ZERO: f64 = 0.0;
+    const ONE: f64 = 1.0;
+    const INFINITY: f64 = f64::INFINITY;
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+}
+
+/// Rays whose origin is this many steps or more from the volume's box are
+/// marched from a nearer origin on the same ray ([`EyeRay::near`]).
+pub const NEAR_STEPS: f64 = 4096.0;
+
+/// A ray as a camera makes it: the origin in f64 (an eye far from the
+/// volume, or an orthographic ray's point on the image plane beside such
+/// an eye, keeps its position), the unit direction in f32.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EyeRay {
+    /// Start of the ray.
+    pub origin: DVec3,
+    /// Unit direction.
+    pub dir: Vec3,
+}
+
+impl EyeRay {
+    /// The ray with its origin rounded to f32.
+    pub fn rounded(&self) -> Ray {
+        Ray {
+            origin: self.origin.as_vec3(),
+            dir: self.dir,
+        }
+    }
+
+    /// The ray to march through the box `[lo, hi]` with samples at
+    /// `t = k·step`, and where it starts on this ray (the parameter of its
+    /// origin here: add it to a parameter along the ray returned for the
+    /// distance from this ray's origin). The origin is this one rounded to
+    /// f32 (the start 0) when it lies within [`NEAR_STEPS`] steps of the
+    /// box: every ordinary view, whose bits are those of the ray from the
+    /// eye. From farther away the origin moves along the ray, in f64, by a
+    /// whole number of steps to a point just before the ray enters the box
+    /// (or passes closest to it). The moved ray takes the samples of the
+    /// one from the eye (the grid `k·step` shifts by whole steps), but its
+    /// positions are f32 numbers the size of the box rather than of the
+    /// eye's distance, so a camera any finite distance away renders what a
+    /// nearer one on the same rays renders.
+    pub fn near(&self, lo: Vec3, hi: Vec3, step: f32) -> (Ray, f64) {
+        let dir = self.dir;
+        let (lo64, hi64) = (lo.as_dvec3(), hi.as_dvec3());
+        let outside = (lo64 - self.origin)
+            .max(self.origin - hi64)
+            .max(DVec3::ZERO);
+        let step = f64::from(step);
+        if outside.length() < NEAR_STEPS * step {
+            return (self.rounded(), 0.0);
+        }
+        let d = dir.as_dvec3();
+        // Where the ray enters the box or, when it misses, where it passes
+        // closest to the box's centre (so it misses in f32 too).
+        let to = match slabs(
+            self.origin.to_array(),
+            d.to_array(),
+            lo64.to_array(),
+            hi64.to_array(),
+        ) {
+            Some((t0, _)) => t0,
+            None => ((lo64 + hi64) * 0.5 - self.origin).dot(d).max(0.0),
+        };
+        // One step short, so rounding the new origin to f32 cannot put it
+        // past the box's face.
+        let start = ((to / step).floor() - 1.0).max(0.0) * step;
+        let ray = Ray {
+            origin: (self.origin + d * start).as_vec3(),
+            dir,
+        };
+        (ray, start)
+    }
+
+    /// [`EyeRay::near`] and the part of the ray returned inside the box,
+    /// `(ray, start, t0, t1)` ([`intersect_box`]), or `None` if it misses.
+    pub fn enter(&self, lo: Vec3, hi: Vec3, step: f32) -> Option<(Ray, f64, f32, f32)> {
+        let (ray, start) = self.near(lo, hi, step);
+        intersect_box(&ray, lo, hi).map(|(t0, t1)| (ray, start, t0, t1))
+    }
 }
 
 #[cfg(test)]

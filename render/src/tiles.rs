@@ -12,7 +12,7 @@ use crate::distributed::ShareBox;
 use crate::error::RenderError;
 use crate::film::Film;
 use crate::integrator::{Integrator, RayResult, Span};
-use crate::ray::{intersect_box, Ray};
+use crate::ray::Ray;
 use crate::settings::Cancel;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -27,6 +27,10 @@ pub struct PixelRay {
     pub ray: Ray,
     /// Where it is inside the volume's box (or the share of it to take).
     pub span: Span,
+    /// Where `ray` starts on the camera's ray through the pixel (0 but
+    /// for eyes far from the volume: [`crate::ray::EyeRay::near`]); added
+    /// to the depth traced along `ray`.
+    pub start: f64,
 }
 
 /// Traces the rays of one tile with a frame's integrator over a volume:
@@ -116,6 +120,12 @@ impl Tiles<'_> {
                 let rays = self.rays_of_tile(i % tx, i / tx);
                 out.reserve(rays.len());
                 renderer.render_tile(&rays, &mut out);
+                debug_assert_eq!(rays.len(), out.len());
+                for (ray, (_, r)) in rays.iter().zip(out.iter_mut()) {
+                    if ray.start != 0.0 {
+                        r.depth = (ray.start + f64::from(r.depth)) as f32;
+                    }
+                }
                 out
             })
             .collect();
@@ -143,8 +153,9 @@ impl Tiles<'_> {
                 {
                     continue;
                 }
-                let ray = self.camera.ray(x, y);
-                let Some((t0, t1)) = intersect_box(&ray, Vec3::ZERO, self.hi) else {
+                let Some((ray, start, t0, t1)) =
+                    self.camera.ray(x, y).enter(Vec3::ZERO, self.hi, self.step)
+                else {
                     continue;
                 };
                 let whole = Span::whole(t0, t1);
@@ -160,6 +171,7 @@ impl Tiles<'_> {
                     pixel: [x, y],
                     ray,
                     span,
+                    start,
                 });
             }
         }

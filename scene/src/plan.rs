@@ -56,7 +56,7 @@ impl Plan {
         let (camera, look_at, orbit) = camera(cli, vol)?;
         let mut settings = settings(cli, vol, index)?;
         if cli.step.is_none() {
-            settings.step = default_step(cli, vol, &camera, &mut notes);
+            settings.step = default_step(cli, vol, &mut notes);
         }
         let path = match cli.mode {
             ModeArg::Path => Some(crate::path::settings(
@@ -272,16 +272,14 @@ fn camera(cli: &Options, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
 
 /// The step when none is given: half the smallest voxel spacing, unless
 /// the frame's checks would refuse it for this volume: more samples per
-/// ray across its diagonal than the limit or, from the default camera,
-/// finer than f32 positions resolve at the eye. Then the finest step they
+/// ray across its diagonal than the limit, or finer than f32 positions
+/// resolve across it. Then the finest step they
 /// accept, with a note saying so (in the ray caster's modes: the path
 /// tracer takes no step). So the defaults are always feasible; a step or
-/// a camera the user gives may still be refused.
-fn default_step(cli: &Options, vol: &Volume, camera: &Camera, notes: &mut Vec<String>) -> f32 {
+/// the user gives may still be refused.
+fn default_step(cli: &Options, vol: &Volume, notes: &mut Vec<String>) -> f32 {
     let half = 0.5 * vol.meta.min_spacing();
-    let placed = cli.eye.is_some() || cli.orbit.is_some() || cli.look_at.is_some();
-    let Some(finest) = volrender::settings::check::finest_step(vol, (!placed).then_some(camera))
-    else {
+    let Some(finest) = volrender::settings::check::finest_step(vol) else {
         // No step is feasible: the frame's check says why.
         return half;
     };
@@ -413,7 +411,7 @@ fn settings(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<
     let defaults = Lighting::default();
     Ok(RenderSettings {
         mode,
-        // Without --step, the plan's default_step (which needs the camera).
+        // Without --step, the plan's default_step.
         step: cli.step.unwrap_or(0.5 * vol.meta.min_spacing()),
         interp: match cli.interp {
             InterpArg::Nearest => Interp::Nearest,

@@ -148,7 +148,7 @@ mod tests {
             let mut seen = 0;
             for y in 0..70 {
                 for x in 0..90 {
-                    if intersect_box(&cam.ray(x, y), lo, hi).is_some() {
+                    if intersect_box(&cam.ray(x, y).rounded(), lo, hi).is_some() {
                         seen += 1;
                         assert!(mask.may_see(x, y), "{proj:?}: pixel {x},{y}");
                     }
@@ -178,7 +178,7 @@ mod tests {
         let mask = busy_blocks(&cam, &ix, Vec3::ONE, around, busy).unwrap();
         for y in 0..70 {
             for x in 0..90 {
-                if intersect_box(&cam.ray(x, y), lo, hi).is_some() {
+                if intersect_box(&cam.ray(x, y).rounded(), lo, hi).is_some() {
                     assert!(mask.may_see(x, y), "pixel {x},{y}");
                 }
             }

@@ -197,7 +197,7 @@ mod tests {
                 let mut met = 0;
                 for y in 0..48 {
                     for x in 0..64 {
-                        let ray = cam.ray(x, y);
+                        let ray = cam.ray(x, y).rounded();
                         let Some((t0, t1)) = intersect_box(&ray, Vec3::ZERO, hi) else {
                             continue;
                         };

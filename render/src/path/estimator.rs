@@ -234,7 +234,13 @@ impl<M: Medium> Estimator<'_, M> {
     ) -> Vec3 {
         let mut rng = self.sampler.pixel(x, y, index);
         let (jx, jy) = rng.next_2d();
-        let ray = self.camera.ray_at(x as f32 + jx, y as f32 + jy);
+        // Free flights have no sample grid: a voxel is the unit that
+        // says how far is far for the eye (`EyeRay::near`).
+        let voxel = 1.0 / self.inv_spacing.max_element();
+        let (ray, _) =
+            self.camera
+                .ray_at(x as f32 + jx, y as f32 + jy)
+                .near(Vec3::ZERO, self.extent, voxel);
         n.paths += 1;
         let l = if self.scatters {
             self.path(cur, ray, &mut rng, n)

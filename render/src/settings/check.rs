@@ -9,6 +9,7 @@ use crate::error::RenderError;
 use crate::frame::{
     world_diagonal, FRAME_BYTES_PER_PIXEL, FRAME_MEMORY_BUDGET, MAX_SAMPLES_PER_RAY,
 };
+use crate::ray::NEAR_STEPS;
 use volcore::Volume;
 
 /// Check `settings` for a frame of `vol` through `camera` before anything
@@ -27,22 +28,12 @@ pub fn frame(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result
         )));
     }
     let s = settings.step;
-    let diagonal = step("step", s, vol)?;
+    step("step", s, vol)?;
     if let Some(sh) = &settings.shadows {
         shadow_settings(settings, sh, vol)?;
     }
     if let Some(ao) = &settings.ao {
         ao_settings(settings, ao)?;
-    }
-    // Sample positions are f32: far from the origin consecutive samples
-    // would round to the same point and a ray's sample index overflow.
-    let reach = camera.eye().as_dvec3().length() + diagonal;
-    if reach * f32::EPSILON as f64 > s as f64 {
-        let e = camera.eye();
-        return Err(RenderError::Camera(format!(
-            "eye {},{},{} is too far from the volume for step {s}: f32 positions there are coarser than the step",
-            e.x, e.y, e.z
-        )));
     }
     if let Some(t) = settings.ert {
         if !(t > 0.0 && t <= 1.0) {
@@ -94,28 +85,46 @@ pub fn step(what: &str, s: f32, vol: &Volume) -> Result<f64, RenderError> {
             sp[0], sp[1], sp[2]
         )));
     }
+    if position_reach(diagonal, s) * f64::from(f32::EPSILON) > f64::from(s) {
+        return Err(RenderError::Setting(format!(
+            "{what} {s} is finer than f32 positions resolve across the volume's diagonal of \
+             {diagonal:.6e} world units"
+        )));
+    }
     Ok(diagonal)
+}
+
+/// The largest distance from the world origin of a sample position along
+/// a ray through a box of `diagonal` (with a corner at the origin) with
+/// samples `step` apart: rays start at most [`NEAR_STEPS`] steps from the
+/// box ([`crate::ray::EyeRay::near`]), whatever the camera, so where the
+/// eye is never matters.
+fn position_reach(diagonal: f64, step: f32) -> f64 {
+    2.0 * diagonal + 2.0 * NEAR_STEPS * f64::from(step)
 }
 
 /// The finest step along rays of `vol` that [`frame`] accepts: at least
 /// 1e-4 of the smallest voxel spacing, at most [`MAX_SAMPLES_PER_RAY`]
-/// samples across the volume's diagonal and, with `camera`, no finer than
-/// f32 positions resolve between its eye and the far side of the volume.
-/// `None` when the volume's extent is not finite in f32 (no step is
-/// accepted then).
-pub fn finest_step(vol: &Volume, camera: Option<&Camera>) -> Option<f32> {
+/// samples across the volume's diagonal, and no finer than f32 positions
+/// resolve across it. `None` when the volume's extent is not finite in f32
+/// (no step is accepted then).
+pub fn finest_step(vol: &Volume) -> Option<f32> {
     let diagonal = world_diagonal(vol)?;
-    let per_ray = diagonal / MAX_SAMPLES_PER_RAY;
-    let need = match camera {
-        Some(c) => per_ray.max((c.eye().as_dvec3().length() + diagonal) * f32::EPSILON as f64),
-        None => per_ray,
-    };
-    // Rounded up to the f32 the checks compare (in f64) against `need`.
-    let mut s = (need as f32).max(f32::MIN_POSITIVE);
-    while (s as f64) < need {
+    let eps = f64::from(f32::EPSILON);
+    let need =
+        (diagonal / MAX_SAMPLES_PER_RAY).max(2.0 * diagonal * eps / (1.0 - 2.0 * NEAR_STEPS * eps));
+    let mut s = (need as f32)
+        .max(f32::MIN_POSITIVE)
+        .max(vol.meta.min_spacing() * 1e-4);
+    // Up to the first f32 the checks (in f64) accept: `need` is within an
+    // ulp or two of it.
+    for _ in 0..64 {
+        if step("step", s, vol).is_ok() {
+            return Some(s);
+        }
         s = s.next_up();
     }
-    Some(s.max(vol.meta.min_spacing() * 1e-4))
+    step("step", s, vol).is_ok().then_some(s)
 }
 
 /// Check the shadow settings: a mode and shading that have light to
