@@ -241,7 +241,10 @@ pub struct Options {
     /// (value/255 for u8, /65535 for u16, /32767 for i16, the value for
     /// f32; negative and NaN values are 0), with --albedo. Without it the
     /// transfer function is the medium: extinction -ln(1 - opacity per
-    /// unit length), albedo its colour.
+    /// unit length), albedo its colour. Extinction is capped at 1e6 per
+    /// unit (opacity 1, infinite or huge values act as that: opaque); the
+    /// --json counters `capped` and `truncated` say when a frame met the
+    /// cap or the limit of 1e8 collisions per tracking call.
     #[arg(long, value_name = "S", help_heading = "Path tracing (--mode path)")]
     pub density_scale: Option<f32>,
     /// Path tracing: the density medium's albedo, a grey level or linear

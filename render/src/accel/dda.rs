@@ -10,6 +10,7 @@
 //! tile `[t0, t1]` exactly and in order.
 
 use super::VoxelRay;
+use volcore::Dims;
 use volindex::Level;
 
 /// One cell's stretch of a ray.
@@ -25,9 +26,10 @@ pub struct Segment {
     pub index: usize,
 }
 
-/// Iterator over the cells of one level along a ray (see [`segments`]).
-pub struct Segments<'a> {
-    level: &'a Level,
+/// Iterator over the cells of one grid along a ray (see [`segments`] and
+/// [`voxel_segments`]).
+pub struct Segments {
+    cells: [u64; 3],
     ray: VoxelRay,
     edge: f64,
     cell: [i64; 3],
@@ -40,42 +42,48 @@ pub struct Segments<'a> {
 /// The segments of `ray` over `[t0, t1]` (a range inside the volume's box,
 /// as the ray–box test gives it) through the cells of `level`, for a
 /// volume whose voxel box is `[0, hi]` per axis (`hi = dims − 1`).
-pub fn segments<'a>(
-    level: &'a Level,
-    hi: [f32; 3],
-    ray: &VoxelRay,
-    t0: f32,
-    t1: f32,
-) -> Segments<'a> {
-    let edge = level.edge() as f64;
-    let cells = level.cells();
-    let p = ray.at(t0);
-    let cell = std::array::from_fn(|a| {
-        let c = if p[a] > 0.0 { p[a].min(hi[a]) } else { 0.0 };
-        ((c as f64 / edge).floor() as i64).clamp(0, cells[a] as i64 - 1)
-    });
-    let step = std::array::from_fn(|a| {
-        if ray.d[a] > 0.0 {
-            1
-        } else if ray.d[a] < 0.0 {
-            -1
-        } else {
-            0
-        }
-    });
-    Segments {
-        level,
-        ray: *ray,
-        edge,
-        cell,
-        step,
-        t: t0 as f64,
-        t_end: t1 as f64,
-        done: t0 > t1 || t0.is_nan() || t1.is_nan(),
-    }
+pub fn segments(level: &Level, hi: [f32; 3], ray: &VoxelRay, t0: f32, t1: f32) -> Segments {
+    Segments::new(level.cells(), level.edge(), hi, ray, t0, t1)
 }
 
-impl Segments<'_> {
+/// The segments of `ray` over `[t0, t1]` through the voxel cells of a
+/// volume of `dims` (`hi = dims − 1`): cell `c` is where the sampler reads
+/// the eight voxels from `c` on (`Cursor::cell`), so a cell's segment sees
+/// only blends of those eight values. The last cell per axis holds the
+/// points on the volume's far face.
+pub fn voxel_segments(dims: Dims, hi: [f32; 3], ray: &VoxelRay, t0: f32, t1: f32) -> Segments {
+    Segments::new(dims.as_array(), 1, hi, ray, t0, t1)
+}
+
+impl Segments {
+    fn new(cells: [u64; 3], edge: u64, hi: [f32; 3], ray: &VoxelRay, t0: f32, t1: f32) -> Segments {
+        let edge = edge as f64;
+        let p = ray.at(t0);
+        let cell = std::array::from_fn(|a| {
+            let c = if p[a] > 0.0 { p[a].min(hi[a]) } else { 0.0 };
+            ((c as f64 / edge).floor() as i64).clamp(0, cells[a] as i64 - 1)
+        });
+        let step = std::array::from_fn(|a| {
+            if ray.d[a] > 0.0 {
+                1
+            } else if ray.d[a] < 0.0 {
+                -1
+            } else {
+                0
+            }
+        });
+        Segments {
+            cells,
+            ray: *ray,
+            edge,
+            cell,
+            step,
+            t: t0 as f64,
+            t_end: t1 as f64,
+            done: t0 > t1 || t0.is_nan() || t1.is_nan(),
+        }
+    }
+
     /// Ray parameter at which the ray leaves the current cell along axis
     /// `a` (infinite if it does not move along it).
     fn exit(&self, a: usize) -> f64 {
@@ -88,7 +96,7 @@ impl Segments<'_> {
     }
 }
 
-impl Iterator for Segments<'_> {
+impl Iterator for Segments {
     type Item = Segment;
 
     fn next(&mut self) -> Option<Segment> {
@@ -102,7 +110,7 @@ impl Iterator for Segments<'_> {
                 axis = a;
             }
         }
-        let cells = self.level.cells();
+        let cells = self.cells;
         let next = self.cell[axis] + self.step[axis];
         // The last cell ends where the range does (the box face and the
         // grid's outer plane round differently, or lie apart).
@@ -117,7 +125,7 @@ impl Iterator for Segments<'_> {
             t0: self.t as f32,
             t1: end as f32,
             cell: c,
-            index: self.level.index(c[0], c[1], c[2]),
+            index: (c[0] + cells[0] * (c[1] + cells[1] * c[2])) as usize,
         };
         self.cell[axis] = next;
         self.t = end;

@@ -37,8 +37,17 @@ pub trait Medium: Sync {
     fn albedo(&self, v: f32) -> Vec3;
     /// The largest albedo component anywhere (0: the medium only absorbs).
     fn max_albedo(&self) -> f32;
+    /// An upper bound of the extinction of every value in `[lo, hi]`
+    /// (either end may be infinite), in `[0, MAX_SIGMA_T]`: the bound the
+    /// majorant grid's cells take from their value ranges, and tracking
+    /// from a voxel cell's eight values inside a cell at the cap.
+    fn majorant_over(&self, lo: f32, hi: f32) -> f32;
     /// Majorants of `index`'s level `level`.
-    fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError>;
+    fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError> {
+        Ok(MajorantGrid::from_ranges(index, level, |lo, hi| {
+            self.majorant_over(lo, hi)
+        }))
+    }
 }
 
 /// `σt = scale × normalised value` with a constant albedo.
@@ -111,18 +120,15 @@ impl Medium for DensityMedium {
         self.albedo.max_element()
     }
 
-    fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError> {
-        // σt rises with the value: the cell's largest value bounds it.
-        // Rounding: the bound is computed as the samples are, and widened
-        // by a hair.
-        Ok(MajorantGrid::from_ranges(index, level, |_, hi| {
-            let m = self.sigma_t(hi);
-            if m > 0.0 {
-                (m * (1.0 + 4.0 * f32::EPSILON)).min(MAX_SIGMA_T)
-            } else {
-                0.0
-            }
-        }))
+    fn majorant_over(&self, _: f32, hi: f32) -> f32 {
+        // σt rises with the value: the largest value bounds it. Rounding:
+        // the bound is computed as the samples are, and widened by a hair.
+        let m = self.sigma_t(hi);
+        if m > 0.0 {
+            (m * (1.0 + 4.0 * f32::EPSILON)).min(MAX_SIGMA_T)
+        } else {
+            0.0
+        }
     }
 }
 
@@ -132,6 +138,9 @@ pub struct TableMedium {
     bins: Bins,
     /// `[r, g, b, σt]` per bin.
     entries: Vec<[f32; 4]>,
+    /// The largest σt over any range of bins (an error when the bins'
+    /// domain makes no table: then [`Medium::majorants`] reports it).
+    range_max: Result<RangeMaxTable, String>,
     max_albedo: f32,
 }
 
@@ -155,9 +164,13 @@ impl TableMedium {
             .filter(|e| e[3] > 0.0)
             .map(|e| e[0].max(e[1]).max(e[2]))
             .fold(0.0, f32::max);
+        let (lo, hi) = bins.domain();
+        let maxima = entries.iter().map(|e| e[3]).collect();
+        let range_max = RangeMaxTable::from_bin_maxima(lo, hi, maxima).map_err(|e| e.to_string());
         TableMedium {
             bins,
             entries,
+            range_max,
             max_albedo,
         }
     }
@@ -187,12 +200,20 @@ impl Medium for TableMedium {
         self.max_albedo
     }
 
+    fn majorant_over(&self, lo: f32, hi: f32) -> f32 {
+        match &self.range_max {
+            Ok(t) => t.max_over(lo, hi),
+            // No frame gets this far (majorants() refused it); a bound
+            // all the same.
+            Err(_) => self.entries.iter().map(|e| e[3]).fold(0.0, f32::max),
+        }
+    }
+
     fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError> {
-        let (lo, hi) = self.bins.domain();
-        let table =
-            RangeMaxTable::from_bin_maxima(lo, hi, self.entries.iter().map(|e| e[3]).collect())
-                .map_err(|e| RenderError::Index(e.to_string()))?;
-        Ok(MajorantGrid::from_table(index, level, &table))
+        match &self.range_max {
+            Ok(t) => Ok(MajorantGrid::from_table(index, level, t)),
+            Err(e) => Err(RenderError::Index(e.clone())),
+        }
     }
 }
 

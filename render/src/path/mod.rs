@@ -121,6 +121,9 @@ pub struct PathCounters {
     pub majorant_cells: u64,
     /// Macrocells crossed without a sample (majorant 0).
     pub empty_cells: u64,
+    /// Voxel cells walked inside macrocells at the extinction cap (each
+    /// with its own majorant; see [`tracking`]).
+    pub voxel_cells: u64,
     /// Extinction lookups (trilinear samples).
     pub density_lookups: u64,
     /// Transmittance rays toward lights (and camera rays of an absorbing
@@ -132,6 +135,10 @@ pub struct PathCounters {
     pub surface_events: u64,
     /// Continuation rays after a scattering event.
     pub bounce_rays: u64,
+    /// Extinction lookups at the cap [`medium::MAX_SIGMA_T`] (infinite or
+    /// huge values, an opacity of 1): the medium there is as opaque as
+    /// tracking honours.
+    pub capped: u64,
     /// Tracking calls cut at [`tracking::MAX_COLLISIONS`].
     pub truncated: u64,
     /// Samples whose estimate was not finite (dropped).
@@ -145,6 +152,8 @@ impl std::ops::AddAssign for PathCounters {
         self.null_collisions += o.null_collisions;
         self.majorant_cells += o.majorant_cells;
         self.empty_cells += o.empty_cells;
+        self.voxel_cells += o.voxel_cells;
+        self.capped += o.capped;
         self.density_lookups += o.density_lookups;
         self.shadow_rays += o.shadow_rays;
         self.scatter_events += o.scatter_events;

@@ -20,9 +20,9 @@
 //! tentative collision at the capped majorant was a null one, a million
 //! per unit, and a frame of an infinite medium never ended).
 
-use super::medium::Medium;
+use super::medium::{Medium, MAX_SIGMA_T};
 use super::PathCounters;
-use crate::accel::dda::segments;
+use crate::accel::dda::{segments, voxel_segments};
 use crate::accel::majorant::MajorantGrid;
 use crate::accel::VoxelRay;
 use crate::sampler::PixelSampler;
@@ -108,24 +108,27 @@ pub enum Flight {
 }
 
 impl<M: Medium> Tracker<'_, M> {
-    /// Walk the segments of `ray` over `[t0, t1]`, calling `visit(m, a, b)`
-    /// for each stretch `[a, b]` with a nonzero majorant `m`, until it
-    /// returns `Some`.
+    /// Walk the segments of `ray` over `[t0, t1]`, calling
+    /// `visit(cur, m, a, b, n)` for each stretch `[a, b]` with a nonzero
+    /// majorant `m`, until it returns `Some`. A macrocell at the cap
+    /// ([`MAX_SIGMA_T`]) is walked voxel cell by voxel cell, each with the
+    /// bound of its own eight values ([`Tracker::voxel_majorant`]).
     #[inline(always)]
-    fn walk<R>(
+    fn walk<C: Cursor, R>(
         &self,
+        cur: &mut C,
         ray: &VoxelRay,
         t0: f32,
         t1: f32,
         n: &mut PathCounters,
-        mut visit: impl FnMut(f32, f64, f64, &mut PathCounters) -> Option<R>,
+        mut visit: impl FnMut(&mut C, f32, f64, f64, &mut PathCounters) -> Option<R>,
     ) -> Option<R> {
         match self.mode {
             MajorantMode::Global => {
                 let m = self.grid.global();
                 if m > 0.0 && t0 <= t1 {
                     n.majorant_cells += 1;
-                    return visit(m, t0 as f64, t1 as f64, n);
+                    return visit(cur, m, t0 as f64, t1 as f64, n);
                 }
                 None
             }
@@ -137,12 +140,80 @@ impl<M: Medium> Tracker<'_, M> {
                         continue;
                     }
                     n.majorant_cells += 1;
-                    if let Some(r) = visit(m, seg.t0 as f64, seg.t1 as f64, n) {
+                    if m >= MAX_SIGMA_T {
+                        if let Some(r) =
+                            self.walk_voxels(cur, ray, seg.t0, seg.t1, m, n, &mut visit)
+                        {
+                            return Some(r);
+                        }
+                        continue;
+                    }
+                    if let Some(r) = visit(cur, m, seg.t0 as f64, seg.t1 as f64, n) {
                         return Some(r);
                     }
                 }
                 None
             }
+        }
+    }
+
+    /// [`Tracker::walk`] inside a macrocell at the cap (majorant `m`): a
+    /// stretch of a ray through the transparent part of a cell that also
+    /// holds opaque voxels (an opacity-1 bin of a transfer function, or
+    /// infinite values) would otherwise take a million null collisions
+    /// per unit. Voxel cells whose values all map to nothing are crossed
+    /// without a sample.
+    #[cold]
+    #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
+    fn walk_voxels<C: Cursor, R>(
+        &self,
+        cur: &mut C,
+        ray: &VoxelRay,
+        t0: f32,
+        t1: f32,
+        m: f32,
+        n: &mut PathCounters,
+        visit: &mut impl FnMut(&mut C, f32, f64, f64, &mut PathCounters) -> Option<R>,
+    ) -> Option<R> {
+        for seg in voxel_segments(self.dims, self.hi, ray, t0, t1) {
+            let [i, j, k] = seg.cell;
+            let v = self.voxel_majorant(&cur.cell(i, j, k)).min(m);
+            n.voxel_cells += 1;
+            if v <= 0.0 {
+                continue;
+            }
+            if let Some(r) = visit(cur, v, seg.t0 as f64, seg.t1 as f64, n) {
+                return Some(r);
+            }
+        }
+        None
+    }
+
+    /// A bound of the extinction of every sample the sampler blends from
+    /// one voxel cell's eight `corners`: the medium's bound over their
+    /// range (a trilinear or extended blend lies within it, or is NaN,
+    /// whose extinction is 0). NaN corners are left out.
+    fn voxel_majorant(&self, corners: &[f32; 8]) -> f32 {
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for &c in corners {
+            // NaN fails both comparisons.
+            if c < lo {
+                lo = c;
+            }
+            if c > hi {
+                hi = c;
+            }
+        }
+        if lo > hi {
+            return 0.0;
+        }
+        let b = self.medium.majorant_over(lo, hi);
+        // NaN fails the comparison: 0.
+        if b > 0.0 {
+            b
+        } else {
+            0.0
         }
     }
 
@@ -213,7 +284,7 @@ impl<M: Medium> Tracker<'_, M> {
         let mut tau = exp(rng);
         let mut budget = MAX_COLLISIONS;
         let mut truncated = Some(truncated);
-        self.walk(ray, t0, t1, n, |m, a, b, n| {
+        self.walk(cur, ray, t0, t1, n, |cur, m, a, b, n| {
             let m64 = m as f64;
             let mut t = a;
             loop {
@@ -256,6 +327,7 @@ impl<M: Medium> Tracker<'_, M> {
             |cur, t, m, rng, n| {
                 n.density_lookups += 1;
                 let (s, v) = self.sigma_at(cur, ray, t, m);
+                n.capped += u64::from(s >= MAX_SIGMA_T);
                 if rng.next_1d() * m < s {
                     n.real_collisions += 1;
                     Some(Flight::Collision {
@@ -287,6 +359,7 @@ impl<M: Medium> Tracker<'_, M> {
         let stop = self.collisions(cur, (ray, t0, t1), rng, n, (), |cur, t, m, rng, n| {
             n.density_lookups += 1;
             let (s, _) = self.sigma_at(cur, ray, t, m);
+            n.capped += u64::from(s >= MAX_SIGMA_T);
             tr *= (1.0 - s / m).max(0.0);
             if tr < ROULETTE_BELOW {
                 if tr <= 0.0 || rng.next_1d() < ROULETTE_KILL {

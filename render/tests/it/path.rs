@@ -159,6 +159,42 @@ fn absorption_matches_beer_lambert() {
     }
 }
 
+/// Issue 43, item 1: a macrocell at the extinction cap (here from one
+/// +inf voxel in a corner) is tracked voxel cell by voxel cell, each under
+/// its own eight values' bound. Rays through the rest of that cell see the
+/// ordinary medium: Beer-Lambert holds as without the speck, with a few
+/// null collisions per path instead of a million per unit, and no lookup
+/// at the cap.
+#[test]
+fn absorption_beside_an_infinite_voxel_matches_beer_lambert() {
+    let dims = Dims::new(24, 20, 32).unwrap();
+    let mut samples = vec![0.05f32; dims.count() as usize];
+    // Voxel (1, 1, 12): in macrocell (0, 0, 1), which the rays of the
+    // image's lower left cross away from the speck's voxel cells.
+    samples[(12 * 20 + 1) * 24 + 1] = f32::INFINITY;
+    let v = Volume::from_samples(dims, samples).unwrap();
+    let ix = index(&v);
+    let cam = Camera::look_at(
+        Vec3::new(11.5, 9.5, 100.0),
+        Vec3::new(11.5, 9.5, 0.0),
+        Vec3::Y,
+        Projection::Orthographic(15.0),
+        16,
+        16,
+    )
+    .unwrap();
+    let expect = (-0.05f64 * 31.0).exp();
+    let (acc, n) = render(&v, &ix, &cam, &settings(1.0, 0.0, env(1.0)), 64);
+    let (mean, se) = image_mean(&acc);
+    assert!(
+        (mean - expect).abs() < 4.0 * se + 1e-9,
+        "{mean} vs {expect} (se {se})"
+    );
+    assert!(n.voxel_cells > 1000, "{n:?}");
+    assert_eq!((n.capped, n.truncated), (0, 0), "{n:?}");
+    assert!(n.null_collisions < 10 * n.paths, "{n:?}");
+}
+
 /// Nothing to scatter or absorb: every pixel is the background exactly,
 /// no density is looked up and no shadow ray cast.
 #[test]

@@ -197,8 +197,6 @@ fn render_mip_and_minip_trilinear_rays_past_an_infinite_voxel_reach_it() {
 fn render_path_tracing_of_an_infinite_medium_ends_opaque() {
     let d = tmp();
     let n = 8 * 8 * 8;
-    // (A cell that mixes the cap with empty space still costs a million
-    // null collisions per unit: the open half of item 1.)
     let cases: [(&str, Vec<f32>); 3] = [
         ("inf", vec![f32::INFINITY; n]),
         ("max", vec![f32::MAX; n]),
@@ -219,6 +217,77 @@ fn render_path_tracing_of_an_infinite_medium_ends_opaque() {
         assert!(out.status.success(), "{name}: {err}");
         let img = volcompare::pfm::read_pfm(&hdr).unwrap().samples;
         assert!(img.iter().all(|g| g.is_finite()), "{name}");
+    }
+}
+
+/// Bug: a macrocell that mixed extinction at the cap (+inf, FLT_MAX, or a
+/// 1e30 density scale) with empty space took a million null collisions
+/// per unit of its empty part, so such a frame ran for minutes (issue 43,
+/// item 1). Capped macrocells are now tracked voxel cell by voxel cell:
+/// a few null collisions per path, and the JSON counts the capped lookups.
+#[test]
+fn render_path_tracing_of_opaque_specks_in_empty_space_stays_fast() {
+    let d = tmp();
+    let dims = [32u64, 32, 32];
+    let speck = |value: f32| -> Vec<f32> {
+        (0..32 * 32 * 32)
+            .map(|i: u64| {
+                let (x, y, z) = (i % 32, i / 32 % 32, i / 1024);
+                // One voxel in every macrocell of 8^3, off its centre.
+                if x % 8 == 3 && y % 8 == 5 && z % 8 == 2 {
+                    value
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    };
+    for (name, value, scale) in [
+        ("inf", f32::INFINITY, "1"),
+        ("max", f32::MAX, "1"),
+        ("scaled", 1.0, "1e30"),
+        ("denormal", 1e-40, "1e30"),
+    ] {
+        let vol = raw_f32(d.path(), name, dims, &speck(value));
+        let mut cmd = render_cmd(
+            d.path(),
+            &vol,
+            name,
+            &[
+                "--mode",
+                "path",
+                "--density-scale",
+                scale,
+                "--spp",
+                "4",
+                "--env",
+                "1",
+                "--json",
+            ],
+        );
+        let out = run_within(&mut cmd, Duration::from_secs(60));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{name}: {err}");
+        let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let count = |k: &str| {
+            j[k].as_u64()
+                .unwrap_or_else(|| panic!("{name}: no {k} in {j}"))
+        };
+        let (paths, nulls) = (count("paths"), count("null_collisions"));
+        assert!(
+            nulls < 100 * paths,
+            "{name}: {nulls} null collisions for {paths} paths"
+        );
+        assert_eq!(count("truncated"), 0, "{name}");
+        if name == "denormal" {
+            // 1e-40 x 1e30: an ordinary thin medium, nowhere at the cap.
+            assert_eq!((count("capped"), count("voxel_cells")), (0, 0), "{name}");
+        } else {
+            assert!(
+                count("capped") > 0 && count("voxel_cells") > 0,
+                "{name}: {j}"
+            );
+        }
     }
 }
 
