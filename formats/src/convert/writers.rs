@@ -364,10 +364,9 @@ pub(crate) fn run_target<T: SliceSample>(
             }
             // The thesis layouts are z-fastest or bricked over all of z:
             // spool the converted samples to a temporary file first.
-            let mut tmp = tempfile::Builder::new()
-                .prefix(".vol-convert-spool.")
-                .tempfile_in(spec.temp_dir)
-                .at(spec.temp_dir)?;
+            let mut tmp =
+                crate::output::temp_file_in(spec.temp_dir, super::spool::SPOOL_PREFIX, "")
+                    .at(spec.temp_dir)?;
             {
                 let mut sink = RawSink {
                     out: tmp.as_file_mut(),
@@ -935,9 +934,13 @@ fn check_shard_store(target: &Path) -> CResult<()> {
 }
 
 /// A directory written under a temporary name beside the target and
-/// renamed into place when complete (removed if dropped before).
+/// renamed into place when complete (removed if dropped before; swept by
+/// the next write of the same target if the writer is killed, see
+/// [`crate::output::temp_dir_in`]).
 struct PartialDir {
     temp: tempfile::TempDir,
+    /// The temporary directory, open: its lock marks the writer alive.
+    _lock: File,
     target: PathBuf,
 }
 
@@ -945,20 +948,18 @@ impl PartialDir {
     fn create(target: &Path) -> CResult<PartialDir> {
         let target = target.components().as_path().to_path_buf();
         check_dir_target(&target)?;
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let name = target
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let temp = tempfile::Builder::new()
-            .prefix(&format!(".{name}."))
-            .suffix(".partial")
-            .tempdir_in(&parent)
-            .at(&parent)?;
-        Ok(PartialDir { temp, target })
+        let parent = crate::output::parent_dir(&target);
+        let (temp, lock) = crate::output::temp_dir_in(
+            &parent,
+            &crate::output::temp_prefix(&target),
+            crate::output::PARTIAL,
+        )
+        .at(&parent)?;
+        Ok(PartialDir {
+            temp,
+            _lock: lock,
+            target,
+        })
     }
 
     fn commit(self) -> CResult<()> {
