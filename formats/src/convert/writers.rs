@@ -592,7 +592,8 @@ impl<W: Write + Send> FinishWrite for flate2::write::ZlibEncoder<W> {
 }
 
 /// Write a header format and its samples; both files appear only when
-/// complete (the data file first).
+/// complete: the data file first, then the header (the commit point; an
+/// older header is removed before the data file is replaced).
 fn write_headed<T: SliceSample>(
     path: &Path,
     format: HeaderFormat,
@@ -640,6 +641,16 @@ fn write_headed<T: SliceSample>(
     }
     let mut bytes = 0;
     if let Some((f, d)) = data_file {
+        // The header is the pair's commit point: data first, header last.
+        // An older header goes before the data is replaced, so that no
+        // moment shows it beside data it does not describe (killed in
+        // between, the output is absent: a data file alone is not one).
+        match std::fs::remove_file(path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(ConvertError::new(path, e))
+            }
+            _ => {}
+        }
         f.commit().at(d)?;
         bytes += std::fs::metadata(d).map(|m| m.len()).unwrap_or(0);
     }
