@@ -161,7 +161,11 @@ fn trace(
     let tracer = PathTracer::new(vol, index, &plan.camera, settings)
         .map_err(|e| Error::from_render(e).context(&name))?
         .with_cancel(cancel.clone());
-    let volume_id = match volformats::fingerprint(&source.path) {
+    let fingerprint = source
+        .fingerprint
+        .clone()
+        .unwrap_or_else(|| volformats::fingerprint(&source.path).map_err(|e| e.to_string()));
+    let volume_id = match fingerprint {
         Ok(f) => f,
         Err(e) if options.accumulate.is_some() => {
             return Err(Error::file(format!(
