@@ -3,7 +3,7 @@
 use std::fs::File;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
-use tempfile::NamedTempFile;
+use tempfile::{NamedTempFile, TempDir};
 
 /// A file written under a temporary name in the target's directory and
 /// renamed to the target by [`AtomicFile::commit`]. Dropped without a
@@ -15,26 +15,17 @@ pub struct AtomicFile {
 }
 
 impl AtomicFile {
-    /// Start writing what will become `target`.
+    /// Start writing what will become `target`. Temporary files of earlier
+    /// writes to the same target whose writers are gone (killed) are
+    /// removed first; see [`temp_file_in`].
     pub fn create(target: &Path) -> io::Result<AtomicFile> {
-        let dir = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let name = target
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let temp = tempfile::Builder::new()
-            .prefix(&format!(".{name}."))
-            .suffix(".partial")
-            .tempfile_in(&dir)
-            .map_err(|e| {
-                io::Error::new(
-                    e.kind(),
-                    format!("cannot create a file in {}: {}", dir.display(), e.kind()),
-                )
-            })?;
+        let dir = parent_dir(target);
+        let temp = temp_file_in(&dir, &temp_prefix(target), PARTIAL).map_err(|e| {
+            io::Error::new(
+                e.kind(),
+                format!("cannot create a file in {}: {}", dir.display(), e.kind()),
+            )
+        })?;
         Ok(AtomicFile {
             temp,
             target: target.to_path_buf(),
@@ -74,10 +65,140 @@ impl AtomicFile {
 }
 
 /// The directory a file at `target` will be created in.
-fn parent_dir(target: &Path) -> PathBuf {
+pub fn parent_dir(target: &Path) -> PathBuf {
     match target.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
+    }
+}
+
+/// The suffix of every temporary output (file or directory).
+pub const PARTIAL: &str = ".partial";
+
+/// The start of the names of `target`'s temporary outputs: a temporary
+/// file or directory for `dir/NAME` is `dir/.NAME.XXXXXX.partial`.
+pub fn temp_prefix(target: &Path) -> String {
+    let name = target
+        .components()
+        .next_back()
+        .map(|n| n.as_os_str().to_string_lossy().into_owned())
+        .unwrap_or_default();
+    format!(".{name}.")
+}
+
+/// A temporary file `dir/PREFIXxxxxxxSUFFIX`, locked (`flock`, exclusive)
+/// for as long as it is open. A writer that is killed cannot remove its
+/// temporary file, but the kernel drops its lock: before creating one,
+/// every unlocked file or directory of the same prefix and suffix in `dir`
+/// is removed ([`sweep`]), so leftovers of killed writes never pile up
+/// beyond one per target.
+pub fn temp_file_in(dir: &Path, prefix: &str, suffix: &str) -> io::Result<NamedTempFile> {
+    sweep(dir, prefix, suffix);
+    let mut tries = 0;
+    loop {
+        let temp = tempfile::Builder::new()
+            .prefix(prefix)
+            .suffix(suffix)
+            .tempfile_in(dir)?;
+        lock_exclusive(temp.as_file())?;
+        // Another process's sweep may have removed the file between its
+        // creation and the lock: then make another one.
+        tries += 1;
+        if still_at(temp.as_file(), temp.path()) || tries >= 8 {
+            return Ok(temp);
+        }
+    }
+}
+
+/// A temporary directory, as [`temp_file_in`] makes files: the returned
+/// file is the directory, opened and locked for as long as it is kept.
+pub fn temp_dir_in(dir: &Path, prefix: &str, suffix: &str) -> io::Result<(TempDir, File)> {
+    sweep(dir, prefix, suffix);
+    let mut tries = 0;
+    loop {
+        let temp = tempfile::Builder::new()
+            .prefix(prefix)
+            .suffix(suffix)
+            .tempdir_in(dir)?;
+        let handle = File::open(temp.path())?;
+        lock_exclusive(&handle)?;
+        tries += 1;
+        if still_at(&handle, temp.path()) || tries >= 8 {
+            return Ok((temp, handle));
+        }
+    }
+}
+
+/// Remove the files and directories `dir/PREFIX*SUFFIX` that no live
+/// process holds locked: the temporary outputs of writers that were
+/// killed. Best effort: what cannot be removed stays.
+pub fn sweep(dir: &Path, prefix: &str, suffix: &str) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let name = name.to_string_lossy();
+        if name.len() <= prefix.len() + suffix.len()
+            || !name.starts_with(prefix)
+            || !name.ends_with(suffix)
+        {
+            continue;
+        }
+        let path = e.path();
+        let Ok(handle) = File::open(&path) else {
+            continue;
+        };
+        if !try_lock_exclusive(&handle) || !still_at(&handle, &path) {
+            continue;
+        }
+        let _ = if handle.metadata().is_ok_and(|m| m.is_dir()) {
+            std::fs::remove_dir_all(&path)
+        } else {
+            std::fs::remove_file(&path)
+        };
+    }
+}
+
+/// Take `f`'s exclusive lock, waiting for it (a sweep holds it briefly).
+fn lock_exclusive(f: &File) -> io::Result<()> {
+    #[cfg(unix)]
+    {
+        rustix::fs::flock(f, rustix::fs::FlockOperation::LockExclusive)?;
+    }
+    #[cfg(not(unix))]
+    let _ = f;
+    Ok(())
+}
+
+/// Take `f`'s exclusive lock if nobody holds it.
+fn try_lock_exclusive(f: &File) -> bool {
+    #[cfg(unix)]
+    {
+        rustix::fs::flock(f, rustix::fs::FlockOperation::NonBlockingLockExclusive).is_ok()
+    }
+    #[cfg(not(unix))]
+    {
+        // No way to tell a live writer's file from a dead one's.
+        let _ = f;
+        false
+    }
+}
+
+/// Whether `path` still names the file open as `f`.
+fn still_at(f: &File, path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        match (f.metadata(), std::fs::symlink_metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = f;
+        path.exists()
     }
 }
 
@@ -186,6 +307,37 @@ mod tests {
         assert_eq!(human_bytes(1536), "1.5 KiB");
         assert_eq!(human_bytes(1 << 48), "256.0 TiB");
         assert_eq!(human_bytes(u64::MAX), "16.0 EiB");
+    }
+
+    #[test]
+    fn leftovers_of_dead_writers_are_swept_live_ones_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("a.raw");
+        // A killed writer's file: nobody holds its lock.
+        let (_, dead) = tempfile::Builder::new()
+            .prefix(".a.raw.")
+            .suffix(PARTIAL)
+            .tempfile_in(dir.path())
+            .unwrap()
+            .keep()
+            .unwrap();
+        // A dead writer's staging directory, and another target's file.
+        let dead_dir = tempfile::Builder::new()
+            .prefix(".a.raw.")
+            .suffix(PARTIAL)
+            .tempdir_in(dir.path())
+            .unwrap()
+            .keep();
+        std::fs::write(dead_dir.join("x"), b"x").unwrap();
+        std::fs::write(dir.path().join(".b.raw.123456.partial"), b"b").unwrap();
+        let live = AtomicFile::create(&target).unwrap();
+        assert!(!dead.exists() && !dead_dir.exists());
+        assert!(dir.path().join(".b.raw.123456.partial").exists());
+        // A second writer of the same target leaves the live one alone.
+        let second = AtomicFile::create(&target).unwrap();
+        assert!(live.temp.path().exists() && second.temp.path().exists());
+        second.commit().unwrap();
+        assert!(live.temp.path().exists());
     }
 
     #[test]

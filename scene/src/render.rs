@@ -161,7 +161,11 @@ fn trace(
     let tracer = PathTracer::new(vol, index, &plan.camera, settings)
         .map_err(|e| Error::from_render(e).context(&name))?
         .with_cancel(cancel.clone());
-    let volume_id = match volformats::fingerprint(&source.path) {
+    let fingerprint = source
+        .fingerprint
+        .clone()
+        .unwrap_or_else(|| volformats::fingerprint(&source.path).map_err(|e| e.to_string()));
+    let volume_id = match fingerprint {
         Ok(f) => f,
         Err(e) if options.accumulate.is_some() => {
             return Err(Error::file(format!(
@@ -192,7 +196,7 @@ fn trace(
         return Err(Error::file(format!("{name}: {e}")));
     }
     if let Some(p) = &options.accumulate {
-        acc.save(p).kind_ctx(ErrorKind::File, state(p))?;
+        save_state(&acc, p).kind_ctx(ErrorKind::File, state(p))?;
     }
     let spp_added = acc.spp() - start_spp;
     let empty_fraction = tracer.empty_fraction();
@@ -210,4 +214,18 @@ fn trace(
             runs: vec![render_s],
         },
     })
+}
+
+/// Write an `--accumulate` state: under a temporary name beside it,
+/// renamed over the previous state only when complete, so that a render
+/// that is killed or runs out of space keeps the previous state intact.
+fn save_state(acc: &Accumulator, path: &std::path::Path) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut file = volformats::output::AtomicFile::create(path)?;
+    {
+        let mut w = std::io::BufWriter::with_capacity(1 << 20, file.file());
+        acc.write_to(&mut w)?;
+        w.flush()?;
+    }
+    file.commit()
 }

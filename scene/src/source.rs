@@ -19,6 +19,9 @@ pub struct Source {
     pub index: Option<MinMaxIndex>,
     /// The volume's path (errors name it; `--accumulate` fingerprints it).
     pub path: PathBuf,
+    /// The fingerprint of the file that was opened (see [`Source::open`]),
+    /// or why it has none; `None` when not taken.
+    pub fingerprint: Option<std::result::Result<u64, String>>,
     /// Seconds to open the volume.
     pub load_s: f64,
     /// Seconds to read or build the index.
@@ -28,17 +31,44 @@ pub struct Source {
 impl Source {
     /// Open the volume at `path` (`--in-memory` as the options say) and
     /// read or build its index.
+    ///
+    /// Path tracing (whose random sequence and `--accumulate` state belong
+    /// to the volume's fingerprint) and `--index` (checked against it) take
+    /// the file's fingerprint before and after opening it, and open it
+    /// again if the two differ: a file replaced (renamed over) meanwhile
+    /// never pairs one file's data with the other's fingerprint.
     pub fn open(options: &Options, path: &Path) -> Result<Source> {
         let t = Instant::now();
-        let volume = open(options, path)?;
+        let wants = options.index.is_some() || options.mode == crate::choices::ModeArg::Path;
+        let fp = || volformats::fingerprint(path).map_err(|e| e.to_string());
+        let mut tries = 0;
+        let (volume, fingerprint) = loop {
+            let before = wants.then(fp);
+            let volume = open(options, path)?;
+            let Some(before) = before else {
+                break (volume, None);
+            };
+            let after = fp();
+            if before == after {
+                break (volume, Some(after));
+            }
+            tries += 1;
+            if tries == 5 {
+                return Err(Error::file(format!(
+                    "{}: the file changed while it was opened, {tries} times",
+                    path.display()
+                )));
+            }
+        };
         let load_s = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let index = load_index(options, path, &volume)?;
+        let index = index_for(options, path, &volume, fingerprint.clone())?;
         let index_s = t.elapsed().as_secs_f64();
         Ok(Source {
             volume,
             index,
             path: path.to_path_buf(),
+            fingerprint,
             load_s,
             index_s,
         })
@@ -55,6 +85,7 @@ impl Source {
             volume,
             index,
             path: path.to_path_buf(),
+            fingerprint: None,
             load_s: 0.0,
             index_s,
         })
@@ -79,13 +110,27 @@ pub fn open(options: &Options, path: &Path) -> Result<Volume> {
 /// file (checked against the volume at `path`), else one built in memory
 /// with `--cell`.
 pub fn load_index(options: &Options, path: &Path, vol: &Volume) -> Result<Option<MinMaxIndex>> {
+    index_for(options, path, vol, None)
+}
+
+/// [`load_index`], with the volume file's fingerprint when already taken.
+fn index_for(
+    options: &Options,
+    path: &Path,
+    vol: &Volume,
+    fingerprint: Option<std::result::Result<u64, String>>,
+) -> Result<Option<MinMaxIndex>> {
     if options.no_ess {
         return Ok(None);
     }
     match &options.index {
         Some(p) => {
             let name = p.display().to_string();
-            let fp = volformats::fingerprint(path).kind_ctx(ErrorKind::File, path.display())?;
+            let fp = match fingerprint {
+                Some(Ok(fp)) => fp,
+                Some(Err(e)) => return Err(Error::file(format!("{}: {e}", path.display()))),
+                None => volformats::fingerprint(path).kind_ctx(ErrorKind::File, path.display())?,
+            };
             let file = std::fs::File::open(p).kind_ctx(ErrorKind::File, &name)?;
             let mut f = std::io::BufReader::new(file);
             let ix = MinMaxIndex::read_for_volume(&mut f, &vol.meta, fp)

@@ -5,6 +5,9 @@ use super::{At, CResult, SliceData};
 use std::io::Write;
 use std::path::Path;
 
+/// The start of the names of spooled copies (`.vol-convert-spool.XXXXXX`).
+pub(crate) const SPOOL_PREFIX: &str = ".vol-convert-spool.";
+
 /// A sequential input copied to a temporary file first, so that it can be
 /// read in any order (for flipping z) or twice (for an automatic window).
 /// Memory stays bounded: the copy lives on disk.
@@ -23,10 +26,9 @@ impl Spooled {
         mut each: impl FnMut(&SliceData),
     ) -> CResult<Spooled> {
         let info = inner.info().clone();
-        let mut file = tempfile::Builder::new()
-            .prefix(".vol-convert-spool.")
-            .tempfile_in(dir)
-            .at(dir)?;
+        // Locked while in use: a killed conversion's copy is removed by the
+        // next one that spools in `dir`.
+        let mut file = crate::output::temp_file_in(dir, SPOOL_PREFIX, "").at(dir)?;
         {
             let mut w = std::io::BufWriter::with_capacity(1 << 20, file.as_file_mut());
             for z in 0..info.dims.z {

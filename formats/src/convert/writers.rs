@@ -364,10 +364,9 @@ pub(crate) fn run_target<T: SliceSample>(
             }
             // The thesis layouts are z-fastest or bricked over all of z:
             // spool the converted samples to a temporary file first.
-            let mut tmp = tempfile::Builder::new()
-                .prefix(".vol-convert-spool.")
-                .tempfile_in(spec.temp_dir)
-                .at(spec.temp_dir)?;
+            let mut tmp =
+                crate::output::temp_file_in(spec.temp_dir, super::spool::SPOOL_PREFIX, "")
+                    .at(spec.temp_dir)?;
             {
                 let mut sink = RawSink {
                     out: tmp.as_file_mut(),
@@ -593,7 +592,8 @@ impl<W: Write + Send> FinishWrite for flate2::write::ZlibEncoder<W> {
 }
 
 /// Write a header format and its samples; both files appear only when
-/// complete (the data file first).
+/// complete: the data file first, then the header (the commit point; an
+/// older header is removed before the data file is replaced).
 fn write_headed<T: SliceSample>(
     path: &Path,
     format: HeaderFormat,
@@ -641,6 +641,16 @@ fn write_headed<T: SliceSample>(
     }
     let mut bytes = 0;
     if let Some((f, d)) = data_file {
+        // The header is the pair's commit point: data first, header last.
+        // An older header goes before the data is replaced, so that no
+        // moment shows it beside data it does not describe (killed in
+        // between, the output is absent: a data file alone is not one).
+        match std::fs::remove_file(path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(ConvertError::new(path, e))
+            }
+            _ => {}
+        }
         f.commit().at(d)?;
         bytes += std::fs::metadata(d).map(|m| m.len()).unwrap_or(0);
     }
@@ -935,9 +945,13 @@ fn check_shard_store(target: &Path) -> CResult<()> {
 }
 
 /// A directory written under a temporary name beside the target and
-/// renamed into place when complete (removed if dropped before).
+/// renamed into place when complete (removed if dropped before; swept by
+/// the next write of the same target if the writer is killed, see
+/// [`crate::output::temp_dir_in`]).
 struct PartialDir {
     temp: tempfile::TempDir,
+    /// The temporary directory, open: its lock marks the writer alive.
+    _lock: File,
     target: PathBuf,
 }
 
@@ -945,20 +959,18 @@ impl PartialDir {
     fn create(target: &Path) -> CResult<PartialDir> {
         let target = target.components().as_path().to_path_buf();
         check_dir_target(&target)?;
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let name = target
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let temp = tempfile::Builder::new()
-            .prefix(&format!(".{name}."))
-            .suffix(".partial")
-            .tempdir_in(&parent)
-            .at(&parent)?;
-        Ok(PartialDir { temp, target })
+        let parent = crate::output::parent_dir(&target);
+        let (temp, lock) = crate::output::temp_dir_in(
+            &parent,
+            &crate::output::temp_prefix(&target),
+            crate::output::PARTIAL,
+        )
+        .at(&parent)?;
+        Ok(PartialDir {
+            temp,
+            _lock: lock,
+            target,
+        })
     }
 
     fn commit(self) -> CResult<()> {

@@ -53,9 +53,14 @@ pub fn read_header_from(r: &mut dyn Read) -> Result<Header> {
 
 /// Header and trailer of a file, checked against its length.
 pub fn read_header(path: &Path) -> Result<(Header, Trailer)> {
-    let mut f = File::open(path)?;
+    read_header_of(&mut File::open(path)?)
+}
+
+/// [`read_header`] of an open file (read from its start).
+fn read_header_of(f: &mut File) -> Result<(Header, Trailer)> {
     let len = f.metadata()?.len();
-    let h = read_header_from(&mut f)?;
+    f.seek(SeekFrom::Start(0))?;
+    let h = read_header_from(f)?;
     check_len(&h, len)?;
     f.seek(SeekFrom::Start(h.data_offset + h.data_len))?;
     let mut t = [0u8; TRAILER_LEN as usize];
@@ -77,11 +82,13 @@ fn check_len(h: &Header, len: u64) -> Result<()> {
 /// Open a `.vvol` file: uncompressed layouts are memory-mapped and sampled
 /// in place, compressed bricks are decoded on demand.
 pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
-    let (h, t) = read_header(path)?;
+    // One open file for the header, the trailer and the map: a file
+    // replaced (renamed over) meanwhile is never read half old, half new.
+    let mut file = File::open(path)?;
+    let (h, t) = read_header_of(&mut file)?;
     if opts.verify {
         t.check_range(&h)?;
     }
-    let file = File::open(path)?;
     // SAFETY: the map is read-only; like every reader of mapped files we
     // rely on the file not being truncated by another process meanwhile.
     // A mapped file stays open beside its map for positioned reads.

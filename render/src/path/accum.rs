@@ -128,30 +128,32 @@ impl Accumulator {
         (lit > 0 && mean > 0.0).then(|| (se2 / lit as f64).sqrt() / (mean / lit as f64))
     }
 
-    /// Write the state to `path` (through a temporary file beside it,
-    /// renamed into place).
+    /// Write the state to `path` directly (tests and tools that replace
+    /// files themselves; `vol-render --accumulate` writes through a
+    /// temporary file renamed into place, see [`Accumulator::write_to`]).
     pub fn save(&self, path: &Path) -> std::io::Result<()> {
-        let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
-        let mut tmp = tempfile::NamedTempFile::new_in(dir.unwrap_or(Path::new(".")))?;
-        {
-            let mut w = std::io::BufWriter::new(tmp.as_file_mut());
-            w.write_all(MAGIC)?;
-            w.write_all(&self.key.to_le_bytes())?;
-            w.write_all(&self.width.to_le_bytes())?;
-            w.write_all(&self.height.to_le_bytes())?;
-            w.write_all(&self.spp.to_le_bytes())?;
-            for s in &self.sums {
-                for v in s {
-                    w.write_all(&v.to_le_bytes())?;
-                }
+        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+        self.write_to(&mut w)?;
+        w.flush()
+    }
+
+    /// The state as [`Accumulator::load`] reads it: a 32-byte header, then
+    /// four little-endian f64 sums per pixel.
+    pub fn write_to(&self, w: &mut dyn Write) -> std::io::Result<()> {
+        w.write_all(MAGIC)?;
+        w.write_all(&self.key.to_le_bytes())?;
+        w.write_all(&self.width.to_le_bytes())?;
+        w.write_all(&self.height.to_le_bytes())?;
+        w.write_all(&self.spp.to_le_bytes())?;
+        for s in &self.sums {
+            for v in s {
+                w.write_all(&v.to_le_bytes())?;
             }
-            w.flush()?;
         }
-        tmp.persist(path).map_err(|e| e.error)?;
         Ok(())
     }
 
-    /// Read a state written by [`Accumulator::save`], refusing one of
+    /// Read a state written by [`Accumulator::write_to`], refusing one of
     /// another scene (`key`) or image size.
     pub fn load(path: &Path, width: u32, height: u32, key: u64) -> Result<Accumulator, String> {
         let mut f = std::fs::File::open(path).map_err(|e| e.to_string())?;

@@ -14,6 +14,7 @@ mod degenerate;
 mod disk;
 mod escaping;
 mod extremes;
+mod faults;
 mod formats;
 mod pipes;
 mod psnr;
