@@ -93,3 +93,26 @@ fn the_targets_fixed_files_open() {
     assert_eq!(r.info().spacing.map(|s| s[2]), Some(2.5));
     r.read_slice(1).unwrap();
 }
+
+/// A DICOM element that claims more bytes than its file holds is refused
+/// with the element named, before dicom-rs would reserve and zero-fill
+/// the claimed length.
+#[test]
+fn dicom_lengths_past_the_file_are_refused() {
+    use volformats::open::{open_input, ReadOptions};
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = volkit_fuzz::dicom_slice(1);
+    let n = b.len();
+    // The pixel data (the last element, 24 bytes) claims 2 GiB.
+    b[n - 28..n - 24].copy_from_slice(&(1u32 << 31).to_le_bytes());
+    let p = dir.path().join("a.dcm");
+    std::fs::write(&p, &b).unwrap();
+    let e = open_input(&p, &ReadOptions::default())
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("a.dcm") && e.contains("(7FE0,0010) claims 2147483648 bytes"),
+        "{e}"
+    );
+}
