@@ -197,10 +197,6 @@ fn walk_elements(
         }
     };
     let mut fragments = false;
-    // The encoding to go back to at the end of each open sequence of
-    // undefined length (a UN one is implicit VR little endian inside).
-    let mut open: Vec<bool> = Vec::new();
-    let mut explicit = explicit;
     let mut pending: Option<(u16, u16)> = None;
     let mut ts = None;
     let mut over = false;
@@ -242,9 +238,6 @@ fn walk_elements(
                 })?;
             } else if tag == SEQUENCE_END {
                 fragments = false;
-                if let Some(e) = open.pop() {
-                    explicit = e;
-                }
             }
             continue;
         }
@@ -290,26 +283,12 @@ fn walk_elements(
             (None, long(r)?)
         };
         if len == UNDEFINED {
-            // Items follow, up to a sequence delimiter.
-            open.push(explicit);
-            match vr.as_ref() {
-                Some(b"SQ") => {}
-                // Encapsulated pixel data (or another binary value).
-                Some(b"OB" | b"OD" | b"OF" | b"OL" | b"OV" | b"OW" | b"SV" | b"UV") => {
-                    fragments = true
-                }
-                // UN (or an unknown VR, read as UN): a sequence in
-                // implicit VR little endian.
-                Some(_) => {
-                    explicit = false;
-                    if big {
-                        // dicom-rs decodes it in the outer byte order:
-                        // not walked.
-                        return Ok((ts, over));
-                    }
-                }
-                None if tag == (0x7fe0, 0x0010) => fragments = true,
-                None => {}
+            // As dicom-rs reads it: undefined-length pixel data holds
+            // fragments, any other undefined-length element (whatever its
+            // VR) a sequence in the same encoding; items follow up to a
+            // sequence delimiter.
+            if tag == (0x7fe0, 0x0010) {
+                fragments = true;
             }
             continue;
         }
@@ -355,7 +334,7 @@ fn walk_elements(
 /// before reading it: unchecked, a 600-byte file claiming a 4 GiB element
 /// would take 4 GiB of memory.
 fn check_lengths(path: &Path) -> CResult<()> {
-    use std::io::{Seek, SeekFrom};
+    use std::io::{Read, Seek, SeekFrom};
     let f = std::fs::File::open(path).at(path)?;
     let len = f.metadata().at(path)?.len();
     let mut w = FileWalk {
@@ -370,14 +349,79 @@ fn check_lengths(path: &Path) -> CResult<()> {
     w.r.seek(SeekFrom::Start(132)).at(path)?;
     w.pos = 132;
     let fail = |e: String| bad(path, format!("damaged DICOM file: {e}"));
-    let (ts, over) = walk_elements(&mut w, true, false, true).map_err(fail)?;
-    if !over {
+    // The meta group as dicom-rs reads it: elements while fewer bytes
+    // than (0002,0000) gives have been read, whatever their tags.
+    let mut head = [0u8; 12];
+    if w.read_exact(&mut head).is_err() || head[..8] != [2, 0, 0, 0, b'U', b'L', 4, 0] {
         return Ok(());
     }
-    // The meta group walk read the first tag of the data set.
-    let start = w.pos - 4;
-    w.r.seek(SeekFrom::Start(start)).at(path)?;
-    w.pos = start;
+    let group_len = u64::from(u32::from_le_bytes([head[8], head[9], head[10], head[11]]));
+    let mut ts = None;
+    let mut read = 0u64;
+    while read < group_len {
+        let mut h = [0u8; 8];
+        if w.read_exact(&mut h).is_err() {
+            return Ok(());
+        }
+        let tag = (
+            u16::from_le_bytes([h[0], h[1]]),
+            u16::from_le_bytes([h[2], h[3]]),
+        );
+        let short = matches!(
+            &[h[4], h[5]],
+            b"AE"
+                | b"AS"
+                | b"AT"
+                | b"CS"
+                | b"DA"
+                | b"DS"
+                | b"DT"
+                | b"FL"
+                | b"FD"
+                | b"IS"
+                | b"LO"
+                | b"LT"
+                | b"PN"
+                | b"SH"
+                | b"SL"
+                | b"SS"
+                | b"ST"
+                | b"TM"
+                | b"UI"
+                | b"UL"
+                | b"US"
+        ) && tag.0 != 0xfffe;
+        let (len, header) = if short {
+            (u32::from(u16::from_le_bytes([h[6], h[7]])), 8)
+        } else {
+            let mut l = [0u8; 4];
+            if w.read_exact(&mut l).is_err() {
+                return Ok(());
+            }
+            (u32::from_le_bytes(l), 12)
+        };
+        if len == UNDEFINED {
+            return Ok(());
+        }
+        let name = format!("({:04X},{:04X})", tag.0, tag.1);
+        let past = || {
+            fail(format!(
+                "element {name} claims {len} bytes, past the end of the data"
+            ))
+        };
+        if tag == (0x0002, 0x0010) && len <= 64 {
+            let mut b = vec![0u8; len as usize];
+            w.read_exact(&mut b).map_err(|_| past())?;
+            ts = Some(
+                String::from_utf8_lossy(&b)
+                    .trim_end_matches(['\0', ' '])
+                    .to_string(),
+            );
+        } else {
+            w.skip(u64::from(len)).map_err(|_| past())?;
+        }
+        read += header + u64::from(len);
+    }
     let ts = ts.unwrap_or_default();
     match ts.as_str() {
         "1.2.840.10008.1.2" => walk_elements(&mut w, false, false, false),
@@ -798,14 +842,29 @@ impl DicomReader {
     fn decode(&self, s: &SliceHeader) -> CResult<SliceData> {
         let obj = dicom_object::open_file(&s.path)
             .map_err(|e| bad(&s.path, format!("not a readable DICOM file: {e}")))?;
-        let px = obj
-            .decode_pixel_data()
-            .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?;
-        let bytes = px
-            .frame_data(0)
-            .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?;
         let t = stored_type(s.bits_allocated, s.signed);
         let n = s.rows as usize * s.cols as usize;
+        let rle;
+        let px;
+        let bytes: &[u8] = if obj.meta().transfer_syntax().trim_end_matches('\0') == RLE_LOSSLESS {
+            // Decoded here: dicom-rs's RLE decoder panics on damaged
+            // segment tables and short segments.
+            let frame = obj
+                .element(tags::PIXEL_DATA)
+                .ok()
+                .and_then(|e| e.value().fragments())
+                .and_then(|f| f.first())
+                .ok_or_else(|| bad(&s.path, "RLE pixel data without fragments"))?;
+            rle = decode_rle(frame, n, t.size())
+                .map_err(|e| bad(&s.path, format!("cannot decode the RLE pixel data: {e}")))?;
+            &rle
+        } else {
+            px = obj
+                .decode_pixel_data()
+                .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?;
+            px.frame_data(0)
+                .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?
+        };
         if bytes.len() < n * t.size() {
             return Err(bad(
                 &s.path,
@@ -828,6 +887,83 @@ impl DicomReader {
         };
         Ok(to_type(d, self.info.sample_type))
     }
+}
+
+/// The RLE Lossless transfer syntax.
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+
+/// Decode one RLE Lossless frame of `pixels` grey samples of `size` bytes
+/// into little-endian samples (DICOM PS3.5 annex G): a 64-byte header of
+/// the segment count and up to 15 offsets, then one PackBits segment per
+/// byte of a sample, the most significant first. Every offset and run is
+/// checked against the frame.
+fn decode_rle(frame: &[u8], pixels: usize, size: usize) -> Result<Vec<u8>, String> {
+    let word = |i: usize| -> u32 {
+        frame
+            .get(4 * i..4 * i + 4)
+            .map_or(0, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    if frame.len() < 64 {
+        return Err(format!(
+            "a frame of {} bytes has no RLE header",
+            frame.len()
+        ));
+    }
+    let segments = word(0) as usize;
+    if segments != size {
+        return Err(format!(
+            "{segments} segments for {}-bit samples (expected {size})",
+            size * 8
+        ));
+    }
+    let mut out = vec![0u8; pixels * size];
+    for seg in 0..segments {
+        let start = word(1 + seg) as usize;
+        let end = if seg + 1 < segments {
+            word(2 + seg) as usize
+        } else {
+            frame.len()
+        };
+        if start < 64 || start > end || end > frame.len() {
+            return Err(format!(
+                "segment {seg} at bytes {start}..{end} lies outside the {}-byte frame",
+                frame.len()
+            ));
+        }
+        // Segment 0 holds the most significant bytes.
+        let byte = size - 1 - seg;
+        let mut data = &frame[start..end];
+        let mut p = 0usize;
+        while p < pixels {
+            let Some((&h, rest)) = data.split_first() else {
+                return Err(format!("segment {seg} ends after {p} of {pixels} samples"));
+            };
+            data = rest;
+            let h = h as i8;
+            if h >= 0 {
+                let n = h as usize + 1;
+                let lit = data
+                    .get(..n)
+                    .ok_or_else(|| format!("segment {seg} ends inside a literal run"))?;
+                for &b in lit.iter().take(pixels - p) {
+                    out[p * size + byte] = b;
+                    p += 1;
+                }
+                data = &data[n..];
+            } else if h != -128 {
+                let n = 1 - h as isize;
+                let (&b, rest) = data
+                    .split_first()
+                    .ok_or_else(|| format!("segment {seg} ends inside a repeat run"))?;
+                data = rest;
+                for _ in 0..(n as usize).min(pixels - p) {
+                    out[p * size + byte] = b;
+                    p += 1;
+                }
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Keep the BitsStored low bits (sign-extended for signed pixels).
