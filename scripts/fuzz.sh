@@ -128,7 +128,9 @@ save() { # TARGET
     mkdir -p "fuzz/corpus/$t"
     # The smallest files that still cover every edge cmin kept, named by
     # their content so that saving twice keeps one copy.
-    find "$tmp/min" -type f -printf '%s %p\n' | sort -n | head -n "$KEEP_MAX" |
+    # (sed, not head, reads all of sort's output: head would leave sort
+    # writing to a closed pipe, and pipefail fail the save.)
+    find "$tmp/min" -type f -printf '%s %p\n' | sort -n | sed -n "1,${KEEP_MAX}p" |
         while read -r _ f; do
             cp "$f" "fuzz/corpus/$t/$(sha1sum "$f" | cut -c1-16)"
         done
