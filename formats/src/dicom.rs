@@ -323,7 +323,16 @@ fn walk_elements(
             );
             continue;
         }
-        r.skip(len as u64)
+        // dicom-rs reads whole numbers of a binary VR's values: the
+        // bytes of a length that is no multiple of their size are left
+        // for the next element's header.
+        let size = match vr.as_ref().map(|v| &v[..]) {
+            Some(b"US" | b"OW" | b"SS") => 2,
+            Some(b"FL" | b"OF" | b"SL" | b"OL" | b"UL" | b"AT") => 4,
+            Some(b"FD" | b"OD" | b"SV" | b"OV" | b"UV") => 8,
+            _ => 1,
+        };
+        r.skip(u64::from(len - len % size))
             .map_err(|_| format!("element {name} claims {len} bytes, past the end of the data"))?;
     }
 }
