@@ -18,7 +18,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png scene vpart vidxpart"
+TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png scene vpart vidxpart nifti dicom omezarr ometiff envmap"
 OUT=${FUZZ_OUT:-target/fuzz-out}
 BIN=target/fuzz/release/volkit-fuzz
 # Corpus files kept per target, and their largest size.
@@ -128,7 +128,9 @@ save() { # TARGET
     mkdir -p "fuzz/corpus/$t"
     # The smallest files that still cover every edge cmin kept, named by
     # their content so that saving twice keeps one copy.
-    find "$tmp/min" -type f -printf '%s %p\n' | sort -n | head -n "$KEEP_MAX" |
+    # (sed, not head, reads all of sort's output: head would leave sort
+    # writing to a closed pipe, and pipefail fail the save.)
+    find "$tmp/min" -type f -printf '%s %p\n' | sort -n | sed -n "1,${KEEP_MAX}p" |
         while read -r _ f; do
             cp "$f" "fuzz/corpus/$t/$(sha1sum "$f" | cut -c1-16)"
         done
@@ -148,8 +150,8 @@ seeds() {
     cargo build --quiet --bins
     work=$(mktemp -d)
     trap 'rm -rf "$work"' RETURN
-    local c=fuzz/corpus
-    mkdir -p "$c"/{vvol,thesis,raw,nrrd,mhd,tiff,vidx,tf,pfm,png,scene,vpart,vidxpart}
+    local c=fuzz/corpus t
+    for t in $TARGETS; do mkdir -p "$c/$t"; done
     local g="$tools/vol-gen" cv="$tools/vol-convert"
     # .vvol: every type and layout, tiny.
     "$g" solid --dims 3,2,2 --value 7 -o "$work/a.vvol" -q && cp "$work/a.vvol" "$c/vvol/u8-sliced"
@@ -161,7 +163,6 @@ seeds() {
     "$g" shapes --dims 4,3,2 --count 2 --size 2 -o "$work/a.vol" -q && cp "$work/a.vol" "$c/thesis/sliced"
     "$g" ramp --dims 4,3,3 --layout bricked:3 -o "$work/b.vol" -q && cp "$work/b.vol" "$c/thesis/bricked"
     # Raw: the Open SciVis name on the first line, then the samples.
-    local t
     for t in u8 u16 i16 f32; do
         "$g" ramp --dims 3,2,2 --type "$t" -o "$work/r_3x2x2_$t.raw" -q
         { printf 'r_3x2x2_%s.raw\n' "$t"; cat "$work/r_3x2x2_$t.raw"; } >"$c/raw/$t"
@@ -226,6 +227,31 @@ intensity = 40
 type = "headlight"
 colour = 0.5
 EOF
+    # NIfTI-1 as vol-convert writes it, plain and gzip.
+    "$cv" "$work/t-u16.vvol" -o "$work/a.nii" -q && cp "$work/a.nii" "$c/nifti/u16"
+    "$cv" "$work/t-f32.vvol" -o "$work/b.nii.gz" -q && cp "$work/b.nii.gz" "$c/nifti/f32-gz"
+    # DICOM: the middle slice of the target's three-slice series.
+    cargo run --quiet -p volkit-fuzz --example dicom -- "$c/dicom/slice"
+    # OME-Zarr, NGFF 0.4 and 0.5: group metadata, NUL, array metadata,
+    # NUL, chunk 0 (fuzz/src/lib.rs, split_zarr).
+    "$cv" "$work/t-u16.vvol" -o "$work/a.ome.zarr" -q
+    { cat "$work/a.ome.zarr/.zattrs"; printf '\0'; cat "$work/a.ome.zarr/0/.zarray"; printf '\0'
+      cat "$work/a.ome.zarr/0/0/0/0"; } >"$c/omezarr/v2"
+    "$cv" "$work/t-u8.vvol" --ngff 0.5 -o "$work/b.ome.zarr" -q
+    { cat "$work/b.ome.zarr/zarr.json"; printf '\0'; cat "$work/b.ome.zarr/0/zarr.json"; printf '\0'
+      cat "$work/b.ome.zarr/0/c/0/0/0"; } >"$c/omezarr/v3"
+    # OME-TIFF and ImageJ descriptions: a layout byte (pages - 1 in the
+    # low four bits, sample type in the high), then the text.
+    printf '\x13ImageJ=1.54f\nimages=4\nchannels=2\nslices=2\nhyperstack=true\nspacing=2.5\nunit=micron\n' >"$c/ometiff/imagej-cz"
+    printf '\x00ImageJ=1.54f\nimages=3\nslices=3\nspacing=0.5\nloop=false\n' >"$c/ometiff/imagej-raw"
+    printf '\x25<?xml version="1.0" encoding="UTF-8"?><OME xmlns="http://www.openmicroscopy.org/Schemas/OME/2016-06"><Image ID="Image:0"><Pixels ID="Pixels:0" DimensionOrder="XYZCT" Type="float" SizeX="3" SizeY="2" SizeZ="3" SizeC="2" SizeT="1" PhysicalSizeX="0.5" PhysicalSizeY="0.5" PhysicalSizeZ="2"><Channel ID="Channel:0:0"/><Channel ID="Channel:0:1"/></Pixels></Image></OME>' >"$c/ometiff/ome-zc"
+    # Environment maps: renders as PFM and (path-traced) OpenEXR, and a
+    # grey PFM.
+    "$tools/vol-render" "$work/t-u8.vvol" --size 4x2 -o "$work/e.png" --hdr "$work/e.pfm" >/dev/null 2>&1 &&
+        cp "$work/e.pfm" "$c/envmap/rgb-pfm"
+    "$tools/vol-render" "$work/t-u8.vvol" --mode path --spp 1 --size 4x2 -o "$work/e.png" --hdr "$work/e.exr" >/dev/null 2>&1 &&
+        cp "$work/e.exr" "$c/envmap/rgb-exr"
+    printf 'Pf\n2 1\n-1.0\n\0\0\200?\0\0\000@' >"$c/envmap/grey"
     for t in $TARGETS; do
         echo "fuzz: seeds for $t: $(find "$c/$t" -type f | wc -l) files"
     done

@@ -170,14 +170,35 @@ pub fn image_extension(path: &Path) -> Option<&'static str> {
     ["png", "pfm", "exr"].into_iter().find(|e| *e == ext)
 }
 
+/// How many times larger than its whole file a decoded PNG or OpenEXR
+/// image may be. Neither format's compression expands more (deflate, of
+/// PNG and of EXR's ZIP, at most 1032:1; EXR's RLE 64:1; PIZ, PXR24 and
+/// the B44 variants less); a header whose size claims more is damaged.
+/// The same bound as TIFF pages (`volformats::tiff`).
+pub const MAX_EXPANSION: u64 = 4096;
+
 fn decode_with(path: &Path, format: image::ImageFormat) -> Result<Image> {
-    let file = std::fs::File::open(path)?;
-    let reader = image::ImageReader::with_format(std::io::BufReader::new(file), format);
-    let img = reader.decode().map_err(|e| match e {
+    use image::ImageDecoder;
+    let err = |e: image::ImageError| match e {
         image::ImageError::IoError(io) => Error::Io(io),
         other => Error::invalid(volcore::text::clip(&other.to_string(), 200)),
-    })?;
-    Image::from_dynamic(img)
+    };
+    let file = std::fs::File::open(path)?;
+    let file_len = file.metadata()?.len();
+    let reader = image::ImageReader::with_format(std::io::BufReader::new(file), format);
+    let decoder = reader.into_decoder().map_err(err)?;
+    // Checked before the decoder allocates the image (and, for OpenEXR,
+    // fills it).
+    let (w, h) = decoder.dimensions();
+    let bytes = decoder.total_bytes();
+    if bytes > file_len.max(1).saturating_mul(MAX_EXPANSION) {
+        return Err(Error::invalid(format!(
+            "the header describes a {w}x{h} image of {bytes} bytes, more than a file of {file_len} bytes can hold even compressed (damaged header?)"
+        )));
+    }
+    let mut limits = image::Limits::default();
+    limits.reserve(bytes).map_err(err)?;
+    Image::from_dynamic(DynamicImage::from_decoder(decoder).map_err(err)?)
 }
 
 #[cfg(test)]

@@ -62,3 +62,57 @@ fn target_names_round_trip() {
     }
     assert_eq!(Target::from_name("nope"), None);
 }
+
+/// The files the new targets build around their input must be valid
+/// themselves, or the fuzzer never gets past the first check.
+#[test]
+fn the_targets_fixed_files_open() {
+    use volformats::open::{open_input, ReadOptions};
+    let dir = tempfile::tempdir().unwrap();
+    // The DICOM target's series, with its seed as the middle slice.
+    let series = dir.path().join("series");
+    std::fs::create_dir(&series).unwrap();
+    for z in 0..3 {
+        std::fs::write(series.join(format!("{z}.dcm")), volkit_fuzz::dicom_slice(z)).unwrap();
+    }
+    let r = open_input(&series, &ReadOptions::default()).unwrap();
+    assert_eq!(r.info().dims.to_string(), "4x3x3");
+    for z in 0..3 {
+        r.read_slice(z).unwrap();
+    }
+    // The OME-TIFF target's file: an ImageJ hyperstack of 2 channels.
+    let desc = b"ImageJ=1.54f\nimages=4\nchannels=2\nslices=2\nspacing=2.5\n";
+    let p = dir.path().join("a.tif");
+    std::fs::write(&p, volkit_fuzz::tiff_with_description(4, 1, desc)).unwrap();
+    let opts = ReadOptions {
+        channel: volformats::tiff::ChannelSel::Channel(1),
+        ..ReadOptions::default()
+    };
+    let r = open_input(&p, &opts).unwrap();
+    assert_eq!(r.info().dims.to_string(), "3x2x2");
+    assert_eq!(r.info().spacing.map(|s| s[2]), Some(2.5));
+    r.read_slice(1).unwrap();
+}
+
+/// A DICOM element that claims more bytes than its file holds is refused
+/// with the element named, before dicom-rs would reserve and zero-fill
+/// the claimed length.
+#[test]
+fn dicom_lengths_past_the_file_are_refused() {
+    use volformats::open::{open_input, ReadOptions};
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = volkit_fuzz::dicom_slice(1);
+    let n = b.len();
+    // The pixel data (the last element, 24 bytes) claims 2 GiB.
+    b[n - 28..n - 24].copy_from_slice(&(1u32 << 31).to_le_bytes());
+    let p = dir.path().join("a.dcm");
+    std::fs::write(&p, &b).unwrap();
+    let e = open_input(&p, &ReadOptions::default())
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(
+        e.contains("a.dcm") && e.contains("(7FE0,0010) claims 2147483648 bytes"),
+        "{e}"
+    );
+}

@@ -189,8 +189,9 @@ pub fn settings(
 }
 
 /// Read an equirectangular environment map: a linear float image (PFM or
-/// OpenEXR; grey maps are spread over RGB, alpha is ignored).
-fn load_env_map(p: &Path) -> Result<EnvMap> {
+/// OpenEXR; grey maps are spread over RGB, alpha is ignored). Public for
+/// the `envmap` fuzz target, which loads maps the way `--env-map` does.
+pub fn load_env_map(p: &Path) -> Result<EnvMap> {
     let name = p.display();
     match volcompare::image::image_extension(p) {
         Some("pfm" | "exr") => {}

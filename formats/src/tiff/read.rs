@@ -174,8 +174,10 @@ fn page_info<R: Read + Seek>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
     })
 }
 
-/// Spacing from the resolution tags and an ImageJ description.
-fn spacing_of<R: Read + Seek>(d: &mut Dec<R>) -> Option<[f32; 3]> {
+/// Spacing from the resolution tags and an ImageJ description (the
+/// page's own, else `z_first`: the `spacing=` of the file's first page,
+/// which is the only one ImageJ describes).
+fn spacing_of<R: Read + Seek>(d: &mut Dec<R>, z_first: Option<f32>) -> Option<[f32; 3]> {
     let res = |d: &mut Dec<R>, t: Tag| -> Option<f32> {
         match d.find_tag(t).ok()?? {
             ::tiff::decoder::ifd::Value::Rational(n, den) if n > 0 && den > 0 => {
@@ -194,7 +196,8 @@ fn spacing_of<R: Read + Seek>(d: &mut Dec<R>) -> Option<[f32; 3]> {
         .ok()
         .flatten()
         .and_then(|v| v.into_string().ok())
-        .and_then(|s| imagej_spacing(&s));
+        .and_then(|s| imagej_spacing(&s))
+        .or(z_first);
     if sx.is_none() && sy.is_none() && sz.is_none() {
         return None;
     }
@@ -597,12 +600,15 @@ pub fn open_files(
     let mut chan = chan;
     let mut axes_note = String::new();
     let mut axes_spacing = None;
+    let desc = d
+        .find_tag(Tag::ImageDescription)
+        .ok()
+        .flatten()
+        .and_then(|v| v.into_string().ok());
+    // A hyperstack's channel or time point may start on a later page,
+    // which has no description of its own.
+    let z_first = desc.as_deref().and_then(imagej_spacing);
     if files.len() == 1 && ifds.len() > 1 {
-        let desc = d
-            .find_tag(Tag::ImageDescription)
-            .ok()
-            .flatten()
-            .and_then(|v| v.into_string().ok());
         if let Some(a) = desc.as_deref().and_then(super::axes::Axes::parse) {
             let c = match chan {
                 ChannelSel::Channel(c) if a.c > 1 => Some(c as u64),
@@ -636,7 +642,7 @@ pub fn open_files(
             )),
         ));
     }
-    let spacing = axes_spacing.or_else(|| spacing_of(&mut d));
+    let spacing = axes_spacing.or_else(|| spacing_of(&mut d, z_first));
     let (z, pages, format, bytes_in) = if files.len() == 1 {
         let z = ifds.len() as u64;
         let len = std::fs::metadata(&first).at(&first)?.len();
@@ -840,7 +846,7 @@ pub fn imagej_raw(path: &Path) -> CResult<Option<ImageJRaw>> {
     };
     let dims = Dims::new(page.width as u64, page.height as u64, images).at(path)?;
     let big_endian = matches!(d.byte_order(), ::tiff::tags::ByteOrder::BigEndian);
-    let spacing = spacing_of(&mut d);
+    let spacing = spacing_of(&mut d, None);
     Ok(Some(ImageJRaw {
         dims,
         sample_type,
