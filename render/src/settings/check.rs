@@ -13,9 +13,10 @@ use crate::ray::NEAR_STEPS;
 use volcore::Volume;
 
 /// Check `settings` for a frame of `vol` through `camera` before anything
-/// is built: the frame's memory, the steps, the effects' settings, the
-/// camera's reach, the termination threshold, the tile size and the iso
-/// value.
+/// is built: the frame's memory (from the camera's image size), the steps
+/// (f32 positions across the volume: where the eye is does not matter),
+/// the effects' settings, the termination threshold, the tile size and the
+/// iso value.
 pub fn frame(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result<(), RenderError> {
     let (w, h) = (camera.width() as u64, camera.height() as u64);
     let need = w * h * FRAME_BYTES_PER_PIXEL;
