@@ -170,6 +170,36 @@ const UNDEFINED: u32 = u32::MAX;
 const ITEM: (u16, u16) = (0xfffe, 0xe000);
 const SEQUENCE_END: (u16, u16) = (0xfffe, 0xe0dd);
 
+/// Whether explicit-VR elements of value representation `vr` carry a
+/// 16-bit length: dicom-rs reads one for these and a 32-bit one (after
+/// two reserved bytes) for every other, unknown VRs included (as UN).
+fn short_length_vr(vr: &[u8; 2]) -> bool {
+    matches!(
+        vr,
+        b"AE"
+            | b"AS"
+            | b"AT"
+            | b"CS"
+            | b"DA"
+            | b"DS"
+            | b"DT"
+            | b"FL"
+            | b"FD"
+            | b"IS"
+            | b"LO"
+            | b"LT"
+            | b"PN"
+            | b"SH"
+            | b"SL"
+            | b"SS"
+            | b"ST"
+            | b"TM"
+            | b"UI"
+            | b"UL"
+            | b"US"
+    )
+}
+
 /// Walk the data elements of one encoding (explicit or implicit VR, byte
 /// order) to the end of `r`, stepping into sequences and items and over
 /// every other value (and pixel data fragments); the first value that
@@ -245,33 +275,7 @@ fn walk_elements(
             let mut v = [0u8; 2];
             r.read_exact(&mut v)
                 .map_err(|_| format!("element {name} is truncated"))?;
-            // dicom-rs reads a 16-bit length for these VRs and a
-            // 32-bit one (after two reserved bytes) for every other,
-            // unknown VRs included (as UN).
-            let wide = !matches!(
-                &v,
-                b"AE"
-                    | b"AS"
-                    | b"AT"
-                    | b"CS"
-                    | b"DA"
-                    | b"DS"
-                    | b"DT"
-                    | b"FL"
-                    | b"FD"
-                    | b"IS"
-                    | b"LO"
-                    | b"LT"
-                    | b"PN"
-                    | b"SH"
-                    | b"SL"
-                    | b"SS"
-                    | b"ST"
-                    | b"TM"
-                    | b"UI"
-                    | b"UL"
-                    | b"US"
-            );
+            let wide = !short_length_vr(&v);
             let len = if wide {
                 short(r)?;
                 long(r)?
@@ -376,30 +380,7 @@ fn check_lengths(path: &Path) -> CResult<()> {
             u16::from_le_bytes([h[0], h[1]]),
             u16::from_le_bytes([h[2], h[3]]),
         );
-        let short = matches!(
-            &[h[4], h[5]],
-            b"AE"
-                | b"AS"
-                | b"AT"
-                | b"CS"
-                | b"DA"
-                | b"DS"
-                | b"DT"
-                | b"FL"
-                | b"FD"
-                | b"IS"
-                | b"LO"
-                | b"LT"
-                | b"PN"
-                | b"SH"
-                | b"SL"
-                | b"SS"
-                | b"ST"
-                | b"TM"
-                | b"UI"
-                | b"UL"
-                | b"US"
-        ) && tag.0 != 0xfffe;
+        let short = short_length_vr(&[h[4], h[5]]) && tag.0 != 0xfffe;
         let (len, header) = if short {
             (u32::from(u16::from_le_bytes([h[6], h[7]])), 8)
         } else {
