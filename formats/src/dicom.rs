@@ -203,15 +203,8 @@ fn short_length_vr(vr: &[u8; 2]) -> bool {
 /// Walk the data elements of one encoding (explicit or implicit VR, byte
 /// order) to the end of `r`, stepping into sequences and items and over
 /// every other value (and pixel data fragments); the first value that
-/// runs past the end of the data is an error. With `meta`, stop at the
-/// first tag past group 2. Returns the transfer syntax UID (0002,0010)
-/// when met, and whether a tag past group 2 was read.
-fn walk_elements(
-    r: &mut dyn Walk,
-    explicit: bool,
-    big: bool,
-    meta: bool,
-) -> Result<(Option<String>, bool), String> {
+/// runs past the end of the data is an error.
+fn walk_elements(r: &mut dyn Walk, explicit: bool, big: bool) -> Result<(), String> {
     let u16_of = |b: [u8; 2]| {
         if big {
             u16::from_be_bytes(b)
@@ -228,8 +221,6 @@ fn walk_elements(
     };
     let mut fragments = false;
     let mut pending: Option<(u16, u16)> = None;
-    let mut ts = None;
-    let mut over = false;
     loop {
         let tag = match pending.take() {
             Some(t) => t,
@@ -238,14 +229,10 @@ fn walk_elements(
                 match read_or_end(r, &mut b) {
                     Ok(true) => (u16_of([b[0], b[1]]), u16_of([b[2], b[3]])),
                     // A data set that stops inside a tag is dicom-rs's to report.
-                    _ => return Ok((ts, over)),
+                    _ => return Ok(()),
                 }
             }
         };
-        if meta && tag.0 != 0x0002 {
-            over = true;
-            return Ok((ts, over));
-        }
         let name = format!("({:04X},{:04X})", tag.0, tag.1);
         let short = |r: &mut dyn Walk| -> Result<u32, String> {
             let mut b = [0u8; 2];
@@ -313,18 +300,6 @@ fn walk_elements(
             r.skip(len as u64 - 4).map_err(|_| {
                 format!("element {name} claims {len} bytes, past the end of the data")
             })?;
-            continue;
-        }
-        if tag == (0x0002, 0x0010) && len <= 64 {
-            let mut b = vec![0u8; len as usize];
-            r.read_exact(&mut b).map_err(|_| {
-                format!("element {name} claims {len} bytes, past the end of the data")
-            })?;
-            ts = Some(
-                String::from_utf8_lossy(&b)
-                    .trim_end_matches(['\0', ' '])
-                    .to_string(),
-            );
             continue;
         }
         // dicom-rs reads whole numbers of a binary VR's values: the
@@ -414,13 +389,13 @@ fn check_lengths(path: &Path) -> CResult<()> {
     }
     let ts = ts.unwrap_or_default();
     match ts.as_str() {
-        "1.2.840.10008.1.2" => walk_elements(&mut w, false, false, false),
-        "1.2.840.10008.1.2.2" => walk_elements(&mut w, true, true, false),
+        "1.2.840.10008.1.2" => walk_elements(&mut w, false, false),
+        "1.2.840.10008.1.2.2" => walk_elements(&mut w, true, true),
         "1.2.840.10008.1.2.1.99" | "1.2.840.10008.1.2.4.95" => {
             let mut s = StreamWalk(flate2::read::DeflateDecoder::new(w.r));
-            walk_elements(&mut s, true, false, false)
+            walk_elements(&mut s, true, false)
         }
-        _ => walk_elements(&mut w, true, false, false),
+        _ => walk_elements(&mut w, true, false),
     }
     .map_err(fail)?;
     Ok(())
