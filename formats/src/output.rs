@@ -93,38 +93,57 @@ pub fn temp_prefix(target: &Path) -> String {
 /// is removed ([`sweep`]), so leftovers of killed writes never pile up
 /// beyond one per target.
 pub fn temp_file_in(dir: &Path, prefix: &str, suffix: &str) -> io::Result<NamedTempFile> {
-    sweep(dir, prefix, suffix);
-    let mut tries = 0;
-    loop {
-        let temp = tempfile::Builder::new()
-            .prefix(prefix)
-            .suffix(suffix)
-            .tempfile_in(dir)?;
-        lock_exclusive(temp.as_file())?;
-        // Another process's sweep may have removed the file between its
-        // creation and the lock: then make another one.
-        tries += 1;
-        if still_at(temp.as_file(), temp.path()) || tries >= 8 {
-            return Ok(temp);
-        }
-    }
+    create_locked(
+        dir,
+        prefix,
+        suffix,
+        |b| b.tempfile_in(dir),
+        |t| {
+            lock_exclusive(t.as_file())?;
+            Ok(still_at(t.as_file(), t.path()))
+        },
+    )
 }
 
 /// A temporary directory, as [`temp_file_in`] makes files: the returned
 /// file is the directory, opened and locked for as long as it is kept.
 pub fn temp_dir_in(dir: &Path, prefix: &str, suffix: &str) -> io::Result<(TempDir, File)> {
+    create_locked(
+        dir,
+        prefix,
+        suffix,
+        |b| {
+            let temp = b.tempdir_in(dir)?;
+            let handle = File::open(temp.path())?;
+            Ok((temp, handle))
+        },
+        |(temp, handle)| {
+            lock_exclusive(handle)?;
+            Ok(still_at(handle, temp.path()))
+        },
+    )
+}
+
+/// Sweep `dir` of dead temporaries, then `make` a temporary named
+/// `PREFIXxxxxxxSUFFIX` and `lock` it (true: it is still at its name).
+/// Another process's sweep may remove a new temporary between its
+/// creation and the lock: then another is made (up to 8 tries).
+fn create_locked<T>(
+    dir: &Path,
+    prefix: &str,
+    suffix: &str,
+    make: impl Fn(&tempfile::Builder) -> io::Result<T>,
+    lock: impl Fn(&T) -> io::Result<bool>,
+) -> io::Result<T> {
     sweep(dir, prefix, suffix);
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(prefix).suffix(suffix);
     let mut tries = 0;
     loop {
-        let temp = tempfile::Builder::new()
-            .prefix(prefix)
-            .suffix(suffix)
-            .tempdir_in(dir)?;
-        let handle = File::open(temp.path())?;
-        lock_exclusive(&handle)?;
+        let temp = make(&builder)?;
         tries += 1;
-        if still_at(&handle, temp.path()) || tries >= 8 {
-            return Ok((temp, handle));
+        if lock(&temp)? || tries >= 8 {
+            return Ok(temp);
         }
     }
 }
