@@ -128,17 +128,9 @@ impl Accumulator {
         (lit > 0 && mean > 0.0).then(|| (se2 / lit as f64).sqrt() / (mean / lit as f64))
     }
 
-    /// Write the state to `path` directly (tests and tools that replace
-    /// files themselves; `vol-render --accumulate` writes through a
-    /// temporary file renamed into place, see [`Accumulator::write_to`]).
-    pub fn save(&self, path: &Path) -> std::io::Result<()> {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
-        self.write_to(&mut w)?;
-        w.flush()
-    }
-
     /// The state as [`Accumulator::load`] reads it: a 32-byte header, then
-    /// four little-endian f64 sums per pixel.
+    /// four little-endian f64 sums per pixel. (`vol-render --accumulate`
+    /// writes it under a temporary name renamed into place when complete.)
     pub fn write_to(&self, w: &mut dyn Write) -> std::io::Result<()> {
         w.write_all(MAGIC)?;
         w.write_all(&self.key.to_le_bytes())?;
@@ -226,7 +218,7 @@ mod tests {
             }
         }
         a.finish_pass(4);
-        a.save(&p).unwrap();
+        a.write_to(&mut std::fs::File::create(&p).unwrap()).unwrap();
         assert_eq!(Accumulator::load(&p, 3, 2, 77).unwrap(), a);
         assert!(Accumulator::load(&p, 3, 2, 78)
             .unwrap_err()

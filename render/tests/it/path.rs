@@ -249,7 +249,8 @@ fn images_are_bit_identical_across_threads_and_resumes() {
         |_, _| {},
     )
     .unwrap();
-    a.save(&state).unwrap();
+    a.write_to(&mut std::fs::File::create(&state).unwrap())
+        .unwrap();
     let mut b = Accumulator::load(&state, 20, 20, pt.key(0)).unwrap();
     pt.pass(&mut b, 3).unwrap();
     assert_eq!(b, one);
