@@ -681,7 +681,9 @@ impl DicomReader {
             }
         }
         let geometry = Geometry::from_axes(slices[0].position, geometry_axes(normal))
-            .map_err(|e| bad(&first.path, format!("DICOM geometry: {e}")))?;
+            .map_err(|e| bad(&first.path, format!("DICOM geometry: {e}")))?
+            // DICOM states every position and spacing in millimetres.
+            .with_unit(volcore::LengthUnit::Millimeter);
         let stored = stored_type(first.bits_allocated, first.signed);
         let out = slices
             .iter()

@@ -29,6 +29,7 @@ pub mod open;
 pub mod output;
 pub mod pipeline;
 pub mod raw;
+pub mod select;
 pub mod stream;
 pub mod thesis;
 pub mod tiff;
@@ -38,6 +39,7 @@ pub use detect::FileKind;
 pub use error::{Error, Result};
 pub use fingerprint::fingerprint;
 pub use open::{open, open_input, open_volume, ReadOptions};
+pub use select::Selection;
 
 #[cfg(test)]
 mod tests;

@@ -8,7 +8,7 @@
 //!
 //! Reading: either byte order; types `uint8`, `int8`, `int16`, `uint16`,
 //! `int32`, `uint32`, `float32`, `float64`; 2D or 3D, or one volume of a
-//! 4D series picked with `--time T`. `scl_slope`/`scl_inter` are applied
+//! 4D series picked with `--time-point T`. `scl_slope`/`scl_inter` are applied
 //! (a slope of 0 or NaN means none), so integer data with an integer
 //! rescale stays integer and the rest becomes float. Geometry: the sform
 //! when its code is set, else the qform, else the voxel sizes alone; the
@@ -16,7 +16,8 @@
 //!
 //! Writing: NIfTI-1 (NIfTI-2 when a dimension passes 32767), one volume,
 //! with the same affine as sform and qform (code 1, scanner anatomical),
-//! units mm, no rescale.
+//! no rescale. The unit of length is read from and written to
+//! `xyzt_units` (m, mm, µm; none stated is code 0).
 
 use crate::convert::{rescale::Rescale, SliceType};
 use crate::datafile::{DataSpec, DataStart, Encoding};
@@ -24,10 +25,34 @@ use crate::error::{Error, Result};
 use byteorder::{BigEndian, ByteOrder, LittleEndian};
 use std::io::Read;
 use std::path::{Path, PathBuf};
-use volcore::{Dims, Geometry, SampleType};
+use volcore::{Dims, Geometry, LengthUnit, SampleType};
 
 /// Size of a NIfTI-1 header.
 pub const NIFTI1_LEN: usize = 348;
+
+const NIFTI_UNITS_METER: i32 = 1;
+const NIFTI_UNITS_MM: i32 = 2;
+const NIFTI_UNITS_MICRON: i32 = 3;
+
+/// The units of length NIfTI has codes for. A reader takes any other
+/// code (nm included) as "unknown", which most read as millimetres: the
+/// converter turns other units into the nearest of these first.
+pub const UNITS: [LengthUnit; 3] = [
+    LengthUnit::Meter,
+    LengthUnit::Millimeter,
+    LengthUnit::Micrometer,
+];
+
+/// The `xyzt_units` code of `unit` (0, "unknown", for a unit without one,
+/// which [`UNITS`] keeps from reaching here).
+fn unit_code(unit: LengthUnit) -> i32 {
+    match unit {
+        LengthUnit::Meter => NIFTI_UNITS_METER,
+        LengthUnit::Millimeter => NIFTI_UNITS_MM,
+        LengthUnit::Micrometer => NIFTI_UNITS_MICRON,
+        _ => 0,
+    }
+}
 /// Size of a NIfTI-2 header.
 pub const NIFTI2_LEN: usize = 540;
 
@@ -58,6 +83,9 @@ pub struct NiftiHeader {
     pub quatern: [f64; 6],
     /// Rows of the sform affine.
     pub srow: [[f64; 4]; 3],
+    /// `xyzt_units`: the unit of length in bits 0-2 (1 m, 2 mm, 3 µm; 0
+    /// not stated), of time in bits 3-5.
+    pub xyzt_units: i32,
     /// `ni1`/`ni2` (header and data in separate files) rather than `n+1`/`n+2`.
     pub pair: bool,
 }
@@ -154,6 +182,7 @@ impl NiftiHeader {
                 sform_code: E::read_i16(&b[254..]) as i32,
                 quatern: std::array::from_fn(|i| f(256 + 4 * i)),
                 srow: std::array::from_fn(|r| std::array::from_fn(|c| f(280 + 16 * r + 4 * c))),
+                xyzt_units: b[123] as i32,
                 pair,
             }
         } else {
@@ -176,6 +205,7 @@ impl NiftiHeader {
                 sform_code: E::read_i32(&b[348..]),
                 quatern: std::array::from_fn(|i| f(352 + 8 * i)),
                 srow: std::array::from_fn(|r| std::array::from_fn(|c| f(400 + 32 * r + 8 * c))),
+                xyzt_units: E::read_i32(&b[500..]),
                 pair,
             }
         };
@@ -225,9 +255,25 @@ impl NiftiHeader {
         })
     }
 
-    /// Spacing and LPS geometry: from the sform when set, else the qform,
-    /// else the voxel sizes alone.
+    /// The unit of length `xyzt_units` states (an unknown code, like 0,
+    /// states none).
+    pub fn unit(&self) -> LengthUnit {
+        match self.xyzt_units & 0x07 {
+            NIFTI_UNITS_METER => LengthUnit::Meter,
+            NIFTI_UNITS_MM => LengthUnit::Millimeter,
+            NIFTI_UNITS_MICRON => LengthUnit::Micrometer,
+            _ => LengthUnit::Unknown,
+        }
+    }
+
+    /// Spacing and LPS geometry (with the unit): from the sform when
+    /// set, else the qform, else the voxel sizes alone.
     pub fn geometry(&self) -> Result<([f32; 3], Geometry)> {
+        let (spacing, g) = self.geometry_numbers()?;
+        Ok((spacing, g.with_unit(self.unit())))
+    }
+
+    fn geometry_numbers(&self) -> Result<([f32; 3], Geometry)> {
         let spacing = self.spacing();
         let ras = if self.sform_code > 0 {
             let s = &self.srow;
@@ -424,14 +470,14 @@ pub fn open(path: &Path, time: Option<u64>) -> Result<DataSpec> {
         (Some(t), n) if t < n => t,
         (Some(t), n) => {
             return Err(Error::invalid(format!(
-                "--time {t} asked for, but the series has volumes 0..{}",
+                "--time-point {t} asked for, but the series has volumes 0..{}",
                 n - 1
             )))
         }
         (None, 1) => 0,
         (None, n) => {
             return Err(Error::invalid(format!(
-                "4D NIfTI with {n} volumes of {dims}: pick one with --time T (0..{})",
+                "4D NIfTI with {n} volumes of {dims}: pick one with --time-point T (0..{})",
                 n - 1
             )))
         }
@@ -561,7 +607,7 @@ pub fn encode_header(
         }
         LittleEndian::write_f32(&mut b[108..], if single { 352.0 } else { 0.0 });
         LittleEndian::write_f32(&mut b[112..], 1.0);
-        b[123] = 2; // mm
+        b[123] = unit_code(geometry.unit) as u8;
         let descrip = b"volkit";
         b[148..148 + descrip.len()].copy_from_slice(descrip);
         LittleEndian::write_i16(&mut b[252..], 1);
@@ -622,7 +668,7 @@ pub fn encode_header(
                 LittleEndian::write_f64(&mut b[400 + 32 * r + 8 * c..], *v);
             }
         }
-        LittleEndian::write_i32(&mut b[500..], 2);
+        LittleEndian::write_i32(&mut b[500..], unit_code(geometry.unit));
         b
     }
 }

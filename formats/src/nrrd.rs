@@ -22,7 +22,7 @@ use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 use volcore::text::excerpt;
 use volcore::Dims;
-use volcore::Geometry;
+use volcore::{Geometry, LengthUnit};
 
 /// The fields of a NRRD header volkit uses.
 #[derive(Clone, Debug, PartialEq)]
@@ -213,6 +213,7 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
     let mut spacings = None;
     let mut dirs = None;
     let mut space = None;
+    let mut units = None;
     let mut origin = None;
     let mut data_file = None;
     let mut byte_skip = 0i64;
@@ -267,6 +268,7 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
             "spacings" => spacings = Some(numbers(v)),
             "space directions" => dirs = Some(directions(v)?),
             "space" => space = Some(space_signs(v)?),
+            "space units" | "units" => units = Some(length_unit(v)?),
             "space origin" => {
                 origin = Some(vector(v).ok_or_else(|| bad("space origin"))?);
             }
@@ -328,7 +330,8 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
     let to_lps = |v: [f64; 3]| [v[0] * signs[0], v[1] * signs[1], v[2] * signs[2]];
     let axes = dirs.unwrap_or([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
     let geometry = Geometry::from_axes(to_lps(origin.unwrap_or([0.0; 3])), axes.map(to_lps))
-        .map_err(|e| Error::invalid(format!("NRRD geometry: {e}")))?;
+        .map_err(|e| Error::invalid(format!("NRRD geometry: {e}")))?
+        .with_unit(units.unwrap_or_default());
     if byte_skip < -1 {
         return Err(Error::invalid("NRRD byte skip must be -1 or more"));
     }
@@ -389,11 +392,53 @@ pub fn write_header(o: &NrrdOut) -> String {
         g.origin[1],
         g.origin[2],
     );
+    if let Some(u) = ascii_unit(g.unit) {
+        h.push_str(&format!("space units: \"{u}\" \"{u}\" \"{u}\"\n"));
+    }
     if let Some(f) = &o.data_file {
         h.push_str(&format!("data file: {f}\n"));
     }
     h.push('\n');
     h
+}
+
+/// The unit `space units` (or `units`) states: one unit of length for
+/// every axis (`"mm" "mm" "mm"`; empty strings state none).
+fn length_unit(v: &str) -> Result<LengthUnit> {
+    let words: Vec<&str> = v
+        .split('"')
+        .map(str::trim)
+        .enumerate()
+        .filter(|(i, w)| i % 2 == 1 || !w.is_empty())
+        .map(|(_, w)| w)
+        .collect();
+    let mut unit = None;
+    for w in &words {
+        let u = LengthUnit::parse(w).ok_or_else(|| {
+            Error::invalid(format!(
+                "NRRD space unit '{}' is not a unit of length volkit knows (m, cm, mm, um, nm, angstrom)",
+                excerpt(w)
+            ))
+        })?;
+        if unit.is_some_and(|seen| seen != u) {
+            return Err(Error::invalid(format!(
+                "NRRD space units '{}' differ between axes (volkit keeps one unit of length)",
+                excerpt(v)
+            )));
+        }
+        unit = Some(u);
+    }
+    Ok(unit.unwrap_or_default())
+}
+
+/// How volkit's NRRD output spells `unit` (ASCII; `None`: not stated).
+fn ascii_unit(unit: LengthUnit) -> Option<&'static str> {
+    Some(match unit {
+        LengthUnit::Unknown => return None,
+        LengthUnit::Micrometer => "um",
+        LengthUnit::Angstrom => "angstrom",
+        other => other.symbol(),
+    })
 }
 
 /// Read header lines from `r` up to and including the blank line that

@@ -2,7 +2,7 @@
 //! and 0.5 (Zarr v3) images, written with a multiscale pyramid.
 //!
 //! Reading takes the first multiscale's full-resolution dataset; `t` and
-//! `c` axes are fixed with `--time` and `--channel` (required when longer
+//! `c` axes are fixed with `--time-point` and `--channel` (required when longer
 //! than one); the `z`, `y`, `x` axes give the volume (a missing `z` is one
 //! slice). Spacing and origin come from the dataset's `scale` and
 //! `translation` transformations (the multiscale's own ones applied
@@ -21,7 +21,7 @@ use serde_json::{json, Value};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
-use volcore::{Dims, Geometry, Sample, SampleType, Shard};
+use volcore::{Dims, Geometry, LengthUnit, Sample, SampleType, Shard};
 use zarrs::array::Array;
 use zarrs::filesystem::FilesystemStore;
 
@@ -172,6 +172,16 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
                 .collect()
         })
         .unwrap_or_else(|| ["t", "c", "z", "y", "x"].map(String::from).to_vec());
+    // Each axis's unit (NGFF names; an axis without one states none).
+    let units: Vec<Option<String>> = ms
+        .get("axes")
+        .and_then(|a| a.as_array())
+        .map(|a| {
+            a.iter()
+                .map(|x| x.get("unit").and_then(|u| u.as_str()).map(String::from))
+                .collect()
+        })
+        .unwrap_or_default();
     let ds = ms
         .get("datasets")
         .and_then(|d| d.as_array())
@@ -223,7 +233,7 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
         }
         let (want, flag) = match name.as_str() {
             "c" => (channel, "--channel"),
-            "t" => (time, "--time"),
+            "t" => (time, "--time-point"),
             other => {
                 return Err(ConvertError::new(
                     root,
@@ -266,6 +276,39 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
     let t = slice_type(dt.split_whitespace().next().unwrap_or("")).at(root)?;
     let nz = axis_z.map(|z| shape[z]).unwrap_or(1);
     let dims = Dims::new(shape[axis_x], shape[axis_y], nz).at(root)?;
+    // x, y, z in one unit: the first stated one (x's, as a rule).
+    let unit_of = |a: Option<usize>| -> CResult<LengthUnit> {
+        let Some(name) = a.and_then(|a| units.get(a).cloned().flatten()) else {
+            return Ok(LengthUnit::Unknown);
+        };
+        LengthUnit::parse(&name).ok_or_else(|| {
+            ConvertError::new(
+                root,
+                Error::invalid(format!(
+                    "axis unit '{}' is not a unit of length volkit knows (meter, centimeter, millimeter, micrometer, nanometer, angstrom)",
+                    volcore::text::excerpt(&name)
+                )),
+            )
+        })
+    };
+    let axis_units = [
+        unit_of(Some(axis_x))?,
+        unit_of(Some(axis_y))?,
+        unit_of(axis_z)?,
+    ];
+    let unit = axis_units
+        .into_iter()
+        .find(|u| *u != LengthUnit::Unknown)
+        .unwrap_or_default();
+    for (a, u) in [Some(axis_x), Some(axis_y), axis_z]
+        .into_iter()
+        .zip(axis_units)
+    {
+        if let (Some(a), Some(k)) = (a, u.factor_to(unit)) {
+            scale[a] *= k;
+            trans[a] *= k;
+        }
+    }
     let sp = |a: Option<usize>| a.map(|a| scale[a]).unwrap_or(1.0);
     let spacing = [sp(Some(axis_x)), sp(Some(axis_y)), sp(axis_z)].map(|v| {
         if v.is_finite() && v > 0.0 {
@@ -290,7 +333,8 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
     };
     let geometry = Geometry::from_axes(origin, axes3)
         .map_err(|e| Error::invalid(format!("OME-Zarr geometry: {e}")))
-        .at(root)?;
+        .at(root)?
+        .with_unit(unit);
     // What the metadata says one chunk holds, checked: every chunk read
     // is held to it, so it must be a size a machine can hold.
     let chunk = array.chunk_shape(&vec![0; n]).map_err(zerr).at(root)?;
@@ -867,13 +911,13 @@ pub fn multiscales(
             })
         })
         .collect();
+    let axis = |n: &str| match geometry.unit.ngff_name() {
+        Some(u) => json!({"name": n, "type": "space", "unit": u}),
+        None => json!({"name": n, "type": "space"}),
+    };
     let mut ms = json!({
         "name": name,
-        "axes": [
-            {"name": "z", "type": "space"},
-            {"name": "y", "type": "space"},
-            {"name": "x", "type": "space"},
-        ],
+        "axes": [axis("z"), axis("y"), axis("x")],
         "datasets": datasets,
         "type": match down { Downsample::Mean => "mean", Downsample::Max => "max" },
     });

@@ -243,7 +243,7 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
                     false,
                     "tiff (imagej stack, one directory)",
                 )?
-                .with_geometry(ij.spacing, volcore::Geometry::IDENTITY),
+                .with_geometry(ij.spacing, volcore::Geometry::IDENTITY.with_unit(ij.unit)),
             ),
             None => Box::new(crate::tiff::open_files(
                 path,

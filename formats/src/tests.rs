@@ -613,7 +613,7 @@ fn incremental_writer_reads_only_the_announced_slices() {
 }
 
 #[test]
-fn geometry_round_trips_and_version_1_files_stay_readable() {
+fn geometry_round_trips_and_version_1_and_2_files_stay_readable() {
     let dir = tempfile::tempdir().unwrap();
     let dims = Dims::new(9, 7, 5).unwrap();
     let scene = ShapesScene::new(dims, 3, 4, 3, 100.0);
@@ -622,7 +622,8 @@ fn geometry_round_trips_and_version_1_files_stay_readable() {
         [-120.5, 30.25, 7.0],
         [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
     )
-    .unwrap();
+    .unwrap()
+    .with_unit(volcore::LengthUnit::Micrometer);
     for layout in [
         Layout::Sliced,
         Layout::Bricked(BrickGeometry::new(dims, 4).unwrap()),
@@ -635,6 +636,33 @@ fn geometry_round_trips_and_version_1_files_stay_readable() {
         assert_eq!(v.meta.geometry, g);
         assert_eq!(v.meta.spacing, [1.0, 0.5, 2.0]);
     }
+    // A version 2 file (geometry, no unit): read with no unit stated.
+    let p = dir.path().join("g.vvol");
+    let mut b = std::fs::read(&p).unwrap();
+    assert_eq!(b[224], volcore::LengthUnit::Micrometer.code());
+    b[8..10].copy_from_slice(&2u16.to_le_bytes());
+    b[224] = 0;
+    let reseal = |b: &mut Vec<u8>| {
+        let crc = crc32fast::hash(&b[..124]);
+        b[124..128].copy_from_slice(&crc.to_le_bytes());
+        let crc = crc32fast::hash(&b[128..252]);
+        b[252..256].copy_from_slice(&crc.to_le_bytes());
+    };
+    reseal(&mut b);
+    let v2 = dir.path().join("old-v2.vvol");
+    std::fs::write(&v2, &b).unwrap();
+    let v = vvol::open(&v2, Default::default()).unwrap();
+    assert_eq!(v.meta.geometry, g.with_unit(volcore::LengthUnit::Unknown));
+    // Version 3 with a unit code it does not know: refused by name.
+    b[8..10].copy_from_slice(&3u16.to_le_bytes());
+    b[224] = 77;
+    reseal(&mut b);
+    std::fs::write(&v2, &b).unwrap();
+    let Err(e) = vvol::open(&v2, Default::default()) else {
+        panic!("a unit code of 77 was read");
+    };
+    let e = e.to_string();
+    assert!(e.contains("unknown unit of length code 77"), "{e}");
     // A version 1 file (128-byte header, no geometry): identity, zero origin.
     let m = meta(dims, SampleType::U16, Layout::Sliced, Compression::None);
     let p = dir.path().join("v2.vvol");

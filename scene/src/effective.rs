@@ -33,6 +33,9 @@ pub fn effective(cli: &Options, resolved: &Resolved) -> Scene {
     Scene {
         volume: cli.volume.as_deref().map(absolute),
         index: cli.index.as_deref().map(absolute),
+        series: cli.input.series.clone(),
+        channel: cli.input.channel,
+        time_point: cli.input.time_point,
         mode: Some(cli.mode),
         tf,
         tf_text,
@@ -104,7 +107,7 @@ fn path_keys(cli: &Options, resolved: &Resolved) -> Scene {
     let rgb = |v: Vec3| Colour::Rgb(v.to_array());
     Scene {
         spp: resolved.spp,
-        time: cli.time,
+        seconds: cli.seconds,
         until_error: cli.until_error,
         bounces: Some(cli.bounces),
         g: Some(cli.g),

@@ -21,6 +21,15 @@ pub struct Scene {
     /// A .vidx index for the volume.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub index: Option<PathBuf>,
+    /// DICOM: the series to read (number, UID or a unique UID prefix).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub series: Option<String>,
+    /// Multichannel input: the channel to read.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub channel: Option<u16>,
+    /// Input with a time axis: the time point to read.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_point: Option<u64>,
     /// What each ray computes.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mode: Option<ModeArg>,
@@ -116,7 +125,10 @@ pub struct Scene {
     pub spp: Option<u64>,
     /// Path tracing: a time budget, seconds.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub time: Option<f64>,
+    pub seconds: Option<f64>,
+    /// The old key for `seconds` (and `time-point`): refused, naming both.
+    #[serde(skip_serializing)]
+    pub time: Option<toml::Value>,
     /// Path tracing: stop at this relative standard error.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub until_error: Option<f64>,
@@ -403,7 +415,10 @@ impl Scene {
                 return Err(format!("key `{key}`: must be a finite number"));
             }
         }
-        for (key, v) in [("time", self.time), ("until-error", self.until_error)] {
+        if self.time.is_some() {
+            return Err("key `time` is gone: use `seconds` for the path-tracing time budget (vol-render --seconds); the volume's time point is vol-render's --time-point".into());
+        }
+        for (key, v) in [("seconds", self.seconds), ("until-error", self.until_error)] {
             if v.is_some_and(|v| !v.is_finite()) {
                 return Err(format!("key `{key}`: must be a finite number"));
             }

@@ -27,6 +27,22 @@ pub fn apply(this: Scene, dir: &Path, cli: &mut Options, on_command_line: impl F
     set!(volume, "volume", |p| Some(path(p)));
     set!(output, "output", |p| Some(path(p)));
     set!(index, "index", |p| Some(path(p)));
+    // The input selection (one definition with every tool's flags).
+    if let Some(s) = this.series {
+        if !on_command_line("series") {
+            cli.input.series = Some(s);
+        }
+    }
+    if let Some(c) = this.channel {
+        if !on_command_line("channel") && !on_command_line("luma") {
+            cli.input.channel = Some(c);
+        }
+    }
+    if let Some(t) = this.time_point {
+        if !on_command_line("time_point") {
+            cli.input.time_point = Some(t);
+        }
+    }
     set!(mode, "mode", |m| m);
     set!(iso, "iso", Some);
     set!(size, "size", |[w, h]: [u32; 2]| (w, h));
@@ -64,7 +80,7 @@ pub fn apply(this: Scene, dir: &Path, cli: &mut Options, on_command_line: impl F
     set!(ao_field, "ao_field", Some);
     set!(ao_field_cell, "ao_field_cell", Some);
     set!(spp, "spp", Some);
-    set!(time, "time", Some);
+    set!(seconds, "seconds", Some);
     set!(until_error, "until_error", Some);
     set!(bounces, "bounces", |b| b);
     set!(g, "g", |g| g);

@@ -27,6 +27,10 @@ use std::path::PathBuf;
 pub struct Options {
     /// The volume (any format vol-convert reads; or `volume` in --scene).
     pub volume: Option<PathBuf>,
+    /// What to read from the volume's file: raw layout, DICOM series,
+    /// channel, time point (the same flags as every tool's).
+    #[command(flatten, next_help_heading = "Input")]
+    pub input: volformats::Selection,
     /// Output PNG (8-bit sRGB; or `output` in --scene).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -196,17 +200,13 @@ pub struct Options {
     /// Also write a samples-per-pixel heat map with a colour scale (.png).
     #[arg(long)]
     pub heatmap: Option<PathBuf>,
-    /// Path tracing: samples per pixel to add (default 64 unless --time
+    /// Path tracing: samples per pixel to add (default 64 unless --seconds
     /// or --until-error decides; with them, the most to add).
     #[arg(long, help_heading = "Path tracing (--mode path)")]
     pub spp: Option<u64>,
     /// Path tracing: render whole passes until this many seconds are spent.
-    #[arg(
-        long,
-        value_name = "SECONDS",
-        help_heading = "Path tracing (--mode path)"
-    )]
-    pub time: Option<f64>,
+    #[arg(long, value_name = "S", help_heading = "Path tracing (--mode path)")]
+    pub seconds: Option<f64>,
     /// Path tracing: stop once the relative standard error of the image
     /// (the root mean square standard error of lit pixels' mean luminance
     /// over their mean) falls below E.
@@ -340,7 +340,7 @@ const EXAMPLES: &str = "Examples:
 
   vol-render spheres.vvol --mode path --density-scale 0.1 --albedo 0.8 --sun=-1,-1.2,0.4:4 \
       --env 0.1 --spp 64 --bounces 8 --hdr spheres.exr -o spheres.png --json
-  vol-render shapes.vvol --mode path --tf shapes --env 1 --time 30 --tonemap aces -o pt.png
+  vol-render shapes.vvol --mode path --tf shapes --env 1 --seconds 30 --tonemap aces -o pt.png
   vol-render ct.vvol --mode path --tf ct --until-error 0.01 --variance noise.png -o ct-pt.png
   vol-render ct.vvol --mode path --tf ct --env-map sky.exr --bounces 4 -o ct-sky.png
   vol-render big.vvol --mode path --density-scale 2 --spp 64 --accumulate big.state -o a.png

@@ -20,7 +20,7 @@ pub const DEFAULT_SPP: u64 = 64;
 pub fn refuse_path_options(cli: &Options) -> Result<()> {
     let given = [
         ("--spp", cli.spp.is_some()),
-        ("--time", cli.time.is_some()),
+        ("--seconds", cli.seconds.is_some()),
         ("--until-error", cli.until_error.is_some()),
         ("--density-scale", cli.density_scale.is_some()),
         ("--albedo", cli.albedo.is_some()),
@@ -118,10 +118,10 @@ pub fn settings(
             )))
         }
     };
-    if let Some(t) = cli.time {
+    if let Some(t) = cli.seconds {
         if !(t.is_finite() && t >= 0.0) {
             return Err(Error::option(format!(
-                "--time {t} must be a number of seconds >= 0"
+                "--seconds {t} must be a number of seconds >= 0"
             )));
         }
     }
@@ -138,7 +138,7 @@ pub fn settings(
     if cli.repeat > 1 {
         return Err(Error::option(
             "--repeat times the ray caster's frames; a path-traced render is timed by its budget \
-             (--spp, --time or --until-error; render_s in --json)",
+             (--spp, --seconds or --until-error; render_s in --json)",
         ));
     }
     if !(cli.exposure.is_finite() && cli.exposure >= 0.0) {
@@ -150,8 +150,8 @@ pub fn settings(
     let budget = Budget {
         spp: cli
             .spp
-            .or((cli.time.is_none() && cli.until_error.is_none()).then_some(DEFAULT_SPP)),
-        seconds: cli.time,
+            .or((cli.seconds.is_none() && cli.until_error.is_none()).then_some(DEFAULT_SPP)),
+        seconds: cli.seconds,
         until_error: cli.until_error,
     };
     let hybrid = match cli.hybrid.as_deref() {

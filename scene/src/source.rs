@@ -6,7 +6,7 @@ use crate::options::Options;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use volcore::Volume;
-use volformats::{open_volume, vvol};
+use volformats::vvol;
 use volindex::{BuildOptions, MinMaxIndex};
 
 /// A volume ready to render: the data, its empty-space-skipping index
@@ -99,11 +99,16 @@ impl Source {
 
 /// Open the volume at `path` (in memory with `--in-memory`).
 pub fn open(options: &Options, path: &Path) -> Result<Volume> {
-    let opts = vvol::OpenOptions {
+    let mut read = options.input.read_options().map_err(Error::usage)?;
+    read.vvol = vvol::OpenOptions {
         in_memory: options.in_memory,
         ..Default::default()
     };
-    open_volume(path, opts, None).kind_ctx(ErrorKind::File, path.display())
+    volformats::open(path, &read).map_err(|e| {
+        // A reader's error names its file already (a slice of a stack,
+        // the volume itself).
+        Error::file(e.to_string())
+    })
 }
 
 /// The index the options ask for: none under `--no-ess`, the `--index`

@@ -78,3 +78,33 @@ pub fn leftovers(dir: &Path) -> Vec<String> {
 pub fn json(stdout: &str) -> serde_json::Value {
     serde_json::from_str(stdout.trim()).expect("tool did not print one JSON object")
 }
+
+/// Run a Python script that prints one JSON object, or `SKIP reason` when
+/// a module it needs is missing; `None` (with a note naming `install`)
+/// when python3 or a module is missing outside CI. CI has both (.ci/run
+/// installs them), so there a skip fails the test.
+pub fn python_json(script: &str, install: &str) -> Option<serde_json::Value> {
+    let out = match Command::new("python3").arg("-c").arg(script).output() {
+        Ok(o) => o,
+        Err(_) => {
+            assert!(std::env::var("CI").is_err(), "CI must have python3");
+            eprintln!("SKIP: python3 is not installed");
+            return None;
+        }
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text} {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    if text.starts_with("SKIP") {
+        assert!(
+            std::env::var("CI").is_err(),
+            "CI must have the Python modules: {text}"
+        );
+        eprintln!("{} ({install})", text.trim());
+        return None;
+    }
+    Some(json(&text))
+}

@@ -3,7 +3,7 @@
 //! orientation and values; round trips through every header format with
 //! geometry; every tool reading every format; malformed files refused.
 
-use crate::common::{fails, json, leftovers, ok, tool};
+use crate::common::{fails, json, leftovers, ok, python_json, tool};
 use std::path::{Path, PathBuf};
 
 fn fixture(name: &str) -> PathBuf {
@@ -435,15 +435,15 @@ fn tifffile_ome_hyperstacks_and_zstd_int32() {
     let p = fixture("tifffile_hyperstack.tif");
     let e = fails(
         tool("vol-convert").arg(&p).arg("-o").arg(&o),
-        "--channel C --time T",
+        "--channel C --time-point T",
     );
     assert!(e.contains("TZCYX"), "{e}");
-    let v = samples(&p, &["--channel", "1", "--time", "1"]);
+    let v = samples(&p, &["--channel", "1", "--time-point", "1"]);
     assert_eq!(v, tiff_values(5, 6, 4, 1, 1, |v| v % 256));
     fails(
         tool("vol-convert")
             .arg(&p)
-            .args(["--channel", "2", "--time", "0", "-o"])
+            .args(["--channel", "2", "--time-point", "0", "-o"])
             .arg(&o),
         "channels 0..1",
     );
@@ -491,34 +491,7 @@ print(json.dumps({{
 "#,
         path = path.to_string_lossy()
     );
-    let out = match std::process::Command::new("python3")
-        .arg("-c")
-        .arg(&script)
-        .output()
-    {
-        Ok(o) => o,
-        Err(_) => {
-            assert!(std::env::var("CI").is_err(), "CI must have python3");
-            eprintln!("SKIP: python3 is not installed; OME-Zarr read-back not run");
-            return None;
-        }
-    };
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text} {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    if text.starts_with("SKIP") {
-        // CI installs zarr and ome-zarr (.ci/run); a developer machine may not.
-        assert!(
-            std::env::var("CI").is_err(),
-            "CI must run the OME-Zarr read-back: {text}"
-        );
-        eprintln!("{} (pip install zarr ome-zarr)", text.trim());
-        return None;
-    }
-    Some(json(&text))
+    python_json(&script, "pip install zarr ome-zarr")
 }
 
 #[test]

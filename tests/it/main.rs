@@ -18,6 +18,8 @@ mod psnr;
 mod render;
 mod scene;
 mod shard;
+mod units;
+mod vocabulary;
 
 // The data-parallel renderer under mpirun: only with the cargo feature
 // `mpi`, which scripts/test.sh runs on its own (`--test it mpi::`).

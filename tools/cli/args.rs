@@ -1,6 +1,6 @@
 //! Parsers for the argument forms the tools share.
 
-use volcore::{Compression, SampleType};
+use volcore::{Compression, LengthUnit, SampleType};
 
 /// Parse `X,Y,Z` (also `XxYxZ`) into three positive integers.
 pub fn dims3(s: &str) -> Result<[u64; 3], String> {
@@ -33,6 +33,17 @@ pub fn spacing3(s: &str) -> Result<[f32; 3], String> {
         [x, y, z] if [x, y, z].iter().all(|v| v.is_finite() && *v > 0.0) => Ok([x, y, z]),
         [_, _, _] => Err(format!("'{s}': spacing must be positive and finite")),
         _ => Err(format!("'{s}' is not x,y,z")),
+    }
+}
+
+/// Parse a unit of length: `m`, `cm`, `mm`, `um` (or `µm`, `micron`),
+/// `nm`, `angstrom`, NGFF names (`micrometer`), or `unknown` (state none).
+pub fn length_unit(s: &str) -> Result<LengthUnit, String> {
+    match LengthUnit::parse(s) {
+        Some(u) if u != LengthUnit::Unknown || s.trim().eq_ignore_ascii_case("unknown") => Ok(u),
+        _ => Err(format!(
+            "'{s}' is not a unit of length: m, cm, mm, um, nm, angstrom or unknown"
+        )),
     }
 }
 

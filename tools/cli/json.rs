@@ -16,7 +16,13 @@ pub fn emit(v: &Value, stdout_has_data: bool) -> std::io::Result<()> {
     }
 }
 
-/// The keys that describe a volume: `dims`, `type`, `spacing`, `origin`,
+/// The `unit` key: the NGFF name of the unit of length (`micrometer`,
+/// `millimeter`, ...), or `null` when the volume states none.
+pub fn unit(u: volcore::LengthUnit) -> Value {
+    u.ngff_name().map_or(Value::Null, Value::from)
+}
+
+/// The keys that describe a volume: `dims`, `type`, `spacing`, `unit`, `origin`,
 /// `direction` (rows), `orientation`, `layout`, `compression`, `min`,
 /// `max` (`null` when no sample but NaN).
 pub fn volume(m: &VolumeMeta) -> Value {
@@ -25,6 +31,7 @@ pub fn volume(m: &VolumeMeta) -> Value {
         "dims": m.dims.as_array(),
         "type": m.sample_type.name(),
         "spacing": m.spacing,
+        "unit": unit(m.geometry.unit),
         "origin": m.geometry.origin,
         "direction": m.geometry.direction,
         "orientation": m.geometry.orientation(),

@@ -4,8 +4,8 @@
 pub mod args;
 pub mod json;
 pub mod progress;
-pub mod raw;
 pub mod run;
+pub mod select;
 
-pub use raw::RawSpec;
 pub use run::{is_usage, parse, run, usage};
+pub use select::{RawSpec, Selection};

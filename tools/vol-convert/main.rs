@@ -9,13 +9,13 @@ use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Compression, Dims, SampleType, Shard};
 use volformats::convert::{self, Plan, Target, ValueMap, Window};
+use volformats::open_input;
 use volformats::output::AtomicFile;
 use volformats::thesis::ThesisLayout;
 use volformats::tiff::ChannelSel;
 use volformats::vvol::part;
-use volformats::{open_input, ReadOptions};
 use volkit_cli::args::{self, LayoutArg};
-use volkit_cli::{json, noteln, usage, RawSpec};
+use volkit_cli::{json, noteln, usage, Selection};
 
 /// Convert a volume between formats, slice by slice.
 ///
@@ -74,22 +74,24 @@ struct Cli {
     /// Value window for --type: lo:hi, auto, auto:P or full.
     #[arg(long, allow_hyphen_values = true)]
     window: Option<String>,
-    /// Voxel spacing x,y,z (default: from the input, else 1,1,1).
+    /// Voxel spacing x,y,z (default: from the input, else 1,1,1), in the
+    /// unit of --units when given, else the input's.
     #[arg(long, value_parser = args::spacing3)]
     spacing: Option<[f32; 3]>,
+    /// Unit of length of the output's spacing and origin: m, cm, mm, um,
+    /// nm or angstrom. The input's are converted (and the factor said on
+    /// stderr); an input that states no unit is labelled with it. Default:
+    /// the input's unit, except that NIfTI (m, mm, um only) and MetaImage
+    /// (mm, by ITK's convention) get the nearest unit they can state,
+    /// converted and said.
+    #[arg(long, value_name = "UNIT", value_parser = args::length_unit)]
+    units: Option<volcore::LengthUnit>,
     /// Keep x0:x1,y0:y1,z0:z1 (half-open voxel ranges; empty bounds are the edges).
     #[arg(long)]
     crop: Option<String>,
     /// Mirror along these axes, e.g. z or x,y.
     #[arg(long, value_delimiter = ',', value_parser = ["x", "y", "z"])]
     flip: Vec<String>,
-    /// Colour TIFF: keep this channel (0 = red); hyperstacks and OME data:
-    /// the channel (C index) to read.
-    #[arg(long, conflicts_with = "luma")]
-    channel: Option<u16>,
-    /// Colour TIFF: keep the luma 0.299 R + 0.587 G + 0.114 B.
-    #[arg(long)]
-    luma: bool,
     /// OME-Zarr output: pyramid levels, the full resolution included.
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
     pyramid: u32,
@@ -102,12 +104,6 @@ struct Cli {
     /// by ome-zarr-py 0.10 and later).
     #[arg(long, value_name = "VERSION", value_parser = ["0.4", "0.5"])]
     ngff: Option<String>,
-    /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
-    #[arg(long, value_name = "T")]
-    time: Option<u64>,
-    /// DICOM: the SeriesInstanceUID to read when the input holds several.
-    #[arg(long, value_name = "UID")]
-    series: Option<String>,
     /// Convert only shard K of N (K from 0) into a part file (-o
     /// NAME.vpart): its share of the brick layers (bricked) or slices
     /// (sliced), reading only the input slices those need. Run the N shards
@@ -123,11 +119,16 @@ struct Cli {
     /// brick's checksum is checked on the way.
     #[arg(long, value_name = "PART", num_args = 1.., conflicts_with_all = [
         "input", "shard", "layout", "compress", "sample_type", "window", "spacing", "crop",
-        "flip", "channel", "luma", "pyramid", "downsample", "ngff", "time", "series",
+        "flip", "channel", "luma", "pyramid", "downsample", "ngff", "time_point", "series",
+        "units",
     ])]
     merge: Vec<PathBuf>,
-    #[command(flatten)]
-    raw: RawSpec,
+    #[command(flatten, next_help_heading = "Input")]
+    input_sel: Selection,
+    /// Colour TIFF: keep the luma 0.299 R + 0.587 G + 0.114 B (instead of
+    /// one --channel).
+    #[arg(long, conflicts_with = "channel", help_heading = "Input")]
+    luma: bool,
     /// Print one JSON object with what was done (to stderr when -o -).
     #[arg(long)]
     json: bool,
@@ -516,21 +517,6 @@ fn target(cli: &Cli) -> Result<Target> {
     }
 }
 
-fn read_options(cli: &Cli) -> ReadOptions {
-    let channel = match (cli.channel, cli.luma) {
-        (Some(c), _) => ChannelSel::Channel(c),
-        (None, true) => ChannelSel::Luma,
-        (None, false) => ChannelSel::Single,
-    };
-    ReadOptions {
-        raw: cli.raw,
-        channel,
-        time: cli.time,
-        series: cli.series.clone(),
-        ..Default::default()
-    }
-}
-
 fn convert_cmd(cli: &Cli) -> Result<()> {
     let start = Instant::now();
     let Some(input) = &cli.input else {
@@ -546,7 +532,10 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     // Check the output first: a bad output name should not cost a scan.
     let target = target(cli)?;
     target.preflight().map_err(anyhow::Error::new)?;
-    let opts = read_options(cli);
+    let mut opts = volkit_cli::select::read_options(&cli.input_sel)?;
+    if cli.luma {
+        opts.channel = ChannelSel::Luma;
+    }
     let reader = open_input(input, &opts)?;
     let info = reader.info().clone();
     let crop = match &cli.crop {
@@ -576,6 +565,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         sample_type: cli.sample_type,
         window,
         spacing: cli.spacing,
+        unit: cli.units,
         temp_dir: None,
     };
     let mut total = out_dims.count().saturating_mul(out_type.size() as u64);
@@ -636,6 +626,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
             "dims": [d.x, d.y, d.z],
             "type": report.sample_type.name(),
             "spacing": report.spacing,
+            "unit": json::unit(g.unit),
             "origin": g.origin,
             "direction": g.direction,
             "orientation": g.orientation(),
@@ -665,6 +656,11 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     // A shard past the last unit has nothing to write, by design.
     if report.bytes_out == 0 && cli.shard.is_none() {
         bail!("{}: nothing was written", cli.output.display());
+    }
+    if !cli.quiet {
+        for n in &report.notes {
+            noteln!("vol-convert: note: {}: {n}", cli.output.display());
+        }
     }
     raw_note(cli, &report);
     Ok(())

@@ -16,7 +16,7 @@ use volindex::build::DEFAULT_CELL_EDGE;
 use volindex::histogram::DEFAULT_BINS;
 use volindex::shard::{IndexPart, PART_EXTENSION};
 use volindex::{BuildOptions, Histogram, IndexError, MinMaxIndex};
-use volkit_cli::{noteln, outln, usage, RawSpec};
+use volkit_cli::{noteln, outln, usage, Selection};
 
 /// Build the min/max macrocell index of a volume (any format vol-convert
 /// reads: .vvol, .vol, .raw, NRRD, MetaImage, NIfTI, DICOM, TIFF, OME-Zarr) and
@@ -66,8 +66,8 @@ struct Cli {
     /// (-o OUT.vidx): bit for bit the unsharded build's.
     #[arg(long, value_name = "PART", num_args = 1.., conflicts_with_all = ["volume", "shard", "check", "cell", "bins", "stats"])]
     merge: Vec<PathBuf>,
-    #[command(flatten)]
-    raw: RawSpec,
+    #[command(flatten, next_help_heading = "Input")]
+    input_sel: Selection,
 }
 
 fn shard_arg(s: &str) -> Result<Shard, String> {
@@ -145,11 +145,8 @@ fn default_output(volume: &Path) -> PathBuf {
 }
 
 /// How to read the volume.
-fn read_options(cli: &Cli) -> ReadOptions {
-    ReadOptions {
-        raw: cli.raw,
-        ..Default::default()
-    }
+fn read_options(cli: &Cli) -> Result<ReadOptions> {
+    volkit_cli::select::read_options(&cli.input_sel)
 }
 
 /// Streams have no fingerprint, and the index must name its file.
@@ -201,7 +198,7 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
             "{oname}: refusing to write an index under a volume file name: use a .vidx name"
         )));
     }
-    let read = read_options(cli);
+    let read = read_options(cli)?;
 
     // Fingerprint first: if the file is replaced before it is opened, the
     // index holds the new samples under the old fingerprint and is rejected
@@ -285,7 +282,7 @@ fn build_shard(cli: &Cli, volume: &Path, shard: Shard) -> Result<()> {
         )));
     }
     let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
-    let vol = volformats::open(volume, &read_options(cli)).map_err(|e| anyhow!("{e}"))?;
+    let vol = volformats::open(volume, &read_options(cli)?).map_err(|e| anyhow!("{e}"))?;
     let part = volindex::shard::build_shard(&vol, &opts, fp, shard).map_err(at(&vname))?;
     if let Some(e) = vol.error() {
         bail!("{vname}: {e}");
@@ -405,7 +402,7 @@ fn check(cli: &Cli, volume: &Path, index: &Path) -> Result<()> {
     refuse_stream(volume)?;
     let vname = name(volume);
     let iname = name(index);
-    let opts = read_options(cli);
+    let opts = read_options(cli)?;
     let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
     let (dims, sample_type) = volume_shape(volume, &opts)?;
     let file = std::fs::File::open(index).map_err(at(&iname))?;

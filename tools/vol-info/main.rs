@@ -8,9 +8,9 @@ use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Dims, Layout, SampleType, Volume};
 use volformats::open::{input_kind, InputKind};
-use volformats::{vvol, ReadOptions};
+use volformats::vvol;
 use volkit_cli::json;
-use volkit_cli::{outln, RawSpec};
+use volkit_cli::{outln, Selection};
 
 /// Describe a volume (any format vol-convert reads: .vvol, .vol, .raw,
 /// NRRD, MetaImage, NIfTI, DICOM series, TIFF stacks, OME-Zarr, or - for a
@@ -29,14 +29,8 @@ struct Cli {
     /// Check every checksum (reads the whole file).
     #[arg(long)]
     verify: bool,
-    #[command(flatten)]
-    raw: RawSpec,
-    /// DICOM: the SeriesInstanceUID to read when a directory holds several.
-    #[arg(long, value_name = "UID")]
-    series: Option<String>,
-    /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
-    #[arg(long, value_name = "T")]
-    time: Option<u64>,
+    #[command(flatten, next_help_heading = "Input")]
+    input_sel: Selection,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -65,14 +59,9 @@ fn main() -> ExitCode {
 fn info(cli: &Cli) -> Result<()> {
     let start = Instant::now();
     let name = cli.input.display().to_string();
-    let opts = ReadOptions {
-        raw: cli.raw,
-        series: cli.series.clone(),
-        time: cli.time,
-        vvol: vvol::OpenOptions {
-            verify: cli.verify,
-            ..Default::default()
-        },
+    let mut opts = volkit_cli::select::read_options(&cli.input_sel)?;
+    opts.vvol = vvol::OpenOptions {
+        verify: cli.verify,
         ..Default::default()
     };
     let kind = if cli.input.as_os_str() == "-" {

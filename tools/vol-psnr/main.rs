@@ -10,8 +10,7 @@ use volcompare::{
     compare_images, compare_volumes, write_heatmap, Image, ImageComparison, ImageOptions, Metrics,
     VolumeComparison, VolumeOptions,
 };
-use volformats::ReadOptions;
-use volkit_cli::{noteln, outln, RawSpec};
+use volkit_cli::{noteln, outln, Selection};
 
 /// Exit status: an input could not be read, or --diff not written.
 const EXIT_READ: u8 = 1;
@@ -75,8 +74,8 @@ struct Cli {
     /// largest absolute error along z at each (x, y).
     #[arg(long, value_name = "OUT.png")]
     diff: Option<PathBuf>,
-    #[command(flatten)]
-    raw: RawSpec,
+    #[command(flatten, next_help_heading = "Input (volumes)")]
+    input_sel: Selection,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -368,10 +367,8 @@ fn volumes(cli: &Cli) -> Result<Report, Fail> {
             "--alpha and --luma apply to images only",
         ));
     }
-    let opts = ReadOptions {
-        raw: cli.raw,
-        ..Default::default()
-    };
+    let opts = volkit_cli::select::read_options(&cli.input_sel)
+        .map_err(|e| Fail::new(EXIT_USAGE, e.to_string()))?;
     let open =
         |p: &Path| volformats::open(p, &opts).map_err(|e| Fail::new(EXIT_READ, e.to_string()));
     let (a, b) = (open(&cli.a)?, open(&cli.b)?);

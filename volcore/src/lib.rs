@@ -25,6 +25,7 @@ pub mod scene;
 pub mod shard;
 pub mod storage;
 pub mod text;
+pub mod unit;
 pub mod volume;
 
 pub use brick::BrickGeometry;
@@ -36,4 +37,5 @@ pub use region::RegionSource;
 pub use sample::{Sample, SampleType};
 pub use shard::Shard;
 pub use storage::Data;
+pub use unit::LengthUnit;
 pub use volume::{Volume, VolumeData, VolumeVisitor};

@@ -3,6 +3,7 @@
 use crate::brick::BrickGeometry;
 use crate::dims::Dims;
 use crate::sample::SampleType;
+use crate::unit::LengthUnit;
 use std::fmt;
 
 /// How samples are ordered in storage.
@@ -97,6 +98,8 @@ pub struct Geometry {
     pub origin: [f64; 3],
     /// Direction cosines, row-major: `direction[row][axis]`.
     pub direction: [[f64; 3]; 3],
+    /// The unit of the origin and of the volume's spacing.
+    pub unit: LengthUnit,
 }
 
 impl Default for Geometry {
@@ -110,11 +113,30 @@ impl Geometry {
     pub const IDENTITY: Geometry = Geometry {
         origin: [0.0; 3],
         direction: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        unit: LengthUnit::Unknown,
     };
 
-    /// Whether this is [`Geometry::IDENTITY`].
+    /// Whether origin and directions are those of [`Geometry::IDENTITY`]
+    /// (whatever the unit).
     pub fn is_identity(&self) -> bool {
-        *self == Geometry::IDENTITY
+        self.origin == Geometry::IDENTITY.origin && self.direction == Geometry::IDENTITY.direction
+    }
+
+    /// The same geometry with its unit set to `unit` (the numbers kept).
+    pub fn with_unit(mut self, unit: LengthUnit) -> Geometry {
+        self.unit = unit;
+        self
+    }
+
+    /// The same place in unit `to`: the origin multiplied by the factor
+    /// from this unit to `to`, which is returned for the spacing. `None`
+    /// when either unit is unknown.
+    pub fn converted(&self, to: LengthUnit) -> Option<(Geometry, f64)> {
+        let k = self.unit.factor_to(to)?;
+        let mut g = *self;
+        g.origin = self.origin.map(|v| v * k);
+        g.unit = to;
+        Some((g, k))
     }
 
     /// The unit world direction of index axis `a` (column `a`).
@@ -148,7 +170,11 @@ impl Geometry {
                 direction[r][a] = v[r] / n + 0.0;
             }
         }
-        let g = Geometry { origin, direction };
+        let g = Geometry {
+            origin,
+            direction,
+            unit: LengthUnit::Unknown,
+        };
         if g.determinant().abs() < 1e-6 {
             return Err("axis directions are parallel (the matrix is singular)".into());
         }
@@ -298,6 +324,9 @@ impl fmt::Display for VolumeMeta {
             self.spacing[1],
             self.spacing[2]
         )?;
+        if self.geometry.unit != LengthUnit::Unknown {
+            write!(f, " {}", self.geometry.unit.symbol())?;
+        }
         if let Compression::Zstd(l) = self.compression {
             write!(f, " zstd:{l}")?;
         }

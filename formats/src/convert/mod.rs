@@ -15,6 +15,7 @@ pub mod input;
 pub mod rescale;
 pub mod slice;
 pub mod spool;
+pub mod units;
 pub mod window;
 mod writers;
 
@@ -30,7 +31,7 @@ use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use volcore::{Dims, Geometry, RegionSource, Sample, SampleType, ValueRange};
+use volcore::{Dims, Geometry, LengthUnit, RegionSource, Sample, SampleType, ValueRange};
 
 /// An error tied to the file it concerns (the input, one slice file of a
 /// stack, or the output). Displays as `path: problem`, on one line.
@@ -87,8 +88,13 @@ pub struct Plan {
     pub sample_type: Option<SampleType>,
     /// How to map values when the type changes.
     pub window: Option<Window>,
-    /// Output spacing (`None`: the input's, or 1,1,1).
+    /// Output spacing (`None`: the input's, or 1,1,1), in the input's
+    /// unit of length, or in `unit` when that is given.
     pub spacing: Option<[f32; 3]>,
+    /// Output unit of length: the input's spacing and origin are
+    /// converted to it (or, when the input states no unit, labelled with
+    /// it). `None`: the input's.
+    pub unit: Option<LengthUnit>,
     /// Directory for temporary files (spooled streams); `None`: the
     /// output's directory.
     pub temp_dir: Option<PathBuf>,
@@ -176,6 +182,10 @@ pub struct Report {
     pub input_format: String,
     /// Whether the input was copied to a temporary file first.
     pub spooled: bool,
+    /// What the conversion changed that the user did not spell out
+    /// (units converted for an output that cannot hold the input's), one
+    /// line each, for stderr.
+    pub notes: Vec<String>,
 }
 
 /// Decodes input slices and turns them into output slices (crop, flip,
@@ -473,12 +483,13 @@ pub fn convert(
     let out_type = output_type(&info, plan.sample_type, hist.as_ref()).at(&in_path)?;
     let map = ValueMap::plan(from, out_type, plan.window, hist.as_ref()).at(&in_path)?;
     let in_spacing = info.spacing.unwrap_or([1.0; 3]);
-    let spacing = plan.spacing.unwrap_or(in_spacing);
     let out_dims = [0, 1, 2].map(|a| crop[a].end - crop[a].start);
     let start = [0, 1, 2].map(|a| crop[a].start);
     let geometry = info
         .geometry
         .cropped(in_spacing, start, out_dims, plan.flip);
+    let (spacing, geometry, notes) =
+        units::resolve(in_spacing, geometry, plan, &target).at(target.path())?;
     let args = RunArgs {
         reader: reader.as_ref(),
         crop,
@@ -498,6 +509,7 @@ pub fn convert(
     report.input_format = info.format.clone();
     report.input_type = from;
     report.spooled = spooled;
+    report.notes = notes;
     Ok(report)
 }
 
@@ -584,6 +596,7 @@ fn run<T: SliceSample>(
         map: args.map,
         input_format: String::new(),
         spooled: false,
+        notes: Vec::new(),
     })
 }
 

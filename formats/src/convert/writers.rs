@@ -15,8 +15,8 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use volcore::{
-    BrickGeometry, Compression, Dims, Geometry, Layout, RegionSource, Sample, SampleType, Shard,
-    ValueRange, Volume, VolumeMeta,
+    BrickGeometry, Compression, Dims, Geometry, Layout, LengthUnit, RegionSource, Sample,
+    SampleType, Shard, ValueRange, Volume, VolumeMeta,
 };
 
 /// Where and how to write the converted volume.
@@ -212,6 +212,25 @@ impl Target {
             | Target::Headed { path, .. }
             | Target::OmeZarr { path, .. } => path,
             Target::VvolStream(_) | Target::Memory(_) => Path::new("-"),
+        }
+    }
+
+    /// The units of length the output can state, and its name for the
+    /// message when it cannot state the input's: NIfTI has codes for m,
+    /// mm and µm only, MetaImage has no unit field (ITK and everything
+    /// that reads it takes millimetres). `None`: the output holds every
+    /// unit, or no geometry at all (raw, `.vol`).
+    pub fn units(&self) -> Option<(&'static [LengthUnit], &'static str)> {
+        match self {
+            Target::Headed {
+                format: HeaderFormat::Nifti,
+                ..
+            } => Some((&crate::nifti::UNITS, "NIfTI")),
+            Target::Headed {
+                format: HeaderFormat::MetaImage,
+                ..
+            } => Some((&[LengthUnit::Millimeter], "MetaImage")),
+            _ => None,
         }
     }
 
@@ -505,6 +524,7 @@ pub(crate) fn run_target<T: SliceSample>(
                 dir: dir.temp.path(),
                 dims,
                 spacing: spec.spacing,
+                description: crate::tiff::imagej_description(spec.spacing[2], spec.geometry.unit),
                 width,
                 next_z: 0,
                 slab: slab(dims, T::TYPE.size()).max(rayon::current_num_threads() as u64),
@@ -855,6 +875,8 @@ struct TiffMultiSink<'a, W: Write + std::io::Seek, K: ::tiff::encoder::TiffKind>
     enc: ::tiff::encoder::TiffEncoder<W, K>,
     dims: Dims,
     spacing: [f32; 3],
+    /// The first page's ImageJ description (z spacing, unit).
+    description: String,
     next_z: u64,
     slab: u64,
     bytes: u64,
@@ -872,6 +894,7 @@ fn tiff_multi<W: Write + std::io::Seek, K: ::tiff::encoder::TiffKind, T: SliceSa
         enc,
         dims: spec.dims,
         spacing: spec.spacing,
+        description: crate::tiff::imagej_description(spec.spacing[2], spec.geometry.unit),
         next_z: 0,
         slab: slab(spec.dims, T::TYPE.size()),
         bytes: 0,
@@ -905,8 +928,8 @@ impl<W: Write + std::io::Seek, K: ::tiff::encoder::TiffKind, T: SliceSample> Sla
             let s = win.slice(z).ok_or_else(|| {
                 ConvertError::new(self.path, Error::invalid("slice missing (internal error)"))
             })?;
-            let desc = (z == 0).then(|| crate::tiff::imagej_description(self.spacing[2]));
-            crate::tiff::write_page(&mut self.enc, w, h, s, self.spacing, desc.as_deref())
+            let desc = (z == 0).then_some(self.description.as_str());
+            crate::tiff::write_page(&mut self.enc, w, h, s, self.spacing, desc)
                 .map_err(Error::invalid)
                 .at(self.path)?;
             self.bytes += std::mem::size_of_val(s) as u64;
@@ -991,6 +1014,8 @@ struct TiffDirSink<'a> {
     dir: &'a Path,
     dims: Dims,
     spacing: [f32; 3],
+    /// Every page's ImageJ description (z spacing, unit).
+    description: String,
     width: usize,
     next_z: u64,
     slab: u64,
@@ -1021,10 +1046,16 @@ impl<T: SliceSample> SlabSink<T> for TiffDirSink<'_> {
                     let mut enc = ::tiff::encoder::TiffEncoder::new(&mut bw)
                         .map_err(|e| Error::invalid(e.to_string()))
                         .at(self.path)?;
-                    let desc = crate::tiff::imagej_description(self.spacing[2]);
-                    crate::tiff::write_page(&mut enc, w, h, s, self.spacing, Some(&desc))
-                        .map_err(Error::invalid)
-                        .at(self.path)?;
+                    crate::tiff::write_page(
+                        &mut enc,
+                        w,
+                        h,
+                        s,
+                        self.spacing,
+                        Some(&self.description),
+                    )
+                    .map_err(Error::invalid)
+                    .at(self.path)?;
                 }
                 bw.flush().at(self.path)?;
                 Ok(std::fs::metadata(&p).at(self.path)?.len())

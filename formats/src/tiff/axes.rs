@@ -4,6 +4,8 @@
 //! `DimensionOrder` and `PhysicalSizeX/Y/Z`). A file with several channels
 //! or time points holds many 3D stacks; [`Axes::pages`] picks one.
 
+use volcore::LengthUnit;
+
 /// The non-spatial layout of a file's pages.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Axes {
@@ -17,6 +19,9 @@ pub struct Axes {
     pub strides: [u64; 3],
     /// Physical voxel size, when the file gives it.
     pub spacing: Option<[f32; 3]>,
+    /// The unit of `spacing` (ImageJ `unit=`; OME `PhysicalSizeXUnit`,
+    /// micrometres when absent, as the OME schema says).
+    pub unit: LengthUnit,
     /// Where the axes came from (`ImageJ hyperstack`, `OME-TIFF`).
     pub source: &'static str,
     /// The axes as tifffile names them (`TZCYX`).
@@ -28,6 +33,30 @@ fn imagej_value(desc: &str, key: &str) -> Option<u64> {
     desc.lines()
         .find_map(|l| l.trim().strip_prefix(key)?.strip_prefix('='))
         .and_then(|v| v.trim().parse().ok())
+}
+
+/// The unit of an ImageJ description's `unit=` (ImageJ's `micron`,
+/// `\u00B5m`, `nm`, ...). `pixel`, volkit's old `unit`, and words that
+/// are not units of length state none.
+pub fn imagej_unit(desc: &str) -> LengthUnit {
+    if !desc.starts_with("ImageJ") {
+        return LengthUnit::Unknown;
+    }
+    desc.lines()
+        .find_map(|l| l.trim().strip_prefix("unit="))
+        .and_then(|v| LengthUnit::parse(v.trim()))
+        .unwrap_or_default()
+}
+
+/// The character references XML attributes use for `µ` and `Å`.
+fn xml_unescape(v: &str) -> String {
+    v.replace("&#181;", "\u{00B5}")
+        .replace("&#xB5;", "\u{00B5}")
+        .replace("&#xb5;", "\u{00B5}")
+        .replace("&#197;", "Å")
+        .replace("&#xC5;", "Å")
+        .replace("&#8491;", "Å")
+        .replace("&amp;", "&")
 }
 
 /// The value of attribute `name` in the XML tag text `tag`.
@@ -82,6 +111,7 @@ impl Axes {
                 t,
                 strides: [c, 1, c * z],
                 spacing: None,
+                unit: imagej_unit(desc),
                 source: "ImageJ hyperstack",
                 names,
             });
@@ -124,16 +154,34 @@ impl Axes {
         if strides.contains(&0) {
             return None;
         }
-        let phys = |k: &str| {
-            attr(tag, k)
-                .and_then(|v| v.parse::<f32>().ok())
-                .filter(|v| v.is_finite() && *v > 0.0)
+        // Each size in its own unit, then all in the first stated one's.
+        let phys = |k: &str| -> Option<(f64, LengthUnit)> {
+            let v = attr(tag, k)
+                .and_then(|v| v.parse::<f64>().ok())
+                .filter(|v| v.is_finite() && *v > 0.0)?;
+            let unit = match attr(tag, &format!("{k}Unit")) {
+                None => LengthUnit::Micrometer,
+                Some(u) => LengthUnit::parse(&xml_unescape(u))?,
+            };
+            Some((v, unit))
         };
-        let (px, py, pz) = (
+        let sizes = [
             phys("PhysicalSizeX"),
             phys("PhysicalSizeY"),
             phys("PhysicalSizeZ"),
-        );
+        ];
+        let unit = sizes
+            .iter()
+            .flatten()
+            .map(|s| s.1)
+            .next()
+            .unwrap_or_default();
+        let in_unit = |s: Option<(f64, LengthUnit)>| -> Option<f32> {
+            let (v, u) = s?;
+            let k = if u == unit { 1.0 } else { u.factor_to(unit)? };
+            Some((v * k) as f32).filter(|v| v.is_finite() && *v > 0.0)
+        };
+        let [px, py, pz] = sizes.map(in_unit);
         let spacing = (px.is_some() || py.is_some() || pz.is_some()).then(|| {
             let x = px.unwrap_or(1.0);
             [x, py.unwrap_or(x), pz.unwrap_or(x)]
@@ -158,6 +206,7 @@ impl Axes {
             t,
             strides,
             spacing,
+            unit,
             source: "OME-TIFF",
             names,
         })
@@ -191,7 +240,7 @@ impl Axes {
             }
         };
         let ci = pick(c, self.c, "channels", "--channel");
-        let ti = pick(t, self.t, "time points", "--time");
+        let ti = pick(t, self.t, "time points", "--time-point");
         let (ci, ti) = match (ci, ti) {
             (Ok(c), Ok(t)) => (c, t),
             (Err(e), _) | (_, Err(e)) if !e.is_empty() => return Err(e),
@@ -205,7 +254,7 @@ impl Axes {
                     self.t,
                     self.c * self.t,
                     if self.c > 1 { " --channel C" } else { "" },
-                    if self.t > 1 { " --time T" } else { "" },
+                    if self.t > 1 { " --time-point T" } else { "" },
                 ))
             }
         };
@@ -258,7 +307,7 @@ mod tests {
         assert_eq!(a.names, "TZCYX");
         let e = a.pages(None, None, 80).unwrap_err();
         assert!(
-            e.contains("TZCYX") && e.contains("--channel C --time T"),
+            e.contains("TZCYX") && e.contains("--channel C --time-point T"),
             "{e}"
         );
         assert_eq!(a.pages(Some(1), Some(2), 80).unwrap()[..3], [41, 43, 45]);

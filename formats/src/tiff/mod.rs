@@ -9,7 +9,7 @@
 //! crate decodes. Colour or multi-band slices are reduced to one channel
 //! only on request ([`ChannelSel`]). ImageJ hyperstacks and OME-TIFF files
 //! with several channels or time points give one 3D stack, picked with
-//! `--channel` and `--time` ([`axes`]); OME-XML `PhysicalSizeX/Y/Z` give
+//! `--channel` and `--time-point` ([`axes`]); OME-XML `PhysicalSizeX/Y/Z` give
 //! the spacing.
 //!
 //! ImageJ stacks past 4 GiB, which ImageJ writes as one directory and all
@@ -21,7 +21,9 @@
 //! description, or the x spacing when there is none (so that a stack
 //! keeps its proportions whatever dpi its writer put in). Written files
 //! carry the same tags, so spacing survives a round trip and Fiji shows
-//! it.
+//! it. The unit of length is ImageJ's `unit=` or OME's
+//! `PhysicalSizeXUnit` (micrometres when absent, per the OME schema);
+//! plain TIFF states none (its resolution unit is for printing).
 
 pub mod axes;
 mod read;
@@ -34,7 +36,7 @@ use ::tiff::encoder::colortype;
 use ::tiff::encoder::{Rational, TiffEncoder, TiffKind};
 use ::tiff::tags::{ResolutionUnit, Tag};
 use std::io::{Seek, Write};
-use volcore::{Sample, SampleType};
+use volcore::{LengthUnit, Sample, SampleType};
 
 /// How to turn colour or multi-band slices into one channel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -122,9 +124,16 @@ pub fn write_page<T: Sample, W: Write + Seek, K: TiffKind>(
 }
 
 /// The ImageJ-style description volkit writes on the first page: it gives
-/// the z spacing to Fiji and back to volkit.
-pub fn imagej_description(spacing_z: f32) -> String {
-    format!("ImageJ=1.11a\nspacing={spacing_z}\nunit=unit\n")
+/// the z spacing and the unit of length to Fiji and back to volkit
+/// (`micron` for µm, as ImageJ spells it; `unit` when none is stated).
+pub fn imagej_description(spacing_z: f32, unit: LengthUnit) -> String {
+    let unit = match unit {
+        LengthUnit::Unknown => "unit",
+        LengthUnit::Micrometer => "micron",
+        LengthUnit::Angstrom => "angstrom",
+        other => other.symbol(),
+    };
+    format!("ImageJ=1.11a\nspacing={spacing_z}\nunit={unit}\n")
 }
 
 #[cfg(test)]

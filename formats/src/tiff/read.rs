@@ -1,5 +1,6 @@
 //! Reading TIFF pages as z slices.
 
+use super::axes::imagej_unit;
 use super::ChannelSel;
 use crate::convert::input::{Access, InputInfo, SliceReader};
 use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
@@ -11,7 +12,7 @@ use std::fs::File;
 use std::io::{BufReader, Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use volcore::Dims;
+use volcore::{Dims, LengthUnit};
 
 /// What one page holds, as far as a stack must agree on it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -362,7 +363,7 @@ impl ChannelPick {
         match self.sel {
             _ if self.c == 1 => Ok(v[..self.n].to_vec()),
             ChannelSel::Single => Err(Error::invalid(format!(
-                "slices have {} channels (colour?): pick one with --channel N or use --luma",
+                "slices have {} channels (colour?): pick one with --channel C",
                 self.c
             ))),
             ChannelSel::Channel(k) if k as usize >= self.c => Err(Error::invalid(format!(
@@ -600,6 +601,7 @@ pub fn open_files(
     let mut chan = chan;
     let mut axes_note = String::new();
     let mut axes_spacing = None;
+    let mut axes_unit = None;
     let desc = d
         .find_tag(Tag::ImageDescription)
         .ok()
@@ -624,6 +626,7 @@ pub fn open_files(
                 chan = ChannelSel::Single;
             }
             axes_spacing = a.spacing;
+            axes_unit = Some(a.unit);
             axes_note = format!(", {} {}", a.source, a.names);
             d.seek_to_image(ifds[0]).map_err(tiff_err).at(&first)?;
         }
@@ -637,12 +640,13 @@ pub fn open_files(
         return Err(ConvertError::new(
             &first,
             Error::invalid(format!(
-                "slices have {} channels (colour?): pick one with --channel N or use --luma",
+                "slices have {} channels (colour?): pick one with --channel C",
                 page.channels
             )),
         ));
     }
     let spacing = axes_spacing.or_else(|| spacing_of(&mut d, z_first));
+    let unit = axes_unit.unwrap_or_else(|| desc.as_deref().map(imagej_unit).unwrap_or_default());
     let (z, pages, format, bytes_in) = if files.len() == 1 {
         let z = ifds.len() as u64;
         let len = std::fs::metadata(&first).at(&first)?.len();
@@ -680,7 +684,7 @@ pub fn open_files(
             dims,
             sample_type,
             spacing,
-            geometry: volcore::Geometry::IDENTITY,
+            geometry: volcore::Geometry::IDENTITY.with_unit(unit),
             format,
         },
         page,
@@ -789,6 +793,8 @@ pub struct ImageJRaw {
     pub big_endian: bool,
     /// Spacing from the tags and description.
     pub spacing: Option<[f32; 3]>,
+    /// The description's unit of length.
+    pub unit: LengthUnit,
 }
 
 /// Detect an ImageJ file whose images follow each other without
@@ -853,6 +859,7 @@ pub fn imagej_raw(path: &Path) -> CResult<Option<ImageJRaw>> {
         offset,
         big_endian,
         spacing,
+        unit: imagej_unit(&desc),
     }))
 }
 

@@ -16,16 +16,18 @@ pub use write::{write, VvolWriter, WriteStats};
 use crate::error::{Error, Result};
 use volcore::grid::BrickEntry;
 use volcore::{
-    BrickGeometry, Compression, Dims, Geometry, Layout, SampleType, ValueRange, VolumeMeta,
+    BrickGeometry, Compression, Dims, Geometry, Layout, LengthUnit, SampleType, ValueRange,
+    VolumeMeta,
 };
 
 /// First eight bytes of every `.vvol` file.
 pub const MAGIC: [u8; 8] = *b"\x89VVOL\r\n\x1a";
 /// First eight bytes of the trailer.
 pub const TRAILER_MAGIC: [u8; 8] = *b"VVOLEND\0";
-/// The format version this code writes (it reads 1 and 2).
-pub const VERSION: u16 = 2;
-/// Size of the fixed header this code writes (version 2).
+/// The format version this code writes (it reads 1, 2 and 3; 3 adds the
+/// unit of length to version 2's geometry).
+pub const VERSION: u16 = 3;
+/// Size of the fixed header this code writes (versions 2 and 3).
 pub const HEADER_LEN: u64 = 256;
 /// Size of the version 1 header, and of the part every version shares.
 pub const BASE_HEADER_LEN: u64 = 128;
@@ -37,13 +39,16 @@ pub const TRAILER_LEN: u64 = 32;
 pub const ALIGN: u64 = 64;
 
 const FLAG_RANGE: u32 = 1;
+/// Where version 3 keeps the unit of length code ([`LengthUnit::code`]).
+const UNIT_AT: usize = 224;
 
 /// The decoded fixed header.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Header {
     /// Volume metadata (range may be empty when the writer streamed).
     pub meta: VolumeMeta,
-    /// Header length: 128 (version 1) or 256 (version 2, with geometry).
+    /// Header length: 128 (version 1) or 256 (versions 2 and 3, with
+    /// geometry).
     pub header_len: u64,
     /// Byte offset of the data section.
     pub data_offset: u64,
@@ -127,7 +132,7 @@ impl Header {
             .checked_add(TRAILER_LEN)
     }
 
-    /// Encode as the 256-byte version 2 header.
+    /// Encode as the 256-byte version 3 header.
     pub fn encode(&self) -> [u8; HEADER_LEN as usize] {
         let m = &self.meta;
         let mut b = [0u8; HEADER_LEN as usize];
@@ -168,13 +173,14 @@ impl Header {
         for (i, v) in g.direction.iter().flatten().enumerate() {
             b[152 + 8 * i..160 + 8 * i].copy_from_slice(&v.to_le_bytes());
         }
+        b[UNIT_AT] = g.unit.code();
         let crc = crc32fast::hash(&b[128..252]);
         b[252..256].copy_from_slice(&crc.to_le_bytes());
         b
     }
 
     /// The length of the header that starts with `b` (at least 16 bytes):
-    /// 128 for version 1, 256 for version 2.
+    /// 128 for version 1, 256 for versions 2 and 3.
     pub fn length_of(b: &[u8]) -> Result<u64> {
         if b.len() < 16 {
             return Err(Error::invalid(
@@ -187,12 +193,12 @@ impl Header {
         let version = u16::from_le_bytes([b[8], b[9]]);
         let len = u16::from_le_bytes([b[10], b[11]]) as u64;
         match (version, len) {
-            (1, BASE_HEADER_LEN) | (2, HEADER_LEN) => Ok(len),
-            (1 | 2, other) => Err(Error::invalid(format!(
+            (1, BASE_HEADER_LEN) | (2 | 3, HEADER_LEN) => Ok(len),
+            (1..=3, other) => Err(Error::invalid(format!(
                 "header size field {other} is wrong for .vvol version {version}"
             ))),
             (v, _) => Err(Error::invalid(format!(
-                "unsupported .vvol version {v} (this build reads 1 and {VERSION})"
+                "unsupported .vvol version {v} (this build reads 1 to {VERSION})"
             ))),
         }
     }
@@ -221,8 +227,16 @@ impl Header {
             let origin = [0, 1, 2].map(|a| f64_at(128 + 8 * a));
             let d = |i: usize| f64_at(152 + 8 * i);
             let axes = [0, 1, 2].map(|a| [d(a), d(3 + a), d(6 + a)]);
-            Geometry::from_axes(origin, axes)
-                .map_err(|e| Error::invalid(format!("geometry: {e}")))?
+            let g = Geometry::from_axes(origin, axes)
+                .map_err(|e| Error::invalid(format!("geometry: {e}")))?;
+            // Version 2 holds no unit (its byte is reserved, 0).
+            let unit = match u16::from_le_bytes([b[8], b[9]]) {
+                2 => LengthUnit::Unknown,
+                _ => LengthUnit::from_code(b[UNIT_AT]).ok_or_else(|| {
+                    Error::invalid(format!("unknown unit of length code {}", b[UNIT_AT]))
+                })?,
+            };
+            g.with_unit(unit)
         } else {
             Geometry::IDENTITY
         };

@@ -1,0 +1,96 @@
+//! What to read from an input that holds more than one volume, or cannot
+//! describe itself: the one definition of the input-selection flags every
+//! tool that opens a volume takes (`--raw-*`, `--series`, `--channel`,
+//! `--time-point`), flattened into each tool's command line, so an error
+//! that names one of these flags names a flag the tool has.
+
+use crate::open::ReadOptions;
+use crate::raw::RawSpec;
+use crate::tiff::ChannelSel;
+
+/// The input-selection flags.
+#[derive(Clone, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "clap", derive(clap::Args))]
+pub struct Selection {
+    /// How to read a headerless raw volume.
+    #[cfg_attr(feature = "clap", command(flatten))]
+    pub raw: RawSpec,
+    /// DICOM folder with several series: the series to read, by series
+    /// number, SeriesInstanceUID, or a unique prefix of it.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "SERIES"))]
+    pub series: Option<String>,
+    /// Multichannel input (colour TIFF samples, the C axis of an ImageJ
+    /// hyperstack, OME-TIFF or OME-Zarr): the channel to read, from 0
+    /// (colour: 0 is red).
+    #[cfg_attr(feature = "clap", arg(long, value_name = "C"))]
+    pub channel: Option<u16>,
+    /// Input with a time axis (4D NIfTI, ImageJ hyperstack, OME-TIFF,
+    /// OME-Zarr): the time point to read, from 0.
+    #[cfg_attr(feature = "clap", arg(long = "time-point", value_name = "T"))]
+    pub time_point: Option<u64>,
+    /// The old spelling of --time-point (and of vol-render's --seconds):
+    /// refused, naming both.
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long = "time",
+            hide = true,
+            value_name = "T",
+            allow_hyphen_values = true
+        )
+    )]
+    pub old_time: Option<String>,
+}
+
+/// The one-line answer to `--time` (or a scene file's `time`): what it
+/// was split into.
+pub const TIME_RENAMED: &str = "--time is gone: use --time-point T to pick a time point of 4D data, or --seconds S for vol-render's path-tracing time budget";
+
+impl Selection {
+    /// The read options these flags ask for (colour TIFF: one channel when
+    /// `--channel` is given, else single-channel input only); an error for
+    /// the old `--time`.
+    pub fn read_options(&self) -> Result<ReadOptions, String> {
+        if self.old_time.is_some() {
+            return Err(TIME_RENAMED.to_string());
+        }
+        Ok(ReadOptions {
+            raw: self.raw,
+            channel: self.channel.map_or(ChannelSel::Single, ChannelSel::Channel),
+            time: self.time_point,
+            series: self.series.clone(),
+            ..ReadOptions::default()
+        })
+    }
+
+    /// Whether any selection was given (beyond the raw defaults).
+    pub fn is_given(&self) -> bool {
+        self.raw.is_given()
+            || self.series.is_some()
+            || self.channel.is_some()
+            || self.time_point.is_some()
+            || self.old_time.is_some()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_old_time_flag_is_refused_naming_both_new_ones() {
+        let s = Selection {
+            old_time: Some("3".into()),
+            ..Selection::default()
+        };
+        let e = s.read_options().unwrap_err();
+        assert!(e.contains("--time-point") && e.contains("--seconds"), "{e}");
+        let s = Selection {
+            channel: Some(2),
+            time_point: Some(1),
+            ..Selection::default()
+        };
+        let o = s.read_options().unwrap();
+        assert_eq!((o.channel, o.time), (ChannelSel::Channel(2), Some(1)));
+    }
+}
