@@ -18,6 +18,8 @@
 # file) for the baselines; otherwise the issue's figures are used (0.33 s and 0.9 s for
 # 512^3, scaled by DIM^3).
 #
+# Then (PY with SimpleITK) .nii -> .nii.gz against SimpleITK: see the end.
+#
 # Usage: scripts/bench-convert.sh [DIM] [RUNS]   (default 512 5)
 #        BIG=2000 scripts/bench-convert.sh       also converts a BIG^3 u8
 #                                                stack once for peak memory
@@ -171,4 +173,40 @@ if [ -n "${BIG:-}" ]; then
         printf '  %s^3 %-10s %7.1f s  cpu %s s  peak %.0f MiB  (%s bytes out)\n' "$BIG" "$layout" "$t" "$c" "$(awk -v k="$k" 'BEGIN {print k/1024}')" "$(stat -c %s "$BD/out.vvol")"
         rm -f "$BD/out.vvol"
     done
+fi
+
+# gzip: a CT-like DIM x DIM x DIM/2 i16 volume (vol-gen phantom: noise
+# keeps it from compressing to nothing) from .nii to .nii.gz, volkit at
+# its default level against SimpleITK's WriteImage(useCompression=True)
+# (read and write timed inside Python, its import left out), interleaved.
+# Target: volkit no slower, its file no more than 2% larger.
+if [ -n "$PY" ] && "$PY" -c 'import SimpleITK' 2>/dev/null; then
+    GZ="$DIR/gzip"
+    mkdir -p "$GZ"
+    if [ ! -f "$GZ/head.nii" ]; then
+        "$B/vol-gen" phantom --dims "$DIM,$DIM,$((DIM / 2))" --quiet -o "$GZ/head.vvol"
+        "$B/vol-convert" "$GZ/head.vvol" -q -o "$GZ/head.nii"
+        rm -f "$GZ/head.vvol"
+    fi
+    : > "$GZ/runs.txt"
+    for r in $(seq 1 "$RUNS"); do
+        rm -f "$GZ/vk.nii.gz" "$GZ/sitk.nii.gz"
+        sync
+        read -r v_s v_k v_c < <(timed "$B/vol-convert" "$GZ/head.nii" -q -o "$GZ/vk.nii.gz")
+        sync
+        s_s=$("$PY" -c 'import sys, time, SimpleITK as s
+t = time.perf_counter()
+s.WriteImage(s.ReadImage(sys.argv[1]), sys.argv[2], useCompression=True)
+print(f"{time.perf_counter() - t:.4f}")' "$GZ/head.nii" "$GZ/sitk.nii.gz")
+        echo "$v_s $s_s $v_c" >> "$GZ/runs.txt"
+    done
+    v_m=$(awk '{print $1}' "$GZ/runs.txt" | median)
+    s_m=$(awk '{print $2}' "$GZ/runs.txt" | median)
+    v_c=$(awk '{print $3}' "$GZ/runs.txt" | median)
+    v_b=$(stat -c %s "$GZ/vk.nii.gz")
+    s_b=$(stat -c %s "$GZ/sitk.nii.gz")
+    printf '  .nii -> .nii.gz   %6.3f s  cpu %s s  SimpleITK %.3f s: %sx its time (target <= 1), %s bytes = %sx its %s (target <= 1.02); load %s\n' \
+        "$v_m" "$v_c" "$s_m" "$(ratio "$v_m" "$s_m")" "$v_b" "$(ratio "$v_b" "$s_b")" "$s_b" "$(cut -d' ' -f1-3 /proc/loadavg)"
+else
+    echo "  .nii -> .nii.gz: not measured (set PY to a Python with SimpleITK)"
 fi

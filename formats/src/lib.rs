@@ -20,6 +20,7 @@ pub mod detect;
 pub mod dicom;
 pub mod error;
 pub mod fingerprint;
+pub mod gzip;
 pub mod image;
 pub mod mhd;
 pub mod nifti;

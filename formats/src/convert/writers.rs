@@ -583,7 +583,11 @@ fn encoder<'w>(w: &'w mut (dyn Write + Send), codec: DataCodec) -> Box<dyn Finis
     let level = flate2::Compression::new(6);
     match codec {
         DataCodec::Raw => Box::new(std::io::BufWriter::with_capacity(1 << 20, w)),
-        DataCodec::Gzip => Box::new(flate2::write::GzEncoder::new(w, level)),
+        // Members compressed on every core (crate::gzip).
+        DataCodec::Gzip => Box::new(crate::gzip::ParallelGz::new(
+            std::io::BufWriter::with_capacity(1 << 20, w),
+            level.level(),
+        )),
         DataCodec::Zlib => Box::new(flate2::write::ZlibEncoder::new(w, level)),
     }
 }
@@ -599,9 +603,9 @@ impl<W: Write + Send> FinishWrite for std::io::BufWriter<W> {
     }
 }
 
-impl<W: Write + Send> FinishWrite for flate2::write::GzEncoder<W> {
+impl<W: Write + Send> FinishWrite for crate::gzip::ParallelGz<W> {
     fn finish_all(self: Box<Self>) -> std::io::Result<()> {
-        self.finish().map(|_| ())
+        self.finish().and_then(|mut w| w.flush())
     }
 }
 
