@@ -5,7 +5,7 @@
 #
 #   bash scripts/accuracy-vs-time.sh            # default study, a few minutes
 #   bash scripts/accuracy-vs-time.sh --quick    # CI-sized, seconds
-#   bash scripts/accuracy-vs-time.sh --out DIR --repeat 5 --scene noise
+#   bash scripts/accuracy-vs-time.sh -o DIR --repeat 5 --scene noise
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --bins --quiet

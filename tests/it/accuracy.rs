@@ -44,7 +44,25 @@ fn parse_csv(text: &str) -> Rows {
 fn quick_study_writes_rows_and_error_falls_with_step() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("acc");
-    ok(tool("vol-accuracy").arg("--quick").arg("--out").arg(&out));
+    // -o, -q and --json as every tool takes them: no progress lines, one
+    // JSON object naming the table.
+    let o = crate::common::run(
+        tool("vol-accuracy")
+            .args(["--quick", "-q", "--json", "-o"])
+            .arg(&out),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let j = crate::common::json(&String::from_utf8_lossy(&o.stdout));
+    assert_eq!(j["tool"], "vol-accuracy", "{j}");
+    assert_eq!(
+        j["files"][0],
+        out.join("accuracy.csv").display().to_string()
+    );
     let text = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
     let rows = parse_csv(&text);
 

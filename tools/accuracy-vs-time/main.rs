@@ -17,6 +17,17 @@
 //! It drives the other tools (`vol-gen`, `vol-render`, `vol-psnr`), which it
 //! looks for next to its own executable unless `--bin-dir` says otherwise.
 
+/// Set by `--quiet`: progress lines are not printed.
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// A progress line on stderr, unless `--quiet`.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        if !crate::QUIET.load(::std::sync::atomic::Ordering::Relaxed) {
+            ::volkit_cli::noteln!($($arg)*);
+        }
+    }};
+}
 mod path_study;
 
 use anyhow::{anyhow, bail, Context, Result};
@@ -25,7 +36,8 @@ use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
-use volkit_cli::noteln;
+use std::sync::atomic::{AtomicBool, Ordering};
+use volkit_cli::json;
 
 /// Sweep the renderer's accuracy knobs and chart PSNR against render time.
 ///
@@ -49,9 +61,22 @@ struct Cli {
     /// spp and by time (path.csv, path.md, path-SCENE.png and .svg).
     #[arg(long, conflicts_with_all = ["scene", "repeat"])]
     path: bool,
-    /// Directory for the volumes, images, CSV and plots.
-    #[arg(long, value_name = "DIR", default_value = "out/accuracy")]
-    out: PathBuf,
+    /// Directory for the volumes, images, CSV and plots (`--out` is the
+    /// old spelling, still taken).
+    #[arg(
+        short,
+        long,
+        alias = "out",
+        value_name = "DIR",
+        default_value = "out/accuracy"
+    )]
+    output: PathBuf,
+    /// Print one JSON object at the end: the files written, rows, time.
+    #[arg(long)]
+    json: bool,
+    /// Print nothing but errors (and --json): no progress lines.
+    #[arg(short, long)]
+    quiet: bool,
     /// Runs per setting; the median is reported (default: 3, quick: 1).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     repeat: Option<u32>,
@@ -72,7 +97,7 @@ struct Cli {
 
 const AFTER_HELP: &str = "Examples:
   vol-accuracy                      # default study, out/accuracy/
-  vol-accuracy --quick --out /tmp/acc
+  vol-accuracy --quick -o /tmp/acc --json
   vol-accuracy --scene noise --repeat 5
   vol-accuracy --path                 # the path tracer's convergence study
 
@@ -159,8 +184,27 @@ fn main() -> ExitCode {
     volkit_cli::run("vol-accuracy", || run(&cli))
 }
 
-/// The whole study.
+/// The study, then its `--json` report.
 fn run(cli: &Cli) -> Result<()> {
+    QUIET.store(cli.quiet, Ordering::Relaxed);
+    let start = std::time::Instant::now();
+    let files = study_files(cli)?;
+    if cli.json {
+        let v = serde_json::json!({
+            "tool": "vol-accuracy",
+            "output": cli.output.display().to_string(),
+            "study": if cli.path { "path" } else { "ray casting" },
+            "files": files.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "seconds": start.elapsed().as_secs_f64(),
+            "threads": std::thread::available_parallelism().map_or(1, |n| n.get()),
+        });
+        json::emit(&v, false)?;
+    }
+    Ok(())
+}
+
+/// The whole study; the tables it wrote.
+fn study_files(cli: &Cli) -> Result<Vec<PathBuf>> {
     let bin_dir = match &cli.bin_dir {
         Some(d) => d.clone(),
         None => std::env::current_exe()
@@ -178,18 +222,19 @@ fn run(cli: &Cli) -> Result<()> {
             );
         }
     }
-    std::fs::create_dir_all(&cli.out)
-        .with_context(|| format!("{}: cannot create directory", cli.out.display()))?;
+    std::fs::create_dir_all(&cli.output)
+        .with_context(|| format!("{}: cannot create directory", cli.output.display()))?;
     let repeat = cli.repeat.unwrap_or(if cli.quick { 1 } else { 3 });
     if cli.path {
         let font = load_font(cli.font.as_deref())?;
         let ctx = Ctx {
             bin: bin_dir,
-            out: cli.out.clone(),
+            out: cli.output.clone(),
             repeat,
             ref_step: REF_STEP,
         };
-        return path_study::run(&ctx, cli.quick, font);
+        path_study::run(&ctx, cli.quick, font)?;
+        return Ok(vec![ctx.out.join("path.csv"), ctx.out.join("path.md")]);
     }
     let (scenes, sweep) = study(cli.quick);
     let scenes: Vec<Scene> = match &cli.scene {
@@ -205,7 +250,7 @@ fn run(cli: &Cli) -> Result<()> {
     let font = load_font(cli.font.as_deref())?;
     let ctx = Ctx {
         bin: bin_dir,
-        out: cli.out.clone(),
+        out: cli.output.clone(),
         repeat,
         ref_step: if cli.quick { REF_STEP_QUICK } else { REF_STEP },
     };
@@ -231,8 +276,8 @@ fn run(cli: &Cli) -> Result<()> {
     }
     let csv = ctx.out.join("accuracy.csv");
     write_csv(&csv, &rows)?;
-    noteln!("vol-accuracy: wrote {}", csv.display());
-    Ok(())
+    say!("vol-accuracy: wrote {}", csv.display());
+    Ok(vec![csv])
 }
 
 /// Everything a render needs besides the scene and the setting.
@@ -400,7 +445,7 @@ fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
         view.extend(["--tf".into(), path_arg(&tf_path)?]);
     }
     let reference = ctx.out.join(format!("{}-reference.pfm", scene.name));
-    noteln!(
+    say!(
         "vol-accuracy: {}: reference at step {}",
         scene.name,
         ctx.ref_step
@@ -485,7 +530,7 @@ impl Measured<'_> {
             .join(format!("{name}-{}-{value}.pfm", knob.replace(' ', "-")));
         let r = render(ctx, self.vol, self.view, args, &hdr, ctx.repeat)?;
         let psnr_db = psnr(ctx, self.reference, &hdr)?;
-        noteln!(
+        say!(
             "vol-accuracy: {name} {knob}={value}: {:.4} s, PSNR {}",
             r.median_s,
             psnr_db.map_or("inf".to_string(), |p| format!("{p:.2} dB"))
@@ -611,7 +656,7 @@ fn run_effect(ctx: &Ctx, scene: &Scene, study: &EffectStudy) -> Result<Vec<Row>>
     view.extend(study.extra.iter().cloned());
     let reference = ctx.out.join(format!("{name}-reference.pfm"));
     let (ref_value, ref_args) = &study.reference;
-    noteln!("vol-accuracy: {name}: reference {}", ref_args.join(" "));
+    say!("vol-accuracy: {name}: reference {}", ref_args.join(" "));
     let r = render(ctx, &vol, &view, ref_args, &reference, ctx.repeat)?;
     let mut rows = vec![r.reference_row(name, ref_value.clone())];
     let m = Measured {
@@ -789,7 +834,7 @@ fn load_font(asked: Option<&Path>) -> Result<bool> {
     if let Some(p) = asked {
         bail!("{}: cannot read font", p.display());
     }
-    noteln!("vol-accuracy: no font found (give --font FILE.ttf): skipping the plots");
+    say!("vol-accuracy: no font found (give --font FILE.ttf): skipping the plots");
     Ok(false)
 }
 

@@ -15,7 +15,6 @@ use anyhow::{anyhow, bail, Context, Result};
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::Path;
-use volkit_cli::noteln;
 
 /// A scene of the study.
 struct PathScene {
@@ -181,7 +180,7 @@ pub fn run(ctx: &Ctx, quick: bool, font: bool) -> Result<()> {
         for bounces in [1u32, 8] {
             let tag = format!("path-{}-d{bounces}", scene.name);
             let reference = ctx.out.join(format!("{tag}-reference.pfm"));
-            noteln!("vol-accuracy: {tag}: reference at {} spp", z.reference_spp);
+            say!("vol-accuracy: {tag}: reference at {} spp", z.reference_spp);
             let b = bounces.to_string();
             // Its own seed: the reference's noise is independent of the
             // renders compared with it.
@@ -228,7 +227,7 @@ pub fn run(ctx: &Ctx, quick: bool, font: bool) -> Result<()> {
                     secs += pass.render_s;
                     have = target;
                     let p = psnr(ctx, &reference, &hdr)?.unwrap_or(f64::INFINITY);
-                    noteln!(
+                    say!(
                         "vol-accuracy: {tag} {majorant} {target} spp: {} s, PSNR {p:.2} dB",
                         seconds(secs)
                     );
@@ -254,7 +253,7 @@ pub fn run(ctx: &Ctx, quick: bool, font: bool) -> Result<()> {
     write_text(&ctx.out.join("path.csv"), &csv(&rows))?;
     let md = summary(&rows);
     write_text(&ctx.out.join("path.md"), &md)?;
-    noteln!(
+    say!(
         "vol-accuracy: wrote {} and {}",
         ctx.out.join("path.csv").display(),
         ctx.out.join("path.md").display()
