@@ -591,3 +591,38 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
     fails(&mut c, "--ngff applies to OME-Zarr output");
     assert_eq!(c.status().unwrap().code(), Some(2));
 }
+
+#[test]
+fn more_pyramid_levels_than_the_volume_makes_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let src = d.join("v.vvol");
+    ok(tool("vol-gen")
+        .args(["noise", "--dims", "64,64,20", "-q", "-o"])
+        .arg(&src));
+    let z = d.join("v.ome.zarr");
+    // 64 halves to 32, 16, 8, 4, 2: six levels, the last 2x2x1.
+    let e = fails(
+        tool("vol-convert")
+            .arg(&src)
+            .args(["--pyramid", "9", "-o"])
+            .arg(&z),
+        "at most 6 pyramid levels",
+    );
+    assert!(e.contains("v.ome.zarr") && e.contains("2x2x1"), "{e}");
+    assert!(!z.exists());
+    ok(tool("vol-convert")
+        .arg(&src)
+        .args(["--pyramid", "6", "-q", "-o"])
+        .arg(&z));
+    assert!(z.join("5").is_dir() && !z.join("6").exists());
+    // Sharded writes check the same way.
+    fails(
+        tool("vol-convert")
+            .arg(&src)
+            .args(["--pyramid", "7", "--shard", "0/2", "-o"])
+            .arg(d.join("s.ome.zarr")),
+        "at most 6",
+    );
+    assert!(leftovers(d).is_empty());
+}

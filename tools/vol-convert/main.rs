@@ -570,6 +570,10 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         .map_err(|e| at(input, e))?,
         None => info.dims,
     };
+    if volformats::omezarr::is_zarr(&cli.output) {
+        // Before any sample is read: the pyramid must fit the output dims.
+        volformats::omezarr::check_levels(out_dims, cli.pyramid).map_err(|e| at(&cli.output, e))?;
+    }
     let plan = Plan {
         crop,
         flip,
