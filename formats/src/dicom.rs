@@ -701,6 +701,7 @@ impl DicomReader {
             .sum();
         Ok(DicomReader {
             info: InputInfo {
+                nifti_codes: None,
                 path: input.to_path_buf(),
                 dims,
                 sample_type: out,

@@ -304,6 +304,7 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
     let bytes = dir_size(root);
     Ok(ZarrReader {
         info: InputInfo {
+            nifti_codes: None,
             path: root.to_path_buf(),
             dims,
             sample_type: t,

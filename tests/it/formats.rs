@@ -592,6 +592,43 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
     assert_eq!(c.status().unwrap().code(), Some(2));
 }
 
+/// The qform and sform codes of a NIfTI-1 header file (uncompressed).
+fn nifti_codes(path: &Path) -> (i16, i16) {
+    let b = std::fs::read(path).unwrap();
+    (
+        i16::from_le_bytes([b[252], b[253]]),
+        i16::from_le_bytes([b[254], b[255]]),
+    )
+}
+
+#[test]
+fn nifti_outputs_keep_the_inputs_qform_and_sform_codes() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    // nibabel wrote qform 1 (scanner) and sform 2 (aligned), one affine.
+    let src = fixture("nibabel_int16.nii.gz");
+    let a = d.join("a.nii");
+    ok(tool("vol-convert").arg(&src).arg("-q").arg("-o").arg(&a));
+    assert_eq!(nifti_codes(&a), (1, 2));
+    // From an uncompressed NIfTI (the other reader), cropped and flipped:
+    // the same space.
+    let b = d.join("b.hdr");
+    ok(tool("vol-convert")
+        .arg(&a)
+        .args(["--crop", "1:7,:,:", "--flip", "z", "-q", "-o"])
+        .arg(&b));
+    assert_eq!(nifti_codes(&b), (1, 2));
+    assert!(close(&info(&b, &[])["origin"], &[-9.5, 20.0, 37.5]));
+    // Another format has no code: scanner coordinates, as before.
+    let c = d.join("c.nii");
+    ok(tool("vol-convert")
+        .arg(fixture("dicom_ct"))
+        .arg("-q")
+        .arg("-o")
+        .arg(&c));
+    assert_eq!(nifti_codes(&c), (1, 1));
+}
+
 #[test]
 fn more_pyramid_levels_than_the_volume_makes_are_refused() {
     let d = tempfile::tempdir().unwrap();
