@@ -24,8 +24,11 @@ use volkit_cli::{json, noteln, usage, RawSpec};
 /// slice2 before slice10), a glob such as 'scan/*.tif' (quote it), a
 /// .txt/.lst file listing slices, a .raw file (dims and type from flags or
 /// from NAME_XxYxZ_TYPE.raw), NRRD (.nrrd/.nhdr, raw or gzip), MetaImage
-/// (.mhd/.mha), a thesis .vol, a .vvol, or - for standard input (a .vvol
-/// stream, a NRRD with attached data, or raw with --raw-dims).
+/// (.mhd/.mha), a DICOM series (a directory, or a glob or list of DICOM
+/// files: files that hold no image, such as a DICOMDIR or a structured
+/// report, are skipped and counted), an OME-Zarr (NAME.ome.zarr), a thesis
+/// .vol, a .vvol, or - for standard input (a .vvol stream, a NRRD with
+/// attached data, or raw with --raw-dims).
 ///
 /// 8, 16 and 32-bit integer and 32 and 64-bit float samples are read;
 /// types volkit does not store (i8, u32, i32, f64) become the smallest of
@@ -105,8 +108,9 @@ struct Cli {
     /// 4D NIfTI, ImageJ hyperstack or OME data: the time point to read.
     #[arg(long, value_name = "T")]
     time: Option<u64>,
-    /// DICOM: the SeriesInstanceUID to read when the input holds several.
-    #[arg(long, value_name = "UID")]
+    /// DICOM: the series to read when the input holds several: its
+    /// SeriesNumber, its SeriesInstanceUID, or a prefix of one UID only.
+    #[arg(long, value_name = "NUMBER|UID")]
     series: Option<String>,
     /// Convert only shard K of N (K from 0) into a part file (-o
     /// NAME.vpart): its share of the brick layers (bricked) or slices
@@ -548,6 +552,8 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     target.preflight().map_err(anyhow::Error::new)?;
     let opts = read_options(cli);
     let reader = open_input(input, &opts)?;
+    // Told once the conversion succeeds: an error stays one line.
+    let notes = reader.notes();
     let info = reader.info().clone();
     let crop = match &cli.crop {
         Some(s) => {
@@ -618,6 +624,11 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         }
     })?;
     bar.finish_and_clear();
+    if !cli.quiet {
+        for note in &notes {
+            noteln!("vol-convert: {note}");
+        }
+    }
     let seconds = start.elapsed().as_secs_f64();
     let to_stdout = cli.output.as_os_str() == "-";
     if cli.json {

@@ -86,6 +86,11 @@ pub trait SliceReader: Send + Sync {
     fn finish(&self) -> CResult<()> {
         Ok(())
     }
+    /// What the reader did that its user should hear of (files skipped),
+    /// one line each.
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// Slices of one type as a [`SliceReader`] (tests and small volumes).
