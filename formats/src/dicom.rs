@@ -723,9 +723,15 @@ impl Scan {
         &self.skipped
     }
 
-    /// The index of the series `sel` names: its whole UID, its
-    /// SeriesNumber, or a prefix of one UID only; with `None`, the only
-    /// series. Anything else is an error listing the candidates.
+    /// What the user should hear of: how many files were skipped (what
+    /// [`DicomReader`]'s notes say too).
+    pub fn notes(&self) -> Vec<String> {
+        skipped_notes(&self.input, &self.skipped)
+    }
+
+    /// The index of the series `sel` names, tried in this order: its
+    /// whole UID, its SeriesNumber, a prefix of one UID only; with `None`,
+    /// the only series. Anything else is an error listing the candidates.
     fn select(&self, sel: Option<&str>) -> CResult<usize> {
         let list = |idx: &[usize]| {
             idx.iter()
@@ -799,7 +805,7 @@ impl Scan {
 
 /// `3 files (1 DICOMDIR, 2 Basic Text SR Storage)`: how many files were
 /// skipped and what they hold.
-pub fn skipped_summary(skipped: &[Skipped]) -> String {
+fn skipped_summary(skipped: &[Skipped]) -> String {
     let mut kinds: BTreeMap<&str, usize> = BTreeMap::new();
     for s in skipped {
         *kinds.entry(s.what.as_str()).or_default() += 1;
@@ -814,6 +820,19 @@ pub fn skipped_summary(skipped: &[Skipped]) -> String {
             .collect::<Vec<_>>()
             .join(", ")
     )
+}
+
+/// `input: skipped 2 files (...) that hold no image`, or nothing.
+fn skipped_notes(input: &Path, skipped: &[Skipped]) -> Vec<String> {
+    if skipped.is_empty() {
+        return Vec::new();
+    }
+    vec![format!(
+        "{}: skipped {} that hold{} no image",
+        input.display(),
+        skipped_summary(skipped),
+        if skipped.len() == 1 { "s" } else { "" }
+    )]
 }
 
 /// Open the series in `files` (from `input`): the one `series` names
@@ -1218,15 +1237,7 @@ impl SliceReader for DicomReader {
         self.bytes
     }
     fn notes(&self) -> Vec<String> {
-        if self.skipped.is_empty() {
-            return Vec::new();
-        }
-        vec![format!(
-            "{}: skipped {} that hold{} no image",
-            self.info.path.display(),
-            skipped_summary(&self.skipped),
-            if self.skipped.len() == 1 { "s" } else { "" }
-        )]
+        skipped_notes(&self.info.path, &self.skipped)
     }
 }
 

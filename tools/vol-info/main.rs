@@ -96,12 +96,8 @@ fn info(cli: &Cli) -> Result<()> {
         let scan = volformats::open::dicom_scan(&cli.input, &opts)?;
         if cli.series.is_none() && scan.series().len() > 1 {
             if !cli.quiet {
-                if !scan.skipped().is_empty() {
-                    noteln!(
-                        "vol-info: {name}: skipped {} that hold{} no image",
-                        volformats::dicom::skipped_summary(scan.skipped()),
-                        if scan.skipped().len() == 1 { "s" } else { "" }
-                    );
+                for note in scan.notes() {
+                    noteln!("vol-info: {note}");
                 }
                 list_series(cli, &scan, start.elapsed().as_secs_f64())?;
             }
