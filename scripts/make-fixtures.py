@@ -11,6 +11,12 @@ tools of each format, so volkit is tested against files it did not write:
   holding several series.
 - dicom_tilt/: 3 slices whose positions do not follow the slice normal
   (gantry tilt).
+- dicom_pacs/: a folder as a PACS exports it: two image series (CT
+  #3 "Axial 2.0", 4 slices of 6x5 uint16; MR #7 "Axial T1", 3 slices of
+  5x4 int16; UIDs ...498.40 and ...498.41 share the prefix ...498.4), a
+  Basic Text SR, a grayscale softcopy presentation state and a DICOMDIR
+  (written by pydicom's FileSet; its records point into the FileSet's own
+  layout, which is not kept).
 - tifffile_ome.ome.tif: OME-TIFF by tifffile, axes ZCYX (5 x 2 x 8 x 6,
   uint16), PhysicalSizeX/Y 0.25, PhysicalSizeZ 1.5.
 - tifffile_hyperstack.tif: ImageJ hyperstack by tifffile, axes TZCYX
@@ -57,14 +63,17 @@ def nifti():
     nib.save(img2, os.path.join(OUT, "nibabel_f64.nii"))
 
 
-def dicom_series(name, series_uid, nx, ny, nz, spacing_z, rescale, dtype, tilt=0.0, seed=1):
+def dicom_series(name, series_uid, nx, ny, nz, spacing_z, rescale, dtype, tilt=0.0, seed=1,
+                 clear=True, prefix="IM", number=None, description=None, modality="CT"):
     import pydicom
     from pydicom.dataset import Dataset, FileMetaDataset
     from pydicom.uid import CTImageStorage, ExplicitVRLittleEndian
 
     d = os.path.join(OUT, name)
-    shutil.rmtree(d, ignore_errors=True)
-    os.makedirs(d)
+    if clear:
+        shutil.rmtree(d, ignore_errors=True)
+    os.makedirs(d, exist_ok=True)
+    written = []
     order = list(range(nz))
     random.Random(seed).shuffle(order)
     study = "1.2.826.0.1.3680043.8.498.1"
@@ -79,7 +88,11 @@ def dicom_series(name, series_uid, nx, ny, nz, spacing_z, rescale, dtype, tilt=0
         ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
         ds.StudyInstanceUID = study
         ds.SeriesInstanceUID = series_uid
-        ds.Modality = "CT"
+        ds.Modality = modality
+        if number is not None:
+            ds.SeriesNumber = number
+        if description is not None:
+            ds.SeriesDescription = description
         ds.PatientName = "Fixture^Synthetic"
         ds.PatientID = "0"
         # Shuffled: neither file names nor instance numbers follow z.
@@ -101,7 +114,76 @@ def dicom_series(name, series_uid, nx, ny, nz, spacing_z, rescale, dtype, tilt=0
         x, y = np.meshgrid(np.arange(nx), np.arange(ny), indexing="xy")
         px = (10 * (x + 2 * y + 3 * k)).astype(dtype)
         ds.PixelData = px.tobytes()
-        ds.save_as(os.path.join(d, f"IM{n * 7919 % 1000:04d}.dcm"), enforce_file_format=True)
+        ds.save_as(os.path.join(d, f"{prefix}{n * 7919 % 1000:04d}.dcm"), enforce_file_format=True)
+        written.append(ds)
+    return written
+
+
+def dicom_pacs():
+    """Two series, an SR, a presentation state and a DICOMDIR in one folder."""
+    import tempfile
+
+    from pydicom.dataset import Dataset, FileMetaDataset
+    from pydicom.fileset import FileSet
+    from pydicom.uid import (
+        BasicTextSRStorage,
+        ExplicitVRLittleEndian,
+        GrayscaleSoftcopyPresentationStateStorage,
+    )
+
+    name = "dicom_pacs"
+    base = "1.2.826.0.1.3680043.8.498.4"
+    images = dicom_series(name, base + "0", 6, 5, 4, 2.0, (1, -1024), np.uint16, seed=3,
+                          prefix="CT", number=3, description="Axial 2.0")
+    images += dicom_series(name, base + "1", 5, 4, 3, 1.5, (1, 0), np.int16, seed=4,
+                           clear=False, prefix="MR", number=7, description="Axial T1", modality="MR")
+    others = []
+    for uid, cls, modality, number in [
+        (base + "2", BasicTextSRStorage, "SR", 99),
+        (base + "3", GrayscaleSoftcopyPresentationStateStorage, "PR", 98),
+    ]:
+        meta = FileMetaDataset()
+        meta.MediaStorageSOPClassUID = cls
+        meta.MediaStorageSOPInstanceUID = uid + ".1"
+        meta.TransferSyntaxUID = ExplicitVRLittleEndian
+        ds = Dataset()
+        ds.file_meta = meta
+        ds.SOPClassUID = cls
+        ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+        ds.StudyInstanceUID = images[0].StudyInstanceUID
+        ds.SeriesInstanceUID = uid
+        ds.SeriesNumber = number
+        ds.InstanceNumber = 1
+        ds.Modality = modality
+        ds.PatientName = "Fixture^Synthetic"
+        ds.PatientID = "0"
+        ds.ContentDate = "20260101"
+        ds.ContentTime = "120000"
+        if modality == "SR":
+            ds.ValueType = "CONTAINER"
+            ds.ContinuityOfContent = "SEPARATE"
+            ds.CompletionFlag = "COMPLETE"
+            ds.VerificationFlag = "UNVERIFIED"
+            code = Dataset()
+            code.CodeValue = "18748-4"
+            code.CodingSchemeDesignator = "LN"
+            code.CodeMeaning = "Diagnostic Imaging Report"
+            ds.ConceptNameCodeSequence = [code]
+        else:
+            ds.ContentLabel = "FIXTURE"
+            ds.PresentationCreationDate = "20260101"
+            ds.PresentationCreationTime = "120000"
+            ds.InstanceCreationDate = "20260101"
+        ds.save_as(os.path.join(OUT, name, f"{modality}000001.dcm"), enforce_file_format=True)
+        others.append(ds)
+    fs = FileSet()
+    for ds in images + others:
+        # What the DICOMDIR's study record needs (the records only).
+        ds.StudyDate, ds.StudyTime, ds.StudyID = "20260101", "120000", "1"
+        fs.add(ds)
+    with tempfile.TemporaryDirectory() as tmp:
+        fs.write(tmp)
+        shutil.copy(os.path.join(tmp, "DICOMDIR"), os.path.join(OUT, name, "DICOMDIR"))
 
 
 def tiffs():
@@ -140,6 +222,7 @@ def main():
     dicom_series("dicom_ct", "1.2.826.0.1.3680043.8.498.10", 16, 12, 10, 2.5, (1, -1024), np.uint16)
     dicom_series("dicom_mr", "1.2.826.0.1.3680043.8.498.20", 8, 8, 3, 1.0, (1, 0), np.int16, seed=2)
     dicom_series("dicom_tilt", "1.2.826.0.1.3680043.8.498.30", 4, 4, 3, 2.0, (1, 0), np.int16, tilt=0.5)
+    dicom_pacs()
 
 
 if __name__ == "__main__":

@@ -58,6 +58,9 @@ pub struct DataSpec {
     pub skip_after_decode: u64,
     /// Format name for reports.
     pub format: String,
+    /// NIfTI: the qform and sform codes to keep (see
+    /// [`crate::convert::InputInfo::nifti_codes`]).
+    pub nifti_codes: Option<crate::convert::NiftiCodes>,
 }
 
 /// A reader for the samples a header describes; `input` is the header's
@@ -105,6 +108,7 @@ fn open_stored(input: &Path, spec: &DataSpec) -> CResult<Box<dyn SliceReader>> {
                 &spec.format,
             )?
             .with_geometry(spec.spacing, spec.geometry)
+            .with_nifti_codes(spec.nifti_codes)
             .named(input);
             Ok(Box::new(r))
         }
@@ -140,7 +144,8 @@ fn open_stored(input: &Path, spec: &DataSpec) -> CResult<Box<dyn SliceReader>> {
                 StreamEnd::Ignore,
                 &spec.format,
             )
-            .with_geometry(spec.spacing, spec.geometry);
+            .with_geometry(spec.spacing, spec.geometry)
+            .with_nifti_codes(spec.nifti_codes);
             Ok(Box::new(r))
         }
     }

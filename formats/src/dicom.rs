@@ -3,8 +3,13 @@
 //! `dicom-pixeldata` for the pixel data and its codecs: native, RLE,
 //! JPEG, deflate).
 //!
-//! - Files are grouped by SeriesInstanceUID; with several series `--series
-//!   UID` picks one, and without it the error lists them.
+//! - Files that hold no image are skipped (and counted): a `DICOMDIR`, and
+//!   objects without Rows and Columns whose SOP class is no image storage
+//!   class (structured reports, presentation states, RT structure sets,
+//!   key object selections). Only an input left without images is refused.
+//! - Files are grouped by SeriesInstanceUID ([`Scan`]); with several
+//!   series `--series` picks one by its SeriesNumber, its whole UID or a
+//!   unique prefix of it, and without it the error lists them.
 //! - Slices are sorted by ImagePositionPatient projected on the slice
 //!   normal (the cross product of the ImageOrientationPatient rows), not by
 //!   file name or InstanceNumber.
@@ -55,6 +60,8 @@ pub fn is_dicom_file(path: &Path) -> bool {
 struct SliceHeader {
     path: PathBuf,
     series: String,
+    series_number: Option<i64>,
+    description: String,
     modality: String,
     rows: u16,
     cols: u16,
@@ -401,13 +408,76 @@ fn check_lengths(path: &Path) -> CResult<()> {
     Ok(())
 }
 
+/// A file of a DICOM input that holds no image, skipped.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Skipped {
+    /// The file.
+    pub path: PathBuf,
+    /// What it holds: `DICOMDIR` or its SOP class's name.
+    pub what: String,
+}
+
+/// What one file of an input is.
+enum Header {
+    /// A slice of an image series.
+    Image(SliceHeader),
+    /// Anything else.
+    Other(Skipped),
+}
+
+/// The Media Storage Directory (`DICOMDIR`) SOP class.
+const DICOMDIR_CLASS: &str = "1.2.840.10008.1.3.10";
+
+/// What `obj` holds when it is no image, `None` for an image: a DICOMDIR
+/// (by its SOP class or its name), or an object without Rows and Columns
+/// whose SOP class is not an image storage class. An image class without
+/// Rows stays an image, to be refused as damaged.
+fn non_image(path: &Path, obj: &DefaultDicomObject) -> Option<String> {
+    use dicom_core::dictionary::UidDictionary;
+    let class = text(obj, tags::SOP_CLASS_UID)
+        .filter(|c| !c.is_empty())
+        .unwrap_or_else(|| {
+            obj.meta()
+                .media_storage_sop_class_uid()
+                .trim_end_matches(['\0', ' '])
+                .to_string()
+        });
+    let named_dicomdir = path
+        .file_name()
+        .is_some_and(|n| n.eq_ignore_ascii_case("DICOMDIR"));
+    if class == DICOMDIR_CLASS || named_dicomdir {
+        return Some("DICOMDIR".into());
+    }
+    let name = dicom_dictionary_std::StandardSopClassDictionary
+        .by_uid(&class)
+        .map(|e| e.name.to_string());
+    let has_size = int(obj, tags::ROWS).is_some() && int(obj, tags::COLUMNS).is_some();
+    let image_class = name.as_deref().is_some_and(|n| n.contains("Image"));
+    if has_size || image_class {
+        return None;
+    }
+    Some(name.unwrap_or_else(|| {
+        if class.is_empty() {
+            "an object without SOP class".into()
+        } else {
+            format!("SOP class {class}")
+        }
+    }))
+}
+
 /// Read the data set of one file up to (not including) its pixel data.
-fn read_header(path: &Path) -> CResult<SliceHeader> {
+fn read_header(path: &Path) -> CResult<Header> {
     check_lengths(path)?;
     let obj = OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
         .open_file(path)
         .map_err(|e| bad(path, format!("not a readable DICOM file: {e}")))?;
+    if let Some(what) = non_image(path, &obj) {
+        return Ok(Header::Other(Skipped {
+            path: path.to_path_buf(),
+            what,
+        }));
+    }
     let need = |tag, name: &str| -> CResult<Vec<f64>> {
         floats(&obj, tag).ok_or_else(|| bad(path, format!("DICOM image without {name}")))
     };
@@ -467,9 +537,11 @@ fn read_header(path: &Path) -> CResult<SliceHeader> {
         .trim_end_matches('\0')
         .to_string();
     check_transfer_syntax(path, &ts)?;
-    Ok(SliceHeader {
+    Ok(Header::Image(SliceHeader {
         path: path.to_path_buf(),
         series,
+        series_number: int(&obj, tags::SERIES_NUMBER),
+        description: text(&obj, tags::SERIES_DESCRIPTION).unwrap_or_default(),
         modality: text(&obj, tags::MODALITY).unwrap_or_default(),
         rows: rows as u16,
         cols: cols as u16,
@@ -481,7 +553,7 @@ fn read_header(path: &Path) -> CResult<SliceHeader> {
         bits_stored,
         signed: int(&obj, tags::PIXEL_REPRESENTATION) == Some(1),
         frames: int(&obj, tags::NUMBER_OF_FRAMES).unwrap_or(1).max(1) as u32,
-    })
+    }))
 }
 
 /// Fail clearly on a transfer syntax this build cannot decode.
@@ -544,58 +616,229 @@ pub struct DicomReader {
     info: InputInfo,
     slices: Vec<SliceHeader>,
     bytes: u64,
+    skipped: Vec<Skipped>,
 }
 
-/// Open the series in `files` (from `input`), the one with UID `series`
-/// when there are several.
-pub fn open(input: &Path, files: Vec<PathBuf>, series: Option<&str>) -> CResult<DicomReader> {
-    use rayon::prelude::*;
-    let headers: Vec<SliceHeader> = files
-        .par_iter()
-        .map(|f| read_header(f))
-        .collect::<CResult<_>>()?;
-    let mut by_series: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
-    for h in headers {
-        by_series.entry(h.series.clone()).or_default().push(h);
+/// One series of a DICOM input, as listed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SeriesInfo {
+    /// SeriesInstanceUID.
+    pub uid: String,
+    /// SeriesNumber, when the files give one.
+    pub number: Option<i64>,
+    /// SeriesDescription (empty when none).
+    pub description: String,
+    /// Modality (empty when none).
+    pub modality: String,
+    /// Image files.
+    pub images: usize,
+    /// Columns, rows and images.
+    pub dims: [u64; 3],
+}
+
+impl SeriesInfo {
+    /// `#N UID (CT, 10 images of 16x12)`, for messages.
+    pub fn describe(&self) -> String {
+        format!(
+            "{}{} ({}{} images of {}x{})",
+            self.number.map(|n| format!("#{n} ")).unwrap_or_default(),
+            self.uid,
+            if self.modality.is_empty() {
+                String::new()
+            } else {
+                format!("{}, ", self.modality)
+            },
+            self.images,
+            self.dims[0],
+            self.dims[1]
+        )
     }
-    let describe = |m: &BTreeMap<String, Vec<SliceHeader>>| {
-        m.iter()
-            .map(|(uid, v)| {
-                format!(
-                    "{uid} ({}{} images of {}x{})",
-                    if v[0].modality.is_empty() {
-                        String::new()
-                    } else {
-                        format!("{}, ", v[0].modality)
-                    },
-                    v.len(),
-                    v[0].cols,
-                    v[0].rows
-                )
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let slices = match series {
-        Some(uid) => by_series.remove(uid).ok_or_else(|| {
-            bad(
-                input,
-                format!("no series {uid}; the input holds {}", describe(&by_series)),
-            )
-        })?,
-        None if by_series.len() == 1 => by_series.into_values().next().unwrap_or_default(),
-        None => {
+}
+
+/// The files of a DICOM input read up to their pixel data: the images
+/// grouped by series (in order of SeriesNumber, then UID), and the files
+/// skipped as no image.
+pub struct Scan {
+    input: PathBuf,
+    series: Vec<(SeriesInfo, Vec<SliceHeader>)>,
+    skipped: Vec<Skipped>,
+}
+
+impl Scan {
+    /// Read the headers of `files` (from `input`, named in errors); an
+    /// input whose files hold no image at all is an error.
+    pub fn new(input: &Path, files: &[PathBuf]) -> CResult<Scan> {
+        use rayon::prelude::*;
+        let headers: Vec<Header> = files
+            .par_iter()
+            .map(|f| read_header(f))
+            .collect::<CResult<_>>()?;
+        let mut by_series: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
+        let mut skipped = Vec::new();
+        for h in headers {
+            match h {
+                Header::Image(h) => by_series.entry(h.series.clone()).or_default().push(h),
+                Header::Other(s) => skipped.push(s),
+            }
+        }
+        if by_series.is_empty() {
             return Err(bad(
                 input,
                 format!(
-                    "holds {} DICOM series: pick one with --series UID: {}",
-                    by_series.len(),
-                    describe(&by_series)
+                    "holds no DICOM image: {} skipped",
+                    skipped_summary(&skipped)
                 ),
-            ))
+            ));
         }
-    };
-    DicomReader::new(input, slices)
+        let mut series: Vec<(SeriesInfo, Vec<SliceHeader>)> = by_series
+            .into_iter()
+            .map(|(uid, v)| {
+                let first = &v[0];
+                let info = SeriesInfo {
+                    number: v.iter().find_map(|h| h.series_number),
+                    description: first.description.clone(),
+                    modality: first.modality.clone(),
+                    images: v.len(),
+                    dims: [first.cols as u64, first.rows as u64, v.len() as u64],
+                    uid,
+                };
+                (info, v)
+            })
+            .collect();
+        series.sort_by(|a, b| (a.0.number, &a.0.uid).cmp(&(b.0.number, &b.0.uid)));
+        Ok(Scan {
+            input: input.to_path_buf(),
+            series,
+            skipped,
+        })
+    }
+
+    /// The series found.
+    pub fn series(&self) -> Vec<SeriesInfo> {
+        self.series.iter().map(|(s, _)| s.clone()).collect()
+    }
+
+    /// The files skipped as no image.
+    pub fn skipped(&self) -> &[Skipped] {
+        &self.skipped
+    }
+
+    /// What the user should hear of: how many files were skipped (what
+    /// [`DicomReader`]'s notes say too).
+    pub fn notes(&self) -> Vec<String> {
+        skipped_notes(&self.input, &self.skipped)
+    }
+
+    /// The index of the series `sel` names, tried in this order: its
+    /// whole UID, its SeriesNumber, a prefix of one UID only; with `None`,
+    /// the only series. Anything else is an error listing the candidates.
+    fn select(&self, sel: Option<&str>) -> CResult<usize> {
+        let list = |idx: &[usize]| {
+            idx.iter()
+                .map(|&i| self.series[i].0.describe())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let all: Vec<usize> = (0..self.series.len()).collect();
+        let Some(sel) = sel else {
+            if self.series.len() == 1 {
+                return Ok(0);
+            }
+            return Err(bad(
+                &self.input,
+                format!(
+                    "holds {} DICOM series: pick one with --series (its number, UID or a unique UID prefix): {}",
+                    self.series.len(),
+                    list(&all)
+                ),
+            ));
+        };
+        if let Some(i) = self.series.iter().position(|(s, _)| s.uid == sel) {
+            return Ok(i);
+        }
+        let pick = |found: Vec<usize>, how: &str| -> CResult<Option<usize>> {
+            match found.len() {
+                0 => Ok(None),
+                1 => Ok(Some(found[0])),
+                n => Err(bad(
+                    &self.input,
+                    format!(
+                        "--series {sel} is ambiguous: {n} series {how}: {}; give more of the UID",
+                        list(&found)
+                    ),
+                )),
+            }
+        };
+        if let Ok(number) = sel.parse::<i64>() {
+            let found = all
+                .iter()
+                .copied()
+                .filter(|&i| self.series[i].0.number == Some(number))
+                .collect();
+            if let Some(i) = pick(found, "have this number")? {
+                return Ok(i);
+            }
+        }
+        let found = all
+            .iter()
+            .copied()
+            .filter(|&i| !sel.is_empty() && self.series[i].0.uid.starts_with(sel))
+            .collect();
+        if let Some(i) = pick(found, "have UIDs starting so")? {
+            return Ok(i);
+        }
+        Err(bad(
+            &self.input,
+            format!("no series {sel}; the input holds {}", list(&all)),
+        ))
+    }
+
+    /// Open the series `sel` names (see [`Scan::select`]).
+    pub fn open(mut self, sel: Option<&str>) -> CResult<DicomReader> {
+        let i = self.select(sel)?;
+        let (_, slices) = self.series.swap_remove(i);
+        let mut r = DicomReader::new(&self.input, slices)?;
+        r.skipped = self.skipped;
+        Ok(r)
+    }
+}
+
+/// `3 files (1 DICOMDIR, 2 Basic Text SR Storage)`: how many files were
+/// skipped and what they hold.
+fn skipped_summary(skipped: &[Skipped]) -> String {
+    let mut kinds: BTreeMap<&str, usize> = BTreeMap::new();
+    for s in skipped {
+        *kinds.entry(s.what.as_str()).or_default() += 1;
+    }
+    format!(
+        "{} file{} ({})",
+        skipped.len(),
+        if skipped.len() == 1 { "" } else { "s" },
+        kinds
+            .iter()
+            .map(|(k, n)| format!("{n} {k}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+/// `input: skipped 2 files (...) that hold no image`, or nothing.
+fn skipped_notes(input: &Path, skipped: &[Skipped]) -> Vec<String> {
+    if skipped.is_empty() {
+        return Vec::new();
+    }
+    vec![format!(
+        "{}: skipped {} that hold{} no image",
+        input.display(),
+        skipped_summary(skipped),
+        if skipped.len() == 1 { "s" } else { "" }
+    )]
+}
+
+/// Open the series in `files` (from `input`): the one `series` names
+/// (see [`Scan`]), or the only one.
+pub fn open(input: &Path, files: Vec<PathBuf>, series: Option<&str>) -> CResult<DicomReader> {
+    Scan::new(input, &files)?.open(series)
 }
 
 impl DicomReader {
@@ -702,7 +945,9 @@ impl DicomReader {
             .map(|s| std::fs::metadata(&s.path).map(|m| m.len()).unwrap_or(0))
             .sum();
         Ok(DicomReader {
+            skipped: Vec::new(),
             info: InputInfo {
+                nifti_codes: None,
                 path: input.to_path_buf(),
                 dims,
                 sample_type: out,
@@ -992,6 +1237,9 @@ impl SliceReader for DicomReader {
     }
     fn bytes_in(&self) -> u64 {
         self.bytes
+    }
+    fn notes(&self) -> Vec<String> {
+        skipped_notes(&self.info.path, &self.skipped)
     }
 }
 

@@ -330,6 +330,7 @@ pub fn open(path: &Path) -> Result<DataSpec> {
         DataStart::At(base + h.header_size as u64)
     };
     Ok(DataSpec {
+        nifti_codes: None,
         dims: h.dims,
         sample_type: h.sample_type,
         big_endian: h.big_endian,

@@ -15,11 +15,12 @@
 //! RAS affine is turned into volkit's LPS frame.
 //!
 //! Writing: NIfTI-1 (NIfTI-2 when a dimension passes 32767), one volume,
-//! with the same affine as sform and qform (code 1, scanner anatomical),
-//! no rescale. The unit of length is read from and written to
+//! with the same affine as sform and qform, no rescale. The codes are a
+//! NIfTI input's (see [`NiftiHeader::codes`]), else 1 (scanner
+//! anatomical) for both. The unit of length is read from and written to
 //! `xyzt_units` (m, mm, µm; none stated is code 0).
 
-use crate::convert::{rescale::Rescale, SliceType};
+use crate::convert::{rescale::Rescale, NiftiCodes, SliceType};
 use crate::datafile::{DataSpec, DataStart, Encoding};
 use crate::error::{Error, Result};
 use byteorder::{BigEndian, ByteOrder, LittleEndian};
@@ -298,6 +299,45 @@ impl NiftiHeader {
         Ok((spacing, ras.flip_xy()))
     }
 
+    /// The qform and sform codes a NIfTI output of this input keeps, or
+    /// `None` when neither is set. Both transforms of an output hold the
+    /// geometry volkit read (the sform's when its code is set): a qform
+    /// that disagrees with that sform takes the sform's code, since it will
+    /// hold the sform's affine. Codes past 5 (no space NIfTI defines)
+    /// become 1.
+    pub fn codes(&self) -> Option<NiftiCodes> {
+        let clean = |c: i32| match c {
+            ..=0 => 0,
+            1..=5 => c as i16,
+            _ => 1,
+        };
+        let (mut qform, sform) = (clean(self.qform_code), clean(self.sform_code));
+        if qform == 0 && sform == 0 {
+            return None;
+        }
+        if qform > 0 && sform > 0 {
+            let mut q = self.clone();
+            q.sform_code = 0;
+            let same = match (self.geometry(), q.geometry()) {
+                (Ok((ss, sg)), Ok((qs, qg))) => {
+                    let near =
+                        |a: f64, b: f64| (a - b).abs() <= 1e-4 * a.abs().max(b.abs()).max(1.0);
+                    ss.iter().zip(&qs).all(|(a, b)| near(*a as f64, *b as f64))
+                        && sg.origin.iter().zip(&qg.origin).all(|(a, b)| near(*a, *b))
+                        && (0..3).all(|a| {
+                            let (u, v) = (sg.axis(a), qg.axis(a));
+                            (0..3).all(|i| (u[i] - v[i]).abs() <= 1e-4)
+                        })
+                }
+                _ => false,
+            };
+            if !same {
+                qform = sform;
+            }
+        }
+        Some(NiftiCodes { qform, sform })
+    }
+
     /// The rescale the header asks for, if any.
     pub fn rescale(&self) -> Option<Rescale> {
         let s = self.scl_slope;
@@ -520,6 +560,7 @@ pub fn open(path: &Path, time: Option<u64>) -> Result<DataSpec> {
         (DataStart::At(first), 0)
     };
     Ok(DataSpec {
+        nifti_codes: h.codes(),
         dims,
         sample_type: t,
         big_endian: h.big_endian,
@@ -564,6 +605,7 @@ pub fn encode_header(
     t: SampleType,
     spacing: [f32; 3],
     geometry: &Geometry,
+    codes: NiftiCodes,
     layout: NiftiLayout,
 ) -> Vec<u8> {
     let (code, bitpix) = datatype_code(t);
@@ -610,8 +652,8 @@ pub fn encode_header(
         b[123] = unit_code(geometry.unit) as u8;
         let descrip = b"volkit";
         b[148..148 + descrip.len()].copy_from_slice(descrip);
-        LittleEndian::write_i16(&mut b[252..], 1);
-        LittleEndian::write_i16(&mut b[254..], 1);
+        LittleEndian::write_i16(&mut b[252..], codes.qform);
+        LittleEndian::write_i16(&mut b[254..], codes.sform);
         let quatern = [
             q[0],
             q[1],
@@ -650,8 +692,8 @@ pub fn encode_header(
         LittleEndian::write_f64(&mut b[176..], 1.0);
         let descrip = b"volkit";
         b[240..240 + descrip.len()].copy_from_slice(descrip);
-        LittleEndian::write_i32(&mut b[344..], 1);
-        LittleEndian::write_i32(&mut b[348..], 1);
+        LittleEndian::write_i32(&mut b[344..], i32::from(codes.qform));
+        LittleEndian::write_i32(&mut b[348..], i32::from(codes.sform));
         let quatern = [
             q[0],
             q[1],
@@ -697,6 +739,7 @@ mod tests {
                 SampleType::I16,
                 [1.0, 1.0, 2.5],
                 &g,
+                NiftiCodes::SCANNER,
                 NiftiLayout::Single,
             );
             let h = NiftiHeader::decode(&b).unwrap();
@@ -717,6 +760,40 @@ mod tests {
                 assert!(close(back.axis(a), g.axis(a)), "{back:?}");
             }
             assert!(close(back.origin, g.origin));
+        }
+    }
+
+    #[test]
+    fn codes_are_kept_and_a_disagreeing_qform_takes_the_sforms() {
+        let g = Geometry::from_axes(
+            [10.0, -20.0, 30.0],
+            [[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        )
+        .unwrap();
+        for dims in [Dims::new(8, 7, 6).unwrap(), Dims::new(40000, 2, 2).unwrap()] {
+            let aligned = NiftiCodes { qform: 1, sform: 2 };
+            let b = encode_header(
+                dims,
+                SampleType::U8,
+                [0.5, 0.75, 1.5],
+                &g,
+                aligned,
+                NiftiLayout::Single,
+            );
+            let h = NiftiHeader::decode(&b).unwrap();
+            assert_eq!((h.qform_code, h.sform_code), (1, 2));
+            assert_eq!(h.codes(), Some(aligned));
+            // An sform moved away from the qform: the qform written from it
+            // is in the sform's space.
+            let mut moved = h.clone();
+            moved.srow[0][3] += 5.0;
+            assert_eq!(moved.codes(), Some(NiftiCodes { qform: 2, sform: 2 }));
+            let mut none = h.clone();
+            (none.qform_code, none.sform_code) = (0, 0);
+            assert_eq!(none.codes(), None);
+            let mut odd = h;
+            (odd.qform_code, odd.sform_code) = (0, 9);
+            assert_eq!(odd.codes(), Some(NiftiCodes { qform: 0, sform: 1 }));
         }
     }
 
@@ -750,6 +827,7 @@ mod tests {
             SampleType::U8,
             [1.0; 3],
             &Geometry::IDENTITY,
+            NiftiCodes::SCANNER,
             NiftiLayout::Single,
         );
         assert!(NiftiHeader::decode(&b[..100])

@@ -543,6 +543,7 @@ pub fn spec_for(path: &Path, h: &NrrdHeader, header_len: u64) -> Result<DataSpec
         _ => "gzip",
     };
     Ok(DataSpec {
+        nifti_codes: None,
         dims: h.dims,
         sample_type: h.sample_type,
         big_endian: h.big_endian,

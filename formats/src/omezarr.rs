@@ -348,6 +348,7 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
     let bytes = dir_size(root);
     Ok(ZarrReader {
         info: InputInfo {
+            nifti_codes: None,
             path: root.to_path_buf(),
             dims,
             sample_type: t,
@@ -1023,19 +1024,53 @@ fn unit_slices(dims: Dims, levels: usize) -> u64 {
     CHUNK.min(dims.z.max(1)) << (levels.max(1) - 1)
 }
 
-/// The pyramid levels a writer asked for `levels` makes of `dims` (fewer
-/// when the volume runs out of voxels).
+/// The most pyramid levels `dims` makes: each level halves the one above
+/// (rounding up) until one level is a single voxel along every axis, and
+/// that single voxel is no level of its own (the full resolution always is).
+pub fn max_levels(dims: Dims) -> u32 {
+    let mut n = 1;
+    let mut d = dims.x.max(dims.y).max(dims.z);
+    // A u64 halves to 1 in at most 64 steps.
+    while d > 1 {
+        d = d.div_ceil(2);
+        if d > 1 {
+            n += 1;
+        }
+    }
+    n
+}
+
+/// Refuse more pyramid levels than [`max_levels`], saying how many
+/// `dims` makes.
+pub fn check_levels(dims: Dims, levels: u32) -> crate::Result<()> {
+    let most = max_levels(dims);
+    if levels > most {
+        return Err(Error::invalid(format!(
+            "--pyramid {levels}: a {dims} volume makes at most {most} pyramid level{} (each halves the one above; the last is {})",
+            if most == 1 { "" } else { "s" },
+            level_shape(dims, most)
+        )));
+    }
+    Ok(())
+}
+
+/// The dims of the `levels` pyramid levels of `dims` (see
+/// [`check_levels`]).
 fn level_dims(dims: Dims, levels: u32) -> crate::Result<Vec<Dims>> {
+    check_levels(dims, levels)?;
     let mut dl = Vec::new();
     let mut d = dims;
-    for l in 0..levels.max(1) {
-        if l > 0 && d.x.max(d.y).max(d.z) <= 1 {
-            break;
-        }
+    for _ in 0..levels.max(1) {
         dl.push(d);
         d = Dims::new(d.x.div_ceil(2), d.y.div_ceil(2), d.z.div_ceil(2))?;
     }
     Ok(dl)
+}
+
+/// The shape of level `n` (1 = full resolution) of `dims`, as `XxYxZ`.
+fn level_shape(dims: Dims, n: u32) -> String {
+    let half = |v: u64| (1..n).fold(v, |v, _| v.div_ceil(2));
+    format!("{}x{}x{}", half(dims.x), half(dims.y), half(dims.z))
 }
 
 /// The full-resolution slices shard `shard` of a write of `dims` with
@@ -1364,6 +1399,20 @@ fn downsample<T: Sample>(a: &[T], b: Option<&[T]>, d: Dims, how: Downsample) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn more_pyramid_levels_than_the_dims_make_are_refused() {
+        let d = Dims::new(64, 64, 20).unwrap();
+        // 64, 32, 16, 8, 4, 2 along x: six levels; a seventh would be 1x1x1.
+        assert_eq!(max_levels(d), 6);
+        assert_eq!(level_dims(d, 6).unwrap().len(), 6);
+        let e = level_dims(d, 9).unwrap_err().to_string();
+        assert!(e.contains("at most 6") && e.contains("2x2x1"), "{e}");
+        assert_eq!(max_levels(Dims::new(1, 1, 1).unwrap()), 1);
+        assert_eq!(max_levels(Dims::new(2, 1, 1).unwrap()), 1);
+        assert_eq!(max_levels(Dims::new(3, 1, 1).unwrap()), 2);
+        assert!(check_levels(Dims::new(1, 1, 1).unwrap(), 2).is_err());
+    }
 
     /// Write a 70x5x67 u16 volume with three levels in `ngff`'s layout.
     /// The test volume's value at voxel (x, y, z).

@@ -12,7 +12,7 @@ use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
 use crate::tiff::ChannelSel;
 use crate::{thesis, vvol};
 use std::io::{BufRead, Read};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use volcore::{SampleType, Volume};
 
 /// How to read an input: what its file cannot say itself.
@@ -27,7 +27,8 @@ pub struct ReadOptions {
     /// Time point of an ImageJ hyperstack or OME-TIFF/OME-Zarr with a T
     /// axis.
     pub time: Option<u64>,
-    /// DICOM: the SeriesInstanceUID to read when a directory holds several.
+    /// DICOM: the series to read when the input holds several: its
+    /// SeriesNumber, its SeriesInstanceUID or a unique prefix of it.
     pub series: Option<String>,
     /// How to open `.vvol` files.
     pub vvol: vvol::OpenOptions,
@@ -84,7 +85,8 @@ pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
     let name = path.to_string_lossy();
     if !path.exists() {
         if has_glob_chars(&name) {
-            return Ok(InputKind::TiffGlob);
+            let files = crate::tiff::list_glob(path)?;
+            return Ok(listed_kind(&files, InputKind::TiffGlob));
         }
         return Err(ConvertError::new(
             path,
@@ -109,6 +111,10 @@ pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
         "txt" | "lst" | "list" => Some(InputKind::TiffList),
         _ => None,
     };
+    if by_ext == Some(InputKind::TiffList) {
+        let files = crate::tiff::list_file(path)?;
+        return Ok(listed_kind(&files, InputKind::TiffList));
+    }
     if let Some(k) = by_ext {
         return Ok(k);
     }
@@ -138,6 +144,56 @@ pub fn input_kind(path: &Path, opts: &ReadOptions) -> CResult<InputKind> {
             ),
         ))
     }
+}
+
+/// Files named by a glob or a list: DICOM when the first is, else `tiff`.
+fn listed_kind(files: &[PathBuf], tiff: InputKind) -> InputKind {
+    if files
+        .first()
+        .is_some_and(|f| crate::dicom::is_dicom_file(f))
+    {
+        InputKind::Dicom
+    } else {
+        tiff
+    }
+}
+
+/// The files of a DICOM input of kind [`InputKind::DicomDir`] or
+/// [`InputKind::Dicom`]: a directory's DICOM files, a glob's or a list
+/// file's files, or the one file.
+fn dicom_files(path: &Path, kind: InputKind) -> CResult<Vec<PathBuf>> {
+    let listed = match kind {
+        InputKind::DicomDir => None,
+        _ if !path.exists() && has_glob_chars(&path.to_string_lossy()) => {
+            Some(crate::tiff::list_glob(path)?)
+        }
+        _ if is_list_name(path) => Some(crate::tiff::list_file(path)?),
+        _ => Some(vec![path.to_path_buf()]),
+    };
+    crate::dicom::list_files(path, listed)
+}
+
+/// Whether `path` is named like a list file (`.txt`, `.lst`, `.list`).
+fn is_list_name(path: &Path) -> bool {
+    path.extension().is_some_and(|e| {
+        let e = e.to_string_lossy().to_ascii_lowercase();
+        matches!(e.as_str(), "txt" | "lst" | "list")
+    })
+}
+
+/// Read the headers of a DICOM input (a directory, a glob or list of
+/// DICOM files, or one file) without opening a series: what `vol-info`
+/// lists when the input holds several. Other inputs are an error.
+pub fn dicom_scan(path: &Path, opts: &ReadOptions) -> CResult<crate::dicom::Scan> {
+    let kind = input_kind(path, opts)?;
+    if !matches!(kind, InputKind::DicomDir | InputKind::Dicom) {
+        return Err(ConvertError::new(
+            path,
+            Error::invalid(format!("not a DICOM input but {}", kind.name())),
+        ));
+    }
+    let files = dicom_files(path, kind)?;
+    crate::dicom::Scan::new(path, &files)
 }
 
 /// A directory: TIFF slices or a DICOM series.
@@ -177,7 +233,7 @@ impl InputKind {
             InputKind::Nrrd => "nrrd",
             InputKind::Mhd => "metaimage",
             InputKind::Nifti => "nifti",
-            InputKind::DicomDir | InputKind::Dicom => "dicom",
+            InputKind::DicomDir | InputKind::Dicom => "dicom series",
             InputKind::OmeZarr => "ome-zarr",
             InputKind::Vvol => "vvol",
             InputKind::ThesisVol => "vol",
@@ -208,16 +264,21 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
                 opts.time,
             )?)
         }
-        InputKind::TiffGlob => {
-            let files = crate::tiff::list_glob(path)?;
-            open_listed(path, files, opts)?
+        InputKind::TiffGlob | InputKind::TiffList => {
+            let files = if kind == InputKind::TiffGlob {
+                crate::tiff::list_glob(path)?
+            } else {
+                crate::tiff::list_file(path)?
+            };
+            Box::new(crate::tiff::open_files(
+                path,
+                files,
+                opts.channel,
+                opts.time,
+            )?)
         }
-        InputKind::TiffList => {
-            let files = crate::tiff::list_file(path)?;
-            open_listed(path, files, opts)?
-        }
-        InputKind::DicomDir => {
-            let files = crate::dicom::list_files(path, None)?;
+        InputKind::DicomDir | InputKind::Dicom => {
+            let files = dicom_files(path, kind)?;
             Box::new(crate::dicom::open(path, files, opts.series.as_deref())?)
         }
         InputKind::OmeZarr => {
@@ -227,11 +288,6 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
             };
             Box::new(crate::omezarr::open(path, c, opts.time)?)
         }
-        InputKind::Dicom => Box::new(crate::dicom::open(
-            path,
-            vec![path.to_path_buf()],
-            opts.series.as_deref(),
-        )?),
         InputKind::Tiff => match crate::tiff::imagej_raw(path)? {
             Some(ij) => Box::new(
                 RawFileReader::open(
@@ -283,31 +339,6 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
             )?)
         }
     })
-}
-
-/// Files named by a glob or a list: DICOM when the first is, else TIFF.
-fn open_listed(
-    path: &Path,
-    files: Vec<std::path::PathBuf>,
-    opts: &ReadOptions,
-) -> CResult<Box<dyn SliceReader>> {
-    if files
-        .first()
-        .is_some_and(|f| crate::dicom::is_dicom_file(f))
-    {
-        let files = crate::dicom::list_files(path, Some(files))?;
-        return Ok(Box::new(crate::dicom::open(
-            path,
-            files,
-            opts.series.as_deref(),
-        )?));
-    }
-    Ok(Box::new(crate::tiff::open_files(
-        path,
-        files,
-        opts.channel,
-        opts.time,
-    )?))
 }
 
 /// Standard input: a `.vvol` stream, a NRRD with attached data, or raw

@@ -8,7 +8,7 @@
 //! the `clap` feature it is also the tools' raw-input options
 //! (`--raw-dims`, `--raw-type`, `--raw-endian`, `--raw-skip`).
 
-use crate::convert::input::{Access, InputInfo, SliceReader};
+use crate::convert::input::{Access, InputInfo, NiftiCodes, SliceReader};
 use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::{Error, Result};
 use crate::pipeline::write_rows;
@@ -364,6 +364,7 @@ impl RawFileReader {
         }
         Ok(RawFileReader {
             info: InputInfo {
+                nifti_codes: None,
                 path: path.to_path_buf(),
                 dims,
                 sample_type: t,
@@ -383,6 +384,13 @@ impl RawFileReader {
     pub fn with_geometry(mut self, spacing: Option<[f32; 3]>, geometry: Geometry) -> Self {
         self.info.spacing = spacing;
         self.info.geometry = geometry;
+        self
+    }
+
+    /// Carry a NIfTI input's qform and sform codes (see
+    /// [`InputInfo::nifti_codes`]).
+    pub fn with_nifti_codes(mut self, codes: Option<NiftiCodes>) -> Self {
+        self.info.nifti_codes = codes;
         self
     }
 

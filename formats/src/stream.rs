@@ -1,7 +1,7 @@
 //! Samples read front to back from a stream (a pipe, standard input, a
 //! decompressor), slice by slice with bounded memory.
 
-use crate::convert::input::{Access, InputInfo, SliceReader};
+use crate::convert::input::{Access, InputInfo, NiftiCodes, SliceReader};
 use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::Error;
 use std::io::Read;
@@ -95,6 +95,7 @@ impl StreamReader {
         } = layout;
         StreamReader {
             info: InputInfo {
+                nifti_codes: None,
                 path: path.to_path_buf(),
                 dims,
                 sample_type: t,
@@ -118,6 +119,13 @@ impl StreamReader {
     pub fn with_geometry(mut self, spacing: Option<[f32; 3]>, geometry: Geometry) -> Self {
         self.info.spacing = spacing;
         self.info.geometry = geometry;
+        self
+    }
+
+    /// Carry a NIfTI input's qform and sform codes (see
+    /// [`InputInfo::nifti_codes`]).
+    pub fn with_nifti_codes(mut self, codes: Option<NiftiCodes>) -> Self {
+        self.info.nifti_codes = codes;
         self
     }
 

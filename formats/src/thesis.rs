@@ -339,6 +339,7 @@ impl ThesisReader {
         let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
         Ok(ThesisReader {
             info: InputInfo {
+                nifti_codes: None,
                 path: path.to_path_buf(),
                 dims: h.dims,
                 sample_type: SliceType::U8,

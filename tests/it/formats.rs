@@ -163,7 +163,10 @@ fn bad_dicom_series_are_refused_with_the_reason() {
     let two = d.join("two");
     copy_dir(&fixture("dicom_ct"), &two, &[]);
     copy_dir(&fixture("dicom_mr"), &two, &[]);
-    let e = fails(tool("vol-info").arg(&two), "--series");
+    let e = fails(
+        tool("vol-convert").arg(&two).arg("-o").arg(&out),
+        "--series",
+    );
     assert!(
         e.contains("1.2.826.0.1.3680043.8.498.10") && e.contains("1.2.826.0.1.3680043.8.498.20"),
         "{e}"
@@ -563,4 +566,287 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
         .arg(d.join("x.nrrd"));
     fails(&mut c, "--ngff applies to OME-Zarr output");
     assert_eq!(c.status().unwrap().code(), Some(2));
+}
+
+/// The qform and sform codes of a NIfTI-1 header file (uncompressed).
+fn nifti_codes(path: &Path) -> (i16, i16) {
+    let b = std::fs::read(path).unwrap();
+    (
+        i16::from_le_bytes([b[252], b[253]]),
+        i16::from_le_bytes([b[254], b[255]]),
+    )
+}
+
+#[test]
+fn nifti_outputs_keep_the_inputs_qform_and_sform_codes() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    // nibabel wrote qform 1 (scanner) and sform 2 (aligned), one affine.
+    let src = fixture("nibabel_int16.nii.gz");
+    let a = d.join("a.nii");
+    ok(tool("vol-convert").arg(&src).arg("-q").arg("-o").arg(&a));
+    assert_eq!(nifti_codes(&a), (1, 2));
+    // From an uncompressed NIfTI (the other reader), cropped and flipped:
+    // the same space.
+    let b = d.join("b.hdr");
+    ok(tool("vol-convert")
+        .arg(&a)
+        .args(["--crop", "1:7,:,:", "--flip", "z", "-q", "-o"])
+        .arg(&b));
+    assert_eq!(nifti_codes(&b), (1, 2));
+    assert!(close(&info(&b, &[])["origin"], &[-9.5, 20.0, 37.5]));
+    // Another format has no code: scanner coordinates, as before.
+    let c = d.join("c.nii");
+    ok(tool("vol-convert")
+        .arg(fixture("dicom_ct"))
+        .arg("-q")
+        .arg("-o")
+        .arg(&c));
+    assert_eq!(nifti_codes(&c), (1, 1));
+}
+
+#[test]
+fn more_pyramid_levels_than_the_volume_makes_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let src = d.join("v.vvol");
+    ok(tool("vol-gen")
+        .args(["noise", "--dims", "64,64,20", "-q", "-o"])
+        .arg(&src));
+    let z = d.join("v.ome.zarr");
+    // 64 halves to 32, 16, 8, 4, 2: six levels, the last 2x2x1.
+    let e = fails(
+        tool("vol-convert")
+            .arg(&src)
+            .args(["--pyramid", "9", "-o"])
+            .arg(&z),
+        "at most 6 pyramid levels",
+    );
+    assert!(e.contains("v.ome.zarr") && e.contains("2x2x1"), "{e}");
+    assert!(!z.exists());
+    ok(tool("vol-convert")
+        .arg(&src)
+        .args(["--pyramid", "6", "-q", "-o"])
+        .arg(&z));
+    assert!(z.join("5").is_dir() && !z.join("6").exists());
+    // Sharded writes check the same way.
+    fails(
+        tool("vol-convert")
+            .arg(&src)
+            .args(["--pyramid", "7", "--shard", "0/2", "-o"])
+            .arg(d.join("s.ome.zarr")),
+        "at most 6",
+    );
+    assert!(leftovers(d).is_empty());
+}
+
+/// What SimpleITK's ImageSeriesReader reads from series `uid` of `dir`:
+/// size, spacing, origin, direction (LPS, rows) and the voxels, x fastest.
+/// `None` (with a note) when python3 or SimpleITK is missing outside CI;
+/// CI installs them (.ci/run).
+fn read_in_simpleitk(dir: &Path, uid: &str) -> Option<serde_json::Value> {
+    let script = format!(
+        r#"
+import json, sys
+try:
+    import SimpleITK as sitk
+except ImportError as e:
+    print("SKIP", e); sys.exit(0)
+files = sitk.ImageSeriesReader.GetGDCMSeriesFileNames({dir:?}, {uid:?})
+r = sitk.ImageSeriesReader()
+r.SetFileNames(files)
+img = r.Execute()
+print(json.dumps({{
+    "ids": list(sitk.ImageSeriesReader.GetGDCMSeriesIDs({dir:?})),
+    "size": list(img.GetSize()),
+    "spacing": list(img.GetSpacing()),
+    "origin": list(img.GetOrigin()),
+    "direction": list(img.GetDirection()),
+    "values": [float(v) for v in sitk.GetArrayViewFromImage(img).ravel()],
+}}))
+"#,
+        dir = dir.to_string_lossy()
+    );
+    let out = match std::process::Command::new("python3")
+        .arg("-c")
+        .arg(&script)
+        .output()
+    {
+        Ok(o) => o,
+        Err(_) => {
+            assert!(std::env::var("CI").is_err(), "CI must have python3");
+            eprintln!("SKIP: python3 is not installed; SimpleITK comparison not run");
+            return None;
+        }
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text} {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    if text.starts_with("SKIP") {
+        assert!(
+            std::env::var("CI").is_err(),
+            "CI must run the SimpleITK comparison: {text}"
+        );
+        eprintln!("{} (pip install SimpleITK)", text.trim());
+        return None;
+    }
+    Some(json(&text))
+}
+
+const PACS_CT: &str = "1.2.826.0.1.3680043.8.498.40";
+const PACS_MR: &str = "1.2.826.0.1.3680043.8.498.41";
+
+#[test]
+fn pacs_folder_lists_its_series_and_skips_what_holds_no_image() {
+    let p = fixture("dicom_pacs");
+    // Two series, an SR, a presentation state and a DICOMDIR: a table.
+    let o = tool("vol-info").arg(&p).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("skipped 3 files") && err.contains("DICOMDIR"),
+        "{err}"
+    );
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(2)
+        .map(|l| {
+            l.split("  ")
+                .filter(|c| !c.is_empty())
+                .map(str::trim)
+                .collect()
+        })
+        .collect();
+    assert_eq!(
+        rows,
+        vec![
+            vec![PACS_CT, "3", "Axial 2.0", "CT", "4", "6x5x4"],
+            vec![PACS_MR, "7", "Axial T1", "MR", "3", "5x4x3"],
+        ],
+        "{text}"
+    );
+    // The same list in JSON.
+    let j = info(&p, &[]);
+    assert_eq!(j["skipped"], 3);
+    assert_eq!(
+        j["series"],
+        serde_json::json!([
+            {"uid": PACS_CT, "number": 3, "description": "Axial 2.0", "modality": "CT", "images": 4, "dims": [6, 5, 4]},
+            {"uid": PACS_MR, "number": 7, "description": "Axial T1", "modality": "MR", "images": 3, "dims": [5, 4, 3]},
+        ])
+    );
+    // vol-convert needs a pick, and names the candidates.
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("o.nrrd");
+    let e = fails(tool("vol-convert").arg(&p).arg("-o").arg(&out), "--series");
+    assert!(
+        e.contains(PACS_CT) && e.contains(PACS_MR) && e.contains("#7"),
+        "{e}"
+    );
+    // A prefix both UIDs share, and a number no series has that is a
+    // prefix of both: one line listing the candidates.
+    for sel in ["1.2.826.0.1.3680043.8.498.4", "1"] {
+        let e = fails(
+            tool("vol-info").arg(&p).args(["--series", sel]),
+            "ambiguous",
+        );
+        assert!(e.contains(PACS_CT) && e.contains(PACS_MR), "{e}");
+    }
+    fails(
+        tool("vol-convert")
+            .arg(&p)
+            .args(["--series", "8", "-o"])
+            .arg(&out),
+        "no series 8",
+    );
+    // Picked by number, the skipped files are counted on stderr.
+    let o = tool("vol-convert")
+        .arg(&p)
+        .args(["--series", "7", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("skipped 3 files"), "{err}");
+    assert_eq!(info(&out, &[])["dims"], serde_json::json!([5, 4, 3]));
+    // Nothing but objects without images: refused, naming the folder.
+    let none = d.path().join("no-images");
+    std::fs::create_dir(&none).unwrap();
+    for f in ["DICOMDIR", "SR000001.dcm", "PR000001.dcm"] {
+        std::fs::copy(p.join(f), none.join(f)).unwrap();
+    }
+    let e = fails(tool("vol-info").arg(&none), "no DICOM image");
+    assert!(e.contains("no-images") && e.contains("3 files"), "{e}");
+}
+
+#[test]
+fn pacs_folder_series_read_like_simpleitk_reads_them() {
+    let p = fixture("dicom_pacs");
+    // The number, the whole UID and a unique prefix each pick a series.
+    for (sel, uid) in [
+        ("3", PACS_CT),
+        (PACS_MR, PACS_MR),
+        ("1.2.826.0.1.3680043.8.498.40", PACS_CT),
+        ("7", PACS_MR),
+    ] {
+        let j = info(&p, &["--series", sel]);
+        let v = samples(&p, &["--series", sel]);
+        let Some(s) = read_in_simpleitk(&p, uid) else {
+            return;
+        };
+        assert_eq!(s["ids"], serde_json::json!([PACS_CT, PACS_MR]), "{s}");
+        assert_eq!(j["dims"], s["size"], "{sel}");
+        let want = |k: &str| -> Vec<f64> {
+            s[k].as_array()
+                .unwrap()
+                .iter()
+                .map(|x| x.as_f64().unwrap())
+                .collect()
+        };
+        for key in ["spacing", "origin", "direction"] {
+            assert!(
+                close(&j[key], &want(key)),
+                "{sel} {key}: {} vs {}",
+                j[key],
+                s[key]
+            );
+        }
+        let got: Vec<f64> = v.iter().map(|&x| x as f64).collect();
+        assert_eq!(got, want("values"), "{sel}: voxels differ from SimpleITK's");
+    }
+}
+
+#[test]
+fn dicom_globs_are_dicom_series_in_both_tools() {
+    let d = tempfile::tempdir().unwrap();
+    for (glob, want) in [
+        (
+            fixture("dicom_ct").join("*.dcm"),
+            "dicom series (CT, 10 images)",
+        ),
+        (
+            fixture("dicom_pacs").join("MR*.dcm"),
+            "dicom series (MR, 3 images)",
+        ),
+    ] {
+        let i = info(&glob, &[]);
+        let c = json(&ok(tool("vol-convert")
+            .arg(&glob)
+            .arg("--json")
+            .arg("-o")
+            .arg(d.path().join("o.nrrd"))));
+        assert_eq!(i["format"], want);
+        assert_eq!(c["format"], want);
+        std::fs::remove_file(d.path().join("o.nrrd")).unwrap();
+    }
+    // A directory reads with the same words.
+    assert_eq!(
+        info(&fixture("dicom_ct"), &[])["format"],
+        "dicom series (CT, 10 images)"
+    );
 }

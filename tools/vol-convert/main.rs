@@ -24,8 +24,11 @@ use volkit_cli::{json, noteln, usage, Selection};
 /// slice2 before slice10), a glob such as 'scan/*.tif' (quote it), a
 /// .txt/.lst file listing slices, a .raw file (dims and type from flags or
 /// from NAME_XxYxZ_TYPE.raw), NRRD (.nrrd/.nhdr, raw or gzip), MetaImage
-/// (.mhd/.mha), a thesis .vol, a .vvol, or - for standard input (a .vvol
-/// stream, a NRRD with attached data, or raw with --raw-dims).
+/// (.mhd/.mha), a DICOM series (a directory, or a glob or list of DICOM
+/// files: files that hold no image, such as a DICOMDIR or a structured
+/// report, are skipped and counted), an OME-Zarr (NAME.ome.zarr), a thesis
+/// .vol, a .vvol, or - for standard input (a .vvol stream, a NRRD with
+/// attached data, or raw with --raw-dims).
 ///
 /// 8, 16 and 32-bit integer and 32 and 64-bit float samples are read;
 /// types volkit does not store (i8, u32, i32, f64) become the smallest of
@@ -537,6 +540,8 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         opts.channel = ChannelSel::Luma;
     }
     let reader = open_input(input, &opts)?;
+    // Told once the conversion succeeds: an error stays one line.
+    let notes = reader.notes();
     let info = reader.info().clone();
     let crop = match &cli.crop {
         Some(s) => {
@@ -559,6 +564,10 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         .map_err(|e| at(input, e))?,
         None => info.dims,
     };
+    if volformats::omezarr::is_zarr(&cli.output) {
+        // Before any sample is read: the pyramid must fit the output dims.
+        volformats::omezarr::check_levels(out_dims, cli.pyramid).map_err(|e| at(&cli.output, e))?;
+    }
     let plan = Plan {
         crop,
         flip,
@@ -604,6 +613,11 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         }
     })?;
     bar.finish_and_clear();
+    if !cli.quiet {
+        for note in &notes {
+            noteln!("vol-convert: {note}");
+        }
+    }
     let seconds = start.elapsed().as_secs_f64();
     let to_stdout = cli.output.as_os_str() == "-";
     if cli.json {

@@ -7,10 +7,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Dims, Layout, SampleType, Volume};
+use volformats::dicom::{Scan, SeriesInfo};
 use volformats::open::{input_kind, InputKind};
 use volformats::vvol;
 use volkit_cli::json;
-use volkit_cli::{outln, Selection};
+use volkit_cli::{noteln, outln, Selection};
 
 /// Describe a volume (any format vol-convert reads: .vvol, .vol, .raw,
 /// NRRD, MetaImage, NIfTI, DICOM series, TIFF stacks, OME-Zarr, or - for a
@@ -21,6 +22,11 @@ use volkit_cli::{outln, Selection};
 /// Prints dimensions, sample type, spacing, layout, value range, and the
 /// geometry: the origin (world position of voxel 0,0,0), the direction of
 /// each index axis in LPS patient coordinates, and its orientation code.
+///
+/// A DICOM input holding several series is listed instead (UID, number,
+/// description, modality, images, dimensions), one series a line; pick
+/// one with --series. Files that hold no image (a DICOMDIR, structured
+/// reports, presentation states) are skipped, and counted on stderr.
 #[derive(Parser, Debug)]
 #[command(name = "vol-info", version, after_help = EXAMPLES)]
 struct Cli {
@@ -44,7 +50,9 @@ const EXAMPLES: &str = "Examples:
   vol-info shapes.vvol
   vol-info --verify --json bricked.vvol
   vol-info brain.nii.gz
-  vol-info ct-series/ --series 1.2.840.113619.2.55.3
+  vol-info ct-series/                  # one series: described; several: listed
+  vol-info ct-series/ --series 3       # by SeriesNumber, or a unique UID prefix
+  vol-info --json 'ct/*.dcm'
   vol-gen noise --dims 64,64,64 -o - | vol-info -
   vol-info --raw-dims 256,256,256 --raw-type u16 --raw-endian big scan.raw";
 
@@ -69,7 +77,28 @@ fn info(cli: &Cli) -> Result<()> {
     } else {
         Some(input_kind(&cli.input, &opts)?)
     };
-    let vol = volformats::open(&cli.input, &opts)?;
+    let mut format = kind.map(|k| k.name().to_string());
+    let mut notes = Vec::new();
+    let vol = if matches!(kind, Some(InputKind::DicomDir | InputKind::Dicom)) {
+        use volformats::convert::SliceReader;
+        let scan = volformats::open::dicom_scan(&cli.input, &opts)?;
+        if cli.input_sel.series.is_none() && scan.series().len() > 1 {
+            if !cli.quiet {
+                for note in scan.notes() {
+                    noteln!("vol-info: {note}");
+                }
+                list_series(cli, &scan, start.elapsed().as_secs_f64())?;
+            }
+            return Ok(());
+        }
+        let reader = scan.open(cli.input_sel.series.as_deref())?;
+        // The words vol-convert uses: "dicom series (CT, 120 images)".
+        format = Some(reader.info().format.clone());
+        notes = reader.notes();
+        volformats::open::load(Box::new(reader), None)?
+    } else {
+        volformats::open(&cli.input, &opts)?
+    };
     let file_bytes = match kind {
         Some(_) if cli.input.is_file() => Some(std::fs::metadata(&cli.input)?.len()),
         _ => None,
@@ -82,7 +111,10 @@ fn info(cli: &Cli) -> Result<()> {
         anyhow::bail!("{name}: {e}");
     }
     if !cli.quiet {
-        let format = kind.map(|k| k.name()).unwrap_or("stream");
+        for note in &notes {
+            noteln!("vol-info: {note}");
+        }
+        let format = format.as_deref().unwrap_or("stream");
         report(cli, &vol, format, file_bytes, start.elapsed().as_secs_f64())?;
     }
     Ok(())
@@ -157,6 +189,97 @@ fn report(
         outln!("  verified in {seconds:.2} s")?;
     }
     Ok(())
+}
+
+/// The series of a DICOM input holding several: a table, or with --json
+/// one object whose `series` lists them.
+fn list_series(cli: &Cli, scan: &Scan, seconds: f64) -> std::io::Result<()> {
+    let series = scan.series();
+    if cli.json {
+        let list: Vec<serde_json::Value> = series
+            .iter()
+            .map(|s| {
+                json!({
+                    "uid": s.uid,
+                    "number": s.number,
+                    "description": s.description,
+                    "modality": s.modality,
+                    "images": s.images,
+                    "dims": s.dims,
+                })
+            })
+            .collect();
+        let v = json!({
+            "tool": "vol-info",
+            "input": cli.input.display().to_string(),
+            "format": InputKind::DicomDir.name(),
+            "series": list,
+            "skipped": scan.skipped().len(),
+            "seconds": seconds,
+        });
+        return outln!("{v}");
+    }
+    outln!(
+        "{}: {} DICOM series; pick one with --series NUMBER or a unique UID prefix",
+        cli.input.display(),
+        series.len()
+    )?;
+    for line in series_table(&series) {
+        outln!("  {line}")?;
+    }
+    Ok(())
+}
+
+/// The rows of the series table, the header first, columns padded.
+fn series_table(series: &[SeriesInfo]) -> Vec<String> {
+    // Text from the files: no control characters on the terminal.
+    let clean = |s: &str| -> String {
+        s.chars()
+            .map(|c| if c.is_control() { '?' } else { c })
+            .collect()
+    };
+    let mut rows = vec![[
+        "UID".to_string(),
+        "NUMBER".into(),
+        "DESCRIPTION".into(),
+        "MODALITY".into(),
+        "IMAGES".into(),
+        "DIMS".into(),
+    ]];
+    for s in series {
+        rows.push([
+            clean(&s.uid),
+            s.number
+                .map(|n| n.to_string())
+                .unwrap_or_else(|| "-".into()),
+            if s.description.is_empty() {
+                "-".into()
+            } else {
+                clean(&s.description)
+            },
+            if s.modality.is_empty() {
+                "-".into()
+            } else {
+                clean(&s.modality)
+            },
+            s.images.to_string(),
+            format!("{}x{}x{}", s.dims[0], s.dims[1], s.dims[2]),
+        ]);
+    }
+    let widths: Vec<usize> = (0..6)
+        .map(|c| rows.iter().map(|r| r[c].chars().count()).max().unwrap_or(0))
+        .collect();
+    rows.iter()
+        .map(|r| {
+            r.iter()
+                .zip(&widths)
+                .map(|(cell, w)| format!("{cell:<w$}"))
+                .collect::<Vec<_>>()
+                .join("  ")
+                .trim_end()
+                .to_string()
+        })
+        .collect()
 }
 
 /// Bytes the samples of `dims` take as `t`, or `None` past 2^64: a

@@ -32,6 +32,26 @@ pub struct InputInfo {
     pub geometry: Geometry,
     /// A short description of the input format, e.g. `tiff stack (512 files)`.
     pub format: String,
+    /// NIfTI input: the codes of the space its geometry maps to, which a
+    /// NIfTI output keeps (`None`: the writer's default).
+    pub nifti_codes: Option<NiftiCodes>,
+}
+
+/// NIfTI `qform_code` and `sform_code`: which space a NIfTI affine maps
+/// voxels to (1 scanner, 2 aligned, 3 Talairach, 4 MNI 152, 5 another
+/// template; 0 none).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NiftiCodes {
+    /// The qform's code.
+    pub qform: i16,
+    /// The sform's code.
+    pub sform: i16,
+}
+
+impl NiftiCodes {
+    /// What volkit writes when the input says nothing: both transforms in
+    /// scanner coordinates.
+    pub const SCANNER: NiftiCodes = NiftiCodes { qform: 1, sform: 1 };
 }
 
 /// Whether slices can be read in any order.
@@ -66,6 +86,11 @@ pub trait SliceReader: Send + Sync {
     fn finish(&self) -> CResult<()> {
         Ok(())
     }
+    /// What the reader did that its user should hear of (files skipped),
+    /// one line each.
+    fn notes(&self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// Slices of one type as a [`SliceReader`] (tests and small volumes).
@@ -86,6 +111,7 @@ impl MemoryReader {
                 spacing: None,
                 geometry: Geometry::IDENTITY,
                 format: "memory".into(),
+                nifti_codes: None,
             },
             slices: samples.chunks(n).map(|c| T::wrap(c.to_vec())).collect(),
         }

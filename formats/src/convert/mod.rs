@@ -20,7 +20,7 @@ pub mod window;
 mod writers;
 
 pub use crate::open::{open_input, ReadOptions};
-pub use input::{Access, InputInfo, SliceReader};
+pub use input::{Access, InputInfo, NiftiCodes, SliceReader};
 pub use slice::{SliceData, SliceSample, SliceType};
 pub use window::{fit_type, Histogram, Mapper, ValueMap, Window};
 pub use writers::{MemorySlot, Target};
@@ -580,6 +580,7 @@ fn run<T: SliceSample>(
         dims,
         spacing: args.spacing,
         geometry: args.geometry,
+        nifti_codes: info.nifti_codes,
         temp_dir: &args.temp_dir,
         progress,
     };

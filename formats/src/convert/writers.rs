@@ -281,6 +281,8 @@ pub(crate) struct OutSpec<'a> {
     pub dims: Dims,
     pub spacing: [f32; 3],
     pub geometry: Geometry,
+    /// A NIfTI input's qform and sform codes, for a NIfTI output.
+    pub nifti_codes: Option<super::NiftiCodes>,
     pub temp_dir: &'a Path,
     pub progress: &'a (dyn Fn(u64) + Sync),
 }
@@ -555,7 +557,14 @@ fn header_bytes<T: Sample>(
             } else {
                 crate::nifti::NiftiLayout::Single
             };
-            crate::nifti::encode_header(spec.dims, T::TYPE, spec.spacing, &spec.geometry, layout)
+            crate::nifti::encode_header(
+                spec.dims,
+                T::TYPE,
+                spec.spacing,
+                &spec.geometry,
+                spec.nifti_codes.unwrap_or(super::NiftiCodes::SCANNER),
+                layout,
+            )
         }
         HeaderFormat::Nrrd => crate::nrrd::write_header(&crate::nrrd::NrrdOut {
             dims: spec.dims,

@@ -680,6 +680,7 @@ pub fn open_files(
     let dims = Dims::new(page.width as u64, page.height as u64, z).at(&first)?;
     Ok(TiffStackReader {
         info: InputInfo {
+            nifti_codes: None,
             path: input.to_path_buf(),
             dims,
             sample_type,

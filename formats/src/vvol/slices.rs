@@ -52,6 +52,7 @@ impl VolumeReader {
         let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
         VolumeReader {
             info: InputInfo {
+                nifti_codes: None,
                 path: path.to_path_buf(),
                 dims: volume.meta.dims,
                 sample_type: volume.meta.sample_type.into(),
