@@ -12,11 +12,15 @@ export CARGO_INCREMENTAL=0
 export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target}
 venv=${VENV:-$(mktemp -d)/venv}
 
-if ! python3 -m venv --help >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1; then
-    (apt-get update -qq && apt-get install -y -qq python3-venv) >/dev/null 2>&1 || true
-fi
 echo "== python: fresh venv at $venv"
-python3 -m venv "$venv"
+if ! python3 -m venv "$venv" >/dev/null 2>&1; then
+    # Debian's python3 keeps ensurepip in python3-venv.
+    if command -v apt-get >/dev/null 2>&1; then
+        (apt-get update -qq && apt-get install -y -qq python3-venv) >/dev/null 2>&1 || true
+    fi
+    rm -rf "$venv"
+    python3 -m venv "$venv"
+fi
 "$venv/bin/python" -m pip install -q --upgrade pip
 # The workspace's binaries, which the tests compare against.
 if [ ! -x "$CARGO_TARGET_DIR/release/vol-render" ] || [ ! -x "$CARGO_TARGET_DIR/release/vol-convert" ]; then
@@ -29,5 +33,8 @@ start=$(date +%s)
 echo "python: installed in $(($(date +%s) - start)) s"
 "$venv/bin/python" -m pip install -q pytest numpy
 echo "== python: pytest"
-cd "$here"
-VOLKIT_BIN_DIR="$CARGO_TARGET_DIR/release" "$venv/bin/python" -m pytest -q tests
+# From the tests' folder: run from python/, `python -m pytest` would import
+# the source folder volkit/ (without its compiled module) instead of the
+# installed package.
+cd "$here/tests"
+VOLKIT_BIN_DIR="$CARGO_TARGET_DIR/release" "$venv/bin/python" -m pytest -q .

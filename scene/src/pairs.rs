@@ -188,3 +188,40 @@ impl Request {
         Ok(Request::new(options, p.given))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn pairs_become_another_command_lines_arguments() {
+        let cmd = Command::new("t")
+            .arg(clap::Arg::new("scene").required(true))
+            .arg(clap::Arg::new("seed").long("seed"))
+            .arg(
+                clap::Arg::new("dry_run")
+                    .long("dry-run")
+                    .action(ArgAction::SetTrue),
+            );
+        let (args, given) = command_args(
+            &cmd,
+            [
+                ("seed", json!(4)),
+                ("dry-run", json!(true)),
+                ("scene", json!("shapes")),
+                ("unused", Value::Null),
+            ],
+        )
+        .unwrap();
+        assert_eq!(args, ["--seed=4", "--dry-run", "--", "shapes"]);
+        assert_eq!(
+            given.into_iter().collect::<Vec<_>>(),
+            ["dry_run", "scene", "seed"]
+        );
+        let e = command_args(&cmd, [("colour", json!(1))]).unwrap_err();
+        assert_eq!(e.message(), "unknown option `colour`");
+        let e = command_args(&cmd, [("dry_run", json!(3))]).unwrap_err();
+        assert_eq!(e.message(), "option `dry_run`: expected true or false");
+    }
+}

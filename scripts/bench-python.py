@@ -7,7 +7,8 @@ and with volkit.render, ROUNDS interleaved rounds of --repeat REPEAT
 frames each, and prints each side's median frame time (the reports'
 render_s, the median of each run's frames) and their ratio, with the load
 average. Also times opening a 2 GiB sliced .vvol.
-Usage: python bench.py [DIM] [REPEAT] [ROUNDS]   (default 800 5 5)
+Usage: python scripts/bench-python.py [DIM] [REPEAT] [ROUNDS]   (default 800 5 5),
+with volkit installed (pip install ./python).
 Environment: VOLKIT_BIN_DIR (default ../target/release), DIR (out/bench).
 """
 
