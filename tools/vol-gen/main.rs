@@ -26,9 +26,6 @@ use volkit_cli::{json, noteln, usage};
 #[derive(Parser, Debug)]
 #[command(name = "vol-gen", version, after_help = EXAMPLES)]
 struct Cli {
-    /// The scene and its parameters.
-    #[command(flatten)]
-    spec: SceneSpec,
     /// Dimensions X,Y,Z in voxels.
     #[arg(long, value_parser = args::dims3)]
     dims: [u64; 3],
@@ -44,6 +41,10 @@ struct Cli {
     /// Per-brick compression for bricked .vvol: none, zstd or zstd:LEVEL.
     #[arg(long, default_value = "none", value_parser = args::compression)]
     compress: Compression,
+    /// The scene and its parameters (seed, count, size, value, ...: the
+    /// scene options, in the order --help has always listed them).
+    #[command(flatten)]
+    spec: SceneSpec,
     /// Output path (.vvol, .vol, NAME_XxYxZ_TYPE.raw) or - for a sliced .vvol on stdout.
     #[arg(short, long)]
     output: PathBuf,
