@@ -114,6 +114,22 @@ impl Metrics {
     pub fn identical(&self) -> bool {
         self.differing == 0
     }
+
+    /// The figures as one JSON object, as `vol-psnr --json` prints them:
+    /// `psnr` is null when infinite (identical inputs).
+    pub fn figures(&self) -> serde_json::Value {
+        serde_json::json!({
+            "psnr": self.psnr.is_finite().then_some(self.psnr),
+            "identical": self.identical(),
+            "mse": self.mse,
+            "max_abs": self.max_abs,
+            "differing": self.differing,
+            "differing_fraction": self.differing_fraction,
+            "count": self.count,
+            "nonfinite": self.nonfinite,
+            "peak": self.peak,
+        })
+    }
 }
 
 #[cfg(test)]

@@ -63,6 +63,45 @@ pub struct DataSpec {
     pub nifti_codes: Option<crate::convert::NiftiCodes>,
 }
 
+/// The samples a header describes, memory-mapped in place when they can
+/// be used as stored: uncompressed, little-endian, of a stored type,
+/// unscaled, at an offset aligned for the type, and ending the file;
+/// `None` when they cannot (the caller reads them through [`open_data`]).
+pub fn open_mapped(spec: &DataSpec) -> crate::Result<Option<volcore::Volume>> {
+    let DataStart::At(offset) = spec.start else {
+        return Ok(None);
+    };
+    let Some(t) = spec.sample_type.stored() else {
+        return Ok(None);
+    };
+    let as_stored = spec.encoding == Encoding::Raw
+        && !spec.big_endian
+        && spec.skip_after_decode == 0
+        && spec.rescale.is_none_or(|m| m.is_identity())
+        && offset.is_multiple_of(t.size() as u64);
+    if !as_stored {
+        return Ok(None);
+    }
+    let len = std::fs::metadata(&spec.data_file)?.len();
+    let want = spec
+        .dims
+        .checked_bytes(t.size() as u64)?
+        .checked_add(offset);
+    if want != Some(len) {
+        return Ok(None);
+    }
+    let layout = crate::raw::RawLayout {
+        dims: spec.dims,
+        sample_type: spec.sample_type,
+        big_endian: false,
+        skip: offset,
+    };
+    let mut v = crate::raw::open(&spec.data_file, layout)?;
+    v.meta.spacing = spec.spacing.unwrap_or([1.0; 3]);
+    v.meta.geometry = spec.geometry;
+    Ok(Some(v))
+}
+
 /// A reader for the samples a header describes; `input` is the header's
 /// path (named in errors about the header, while errors about the data
 /// name the data file).

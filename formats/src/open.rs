@@ -419,8 +419,11 @@ fn open_stdin(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> 
 }
 
 /// Open any input as a whole [`Volume`]: `.vvol` files are memory-mapped
-/// (compressed bricks decoded on demand), raw files of a stored type and
-/// sliced thesis `.vol` files (in their z-fastest order) mapped too, everything else read into memory through [`open_input`]
+/// (compressed bricks decoded on demand), raw files of a stored type,
+/// uncompressed NIfTI files whose samples can be used as stored (see
+/// [`crate::datafile::open_mapped`]) and sliced thesis `.vol` files (in
+/// their z-fastest order) mapped too, everything else read into memory
+/// through [`open_input`]
 /// (wider sample types become the smallest stored type that holds their
 /// values, as `vol-convert` would pick). Origin and directions are kept.
 pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
@@ -433,6 +436,13 @@ pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
                 if l.sample_type.stored().is_some() && l.skip == 0 {
                     return crate::raw::open(path, l).at(path);
                 }
+            }
+            InputKind::Nifti => {
+                let spec = crate::nifti::open(path, opts.time).at(path)?;
+                if let Some(v) = crate::datafile::open_mapped(&spec).at(&spec.data_file)? {
+                    return Ok(v);
+                }
+                return load(crate::datafile::open_data(path, &spec)?, None);
             }
             _ => {}
         }

@@ -692,3 +692,81 @@ fn geometry_round_trips_and_version_1_and_2_files_stay_readable() {
     assert_eq!(s.to_f32_vec(), a.to_f32_vec());
     assert!(crate::fingerprint(&q).is_ok());
 }
+
+/// An uncompressed NIfTI is mapped in place, a gzipped one or a scaled
+/// one read into memory, with the same samples and geometry either way;
+/// slices of any type from memory convert as a file's would.
+#[test]
+fn nifti_is_mapped_when_its_samples_can_be_used_as_stored() {
+    use crate::convert::input::MemoryReader;
+    use crate::convert::{convert, Plan, SliceData, Target};
+    let dir = tempfile::tempdir().unwrap();
+    let dims = Dims::new(5, 4, 3).unwrap();
+    let want: Vec<i16> = (0..60).map(|v| v * 37 - 900).collect();
+    let geometry = volcore::Geometry::from_axes(
+        [10.0, -4.0, 2.5],
+        [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 2.0]],
+    )
+    .unwrap();
+    let slices = want
+        .chunks(20)
+        .map(|c| SliceData::I16(c.to_vec()))
+        .collect::<Vec<_>>();
+    let write = |name: &str| {
+        let p = dir.path().join(name);
+        let r = MemoryReader::from_slices(
+            Path::new("memory"),
+            dims,
+            slices.clone(),
+            Some([0.5, 1.0, 2.0]),
+            geometry,
+        )
+        .unwrap();
+        let t = Target::for_output(&p, &Default::default(), None).unwrap();
+        convert(Box::new(r), &Plan::default(), t, &|_| {}).unwrap();
+        p
+    };
+    for (name, mapped) in [("a.nii", true), ("b.nii.gz", false)] {
+        let v = crate::open(&write(name), &Default::default()).unwrap();
+        let is_mapped = match &v.data {
+            volcore::VolumeData::I16(TypedGrid::Sliced(g)) => g.is_mapped(),
+            _ => panic!("{name}: not sliced i16"),
+        };
+        assert_eq!(is_mapped, mapped, "{name}");
+        let got: Vec<i16> = v.to_f32_vec().iter().map(|&f| f as i16).collect();
+        assert_eq!(got, want, "{name}");
+        assert_eq!(v.meta.spacing, [0.5, 1.0, 2.0], "{name}");
+        for r in 0..3 {
+            assert_eq!(v.meta.geometry.origin[r], geometry.origin[r], "{name}");
+            for c in 0..3 {
+                let d = v.meta.geometry.direction[r][c] - geometry.direction[r][c];
+                assert!(d.abs() < 1e-6, "{name}");
+            }
+        }
+        assert_eq!((v.meta.range.min, v.meta.range.max), (-900.0, 1283.0));
+    }
+    // Slices that do not make the volume are refused.
+    let short = slices[..2].to_vec();
+    assert!(MemoryReader::from_slices(
+        Path::new("m"),
+        dims,
+        short,
+        None,
+        volcore::Geometry::IDENTITY
+    )
+    .is_err());
+    // Output names and options that do not go together, as vol-convert
+    // refuses them.
+    let opts = crate::convert::OutputOptions {
+        compress: crate::convert::CompressArg::parse("zstd").unwrap(),
+        ..Default::default()
+    };
+    let e = Target::for_output(&dir.path().join("c.vvol"), &opts, None)
+        .err()
+        .unwrap();
+    assert!(e.ends_with("--compress needs --layout bricked:B (compression is per brick)"));
+    let e = Target::for_output(Path::new("-"), &Default::default(), None)
+        .err()
+        .unwrap();
+    assert_eq!(e, "-: standard output is not available here");
+}

@@ -4,8 +4,11 @@
 //! error).
 
 use crate::choices::TonemapArg;
+use crate::error::{chain, Error, Result};
 use crate::options::Options;
 use crate::render::{Image, Rendered};
+use std::path::Path;
+use volformats::image::{write_exr, write_heatmap, write_pfm, write_png8};
 
 impl Rendered {
     /// Width in pixels.
@@ -53,6 +56,40 @@ impl Rendered {
                 (3, png)
             }
         }
+    }
+
+    /// Write the files the options name: the PNG at `output` (when
+    /// given), and the float image (`--hdr`: PFM, or OpenEXR for a
+    /// path-traced `.exr`) and heat maps (`--heatmap`, `--variance`) when
+    /// asked for. An error names the file.
+    pub fn write_files(&self, options: &Options, output: Option<&Path>) -> Result<()> {
+        let (w, h) = (self.width(), self.height());
+        let at = |p: &Path| {
+            let name = p.display().to_string();
+            move |e: volformats::Error| Error::file(format!("{name}: {}", chain(&e)))
+        };
+        if let Some(output) = output {
+            let (channels, png) = self.display8(options);
+            write_png8(output, w, h, channels, &png).map_err(at(output))?;
+        }
+        if let Some(p) = &options.hdr {
+            let rgb = self.linear_rgb();
+            let exr = matches!(self.image, Image::Path(_))
+                && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+            if exr {
+                write_exr(p, w, h, &rgb)
+            } else {
+                write_pfm(p, w, h, &rgb)
+            }
+            .map_err(at(p))?;
+        }
+        if let (Some(p), Some(counts)) = (&options.heatmap, self.sample_counts()) {
+            write_heatmap(p, &counts, w, h).map_err(at(p))?;
+        }
+        if let (Some(p), Some(errors)) = (&options.variance, self.standard_errors()) {
+            write_heatmap(p, &errors, w, h).map_err(at(p))?;
+        }
+        Ok(())
     }
 
     /// Samples per pixel (ray casting, for `--heatmap`); `None` for a

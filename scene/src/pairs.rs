@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::file::Scene;
 use crate::options::Options;
 use crate::request::{clap_error, Request};
-use clap::{ArgAction, CommandFactory, FromArgMatches};
+use clap::{ArgAction, Command, CommandFactory, FromArgMatches};
 use serde_json::Value;
 use std::collections::BTreeSet;
 
@@ -44,19 +44,49 @@ where
     I: IntoIterator<Item = (K, Value)>,
     K: AsRef<str>,
 {
-    let cmd = Options::command();
     let mut out = Pairs::default();
-    let mut positional = Vec::new();
+    let mut flagged = Vec::new();
     let mut scene_only = serde_json::Map::new();
     for (name, value) in pairs {
-        let name = name.as_ref();
-        let id = id_of(name);
+        let id = id_of(name.as_ref());
         if value.is_null() {
             continue;
         }
         if SCENE_ONLY.contains(&id.as_str()) {
             scene_only.insert(id.replace('_', "-"), value);
             out.given.insert(id);
+            continue;
+        }
+        flagged.push((name.as_ref().to_string(), value));
+    }
+    let (args, given) = command_args(&Options::command(), flagged)?;
+    out.args = args;
+    out.given.extend(given);
+    if !scene_only.is_empty() {
+        out.scene_only = Scene::from_json(Value::Object(scene_only)).map_err(Error::usage)?;
+    }
+    Ok(out)
+}
+
+/// Name/value pairs as arguments of the command line `cmd` defines
+/// (without the program's name), and the ids of the options named: each
+/// name an argument's id or long flag (`look-at` or `look_at`), a
+/// positional argument's value after `--`. The other tools' options (the
+/// Python package's `generate` takes vol-gen's) go through it too. An
+/// unknown name is refused naming it; a `null` value is as if the pair
+/// were not there.
+pub fn command_args<I, K>(cmd: &Command, pairs: I) -> Result<(Vec<String>, BTreeSet<String>)>
+where
+    I: IntoIterator<Item = (K, Value)>,
+    K: AsRef<str>,
+{
+    let mut args = Vec::new();
+    let mut given = BTreeSet::new();
+    let mut positional = Vec::new();
+    for (name, value) in pairs {
+        let name = name.as_ref();
+        let id = id_of(name);
+        if value.is_null() {
             continue;
         }
         let Some(arg) = cmd.get_arguments().find(|a| a.get_id().as_str() == id) else {
@@ -72,45 +102,42 @@ where
             ))
         };
         let Some(long) = arg.get_long() else {
-            // The volume, vol-render's one positional argument.
+            // A positional argument (vol-render's volume).
             positional.push(text(&value).ok_or_else(|| bad("expected a path"))?);
-            out.given.insert(id);
+            given.insert(id);
             continue;
         };
         match (arg.get_action(), &value) {
             (ArgAction::SetTrue, Value::Bool(b)) => {
                 if *b {
-                    out.args.push(format!("--{long}"));
+                    args.push(format!("--{long}"));
                 }
             }
             (ArgAction::SetTrue, _) => return Err(bad("expected true or false")),
             (ArgAction::Append, Value::Array(items)) => {
                 for item in items {
                     let t = text(item).ok_or_else(|| bad("expected a list of texts"))?;
-                    out.args.push(format!("--{long}={t}"));
+                    args.push(format!("--{long}={t}"));
                 }
             }
             // An option whose value may be left out (`--ortho`).
             (_, Value::Bool(b)) if arg.get_num_args().is_some_and(|n| n.min_values() == 0) => {
                 if *b {
-                    out.args.push(format!("--{long}"));
+                    args.push(format!("--{long}"));
                 }
             }
             (_, v) => {
                 let t = text(v).ok_or_else(|| bad("expected a value"))?;
-                out.args.push(format!("--{long}={t}"));
+                args.push(format!("--{long}={t}"));
             }
         }
-        out.given.insert(id);
+        given.insert(id);
     }
     if !positional.is_empty() {
-        out.args.push("--".into());
-        out.args.extend(positional);
+        args.push("--".into());
+        args.extend(positional);
     }
-    if !scene_only.is_empty() {
-        out.scene_only = Scene::from_json(Value::Object(scene_only)).map_err(Error::usage)?;
-    }
-    Ok(out)
+    Ok((args, given))
 }
 
 /// A value as the text a flag takes: a string as it is, a number as
@@ -159,5 +186,42 @@ impl Request {
         options.lights = p.scene_only.lights;
         options.tf_text = p.scene_only.tf_text;
         Ok(Request::new(options, p.given))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn pairs_become_another_command_lines_arguments() {
+        let cmd = Command::new("t")
+            .arg(clap::Arg::new("scene").required(true))
+            .arg(clap::Arg::new("seed").long("seed"))
+            .arg(
+                clap::Arg::new("dry_run")
+                    .long("dry-run")
+                    .action(ArgAction::SetTrue),
+            );
+        let (args, given) = command_args(
+            &cmd,
+            [
+                ("seed", json!(4)),
+                ("dry-run", json!(true)),
+                ("scene", json!("shapes")),
+                ("unused", Value::Null),
+            ],
+        )
+        .unwrap();
+        assert_eq!(args, ["--seed=4", "--dry-run", "--", "shapes"]);
+        assert_eq!(
+            given.into_iter().collect::<Vec<_>>(),
+            ["dry_run", "scene", "seed"]
+        );
+        let e = command_args(&cmd, [("colour", json!(1))]).unwrap_err();
+        assert_eq!(e.message(), "unknown option `colour`");
+        let e = command_args(&cmd, [("dry_run", json!(3))]).unwrap_err();
+        assert_eq!(e.message(), "option `dry_run`: expected true or false");
     }
 }

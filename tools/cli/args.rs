@@ -1,6 +1,6 @@
 //! Parsers for the argument forms the tools share.
 
-use volcore::{Compression, LengthUnit, SampleType};
+use volcore::{LengthUnit, SampleType};
 
 /// Parse `X,Y,Z` (also `XxYxZ`) into three positive integers.
 pub fn dims3(s: &str) -> Result<[u64; 3], String> {
@@ -47,58 +47,14 @@ pub fn length_unit(s: &str) -> Result<LengthUnit, String> {
     }
 }
 
-/// A requested layout: sliced, or bricked with edge B.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LayoutArg {
-    /// x-fastest slices.
-    Sliced,
-    /// Cubic bricks of this edge.
-    Bricked(u32),
-}
-
-/// Parse `sliced` or `bricked:B` (`bricked` alone means B = 32).
-pub fn layout(s: &str) -> Result<LayoutArg, String> {
-    match s.split_once(':') {
-        None if s == "sliced" => Ok(LayoutArg::Sliced),
-        None if s == "bricked" => Ok(LayoutArg::Bricked(32)),
-        Some(("bricked", b)) => {
-            let b: u32 = b
-                .parse()
-                .map_err(|_| format!("'{s}': brick edge must be a whole number"))?;
-            if !(volcore::brick::MIN_BRICK..=volcore::brick::MAX_BRICK).contains(&b) {
-                return Err(format!(
-                    "'{s}': brick edge must be {}..={}",
-                    volcore::brick::MIN_BRICK,
-                    volcore::brick::MAX_BRICK
-                ));
-            }
-            Ok(LayoutArg::Bricked(b))
-        }
-        _ => Err(format!("'{s}' is not sliced or bricked:B")),
-    }
-}
-
-/// Parse `none`, `zstd` or `zstd:LEVEL` (level -7..=22; default 3).
-pub fn compression(s: &str) -> Result<Compression, String> {
-    match s.split_once(':') {
-        None if s == "none" => Ok(Compression::None),
-        None if s == "zstd" => Ok(Compression::Zstd(3)),
-        Some(("zstd", l)) => {
-            let l: i32 = l
-                .parse()
-                .map_err(|_| format!("'{s}': zstd level must be a whole number"))?;
-            if !(-7..=22).contains(&l) {
-                return Err(format!("'{s}': zstd level must be -7..=22"));
-            }
-            Ok(Compression::Zstd(l))
-        }
-        _ => Err(format!("'{s}' is not none, zstd or zstd:LEVEL")),
-    }
-}
+// The layout and compression parsers belong to the writers (the Python
+// package's `save` takes the same names): re-exported for the tools.
+pub use volformats::convert::choose::{compression, layout, LayoutArg};
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use volcore::Compression;
 
     #[test]
     fn parses_and_rejects() {

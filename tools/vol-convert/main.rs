@@ -8,10 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Compression, Dims, SampleType, Shard};
-use volformats::convert::{self, Plan, Target, ValueMap, Window};
+use volformats::convert::{self, CompressArg, OutputOptions, Plan, Target, ValueMap, Window};
 use volformats::open_input;
 use volformats::output::AtomicFile;
-use volformats::thesis::ThesisLayout;
 use volformats::tiff::ChannelSel;
 use volformats::vvol::part;
 use volkit_cli::args::{self, LayoutArg};
@@ -308,216 +307,34 @@ fn stdout_file() -> Result<std::fs::File> {
     Ok(std::fs::File::from(fd))
 }
 
-/// The `--compress` choices.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum CompressArg {
-    /// Per-brick compression of a .vvol (or none).
-    Vvol(Compression),
-    /// gzip/zlib for the header formats.
-    Gzip,
-}
-
 fn compress_arg(s: &str) -> Result<CompressArg, String> {
-    if s == "gzip" {
-        return Ok(CompressArg::Gzip);
-    }
-    args::compression(s)
-        .map(CompressArg::Vvol)
-        .map_err(|e| format!("{e}, or gzip"))
+    CompressArg::parse(s)
 }
 
-impl CompressArg {
-    fn name(self) -> String {
-        match self {
-            CompressArg::Vvol(Compression::None) => "none".into(),
-            CompressArg::Vvol(Compression::Zstd(l)) => format!("zstd:{l}"),
-            CompressArg::Gzip => "gzip".into(),
-        }
-    }
-}
-
+/// The output target `-o` and the output options name (usage errors when
+/// they do not go together): the rules live with the writers.
 fn target(cli: &Cli) -> Result<Target> {
-    let out = &cli.output;
-    let text = out.to_string_lossy();
-    let ext = out
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    let zarr_out = volformats::omezarr::is_zarr(out) && !out.is_file();
-    if let Some(shard) = cli.shard.filter(|_| !zarr_out) {
-        if ext != part::EXTENSION {
-            return Err(usage_at(
-                out,
-                "with --shard the output is one part of a .vvol: name it NAME.vpart (then vol-convert --merge the parts -o NAME.vvol)",
-            ));
-        }
-        let compression = match cli.compress {
-            CompressArg::Vvol(c) => c,
-            CompressArg::Gzip => {
-                return Err(usage_at(
-                    out,
-                    "--compress gzip does not apply to .vvol parts",
-                ))
-            }
-        };
-        let brick = match cli.layout {
-            LayoutArg::Sliced if compression != Compression::None => {
-                return Err(usage_at(
-                    out,
-                    "--compress needs --layout bricked:B (compression is per brick)",
-                ))
-            }
-            LayoutArg::Sliced => None,
-            LayoutArg::Bricked(b) => Some(b),
-        };
-        return Ok(Target::VvolPart {
-            path: out.clone(),
-            brick,
-            compression,
-            shard,
-        });
-    }
-    if ext == part::EXTENSION {
-        return Err(usage_at(
-            out,
-            ".vpart files are the parts of a sharded conversion: add --shard K/N",
-        ));
-    }
-    if !zarr_out {
-        if cli.pyramid > 1 {
-            return Err(usage_at(
-                out,
-                "--pyramid applies to OME-Zarr output (NAME.ome.zarr)",
-            ));
-        }
-        if cli.ngff.is_some() {
-            return Err(usage_at(
-                out,
-                "--ngff applies to OME-Zarr output (NAME.ome.zarr)",
-            ));
-        }
-    }
-    if let Some(t) = Target::headed(out, cli.compress == CompressArg::Gzip) {
-        if cli.layout != LayoutArg::Sliced {
-            return Err(usage_at(
-                out,
-                "NIfTI, NRRD and MetaImage output is sliced only: drop --layout",
-            ));
-        }
-        if matches!(cli.compress, CompressArg::Vvol(Compression::Zstd(_))) {
-            return Err(usage_at(
-                out,
-                "--compress zstd applies to bricked .vvol output: use --compress gzip",
-            ));
-        }
-        return Ok(t);
-    }
-    if cli.compress == CompressArg::Gzip {
-        return Err(usage_at(
-            out,
-            "--compress gzip applies to NIfTI, NRRD and MetaImage output",
-        ));
-    }
-    let compress = match cli.compress {
-        CompressArg::Vvol(c) => c,
-        CompressArg::Gzip => Compression::None,
+    let opts = OutputOptions {
+        layout: cli.layout,
+        compress: cli.compress,
+        pyramid: cli.pyramid,
+        downsample: if cli.downsample == "max" {
+            volformats::omezarr::Downsample::Max
+        } else {
+            volformats::omezarr::Downsample::Mean
+        },
+        ngff: cli.ngff.as_deref().map(|v| match v {
+            "0.5" => volformats::omezarr::Ngff::V05,
+            _ => volformats::omezarr::Ngff::V04,
+        }),
+        shard: cli.shard,
     };
-    let sliced_only = |what: &str| -> Result<()> {
-        if cli.layout != LayoutArg::Sliced {
-            return Err(usage_at(
-                out,
-                format!("{what} output is sliced only: drop --layout"),
-            ));
-        }
-        Ok(())
+    let stdout: Option<Box<dyn std::io::Write + Send>> = if cli.output.as_os_str() == "-" {
+        Some(Box::new(stdout_file()?))
+    } else {
+        None
     };
-    let no_compress = |what: &str| -> Result<()> {
-        if compress != Compression::None {
-            return Err(usage_at(
-                out,
-                format!("--compress applies to bricked .vvol output, not {what}"),
-            ));
-        }
-        Ok(())
-    };
-    if volformats::omezarr::is_zarr(out) && !out.is_file() {
-        sliced_only("OME-Zarr")?;
-        no_compress("OME-Zarr (chunks are zstd)")?;
-        return Ok(Target::OmeZarr {
-            path: PathBuf::from(text.trim_end_matches('/')),
-            levels: cli.pyramid,
-            downsample: if cli.downsample == "max" {
-                volformats::omezarr::Downsample::Max
-            } else {
-                volformats::omezarr::Downsample::Mean
-            },
-            ngff: match cli.ngff.as_deref() {
-                Some("0.5") => volformats::omezarr::Ngff::V05,
-                _ => volformats::omezarr::Ngff::V04,
-            },
-            shard: cli.shard,
-        });
-    }
-    if text == "-" {
-        sliced_only("stdout (a .vvol stream)")?;
-        no_compress("a stream")?;
-        return Ok(Target::VvolStream(Box::new(stdout_file()?)));
-    }
-    if text.ends_with('/') {
-        sliced_only("TIFF directory")?;
-        no_compress("TIFF")?;
-        return Ok(Target::TiffDir { path: out.clone() });
-    }
-    match ext.as_str() {
-        "vvol" => {
-            let brick = match cli.layout {
-                LayoutArg::Sliced => None,
-                LayoutArg::Bricked(b) => Some(b),
-            };
-            if brick.is_none() && compress != Compression::None {
-                return Err(usage_at(
-                    out,
-                    "--compress needs --layout bricked:B (compression is per brick)",
-                ));
-            }
-            Ok(Target::Vvol {
-                path: out.clone(),
-                brick,
-                compression: compress,
-            })
-        }
-        "vol" => {
-            no_compress(".vol")?;
-            let layout = match cli.layout {
-                LayoutArg::Sliced => ThesisLayout::Sliced,
-                LayoutArg::Bricked(b) if b <= 255 => ThesisLayout::Bricked(b as u8),
-                LayoutArg::Bricked(b) => {
-                    return Err(usage_at(
-                        out,
-                        format!("the .vol format takes bricks up to 255, not {b}"),
-                    ))
-                }
-            };
-            Ok(Target::Thesis {
-                path: out.clone(),
-                layout,
-            })
-        }
-        "raw" => {
-            sliced_only(".raw")?;
-            no_compress(".raw")?;
-            Ok(Target::Raw { path: out.clone() })
-        }
-        "tif" | "tiff" => {
-            sliced_only("TIFF")?;
-            no_compress("TIFF")?;
-            Ok(Target::Tiff { path: out.clone() })
-        }
-        _ => Err(usage_at(
-            out,
-            "unknown output type: use .vvol, .vol, .raw, .tif, .nii, .nii.gz, .hdr, .nrrd, .nhdr, .mha, .mhd, .ome.zarr, a directory ending in /, or -",
-        )),
-    }
+    Target::for_output(&cli.output, &opts, stdout).map_err(usage)
 }
 
 fn convert_cmd(cli: &Cli) -> Result<()> {

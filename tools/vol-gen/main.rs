@@ -2,54 +2,17 @@
 //! disk (or stdout) with bounded memory.
 
 use anyhow::{bail, Context, Result};
-use clap::{Parser, ValueEnum};
+use clap::Parser;
 use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
-use volcore::scene::{
-    BoxScene, NoiseKind, NoiseScene, PhantomScene, RampScene, Scene, SceneSource, ShapesScene,
-    SolidScene, SphereScene, SpheresScene,
-};
+use volcore::scene::{Scene, SceneSource, SceneSpec};
 use volcore::{BrickGeometry, Compression, Dims, Layout, Sample, SampleType, VolumeMeta};
 use volformats::output::{AtomicFile, Sink};
 use volformats::{thesis, vvol, FileKind};
 use volkit_cli::args::{self, LayoutArg};
 use volkit_cli::{json, noteln, usage};
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum SceneName {
-    /// The thesis test scene: random cuboids and ellipsoids, values value±10.
-    Shapes,
-    /// Soft ellipsoids with smooth falloff and varying peaks.
-    Spheres,
-    /// Fractal value or gradient noise.
-    Noise,
-    /// Constant value with a 5-voxel border of zeros.
-    Solid,
-    /// Analytic: constant-density box (--margin empty voxels around it).
-    Box,
-    /// Analytic: linear ramp from 0 to --value along --axis.
-    Ramp,
-    /// Analytic: one sphere, value·max(0, 1 − r/radius), at the centre.
-    Sphere,
-    /// CT-like head in Hounsfield units (air −1000, brain 35, bone 1100)
-    /// with partial-volume edges and noise; i16 unless --type f32.
-    Phantom,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum Axis {
-    X,
-    Y,
-    Z,
-}
-
-#[derive(Clone, Copy, Debug, ValueEnum)]
-enum NoiseArg {
-    Value,
-    Gradient,
-}
 
 /// Generate a procedural test volume.
 ///
@@ -63,9 +26,6 @@ enum NoiseArg {
 #[derive(Parser, Debug)]
 #[command(name = "vol-gen", version, after_help = EXAMPLES)]
 struct Cli {
-    /// Which scene to generate.
-    #[arg(value_enum)]
-    scene: SceneName,
     /// Dimensions X,Y,Z in voxels.
     #[arg(long, value_parser = args::dims3)]
     dims: [u64; 3],
@@ -81,51 +41,10 @@ struct Cli {
     /// Per-brick compression for bricked .vvol: none, zstd or zstd:LEVEL.
     #[arg(long, default_value = "none", value_parser = args::compression)]
     compress: Compression,
-    /// Random seed; the same seed gives the same volume.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
-    /// shapes/spheres: number of objects (0-100000).
-    #[arg(long, default_value_t = 70, value_parser = clap::value_parser!(u64).range(0..=MAX_COUNT as u64))]
-    count: u64,
-    /// shapes: nominal object size in voxels; spheres: nominal semi-axis
-    /// (1-4294967295).
-    #[arg(long, default_value_t = 70, value_parser = clap::value_parser!(u64).range(1..=u32::MAX as u64))]
-    size: u64,
-    /// Peak or inside value, within the sample type's range (0-255 for u8,
-    /// 0-65535 for u16, -32768-32767 for i16, finite for f32; default: 100
-    /// for shapes, solid and box, 255 otherwise).
-    #[arg(long, allow_hyphen_values = true)]
-    value: Option<f32>,
-
-    /// noise: kind of lattice noise.
-    #[arg(long, value_enum, default_value = "gradient")]
-    noise: NoiseArg,
-    /// noise: lattice period of the first octave, in voxels (at least 1,
-    /// finite).
-    #[arg(long, default_value_t = 64.0, value_parser = period)]
-    period: f64,
-    /// noise: number of octaves (1-16).
-    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=16))]
-    octaves: u32,
-    /// box: empty voxels between the box and each face (less than half of
-    /// the smallest dimension, so that the box is not empty).
-    #[arg(long, default_value_t = 0)]
-    margin: u64,
-
-    /// ramp: the axis the value grows along.
-    #[arg(long, value_enum, default_value = "x")]
-    axis: Axis,
-    /// sphere: outer radius in voxels, positive and finite (default: half
-    /// the smallest dimension).
-    #[arg(long, value_parser = positive_f32)]
-    radius: Option<f32>,
-
-    /// sphere: a solid sphere of the full value whose surface is a linear
-    /// ramp this many voxels wide, centred on the radius (instead of the
-    /// cone-shaped radial profile): gradients are zero inside and outside
-    /// and value/edge per voxel in the shell (positive and finite).
-    #[arg(long, value_parser = positive_f32)]
-    edge: Option<f32>,
+    /// The scene and its parameters (seed, count, size, value, ...: the
+    /// scene options, in the order --help has always listed them).
+    #[command(flatten)]
+    spec: SceneSpec,
     /// Output path (.vvol, .vol, NAME_XxYxZ_TYPE.raw) or - for a sliced .vvol on stdout.
     #[arg(short, long)]
     output: PathBuf,
@@ -140,11 +59,7 @@ struct Cli {
 impl Cli {
     /// The sample type written: as given, else the scene's own.
     fn sample_type(&self) -> SampleType {
-        match (self.type_arg, self.scene) {
-            (Some(t), _) => t,
-            (None, SceneName::Phantom) => SampleType::I16,
-            (None, _) => SampleType::U8,
-        }
+        self.spec.sample_type(self.type_arg)
     }
 }
 
@@ -157,102 +72,11 @@ const EXAMPLES: &str = "Examples:
   vol-gen shapes --dims 256,256,256 --layout bricked:16 -o thesis.vol
   vol-gen shapes --dims 128,128,128 -o - | vol-info -";
 
-/// The most objects a shapes or spheres scene takes (each is tested for
-/// every row it may cross).
-const MAX_COUNT: usize = 100_000;
-
-fn period(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(v) if v.is_finite() && v >= 1.0 => Ok(v),
-        _ => Err(format!("'{s}' is not a number of voxels of at least 1")),
-    }
-}
-
-fn positive_f32(s: &str) -> Result<f32, String> {
-    match s.parse::<f32>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("'{s}' is not a positive finite number")),
-    }
-}
-
-/// The checks that need more than one option: the value against the
-/// sample type, the margin against the dimensions.
+/// The checks that need more than one option (see [`SceneSpec::validate`]).
 fn validate(cli: &Cli) -> Result<(), String> {
-    if let Some(v) = cli.value {
-        let fits = match cli.sample_type().integer_range() {
-            Some((lo, hi)) => (lo..=hi).contains(&(v as f64)),
-            None => v.is_finite(),
-        };
-        if !fits {
-            let range = match cli.sample_type().integer_range() {
-                Some((lo, hi)) => format!("{lo}..={hi}"),
-                None => "a finite number".to_string(),
-            };
-            return Err(format!(
-                "--value {v} does not fit {} samples (use {range}, or another --type)",
-                cli.sample_type()
-            ));
-        }
-    }
-    if matches!(cli.scene, SceneName::Phantom)
-        && matches!(cli.sample_type(), SampleType::U8 | SampleType::U16)
-    {
-        return Err(format!(
-            "phantom writes Hounsfield units (-1000 to 1300), which {} cannot hold: use --type i16 or f32",
-            cli.sample_type()
-        ));
-    }
-    let smallest = cli.dims.iter().copied().min().unwrap_or(1);
-    if matches!(cli.scene, SceneName::Box) && cli.margin.saturating_mul(2) >= smallest {
-        return Err(format!(
-            "--margin {} leaves no box inside {}x{}x{} voxels (it must be below half of {smallest})",
-            cli.margin, cli.dims[0], cli.dims[1], cli.dims[2]
-        ));
-    }
-    Ok(())
-}
-
-fn build_scene(cli: &Cli, dims: Dims) -> Box<dyn Scene> {
-    let value = |d: f32| cli.value.unwrap_or(d);
-    match cli.scene {
-        SceneName::Shapes => Box::new(ShapesScene::new(
-            dims,
-            cli.seed,
-            cli.count as usize,
-            cli.size,
-            value(100.0),
-        )),
-        SceneName::Spheres => Box::new(SpheresScene::new(
-            dims,
-            cli.seed,
-            cli.count as usize,
-            cli.size,
-            value(255.0),
-        )),
-        SceneName::Noise => Box::new(NoiseScene::new(
-            dims,
-            cli.seed,
-            match cli.noise {
-                NoiseArg::Value => NoiseKind::Value,
-                NoiseArg::Gradient => NoiseKind::Gradient,
-            },
-            cli.period,
-            cli.octaves,
-            value(255.0),
-        )),
-        SceneName::Solid => Box::new(SolidScene::new(dims, value(100.0))),
-        SceneName::Box => Box::new(BoxScene::new(dims, cli.margin, value(100.0))),
-        SceneName::Ramp => Box::new(RampScene::new(dims, cli.axis as usize, value(255.0))),
-        SceneName::Sphere => {
-            let smallest = dims.x.min(dims.y).min(dims.z) as f32;
-            let r = cli.radius.unwrap_or(smallest / 2.0);
-            match cli.edge {
-                Some(e) => Box::new(SphereScene::with_edge(dims, r, value(255.0), e)),
-                None => Box::new(SphereScene::new(dims, r, value(255.0))),
-            }
-        }
-        SceneName::Phantom => Box::new(PhantomScene::new(dims, cli.seed)),
-    }
+    let [x, y, z] = cli.dims;
+    let dims = Dims::new(x, y, z).map_err(|e| e.to_string())?;
+    cli.spec.validate(cli.sample_type(), dims)
 }
 
 fn main() -> ExitCode {
@@ -306,7 +130,7 @@ fn generate(cli: &Cli) -> Result<()> {
     let [x, y, z] = cli.dims;
     let dims = Dims::new(x, y, z)?;
     check_output(cli, dims)?;
-    let scene = build_scene(cli, dims);
+    let scene = cli.spec.build(dims);
     let stats = match cli.sample_type() {
         SampleType::U8 => write_as::<u8>(cli, dims, scene.as_ref()),
         SampleType::U16 => write_as::<u16>(cli, dims, scene.as_ref()),
@@ -318,13 +142,13 @@ fn generate(cli: &Cli) -> Result<()> {
     if cli.json {
         let v = serde_json::json!({
             "tool": "vol-gen",
-            "scene": format!("{:?}", cli.scene).to_lowercase(),
+            "scene": cli.spec.scene.name(),
             "output": cli.output.display().to_string(),
             "dims": cli.dims,
             "type": cli.sample_type().name(),
             "layout": match cli.layout { LayoutArg::Sliced => "sliced".to_string(), LayoutArg::Bricked(b) => format!("bricked:{b}") },
             "compression": match cli.compress { Compression::None => "none".to_string(), Compression::Zstd(l) => format!("zstd:{l}") },
-            "seed": cli.seed,
+            "seed": cli.spec.seed,
             "bytes": stats.bytes,
             "min": stats.min,
             "max": stats.max,

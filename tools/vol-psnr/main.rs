@@ -443,19 +443,9 @@ fn volume_report(cli: &Cli, c: &VolumeComparison, scale: Option<f64>) -> Report 
     }
 }
 
-/// The figures of one metric as a JSON object; PSNR is null when infinite.
+/// The figures of one metric as a JSON object (volcompare's one form).
 fn figures(m: &Metrics) -> serde_json::Value {
-    serde_json::json!({
-        "psnr": m.psnr.is_finite().then_some(m.psnr),
-        "identical": m.identical(),
-        "mse": m.mse,
-        "max_abs": m.max_abs,
-        "differing": m.differing,
-        "differing_fraction": m.differing_fraction,
-        "count": m.count,
-        "nonfinite": m.nonfinite,
-        "peak": m.peak,
-    })
+    m.figures()
 }
 
 /// One line: `PSNR 38.21 dB  MSE 9.81  max |d| 41  differing 1.2%`.

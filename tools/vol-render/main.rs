@@ -6,13 +6,12 @@
 #[cfg(feature = "mpi")]
 mod ranks;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use volformats::image::{write_exr, write_heatmap, write_pfm, write_png8};
 use volkit_cli::{noteln, outln};
 use volscene::report::Context as ReportContext;
-use volscene::{Cancel, Image, Options, Plan, Progress, Rendered, Request, Source};
+use volscene::{Cancel, Options, Plan, Progress, Request, Source};
 
 fn main() -> ExitCode {
     #[cfg(feature = "mpi")]
@@ -75,7 +74,7 @@ fn run(options: &Options, volume: &Path) -> Result<()> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
-    write_outputs(options, output, &rendered)?;
+    rendered.write_files(options, Some(output))?;
     let scene = serde_json::to_value(&plan.scene)?;
     let cx = ReportContext {
         options,
@@ -84,32 +83,6 @@ fn run(options: &Options, volume: &Path) -> Result<()> {
         scene: &scene,
     };
     print_report(options, &rendered.report(&cx))
-}
-
-/// The PNG, and the float image and heat maps when asked for.
-fn write_outputs(options: &Options, output: &Path, r: &Rendered) -> Result<()> {
-    let (w, h) = (r.width(), r.height());
-    let (channels, png) = r.display8(options);
-    write_png8(output, w, h, channels, &png).with_context(|| output.display().to_string())?;
-    if let Some(p) = &options.hdr {
-        let rgb = r.linear_rgb();
-        // The path tracer writes OpenEXR when the name asks for it.
-        let exr = matches!(r.image, Image::Path(_))
-            && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"));
-        if exr {
-            write_exr(p, w, h, &rgb)
-        } else {
-            write_pfm(p, w, h, &rgb)
-        }
-        .with_context(|| p.display().to_string())?;
-    }
-    if let (Some(p), Some(counts)) = (&options.heatmap, r.sample_counts()) {
-        write_heatmap(p, &counts, w, h).with_context(|| p.display().to_string())?;
-    }
-    if let (Some(p), Some(errors)) = (&options.variance, r.standard_errors()) {
-        write_heatmap(p, &errors, w, h).with_context(|| p.display().to_string())?;
-    }
-    Ok(())
 }
 
 /// The report: one JSON object on stdout under `--json`, else the

@@ -10,7 +10,7 @@
 //! report. A failure on any rank ends every rank after the phase it
 //! happened in, with one line from rank 0.
 
-use crate::{print_report, write_outputs};
+use crate::print_report;
 use anyhow::{anyhow, bail, Context, Result};
 use glam::Vec3;
 use mpi::collective::SystemOperation;
@@ -325,7 +325,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
             runs: frames,
         },
     };
-    write_outputs(cli, output, &rendered)?;
+    rendered.write_files(cli, Some(output))?;
     let Image::Frame(frame) = &rendered.image else {
         bail!("not a frame")
     };

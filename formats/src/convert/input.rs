@@ -14,7 +14,7 @@
 
 use super::slice::{SliceData, SliceSample, SliceType};
 use super::CResult;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use volcore::{Dims, Geometry};
 
 /// What an input holds.
@@ -115,6 +115,46 @@ impl MemoryReader {
             },
             slices: samples.chunks(n).map(|c| T::wrap(c.to_vec())).collect(),
         }
+    }
+}
+
+impl MemoryReader {
+    /// A reader over z slices already in memory (the arrays of a Python
+    /// caller), of any [`SliceType`]: `dims.z` slices of
+    /// `dims.slice_len()` samples each, all of one type; `path` names
+    /// them in messages, `spacing` and `geometry` are theirs.
+    pub fn from_slices(
+        path: &Path,
+        dims: Dims,
+        slices: Vec<SliceData>,
+        spacing: Option<[f32; 3]>,
+        geometry: Geometry,
+    ) -> std::result::Result<MemoryReader, String> {
+        let Some(first) = slices.first() else {
+            return Err("no slices".into());
+        };
+        let sample_type = first.sample_type();
+        if slices.len() as u64 != dims.z
+            || slices
+                .iter()
+                .any(|s| s.len() as u64 != dims.slice_len() || s.sample_type() != sample_type)
+        {
+            return Err(format!(
+                "the slices do not make a {dims} volume of one sample type"
+            ));
+        }
+        Ok(MemoryReader {
+            info: InputInfo {
+                path: path.to_path_buf(),
+                dims,
+                sample_type,
+                spacing,
+                geometry,
+                format: "memory".into(),
+                nifti_codes: None,
+            },
+            slices,
+        })
     }
 }
 

@@ -11,6 +11,7 @@
 //! Every output file is written under a temporary name and renamed into
 //! place only when complete, so a failed conversion leaves nothing behind.
 
+pub mod choose;
 pub mod input;
 pub mod rescale;
 pub mod slice;
@@ -20,6 +21,7 @@ pub mod window;
 mod writers;
 
 pub use crate::open::{open_input, ReadOptions};
+pub use choose::{CompressArg, LayoutArg, OutputOptions};
 pub use input::{Access, InputInfo, NiftiCodes, SliceReader};
 pub use slice::{SliceData, SliceSample, SliceType};
 pub use window::{fit_type, Histogram, Mapper, ValueMap, Window};
@@ -390,6 +392,13 @@ static STOP: AtomicBool = AtomicBool::new(false);
 /// failure. Only stores to an atomic, so a signal handler may call it.
 pub fn request_stop() {
     STOP.store(true, Ordering::SeqCst);
+}
+
+/// Let conversions run again after [`request_stop`]: for a process that
+/// goes on after an interrupted conversion (the Python package, where
+/// Ctrl-C stops one call, not the interpreter).
+pub fn clear_stop() {
+    STOP.store(false, Ordering::SeqCst);
 }
 
 /// Whether [`request_stop`] was called.

@@ -6,12 +6,14 @@ mod analytic;
 mod noise;
 mod phantom;
 mod shapes;
+pub mod spec;
 mod spheres;
 
 pub use analytic::{BoxScene, RampScene, SolidScene, SphereScene};
 pub use noise::{NoiseKind, NoiseScene};
 pub use phantom::{PhantomScene, PHANTOM_AIR, PHANTOM_EDGE, PHANTOM_NOISE_SD};
 pub use shapes::{Shape, ShapeKind, ShapesScene};
+pub use spec::{SceneName, SceneSpec};
 pub use spheres::SpheresScene;
 
 use crate::dims::Dims;

@@ -1,0 +1,213 @@
+//! `volkit.save`: a numpy array or a `Volume` into any format vol-convert
+//! writes, through the same conversion (`volformats::convert`), output
+//! rules (`Target::for_output`) and atomic temporary-then-rename writers.
+
+use crate::errors;
+use crate::volume::{decode, geometry_of, spacing_of, PyVolume};
+use numpy::{Element, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use std::path::{Path, PathBuf};
+use volcore::volume::TypedGrid;
+use volcore::{Dims, Geometry, Sample, VolumeData};
+use volformats::convert::input::MemoryReader;
+use volformats::convert::{
+    self, CompressArg, OutputOptions, Plan, SliceData, SliceReader, Target, Window,
+};
+use volformats::omezarr::{Downsample, Ngff};
+
+/// `samples` (x fastest) cut into z slices of `dims`, each wrapped by `wrap`.
+fn slices_of<T: Copy>(dims: Dims, samples: &[T], wrap: fn(Vec<T>) -> SliceData) -> Vec<SliceData> {
+    samples
+        .chunks(dims.slice_len() as usize)
+        .map(|c| wrap(c.to_vec()))
+        .collect()
+}
+
+/// The slices of a numpy array of any type vol-convert reads.
+fn array_slices(a: &Bound<'_, PyAny>) -> PyResult<(Dims, Vec<SliceData>)> {
+    fn typed<T: Element + Copy>(
+        a: &Bound<'_, PyArrayDyn<T>>,
+        wrap: fn(Vec<T>) -> SliceData,
+    ) -> PyResult<(Dims, Vec<SliceData>)> {
+        let dims = crate::volume::dims_of(a.shape())?;
+        let ro = a.readonly();
+        let owned;
+        let samples = match ro.as_slice() {
+            Ok(s) => s,
+            Err(_) => {
+                owned = ro.as_array().iter().copied().collect::<Vec<T>>();
+                &owned[..]
+            }
+        };
+        Ok((dims, slices_of(dims, samples, wrap)))
+    }
+    macro_rules! try_type {
+        ($t:ty, $v:ident) => {
+            if let Ok(x) = a.cast::<PyArrayDyn<$t>>() {
+                return typed(x, SliceData::$v);
+            }
+        };
+    }
+    try_type!(u8, U8);
+    try_type!(i8, I8);
+    try_type!(u16, U16);
+    try_type!(i16, I16);
+    try_type!(u32, U32);
+    try_type!(i32, I32);
+    try_type!(f32, F32);
+    try_type!(f64, F64);
+    Err(errors::value(format!(
+        "expected a Volume or a numpy array of (u)int8, (u)int16, (u)int32, float32 or float64, not {}",
+        crate::volume::describe(a)
+    )))
+}
+
+/// The slices of an open volume, decoded.
+fn volume_slices(v: &volcore::Volume) -> Vec<SliceData> {
+    fn typed<T: Sample>(
+        g: &TypedGrid<T>,
+        d: Dims,
+        wrap: fn(Vec<T>) -> SliceData,
+    ) -> Vec<SliceData> {
+        let all = match g {
+            TypedGrid::Sliced(s) => decode(s, d),
+            TypedGrid::Bricked(b) => decode(b, d),
+            TypedGrid::Compressed(c) => decode(c, d),
+        };
+        slices_of(d, &all, wrap)
+    }
+    let d = v.dims();
+    match &v.data {
+        VolumeData::U8(g) => typed(g, d, SliceData::U8),
+        VolumeData::U16(g) => typed(g, d, SliceData::U16),
+        VolumeData::I16(g) => typed(g, d, SliceData::I16),
+        VolumeData::F32(g) => typed(g, d, SliceData::F32),
+    }
+}
+
+/// Write a Volume or a numpy array (z, y, x) to `path`, in any format
+/// vol-convert writes, chosen by the extension (.vvol, .vol, .raw, .tif,
+/// .nii, .nii.gz, .hdr, .nrrd, .nhdr, .mha, .mhd, NAME.ome.zarr, DIR/),
+/// with vol-convert's options and rules: `layout` (`sliced`,
+/// `bricked:B`), `compress` (`zstd[:LEVEL]` for bricked .vvol, `gzip` for
+/// the header formats), `type` and `window` (a narrowing type needs a
+/// window, as `--window`), `pyramid`, `downsample` and `ngff` for OME-Zarr.
+/// Array types volkit does not store (int8, (u)int32, float64) become the
+/// smallest stored type that holds their values. `spacing`, `origin` and
+/// `direction` are in numpy order (z, y, x) and replace the data's own.
+/// The file is written under a temporary name and renamed into place
+/// only when complete. Returns what was written (shape, type, bytes).
+#[pyfunction]
+#[pyo3(signature = (data, path, *, spacing=None, origin=None, direction=None, layout="sliced",
+    compress="none", r#type=None, window=None, pyramid=1, downsample="mean", ngff=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn save<'py>(
+    py: Python<'py>,
+    data: &Bound<'py, PyAny>,
+    path: PathBuf,
+    spacing: Option<[f64; 3]>,
+    origin: Option<[f64; 3]>,
+    direction: Option<[[f64; 3]; 3]>,
+    layout: &str,
+    compress: &str,
+    r#type: Option<&str>,
+    window: Option<&str>,
+    pyramid: u32,
+    downsample: &str,
+    ngff: Option<&str>,
+) -> PyResult<Bound<'py, PyAny>> {
+    crate::guard(|| {
+        let bad = |what: &str, e: String| errors::value(format!("{what}: {e}"));
+        let opts = OutputOptions {
+            layout: convert::choose::layout(layout).map_err(|e| bad("layout", e))?,
+            compress: CompressArg::parse(compress).map_err(|e| bad("compress", e))?,
+            pyramid,
+            downsample: match downsample {
+                "mean" => Downsample::Mean,
+                "max" => Downsample::Max,
+                other => return Err(bad("downsample", format!("'{other}' is not mean or max"))),
+            },
+            ngff: match ngff {
+                None => None,
+                Some("0.4") => Some(Ngff::V04),
+                Some("0.5") => Some(Ngff::V05),
+                Some(other) => return Err(bad("ngff", format!("'{other}' is not 0.4 or 0.5"))),
+            },
+            shard: None,
+        };
+        if !(1..=16).contains(&pyramid) {
+            return Err(bad("pyramid", format!("{pyramid} is not in 1..=16")));
+        }
+        let sample_type = r#type
+            .map(|t| t.parse::<volcore::SampleType>())
+            .transpose()
+            .map_err(|e| bad("type", e))?;
+        let window: Option<Window> = window
+            .map(|w| w.parse())
+            .transpose()
+            .map_err(|e: String| bad("window", e))?;
+        if window.is_some() && sample_type.is_none() {
+            return Err(errors::value(
+                "--window needs --type (the output sample type)",
+            ));
+        }
+        let plan = Plan {
+            sample_type,
+            window,
+            spacing: spacing.map(spacing_of).transpose()?,
+            ..Plan::default()
+        };
+        let target = Target::for_output(&path, &opts, None).map_err(errors::value)?;
+        target.preflight().map_err(errors::convert)?;
+        let reader = reader_for(py, data, origin, direction)?;
+        let out = crate::run(py, convert::request_stop, || {
+            convert::convert(reader, &plan, target, &|_| {})
+        });
+        // An interrupted conversion raised the process's stop flag: lower
+        // it, so the next call runs.
+        convert::clear_stop();
+        let report = out?.map_err(errors::convert)?;
+        let d = report.dims;
+        let json = serde_json::json!({
+            "output": path.display().to_string(),
+            "shape": [d.z, d.y, d.x],
+            "type": report.sample_type.name(),
+            "layout": opts.layout.name(),
+            "compression": opts.compress.name(),
+            "bytes": report.bytes_out,
+        });
+        crate::value::to_py(py, &json)
+    })
+}
+
+/// The slice reader for what is saved: a file-backed `Volume` is read
+/// again from its file (as vol-convert would), anything else from memory.
+fn reader_for(
+    py: Python<'_>,
+    data: &Bound<'_, PyAny>,
+    origin: Option<[f64; 3]>,
+    direction: Option<[[f64; 3]; 3]>,
+) -> PyResult<Box<dyn SliceReader>> {
+    let moved = origin.is_some() || direction.is_some();
+    let memory =
+        |name: &Path, dims, slices, spacing, base: Geometry| -> PyResult<Box<dyn SliceReader>> {
+            let geometry = geometry_of(origin, direction, base)?;
+            let r = MemoryReader::from_slices(name, dims, slices, spacing, geometry)
+                .map_err(|e| errors::value(format!("{}: {e}", name.display())))?;
+            Ok(Box::new(r))
+        };
+    if let Ok(pv) = data.cast::<PyVolume>() {
+        let v = pv.get();
+        if let (Some((p, o)), false) = (&v.file, moved) {
+            let r = py
+                .detach(|| convert::open_input(p, o))
+                .map_err(errors::convert)?;
+            return Ok(r);
+        }
+        let m = v.vol.meta;
+        let slices = py.detach(|| volume_slices(&v.vol));
+        return memory(&v.name(), m.dims, slices, Some(m.spacing), m.geometry);
+    }
+    let (dims, slices) = array_slices(data)?;
+    memory(Path::new("<array>"), dims, slices, None, Geometry::IDENTITY)
+}

@@ -1,0 +1,493 @@
+//! `volkit.open` and the `Volume` it returns: the metadata in numpy's axis
+//! order (z, y, x) and `.array()`, a read-only view of the samples where
+//! they are stored sliced (a memory-mapped file: no copy), else a decoded
+//! array.
+
+use crate::errors;
+use numpy::ndarray::{ArrayView3, ShapeBuilder};
+use numpy::{Element, PyArray1, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use volcore::volume::TypedGrid;
+use volcore::{Compression, Dims, Geometry, Sample, SampleType, VolumeData, VoxelSource};
+use volformats::convert::SliceType;
+use volformats::raw::{Endian, RawSpec};
+use volformats::tiff::ChannelSel;
+use volformats::ReadOptions;
+
+/// An open volume: its metadata, in numpy's axis order (z, y, x), and its
+/// samples through `array()`.
+#[pyclass(name = "Volume", module = "volkit", frozen)]
+pub struct PyVolume {
+    /// The volume.
+    pub vol: volcore::Volume,
+    /// The file it was opened from and how, when it was (a volume made in
+    /// memory has none).
+    pub file: Option<(PathBuf, ReadOptions)>,
+}
+
+impl PyVolume {
+    /// The file, when opening it with the tools' defaults gives this
+    /// volume again (what `render` and `save` reopen, as the tools do).
+    pub fn plain_file(&self) -> Option<&Path> {
+        match &self.file {
+            Some((p, o)) if o.raw == RawSpec::default() && o.time.is_none() => {
+                (o.series.is_none() && o.channel == ChannelSel::Single).then_some(p.as_path())
+            }
+            _ => None,
+        }
+    }
+
+    /// The name messages give the volume: its file, or `<array>`.
+    pub fn name(&self) -> PathBuf {
+        self.file
+            .as_ref()
+            .map_or_else(|| PathBuf::from("<array>"), |(p, _)| p.clone())
+    }
+}
+
+/// `v` reversed: (x, y, z) to numpy's (z, y, x).
+fn rev3<T: Copy>(v: [T; 3]) -> [T; 3] {
+    [v[2], v[1], v[0]]
+}
+
+/// The numpy dtype name of a sample type.
+pub fn dtype_name(t: SampleType) -> &'static str {
+    match t {
+        SampleType::U8 => "uint8",
+        SampleType::U16 => "uint16",
+        SampleType::I16 => "int16",
+        SampleType::F32 => "float32",
+    }
+}
+
+#[pymethods]
+impl PyVolume {
+    /// Voxels per axis, (z, y, x).
+    #[getter]
+    fn shape(&self) -> (usize, usize, usize) {
+        let d = self.vol.dims();
+        (d.z as usize, d.y as usize, d.x as usize)
+    }
+
+    /// The numpy dtype of the samples (uint8, uint16, int16 or float32).
+    #[getter]
+    fn dtype<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let np = py.import("numpy")?;
+        np.call_method1("dtype", (dtype_name(self.vol.meta.sample_type),))
+    }
+
+    /// World distance between neighbouring voxels, (z, y, x).
+    #[getter]
+    fn spacing(&self) -> (f64, f64, f64) {
+        let s = rev3(self.vol.meta.spacing);
+        (s[0] as f64, s[1] as f64, s[2] as f64)
+    }
+
+    /// World position of voxel (0, 0, 0), (z, y, x) (the world frame is
+    /// LPS, as in DICOM and ITK: these are its z, y and x coordinates).
+    #[getter]
+    fn origin(&self) -> (f64, f64, f64) {
+        let o = rev3(self.vol.meta.geometry.origin);
+        (o[0], o[1], o[2])
+    }
+
+    /// Direction cosines, 3x3, in numpy's order for rows and columns alike:
+    /// column j is the world direction of array axis j (z, y, x), its rows
+    /// the world z, y and x components.
+    #[getter]
+    fn direction(&self) -> [[f64; 3]; 3] {
+        let d = self.vol.meta.geometry.direction;
+        rev3([rev3(d[0]), rev3(d[1]), rev3(d[2])])
+    }
+
+    /// The unit of length of the spacing and origin, by its NGFF name
+    /// (`"micrometer"`, `"millimeter"`, ...), or None when the file states
+    /// none (raw data, plain TIFF).
+    #[getter]
+    fn unit(&self) -> Option<String> {
+        self.vol.meta.geometry.unit.ngff_name().map(String::from)
+    }
+
+    /// The file the volume was opened from, or None (made in memory).
+    #[getter]
+    fn path(&self) -> Option<PathBuf> {
+        self.file.as_ref().map(|(p, _)| p.clone())
+    }
+
+    /// How the samples are stored: `sliced` or `bricked:B`.
+    #[getter]
+    fn layout(&self) -> String {
+        self.vol.meta.layout.describe()
+    }
+
+    /// Per-brick compression: `none` or `zstd:LEVEL`.
+    #[getter]
+    fn compression(&self) -> String {
+        match self.vol.meta.compression {
+            Compression::None => "none".into(),
+            Compression::Zstd(l) => format!("zstd:{l}"),
+        }
+    }
+
+    /// The smallest and largest sample, or None when unknown or all NaN.
+    #[getter]
+    fn range(&self) -> Option<(f64, f64)> {
+        let r = self.vol.meta.range;
+        (!r.is_empty()).then_some((r.min, r.max))
+    }
+
+    /// Whether the samples are a memory map of the file (so `array()` is
+    /// a view of it).
+    #[getter]
+    fn mapped(&self) -> bool {
+        sliced_data_mapped(&self.vol.data) == Some(true)
+    }
+
+    /// The samples as a numpy array of shape (z, y, x). Where they are
+    /// stored sliced (a sliced uncompressed .vvol, an uncompressed .nii, a
+    /// .raw file, or a volume in memory) a read-only view without a copy:
+    /// for a file, of its memory map, so resident memory grows only with
+    /// what is read; `.copy()` it to change it. Bricked and compressed
+    /// volumes are decoded into a new array.
+    fn array<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
+        crate::guard(|| array_of(slf))
+    }
+
+    /// numpy's hook: `np.asarray(volume)` is `volume.array()`.
+    #[pyo3(signature = (dtype=None, copy=None))]
+    fn __array__<'py>(
+        slf: &Bound<'py, Self>,
+        dtype: Option<&Bound<'py, PyAny>>,
+        copy: Option<bool>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let mut a = crate::guard(|| array_of(slf))?;
+        if let Some(t) = dtype {
+            a = a.call_method1("astype", (t,))?;
+        }
+        if copy == Some(true) {
+            a = a.call_method0("copy")?;
+        }
+        Ok(a)
+    }
+
+    fn __repr__(&self) -> String {
+        let (z, y, x) = self.shape();
+        let s = self.spacing();
+        format!(
+            "Volume(shape=({z}, {y}, {x}), dtype={}, spacing=({}, {}, {}), layout={}, path={})",
+            dtype_name(self.vol.meta.sample_type),
+            s.0,
+            s.1,
+            s.2,
+            self.layout(),
+            self.file.as_ref().map_or_else(
+                || "None".to_string(),
+                |(p, _)| format!("{:?}", p.display().to_string())
+            )
+        )
+    }
+}
+
+/// Whether sliced data is mapped; `None` for bricked volumes.
+fn sliced_data_mapped(d: &VolumeData) -> Option<bool> {
+    match d {
+        VolumeData::U8(TypedGrid::Sliced(g)) => Some(g.is_mapped()),
+        VolumeData::U16(TypedGrid::Sliced(g)) => Some(g.is_mapped()),
+        VolumeData::I16(TypedGrid::Sliced(g)) => Some(g.is_mapped()),
+        VolumeData::F32(TypedGrid::Sliced(g)) => Some(g.is_mapped()),
+        _ => None,
+    }
+}
+
+fn array_of<'py>(slf: &Bound<'py, PyVolume>) -> PyResult<Bound<'py, PyAny>> {
+    let v = slf.get();
+    match &v.vol.data {
+        VolumeData::U8(g) => typed_array(slf, g),
+        VolumeData::U16(g) => typed_array(slf, g),
+        VolumeData::I16(g) => typed_array(slf, g),
+        VolumeData::F32(g) => typed_array(slf, g),
+    }
+}
+
+fn typed_array<'py, T: Sample + Element>(
+    slf: &Bound<'py, PyVolume>,
+    grid: &TypedGrid<T>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let py = slf.py();
+    let vol = &slf.get().vol;
+    let d = vol.dims();
+    let shape = (d.z as usize, d.y as usize, d.x as usize);
+    let samples = match grid {
+        TypedGrid::Sliced(g) => {
+            let [sx, sy, sz] = g.order().strides(d);
+            let strides = (sz as usize, sy as usize, sx as usize);
+            let data = g.samples();
+            // SAFETY: the grid holds exactly dims.count() samples in this
+            // order (checked when it was made), so every index of the view
+            // is inside `data`; the view's base is the Volume object, which
+            // owns the grid (and its memory map) and is immutable, so the
+            // memory outlives the array and never changes under it.
+            let view = unsafe { ArrayView3::from_shape_ptr(shape.strides(strides), data.as_ptr()) };
+            let arr = unsafe { PyArray3::borrow_from_array(&view, slf.clone().into_any()) };
+            let kw = PyDict::new(py);
+            kw.set_item("write", false)?;
+            arr.call_method("setflags", (), Some(&kw))?;
+            return Ok(arr.into_any());
+        }
+        TypedGrid::Bricked(g) => py.detach(|| decode(g, d)),
+        TypedGrid::Compressed(g) => py.detach(|| decode(g, d)),
+    };
+    if let Some(e) = vol.error() {
+        return Err(errors::os(format!("{}: {e}", slf.get().name().display())));
+    }
+    let flat = PyArray1::from_vec(py, samples);
+    Ok(flat.reshape([shape.0, shape.1, shape.2])?.into_any())
+}
+
+/// Every sample of `src`, x fastest, read row by row in parallel.
+pub fn decode<S: VoxelSource>(src: &S, d: Dims) -> Vec<S::Sample> {
+    let (nx, ny) = (d.x as usize, d.y as usize);
+    let mut out = vec![S::Sample::default(); d.count() as usize];
+    out.par_chunks_mut(nx * ny)
+        .enumerate()
+        .for_each(|(z, slab)| {
+            for (y, row) in slab.chunks_exact_mut(nx).enumerate() {
+                src.read_row(0, y as u64, z as u64, row);
+            }
+        });
+    out
+}
+
+/// A selection option's value as text (a string as it is; a number or a
+/// sequence of numbers as the command line writes it).
+fn text_of(v: &Bound<'_, PyAny>) -> PyResult<String> {
+    match crate::value::to_json(v)? {
+        serde_json::Value::String(s) => Ok(s),
+        serde_json::Value::Array(items) => Ok(items
+            .iter()
+            .map(|i| match i {
+                serde_json::Value::String(s) => s.clone(),
+                other => other.to_string(),
+            })
+            .collect::<Vec<_>>()
+            .join(",")),
+        other => Ok(other.to_string()),
+    }
+}
+
+/// The read options the selection keywords ask for (vol-convert's names:
+/// raw_dims, raw_type, raw_endian, raw_skip, channel, luma, time_point,
+/// series, and in_memory; `shape` is raw_dims in numpy's order; the old
+/// `time` is refused as the command line refuses `--time`).
+pub fn read_options(sel: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
+    let mut o = ReadOptions::default();
+    let Some(sel) = sel else {
+        return Ok(o);
+    };
+    let mut luma = false;
+    for (k, v) in sel.iter() {
+        let key: String = k.extract()?;
+        if v.is_none() {
+            continue;
+        }
+        let bad = |e: String| errors::value(format!("{key}: {e}"));
+        match key.replace('-', "_").as_str() {
+            "raw_dims" => {
+                o.raw.dims = Some(volformats::raw::parse_dims(&text_of(&v)?).map_err(bad)?);
+            }
+            "shape" => {
+                let s: Vec<u64> = v.extract()?;
+                let [z, y, x] = s[..] else {
+                    return Err(bad("expected (z, y, x)".into()));
+                };
+                o.raw.dims = Some(Dims::new(x, y, z).map_err(|e| bad(e.to_string()))?);
+            }
+            "raw_type" => {
+                let t = text_of(&v)?;
+                o.raw.sample_type = Some(parse_slice_type(&t).map_err(bad)?);
+            }
+            "raw_endian" => {
+                o.raw.endian = match text_of(&v)?.as_str() {
+                    "little" => Endian::Little,
+                    "big" => Endian::Big,
+                    other => return Err(bad(format!("'{other}' is not little or big"))),
+                }
+            }
+            "raw_skip" => o.raw.skip = v.extract()?,
+            "channel" => o.channel = ChannelSel::Channel(v.extract()?),
+            "luma" => luma = v.extract()?,
+            "time_point" => o.time = Some(v.extract()?),
+            "time" => return Err(errors::value(volformats::select::TIME_RENAMED)),
+            "series" => o.series = Some(v.extract()?),
+            "in_memory" => o.vvol.in_memory = v.extract()?,
+            _ => {
+                return Err(errors::value(format!(
+                    "unknown option `{key}` (open takes raw_dims, shape, raw_type, raw_endian, raw_skip, channel, luma, time_point, series, in_memory)"
+                )))
+            }
+        }
+    }
+    if luma {
+        if matches!(o.channel, ChannelSel::Channel(_)) {
+            return Err(errors::value("give channel or luma, not both"));
+        }
+        o.channel = ChannelSel::Luma;
+    }
+    Ok(o)
+}
+
+/// A sample type name as the raw options take it (`u8` .. `f64`, or
+/// numpy's `uint8` .. `float64`).
+pub fn parse_slice_type(s: &str) -> Result<SliceType, String> {
+    volformats::raw::parse_type(s)
+}
+
+/// Open anything vol-convert reads (.vvol, .vol, .raw, NIfTI, NRRD,
+/// MetaImage, TIFF files and stacks, DICOM series, OME-Zarr) as a Volume.
+/// Selection, by vol-convert's names: `raw_dims="X,Y,Z"` (the command
+/// line's order; or `shape=(z, y, x)`), `raw_type`, `raw_endian`,
+/// `raw_skip`, `channel` or `luma` (colour TIFF, hyperstacks, OME),
+/// `time_point` (4D data), `series` (a DICOM series: number, UID or
+/// unique UID prefix), and
+/// `in_memory` (read a .vvol into memory instead of mapping it). A sliced
+/// uncompressed .vvol, an uncompressed .nii and a .raw file are
+/// memory-mapped: opening costs milliseconds whatever the size.
+#[pyfunction]
+#[pyo3(signature = (path, **selection))]
+pub fn open(
+    py: Python<'_>,
+    path: PathBuf,
+    selection: Option<&Bound<'_, PyDict>>,
+) -> PyResult<PyVolume> {
+    crate::guard(|| {
+        let opts = read_options(selection)?;
+        let vol = crate::run(py, volformats::convert::request_stop, || {
+            volformats::open(&path, &opts)
+        });
+        // An interrupted read raised the process's stop flag: lower it.
+        volformats::convert::clear_stop();
+        let vol = vol?.map_err(errors::convert)?;
+        Ok(PyVolume {
+            vol,
+            file: Some((path, opts)),
+        })
+    })
+}
+
+/// The geometry from numpy-ordered origin (z, y, x) and direction (rows
+/// and columns in z, y, x order), each optional.
+pub fn geometry_of(
+    origin: Option<[f64; 3]>,
+    direction: Option<[[f64; 3]; 3]>,
+    base: Geometry,
+) -> PyResult<Geometry> {
+    let origin = origin.map_or(base.origin, rev3);
+    let direction = direction.map_or(base.direction, |d| {
+        rev3([rev3(d[0]), rev3(d[1]), rev3(d[2])])
+    });
+    let axes = [0, 1, 2].map(|a| [direction[0][a], direction[1][a], direction[2][a]]);
+    Geometry::from_axes(origin, axes).map_err(|e| errors::value(format!("direction: {e}")))
+}
+
+/// Spacing from numpy order (z, y, x) to volkit's (x, y, z), checked.
+pub fn spacing_of(s: [f64; 3]) -> PyResult<[f32; 3]> {
+    if s.iter().any(|v| !v.is_finite() || *v <= 0.0) {
+        return Err(errors::value(format!(
+            "spacing {s:?}: spacing must be positive and finite"
+        )));
+    }
+    let s = rev3(s);
+    Ok([s[0] as f32, s[1] as f32, s[2] as f32])
+}
+
+/// The (x, y, z) dims of a (z, y, x) shape (a 2D array is one slice).
+pub fn dims_of(shape: &[usize]) -> PyResult<Dims> {
+    let (z, y, x) = match *shape {
+        [z, y, x] => (z, y, x),
+        [y, x] => (1, y, x),
+        _ => {
+            return Err(errors::value(format!(
+                "a volume is a 3D array (z, y, x), not {}D",
+                shape.len()
+            )))
+        }
+    };
+    Dims::new(x as u64, y as u64, z as u64).map_err(|e| errors::value(e.to_string()))
+}
+
+/// A Volume in memory from a numpy array (z, y, x) of uint8, uint16,
+/// int16 or float32 (copied), with spacing, origin and direction in numpy
+/// order (z, y, x).
+#[pyfunction]
+#[pyo3(signature = (array, spacing=None, origin=None, direction=None))]
+pub fn from_array(
+    array: &Bound<'_, PyAny>,
+    spacing: Option<[f64; 3]>,
+    origin: Option<[f64; 3]>,
+    direction: Option<[[f64; 3]; 3]>,
+) -> PyResult<PyVolume> {
+    crate::guard(|| {
+        let mut vol = volume_of_array(array)?;
+        if let Some(s) = spacing {
+            vol.meta.spacing = spacing_of(s)?;
+        }
+        vol.meta.geometry = geometry_of(origin, direction, vol.meta.geometry)?;
+        Ok(PyVolume { vol, file: None })
+    })
+}
+
+/// A sliced in-memory volume holding a copy of `array`'s samples.
+pub fn volume_of_array(array: &Bound<'_, PyAny>) -> PyResult<volcore::Volume> {
+    fn typed<T: Element + volcore::volume::IntoVolumeData>(
+        a: &Bound<'_, numpy::PyArrayDyn<T>>,
+    ) -> PyResult<volcore::Volume> {
+        let dims = dims_of(a.shape())?;
+        let ro = a.readonly();
+        let samples = match ro.as_slice() {
+            Ok(s) => s.to_vec(),
+            Err(_) => ro.as_array().iter().copied().collect(),
+        };
+        volcore::Volume::from_samples(dims, samples).map_err(|e| errors::value(e.to_string()))
+    }
+    if let Ok(a) = array.cast::<numpy::PyArrayDyn<u8>>() {
+        return typed(a);
+    }
+    if let Ok(a) = array.cast::<numpy::PyArrayDyn<u16>>() {
+        return typed(a);
+    }
+    if let Ok(a) = array.cast::<numpy::PyArrayDyn<i16>>() {
+        return typed(a);
+    }
+    if let Ok(a) = array.cast::<numpy::PyArrayDyn<f32>>() {
+        return typed(a);
+    }
+    Err(errors::value(format!(
+        "expected a numpy array of uint8, uint16, int16 or float32 (volkit's sample types), not {}",
+        describe(array)
+    )))
+}
+
+/// What a Python value is, for messages: `a float64 array` or its type.
+pub fn describe(v: &Bound<'_, PyAny>) -> String {
+    if let Ok(dt) = v.getattr("dtype") {
+        if let Ok(name) = dt.str() {
+            return format!("a {name} array");
+        }
+    }
+    v.get_type()
+        .name()
+        .map(|n| n.to_string())
+        .unwrap_or_else(|_| "an object".into())
+}
+
+/// A `Volume` (as is) or an array (as a new in-memory volume).
+pub fn volume_arg<'py>(v: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyVolume>> {
+    if let Ok(pv) = v.cast::<PyVolume>() {
+        return Ok(pv.clone());
+    }
+    let vol = volume_of_array(v)?;
+    Bound::new(v.py(), PyVolume { vol, file: None })
+}

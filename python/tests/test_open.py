@@ -1,0 +1,66 @@
+"""open() reads what vol-convert reads, with its selection options: the
+same samples and geometry as vol-convert's output."""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+import volkit
+from conftest import cli, cli_message
+
+FIXTURES = pathlib.Path(__file__).resolve().parent.parent.parent / "tests" / "fixtures"
+
+
+def via_cli(tmp_path, src, *flags):
+    out = tmp_path / "cli.vvol"
+    cli("vol-convert", src, *flags, "-o", out, "--quiet")
+    return volkit.open(out)
+
+
+@pytest.mark.parametrize(
+    "name, selection, flags",
+    [
+        ("dicom_ct", {}, []),
+        ("dicom_mr", {}, []),
+        ("tifffile_hyperstack.tif", {"channel": 1, "time_point": 1}, ["--channel", "1", "--time-point", "1"]),
+        ("tifffile_ome.ome.tif", {"channel": 0}, ["--channel", "0"]),
+        ("nibabel_int16.nii.gz", {}, []),
+        ("nibabel_f64.nii", {}, []),
+    ],
+)
+def test_open_matches_vol_convert(tmp_path, name, selection, flags):
+    src = FIXTURES / name
+    v = volkit.open(src, **selection)
+    w = via_cli(tmp_path, src, *flags)
+    assert v.shape == w.shape and v.dtype == w.dtype
+    np.testing.assert_array_equal(v.array(), w.array())
+    assert v.spacing == w.spacing and v.origin == w.origin and v.direction == w.direction
+
+
+def test_dicom_geometry_in_numpy_order():
+    v = volkit.open(FIXTURES / "dicom_ct")
+    assert v.shape == (10, 12, 16)
+    np.testing.assert_allclose(v.spacing, (2.5, 0.8, 0.7), rtol=1e-6)
+    np.testing.assert_allclose(v.origin, (12.5, -30, -40))
+    assert v.range == (-1024.0, -384.0)
+
+
+def test_selection_is_required_like_vol_convert(tmp_path):
+    src = FIXTURES / "tifffile_hyperstack.tif"
+    r = cli("vol-convert", src, "-o", tmp_path / "x.vvol", check=False)
+    with pytest.raises(OSError) as e:
+        volkit.open(src)
+    assert str(e.value) == cli_message("vol-convert", r.stderr)
+    with pytest.raises(ValueError, match="unknown option `chanel`"):
+        volkit.open(src, chanel=1)
+
+
+def test_raw_selection(tmp_path):
+    a = np.arange(3 * 4 * 5, dtype=">u2").reshape(3, 4, 5)
+    p = tmp_path / "data.bin"
+    p.write_bytes(b"HEAD" + a.tobytes())
+    v = volkit.open(p, raw_dims="5,4,3", raw_type="u16", raw_endian="big", raw_skip=4)
+    np.testing.assert_array_equal(v.array(), a.astype(np.uint16))
+    w = volkit.open(p, shape=(3, 4, 5), raw_type="uint16", raw_endian="big", raw_skip=4)
+    np.testing.assert_array_equal(w.array(), a.astype(np.uint16))
