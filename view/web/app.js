@@ -29,7 +29,7 @@ const S = {
   values: {},
   tfEdit: false,
   last: null,
-  stats: { latencies: [], firstFull: null, stopToFull: [], frames: 0, previews: 0, cancelled: 0 },
+  stats: { latencies: [], firstFull: null, stopToFull: [], frames: 0, previews: 0, cancelled: 0, passes: [] },
   downloads: [],
 };
 window.volview = S;
@@ -247,6 +247,7 @@ async function frame(h, png) {
   const sent = S.sent.get(h.seq);
   S.stats.frames++;
   if (h.preview) S.stats.previews++;
+  if (h.cost && h.cost.spp != null) S.stats.passes.push({ seq: h.seq, spp: h.cost.spp, error: h.cost.relative_error });
   if (sent && sent.inputT != null && h.preview && !sent.counted) {
     sent.counted = true;
     S.stats.latencies.push(now - sent.inputT);
