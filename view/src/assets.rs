@@ -46,5 +46,8 @@ pub fn find(path: &str) -> Option<&'static Asset> {
 /// percent-encoded, or backslashes): answered as refused, not as missing.
 pub fn escapes(path: &str) -> bool {
     let lower = path.to_ascii_lowercase();
-    lower.contains("..") || lower.contains("%2e%2e") || lower.contains('\\') || lower.contains("%5c")
+    lower.contains("..")
+        || lower.contains("%2e%2e")
+        || lower.contains('\\')
+        || lower.contains("%5c")
 }

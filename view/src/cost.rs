@@ -49,7 +49,7 @@ pub fn figures(rendered: &Rendered, camera: &Camera, extent: [f32; 3], step: f32
 /// length of each ray inside the box over `step`, from a ray every
 /// [`STRIDE`] pixels, scaled to the whole image.
 pub fn plain_samples(camera: &Camera, extent: [f32; 3], step: f32) -> f64 {
-    if !(step > 0.0) {
+    if step.is_nan() || step <= 0.0 {
         return 0.0;
     }
     let (lo, hi) = (glam::Vec3::ZERO, glam::Vec3::from(extent));

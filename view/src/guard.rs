@@ -148,9 +148,16 @@ mod tests {
         let g = Guard::new("127.0.0.1:8123".parse().unwrap(), None, &[]);
         assert!(g.check(&head(Some("127.0.0.1:8123"), None, "/")).is_ok());
         assert!(g.check(&head(Some("localhost:8123"), None, "/")).is_ok());
-        let e = g.check(&head(Some("evil.example:8123"), None, "/")).unwrap_err();
+        let e = g
+            .check(&head(Some("evil.example:8123"), None, "/"))
+            .unwrap_err();
         assert_eq!(e.status, 421);
-        assert_eq!(g.check(&head(Some("localhost:9"), None, "/")).unwrap_err().status, 421);
+        assert_eq!(
+            g.check(&head(Some("localhost:9"), None, "/"))
+                .unwrap_err()
+                .status,
+            421
+        );
         assert_eq!(g.check(&head(None, None, "/")).unwrap_err().status, 400);
         let ok = head(Some("localhost:8123"), Some("http://localhost:8123"), "/ws");
         assert!(g.check(&ok).is_ok());
@@ -161,9 +168,21 @@ mod tests {
     #[test]
     fn a_token_is_needed_where_one_is_set() {
         let g = Guard::new("0.0.0.0:8123".parse().unwrap(), Some("abc".into()), &[]);
-        assert_eq!(g.check(&head(Some("host:8123"), None, "/")).unwrap_err().status, 401);
-        assert_eq!(g.check(&head(Some("host:8123"), None, "/?token=abd")).unwrap_err().status, 403);
-        assert!(g.check(&head(Some("host:8123"), None, "/?token=abc")).is_ok());
+        assert_eq!(
+            g.check(&head(Some("host:8123"), None, "/"))
+                .unwrap_err()
+                .status,
+            401
+        );
+        assert_eq!(
+            g.check(&head(Some("host:8123"), None, "/?token=abd"))
+                .unwrap_err()
+                .status,
+            403
+        );
+        assert!(g
+            .check(&head(Some("host:8123"), None, "/?token=abc"))
+            .is_ok());
         let mut with_cookie = head(Some("host:8123"), None, "/app.js");
         with_cookie
             .headers

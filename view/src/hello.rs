@@ -92,7 +92,9 @@ fn camera(viewer: &Viewer, plan: &volscene::Plan) -> Result<Value, Error> {
         None => {
             let d = plan.camera.eye() - look_at;
             let dist = d.length();
-            let el = (d.dot(up) / dist.max(f32::MIN_POSITIVE)).clamp(-1.0, 1.0).asin();
+            let el = (d.dot(up) / dist.max(f32::MIN_POSITIVE))
+                .clamp(-1.0, 1.0)
+                .asin();
             let az = d.dot(side).atan2(d.dot(front));
             Vec3::new(az.to_degrees(), el.to_degrees(), dist)
         }
@@ -121,6 +123,7 @@ fn histogram(viewer: &Viewer) -> Value {
     let group = counts.len().div_ceil(HISTOGRAM_BINS).max(1);
     let merged: Vec<u64> = counts.chunks(group).map(|c| c.iter().sum()).collect();
     // The last group may be short: the bins' top as the page spaces them.
-    let hi = h.lo() + (h.hi() - h.lo()) * (merged.len() * group) as f64 / counts.len().max(1) as f64;
+    let hi =
+        h.lo() + (h.hi() - h.lo()) * (merged.len() * group) as f64 / counts.len().max(1) as f64;
     json!({"lo": h.lo(), "hi": hi, "counts": merged})
 }

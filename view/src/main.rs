@@ -83,15 +83,16 @@ fn run(args: &Args) -> Result<(), (u8, String)> {
     config.extra_hosts = args.allow_host.clone();
     if let Some(dir) = &args.save_dir {
         if !dir.is_dir() {
-            return Err((
-                2,
-                format!("--save-dir {}: not a folder", dir.display()),
-            ));
+            return Err((2, format!("--save-dir {}: not a folder", dir.display())));
         }
         config.save_dir = Some(dir.clone());
     }
     let viewer = Viewer::open(args.volume.as_deref(), args.scene.as_deref()).map_err(|e| {
-        let code = if e.kind() == volscene::ErrorKind::Usage { 2 } else { 1 };
+        let code = if e.kind() == volscene::ErrorKind::Usage {
+            2
+        } else {
+            1
+        };
         (code, e.message().to_string())
     })?;
     let name = viewer.volume.display().to_string();
@@ -116,7 +117,10 @@ fn listen_addr(text: &str, port: u16) -> Result<SocketAddr, (u8, String)> {
     if let Ok(a) = text.parse::<SocketAddr>() {
         return Ok(a);
     }
-    match text.trim_matches(|c| c == '[' || c == ']').parse::<IpAddr>() {
+    match text
+        .trim_matches(|c| c == '[' || c == ']')
+        .parse::<IpAddr>()
+    {
         Ok(ip) => Ok(SocketAddr::new(ip, port)),
         Err(_) => Err((
             2,

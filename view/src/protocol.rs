@@ -118,7 +118,9 @@ impl Out {
             .get(..4)
             .map(|b| u32::from_be_bytes([b[0], b[1], b[2], b[3]]) as usize)
             .ok_or("a message shorter than its length")?;
-        let header = bytes.get(4..4 + len).ok_or("a header past the message's end")?;
+        let header = bytes
+            .get(4..4 + len)
+            .ok_or("a header past the message's end")?;
         let header = serde_json::from_slice(header).map_err(|e| e.to_string())?;
         Ok(Out {
             header,
@@ -134,12 +136,27 @@ mod tests {
     #[test]
     fn messages_parse_or_say_why_not() {
         let m = ClientMessage::parse(r#"{"type":"render","seq":3,"pairs":{"mode":"mip"}}"#);
-        assert!(matches!(m, Ok(ClientMessage::Render { seq: 3, preview: false, .. })));
-        assert!(ClientMessage::parse("{").unwrap_err().starts_with("malformed message"));
+        assert!(matches!(
+            m,
+            Ok(ClientMessage::Render {
+                seq: 3,
+                preview: false,
+                ..
+            })
+        ));
+        assert!(ClientMessage::parse("{")
+            .unwrap_err()
+            .starts_with("malformed message"));
         assert!(ClientMessage::parse(r#"{"type":"dance"}"#).is_err());
         assert!(ClientMessage::parse(r#"{"type":"save","what":"exe"}"#).is_err());
         let s = ClientMessage::parse(r#"{"type":"slice","axis":"z","index":4}"#);
-        assert_eq!(s, Ok(ClientMessage::Slice { axis: Axis::Z, index: 4 }));
+        assert_eq!(
+            s,
+            Ok(ClientMessage::Slice {
+                axis: Axis::Z,
+                index: 4
+            })
+        );
     }
 
     #[test]

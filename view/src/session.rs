@@ -40,11 +40,15 @@ fn handshake(stream: &mut TcpStream, head: &Head) -> Result<(), Response> {
     }
     if head.header("sec-websocket-version") != Some("13") {
         let mut r = Response::text(426, "vol-view speaks WebSocket version 13");
-        r.headers.push(("Sec-WebSocket-Version".into(), "13".into()));
+        r.headers
+            .push(("Sec-WebSocket-Version".into(), "13".into()));
         return Err(r);
     }
     let Some(key) = head.header("sec-websocket-key") else {
-        return Err(Response::text(400, "a WebSocket handshake needs Sec-WebSocket-Key"));
+        return Err(Response::text(
+            400,
+            "a WebSocket handshake needs Sec-WebSocket-Key",
+        ));
     };
     let accept = tungstenite::handshake::derive_accept_key(key.trim().as_bytes());
     let reply = format!(
@@ -169,7 +173,10 @@ fn handle(
         ClientMessage::Save { what } => {
             let snap = snapshot.lock().unwrap_or_else(|p| p.into_inner()).clone();
             let Some(snap) = snap else {
-                return Some(Out::error(None, "nothing to save yet: no full frame has been shown"));
+                return Some(Out::error(
+                    None,
+                    "nothing to save yet: no full frame has been shown",
+                ));
             };
             Some(match save::download(&snap, what) {
                 Ok(d) => {
@@ -189,16 +196,16 @@ fn handle(
                 Err(e) => Out::error(Some(snap.seq), e),
             })
         }
-        ClientMessage::Slice { axis, index } => {
-            Some(match slice::extract(&cx.viewer.source.volume, axis, index) {
+        ClientMessage::Slice { axis, index } => Some(
+            match slice::extract(&cx.viewer.source.volume, axis, index) {
                 Ok(s) => Out {
                     header: json!({"type": "slice", "axis": axis_name(axis), "index": s.index,
                                    "width": s.width, "height": s.height, "stride": s.stride}),
                     payload: s.values.iter().flat_map(|v| v.to_le_bytes()).collect(),
                 },
                 Err(e) => Out::error(None, e),
-            })
-        }
+            },
+        ),
     }
 }
 

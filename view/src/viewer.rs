@@ -112,7 +112,11 @@ impl Viewer {
     pub fn command(&self, pairs: &Map<String, Value>) -> Result<String, Error> {
         let split = volscene::pairs::split(pairs.iter().map(|(k, v)| (k.as_str(), v.clone())))?;
         let mut words = vec!["vol-render".to_string()];
-        if !split.given.iter().all(|id| !volscene::pairs::SCENE_ONLY.contains(&id.as_str())) {
+        if !split
+            .given
+            .iter()
+            .all(|id| !volscene::pairs::SCENE_ONLY.contains(&id.as_str()))
+        {
             words.extend(["--scene".into(), "view.toml".into()]);
         } else {
             if let Some((p, _, _)) = &self.scene {

@@ -179,7 +179,10 @@ impl Worker {
                     p.psnr = None;
                     if v.preview {
                         drop(p);
-                        send(&self.out, Out::error(Some(v.seq), "the PSNR is for full frames, not previews"));
+                        send(
+                            &self.out,
+                            Out::error(Some(v.seq), "the PSNR is for full frames, not previews"),
+                        );
                         p = queue.lock();
                         continue;
                     }
@@ -195,7 +198,6 @@ impl Worker {
             p = queue.wake.wait(p).unwrap_or_else(|e| e.into_inner());
         }
     }
-
 
     /// A new view: resolve its options, render its first frame (or
     /// pass).
@@ -239,7 +241,7 @@ impl Worker {
                 }
                 Some(Passes {
                     plan: one,
-                    budget: budget.clone(),
+                    budget: *budget,
                     acc: None,
                     started: Instant::now(),
                     done: false,
@@ -307,7 +309,10 @@ impl Worker {
         let rendered = match result {
             Ok(r) => r,
             Err(e) if e.kind() == ErrorKind::Cancelled => {
-                send(&self.out, Out::json(json!({"type": "cancelled", "seq": v.seq})));
+                send(
+                    &self.out,
+                    Out::json(json!({"type": "cancelled", "seq": v.seq})),
+                );
                 return;
             }
             Err(e) => {
@@ -320,14 +325,20 @@ impl Worker {
         };
         if v.cancel.is_cancelled() {
             // A newer request came while this frame rendered.
-            send(&self.out, Out::json(json!({"type": "cancelled", "seq": v.seq})));
+            send(
+                &self.out,
+                Out::json(json!({"type": "cancelled", "seq": v.seq})),
+            );
             return;
         }
         let (w, h) = (rendered.width(), rendered.height());
         let (channels, pixels) = rendered.display8(&v.options);
         let mut png = Vec::new();
         if let Err(e) = volformats::image::encode_png8(&mut png, w, h, channels, &pixels) {
-            send(&self.out, Out::error(Some(v.seq), format!("the frame's PNG: {e}")));
+            send(
+                &self.out,
+                Out::error(Some(v.seq), format!("the frame's PNG: {e}")),
+            );
             return;
         }
         let volume = self.viewer.volume.clone();
@@ -376,10 +387,13 @@ impl Worker {
             ps.acc = rendered.into_passes();
         }
         let seq = v.seq;
-        send(&self.out, Out {
-            header,
-            payload: png,
-        });
+        send(
+            &self.out,
+            Out {
+                header,
+                payload: png,
+            },
+        );
         if let Some((db, what, secs)) = psnr {
             self.send_psnr(seq, db, &what, secs);
         }
@@ -387,15 +401,18 @@ impl Worker {
 
     fn send_psnr(&self, seq: u64, db: Result<f64, String>, what: &str, secs: f64) {
         match db {
-            Ok(db) => send(&self.out, Out::json(json!({
-                "type": "psnr",
-                "seq": seq,
-                // JSON has no infinity: identical images say so.
-                "db": db.is_finite().then_some(db),
-                "identical": db.is_infinite(),
-                "reference": what,
-                "reference_s": secs,
-            }))),
+            Ok(db) => send(
+                &self.out,
+                Out::json(json!({
+                    "type": "psnr",
+                    "seq": seq,
+                    // JSON has no infinity: identical images say so.
+                    "db": db.is_finite().then_some(db),
+                    "identical": db.is_infinite(),
+                    "reference": what,
+                    "reference_s": secs,
+                })),
+            ),
             Err(e) => send(&self.out, Out::error(Some(seq), e)),
         }
     }
@@ -413,14 +430,9 @@ impl Worker {
             Ok((rendered, options, what)) => {
                 let (c, pixels) = rendered.display8(&options);
                 let db = match &v.shown {
-                    Some((sc, shown)) => psnr(
-                        rendered.width(),
-                        rendered.height(),
-                        *sc,
-                        shown,
-                        c,
-                        &pixels,
-                    ),
+                    Some((sc, shown)) => {
+                        psnr(rendered.width(), rendered.height(), *sc, shown, c, &pixels)
+                    }
                     None => Err("no frame shown yet".to_string()),
                 };
                 v.reference = Some((c, pixels, what.clone(), secs));
@@ -431,7 +443,10 @@ impl Worker {
             Err(e) => {
                 v.psnr_wanted = false;
                 let seq = v.seq;
-                send(&self.out, Out::error(Some(seq), format!("the reference: {}", e.message())));
+                send(
+                    &self.out,
+                    Out::error(Some(seq), format!("the reference: {}", e.message())),
+                );
             }
         }
     }

@@ -52,15 +52,25 @@ fn http(addr: SocketAddr, request: &str) -> (u16, String) {
     s.write_all(request.as_bytes()).unwrap();
     let mut text = String::new();
     s.read_to_string(&mut text).unwrap();
-    let status = text.split(' ').nth(1).and_then(|c| c.parse().ok()).unwrap_or(0);
-    let body = text.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
+    let status = text
+        .split(' ')
+        .nth(1)
+        .and_then(|c| c.parse().ok())
+        .unwrap_or(0);
+    let body = text
+        .split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_string())
+        .unwrap_or_default();
     (status, body)
 }
 
 fn get(addr: SocketAddr, target: &str) -> (u16, String) {
     http(
         addr,
-        &format!("GET {target} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\n\r\n", addr.port()),
+        &format!(
+            "GET {target} HTTP/1.1\r\nHost: 127.0.0.1:{}\r\n\r\n",
+            addr.port()
+        ),
     )
 }
 
@@ -69,7 +79,9 @@ type Ws = WebSocket<TcpStream>;
 /// A WebSocket client, its hello read.
 fn connect(addr: SocketAddr, query: &str) -> (Ws, Value) {
     let stream = TcpStream::connect(local(addr)).unwrap();
-    stream.set_read_timeout(Some(Duration::from_secs(120))).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(120)))
+        .unwrap();
     let url = format!("ws://127.0.0.1:{}/ws{query}", addr.port());
     let (mut ws, _) = tungstenite::client(url, stream).unwrap();
     let hello = next(&mut ws);
@@ -124,7 +136,10 @@ fn refusals_are_clear_and_the_server_goes_on() {
     assert_eq!(status, 404);
     assert!(body.starts_with("not found: /etc/passwd"), "{body}");
     let port = addr.port();
-    let (status, body) = http(addr, &format!("GET / HTTP/1.1\r\nHost: evil.example:{port}\r\n\r\n"));
+    let (status, body) = http(
+        addr,
+        &format!("GET / HTTP/1.1\r\nHost: evil.example:{port}\r\n\r\n"),
+    );
     assert_eq!(status, 421);
     assert!(body.contains("Host `evil.example"), "{body}");
     let (status, body) = http(
@@ -137,7 +152,10 @@ fn refusals_are_clear_and_the_server_goes_on() {
     );
     assert_eq!(status, 403);
     assert!(body.contains("Origin `http://evil.example`"), "{body}");
-    let (status, _) = http(addr, &format!("POST / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"));
+    let (status, _) = http(
+        addr,
+        &format!("POST / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"),
+    );
     assert_eq!(status, 405);
     let (status, body) = http(addr, "NOT HTTP AT ALL\r\n\r\n");
     assert_eq!(status, 400, "{body}");
@@ -146,7 +164,11 @@ fn refusals_are_clear_and_the_server_goes_on() {
     // Still serving.
     assert_eq!(get(addr, "/app.js").0, 200);
     let (mut ws, hello) = connect(addr, "");
-    assert!(hello["options"].as_array().unwrap().iter().any(|o| o["long"] == "mode"));
+    assert!(hello["options"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|o| o["long"] == "mode"));
     render(&mut ws, 1, small(30.0));
     let (frame, _) = until(&mut ws, "frame", Some(1));
     assert!(frame.payload.starts_with(b"\x89PNG"));
@@ -163,7 +185,11 @@ fn off_loopback_the_token_is_needed() {
     assert_eq!(get(addr, "/?token=wrong").0, 403);
     let port = addr.port();
     let mut s = TcpStream::connect(local(addr)).unwrap();
-    write!(s, "GET /?token={token} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n").unwrap();
+    write!(
+        s,
+        "GET /?token={token} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"
+    )
+    .unwrap();
     let mut text = String::new();
     s.read_to_string(&mut text).unwrap();
     assert!(text.starts_with("HTTP/1.1 200"));
@@ -184,37 +210,69 @@ fn malformed_messages_are_answered_and_the_page_goes_on() {
     ws.send(Message::Text("{not json".into())).unwrap();
     let e = next(&mut ws);
     assert_eq!(e.header["type"], "error");
-    assert!(e.header["message"].as_str().unwrap().starts_with("malformed message"));
+    assert!(e.header["message"]
+        .as_str()
+        .unwrap()
+        .starts_with("malformed message"));
     ws.send(Message::Binary(vec![1, 2, 3].into())).unwrap();
-    assert!(next(&mut ws).header["message"].as_str().unwrap().contains("text messages"));
-    ws.send(Message::Text(r#"{"type":"render","seq":"x"}"#.into())).unwrap();
+    assert!(next(&mut ws).header["message"]
+        .as_str()
+        .unwrap()
+        .contains("text messages"));
+    ws.send(Message::Text(r#"{"type":"render","seq":"x"}"#.into()))
+        .unwrap();
     assert_eq!(next(&mut ws).header["type"], "error");
     render(&mut ws, 1, json!({"modes": "mip"}));
     let (e, _) = until(&mut ws, "error", Some(1));
     assert_eq!(e.header["message"], "unknown option `modes`");
     render(&mut ws, 2, json!({"output": "/tmp/x.png"}));
     let (e, _) = until(&mut ws, "error", Some(2));
-    assert!(e.header["message"].as_str().unwrap().contains("does not name files"));
+    assert!(e.header["message"]
+        .as_str()
+        .unwrap()
+        .contains("does not name files"));
     render(&mut ws, 3, json!({"tf": "/etc/passwd"}));
     let (e, _) = until(&mut ws, "error", Some(3));
-    assert!(e.header["message"].as_str().unwrap().contains("not a preset"));
+    assert!(e.header["message"]
+        .as_str()
+        .unwrap()
+        .contains("not a preset"));
     render(&mut ws, 4, json!({"step": "-1"}));
     let (e, _) = until(&mut ws, "error", Some(4));
-    assert!(e.header["message"].as_str().unwrap().contains("step"), "{}", e.header);
+    assert!(
+        e.header["message"].as_str().unwrap().contains("step"),
+        "{}",
+        e.header
+    );
     render(&mut ws, 5, small(40.0));
     until(&mut ws, "frame", Some(5));
     render(&mut ws, 5, small(50.0));
     let (e, _) = until(&mut ws, "error", Some(5));
-    assert!(e.header["message"].as_str().unwrap().contains("seq must rise"));
-    ws.send(Message::Text(r#"{"type":"slice","axis":"z","index":999}"#.into())).unwrap();
-    assert!(next(&mut ws).header["message"].as_str().unwrap().contains("outside the volume"));
-    ws.send(Message::Text(r#"{"type":"slice","axis":"y","index":10}"#.into())).unwrap();
+    assert!(e.header["message"]
+        .as_str()
+        .unwrap()
+        .contains("seq must rise"));
+    ws.send(Message::Text(
+        r#"{"type":"slice","axis":"z","index":999}"#.into(),
+    ))
+    .unwrap();
+    assert!(next(&mut ws).header["message"]
+        .as_str()
+        .unwrap()
+        .contains("outside the volume"));
+    ws.send(Message::Text(
+        r#"{"type":"slice","axis":"y","index":10}"#.into(),
+    ))
+    .unwrap();
     let s = next(&mut ws);
     assert_eq!(s.header["type"], "slice");
     assert_eq!(s.payload.len(), 64 * 64 * 4);
     render(&mut ws, 6, small(60.0));
     let (f, _) = until(&mut ws, "frame", Some(6));
-    assert_eq!((f.header["width"].as_u64(), f.header["height"].as_u64()), (Some(48), Some(40)));
+    assert_eq!(
+        (f.header["width"].as_u64(), f.header["height"].as_u64()),
+        (Some(48), Some(40))
+    );
 }
 
 #[test]
@@ -230,8 +288,13 @@ fn a_newer_request_cancels_the_stale_frame() {
     render(&mut ws, 2, small(80.0));
     let (frame, before) = until(&mut ws, "frame", Some(2));
     assert!(t.elapsed() < Duration::from_secs(20), "{:?}", t.elapsed());
-    assert!(before.iter().all(|m| m.header["type"] != "frame"), "a stale frame was sent");
-    assert!(before.iter().any(|m| m.header["type"] == "cancelled" && m.header["seq"] == 1));
+    assert!(
+        before.iter().all(|m| m.header["type"] != "frame"),
+        "a stale frame was sent"
+    );
+    assert!(before
+        .iter()
+        .any(|m| m.header["type"] == "cancelled" && m.header["seq"] == 1));
     assert_eq!(frame.header["final"], true);
     // Nothing of request 1 follows.
     render(&mut ws, 3, small(90.0));
@@ -277,7 +340,8 @@ fn path_tracing_refines_a_pass_at_a_time_to_the_cli_image() {
         }
     }
     assert_eq!(spp, [1, 2, 3, 4]);
-    ws.send(Message::Text(r#"{"type":"save","what":"pfm"}"#.into())).unwrap();
+    ws.send(Message::Text(r#"{"type":"save","what":"pfm"}"#.into()))
+        .unwrap();
     let (pfm, _) = until(&mut ws, "download", None);
     assert_eq!(pfm.header["name"], "view-1.pfm");
     // The same render in one go through the library: the same bytes.
@@ -290,9 +354,13 @@ fn path_tracing_refines_a_pass_at_a_time_to_the_cli_image() {
     let r = volscene::render(options, &source, &plan, &volscene::Cancel::new(), |_| {}).unwrap();
     let mut want = Vec::new();
     volformats::image::encode_pfm(&mut want, 32, 24, 3, &r.linear_rgb()).unwrap();
-    assert!(pfm.payload == want, "the saved PFM differs from one render of 4 spp");
+    assert!(
+        pfm.payload == want,
+        "the saved PFM differs from one render of 4 spp"
+    );
     // The PSNR against the reference of the view.
-    ws.send(Message::Text(r#"{"type":"psnr","seq":1}"#.into())).unwrap();
+    ws.send(Message::Text(r#"{"type":"psnr","seq":1}"#.into()))
+        .unwrap();
     let (p, _) = until(&mut ws, "psnr", Some(1));
     let db = p.header["db"].as_f64().unwrap();
     assert!(db > 5.0 && db < 80.0, "{db}");
@@ -305,8 +373,12 @@ fn saves_go_to_the_page_and_to_save_dir_only_when_given() {
     config.save_dir = Some(out.path().to_path_buf());
     let (addr, _dir, _) = start(config);
     let (mut ws, _) = connect(addr, "");
-    ws.send(Message::Text(r#"{"type":"save","what":"png"}"#.into())).unwrap();
-    assert!(next(&mut ws).header["message"].as_str().unwrap().starts_with("nothing to save yet"));
+    ws.send(Message::Text(r#"{"type":"save","what":"png"}"#.into()))
+        .unwrap();
+    assert!(next(&mut ws).header["message"]
+        .as_str()
+        .unwrap()
+        .starts_with("nothing to save yet"));
     render(&mut ws, 7, small(20.0));
     until(&mut ws, "frame", Some(7));
     for what in ["png", "pfm", "scene"] {
@@ -316,11 +388,18 @@ fn saves_go_to_the_page_and_to_save_dir_only_when_given() {
         let saved = PathBuf::from(d.header["saved"].as_str().unwrap());
         assert_eq!(std::fs::read(&saved).unwrap(), d.payload);
     }
-    let names: Vec<_> = std::fs::read_dir(out.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let names: Vec<_> = std::fs::read_dir(out.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
     assert_eq!(names.len(), 3);
-    ws.send(Message::Text(r#"{"type":"psnr","seq":7}"#.into())).unwrap();
+    ws.send(Message::Text(r#"{"type":"psnr","seq":7}"#.into()))
+        .unwrap();
     let (p, _) = until(&mut ws, "psnr", Some(7));
-    assert!(p.header["reference"].as_str().unwrap().contains("without early ray termination"));
+    assert!(p.header["reference"]
+        .as_str()
+        .unwrap()
+        .contains("without early ray termination"));
 }
 
 #[test]
@@ -329,15 +408,29 @@ fn bad_volumes_are_one_line_naming_the_file() {
     let bad = dir.path().join("broken.vvol");
     std::fs::write(&bad, b"not a volume").unwrap();
     let exe = env!("CARGO_BIN_EXE_vol-view");
-    for args in [vec![bad.display().to_string()], vec![dir.path().join("missing.nrrd").display().to_string()]] {
-        let out = std::process::Command::new(exe).args(&args).output().unwrap();
+    for args in [
+        vec![bad.display().to_string()],
+        vec![dir.path().join("missing.nrrd").display().to_string()],
+    ] {
+        let out = std::process::Command::new(exe)
+            .args(&args)
+            .output()
+            .unwrap();
         assert_eq!(out.status.code(), Some(1), "{out:?}");
         let err = String::from_utf8(out.stderr).unwrap();
         assert_eq!(err.lines().count(), 1, "{err}");
-        assert!(err.starts_with("vol-view: ") && err.contains(&args[0]), "{err}");
+        assert!(
+            err.starts_with("vol-view: ") && err.contains(&args[0]),
+            "{err}"
+        );
     }
     let out = std::process::Command::new(exe).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
-    let help = std::process::Command::new(exe).arg("--help").output().unwrap();
-    assert!(String::from_utf8(help.stdout).unwrap().contains("vol-view shapes.vvol --open"));
+    let help = std::process::Command::new(exe)
+        .arg("--help")
+        .output()
+        .unwrap();
+    assert!(String::from_utf8(help.stdout)
+        .unwrap()
+        .contains("vol-view shapes.vvol --open"));
 }
