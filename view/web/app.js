@@ -47,6 +47,7 @@ function connect() {
   const url = `ws://${location.host}/ws` + (token ? `?token=${encodeURIComponent(token)}` : "");
   const ws = new WebSocket(url);
   ws.binaryType = "arraybuffer";
+  ws.onopen = () => (S.stats.openAt = performance.now());
   ws.onmessage = (e) => receive(e.data);
   ws.onclose = () => status("disconnected: reload the page when vol-view runs again", true);
   ws.onerror = () => status("connection error", true);
@@ -482,6 +483,7 @@ function sliceInput() {
 // --- start ----------------------------------------------------------
 
 function hello(h) {
+  S.stats.helloAt = performance.now();
   S.hello = h;
   $("volume-name").textContent = `${h.volume.name}: ${h.volume.dims.join("x")} ${h.volume.type}, spacing ${h.volume.spacing.join(",")}`;
   resetCamera();

@@ -115,6 +115,9 @@ def run(page, url, work, bin_dir, figures, args):
     page.wait_for_function("window.volview.stats.firstFull != null", timeout=20000)
     wait_full(page)
     figures["first_full"] = js(page, "volview.stats.firstFull")
+    figures["ws_open"] = js(page, "volview.stats.openAt")
+    figures["hello"] = js(page, "volview.stats.helloAt")
+    figures["first_render"] = 1000 * js(page, "volview.last.header.cost.render_s")
     check(js(page, "volview.last.header.width") == 512, "the first frame is 512x512")
     before = pixels(page)
 
