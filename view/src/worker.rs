@@ -121,7 +121,8 @@ struct View {
     /// The last frame's 8-bit image and its channels.
     shown: Option<(usize, Vec<u8>)>,
     psnr_wanted: bool,
-    reference: Option<(usize, Vec<u8>, String, f64)>,
+    /// Whether the reference has been rendered and the PSNR sent.
+    referenced: bool,
 }
 
 /// Where the worker sends its messages and keeps the frame to save.
@@ -187,11 +188,13 @@ impl Worker {
                         continue;
                     }
                     v.psnr_wanted = true;
+                    // Asked again: measured again.
+                    v.referenced = false;
                 }
                 if v.passes.as_ref().is_some_and(|ps| !ps.done) {
                     return Some(Work::Pass);
                 }
-                if v.psnr_wanted && v.reference.is_none() {
+                if v.psnr_wanted && !v.referenced {
                     return Some(Work::Reference);
                 }
             }
@@ -262,7 +265,7 @@ impl Worker {
             note,
             shown: None,
             psnr_wanted: false,
-            reference: None,
+            referenced: false,
         })
     }
 
@@ -303,7 +306,7 @@ impl Worker {
     }
 
     /// Send a rendered frame (unless its view went stale meanwhile), keep
-    /// it for saving, and update the PSNR when there is a reference.
+    /// it for saving and for the PSNR.
     fn deliver(&mut self, result: Result<Rendered, Error>, last: bool) {
         let Some(v) = self.view.as_mut() else { return };
         let rendered = match result {
@@ -378,15 +381,10 @@ impl Worker {
             };
             *self.snapshot.lock().unwrap_or_else(|p| p.into_inner()) = Some(snap);
         }
-        let psnr = v
-            .reference
-            .as_ref()
-            .map(|(c, r, what, secs)| (psnr(w, h, channels, &pixels, *c, r), what.clone(), *secs));
         v.shown = Some((channels, pixels));
         if let Some(ps) = v.passes.as_mut() {
             ps.acc = rendered.into_passes();
         }
-        let seq = v.seq;
         send(
             &self.out,
             Out {
@@ -394,9 +392,6 @@ impl Worker {
                 payload: png,
             },
         );
-        if let Some((db, what, secs)) = psnr {
-            self.send_psnr(seq, db, &what, secs);
-        }
     }
 
     fn send_psnr(&self, seq: u64, db: Result<f64, String>, what: &str, secs: f64) {
@@ -435,7 +430,7 @@ impl Worker {
                     }
                     None => Err("no frame shown yet".to_string()),
                 };
-                v.reference = Some((c, pixels, what.clone(), secs));
+                v.referenced = true;
                 let seq = v.seq;
                 self.send_psnr(seq, db, &what, secs);
             }
