@@ -113,7 +113,7 @@ mod tests {
     fn members_decode_to_the_input_at_every_size_around_a_block() {
         for n in [0, 1, BLOCK - 1, BLOCK, BLOCK + 1, 5 * BLOCK + 17] {
             let data: Vec<u8> = (0..n as u64)
-                .map(|i| (i * 2_654_435_761 >> 13) as u8)
+                .map(|i| ((i * 2_654_435_761) >> 13) as u8)
                 .collect();
             let mut w = ParallelGz::new(Vec::new(), 1);
             // Odd write sizes cross block edges.

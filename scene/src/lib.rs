@@ -43,7 +43,7 @@ pub use error::{Error, ErrorKind, Result};
 pub use file::Scene;
 pub use options::Options;
 pub use plan::Plan;
-pub use render::{render, Image, Progress, Rendered, Times, Traced};
+pub use render::{render, render_from, Image, Progress, Rendered, Times, Traced};
 pub use report::Report;
 pub use request::Request;
 pub use source::Source;

@@ -79,9 +79,40 @@ pub fn render(
     cancel: &Cancel,
     progress: impl FnMut(&Progress),
 ) -> Result<Rendered> {
-    match &plan.path {
-        Some(_) => trace(options, source, plan, cancel, progress),
-        None => cast(options, source, plan, cancel),
+    render_from(options, source, plan, cancel, None, progress)
+}
+
+/// [`render`], path-traced passes added to `prior` (the accumulator of
+/// an earlier render of the same scene, as [`Rendered::into_passes`]
+/// gives it back) instead of starting anew: a viewer refines its frame a
+/// pass at a time, and N passes of one sample equal one of N, bit for
+/// bit. `prior` from another scene or image size is refused; a ray-cast
+/// render takes no `prior`.
+pub fn render_from(
+    options: &Options,
+    source: &Source,
+    plan: &Plan,
+    cancel: &Cancel,
+    prior: Option<Accumulator>,
+    progress: impl FnMut(&Progress),
+) -> Result<Rendered> {
+    match (&plan.path, prior) {
+        (Some(_), prior) => trace(options, source, plan, cancel, prior, progress),
+        (None, None) => cast(options, source, plan, cancel),
+        (None, Some(_)) => Err(Error::option(
+            "only a path-traced render continues from earlier passes",
+        )),
+    }
+}
+
+impl Rendered {
+    /// The path tracer's accumulator, to continue with
+    /// [`render_from`]; `None` for a ray-cast frame.
+    pub fn into_passes(self) -> Option<Accumulator> {
+        match self.image {
+            Image::Path(t) => Some(t.acc),
+            Image::Frame(_) => None,
+        }
     }
 }
 
@@ -124,13 +155,14 @@ fn cast(options: &Options, source: &Source, plan: &Plan, cancel: &Cancel) -> Res
     })
 }
 
-/// The path tracer: passes until the budget is spent, from and into the
-/// `--accumulate` state.
+/// The path tracer: passes until the budget is spent, from `prior` or
+/// the `--accumulate` state, and into that state.
 fn trace(
     options: &Options,
     source: &Source,
     plan: &Plan,
     cancel: &Cancel,
+    prior: Option<Accumulator>,
     mut progress: impl FnMut(&Progress),
 ) -> Result<Rendered> {
     let Some((settings, budget)) = &plan.path else {
@@ -176,10 +208,16 @@ fn trace(
     };
     let key = tracer.key(volume_id);
     let state = |p: &std::path::Path| volcore::text::escape(&p.display().to_string());
-    let mut acc = match &options.accumulate {
-        Some(p) if p.exists() => Accumulator::load(p, w, h, key)
+    let mut acc = match (prior, &options.accumulate) {
+        (Some(acc), _) if acc.key() == key && (acc.width(), acc.height()) == (w, h) => acc,
+        (Some(_), _) => {
+            return Err(Error::option(format!(
+                "{name}: the passes to continue are of another scene or image size"
+            )))
+        }
+        (None, Some(p)) if p.exists() => Accumulator::load(p, w, h, key)
             .map_err(|e| Error::file(format!("{}: {e}", state(p))))?,
-        _ => Accumulator::new(w, h, key),
+        (None, _) => Accumulator::new(w, h, key),
     };
     let start_spp = acc.spp();
     let t = Instant::now();

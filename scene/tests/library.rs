@@ -241,3 +241,57 @@ fn a_raised_flag_cancels_a_frame_and_path_tracing() {
     assert_eq!(report.json["spp"], 64);
     assert_eq!(report.json["output"], Value::Null);
 }
+
+#[test]
+fn path_tracing_continues_from_earlier_passes_in_memory() {
+    let request = pairs(json!({"mode": "path", "tf": "shapes", "size": [24, 20],
+                               "orbit": [30, 20, 120], "env": 1, "spp": 3}));
+    let options = request.options();
+    let source = Source::from_volume(options, shapes(), Path::new("shapes.vvol")).unwrap();
+    let plan = Plan::for_source(options, &source).unwrap();
+    let at_once = render(options, &source, &plan, &Cancel::new(), |_| {}).unwrap();
+    // Three passes of one sample, each continuing the last.
+    let mut one = plan.clone();
+    if let Some((_, b)) = one.path.as_mut() {
+        b.spp = Some(1);
+    }
+    let mut acc = None;
+    let mut last = None;
+    for _ in 0..3 {
+        let r = volscene::render_from(options, &source, &one, &Cancel::new(), acc, |_| {}).unwrap();
+        let bits: Vec<u32> = r.linear_rgb().iter().map(|v| v.to_bits()).collect();
+        last = Some(bits);
+        acc = r.into_passes();
+    }
+    let want: Vec<u32> = at_once.linear_rgb().iter().map(|v| v.to_bits()).collect();
+    assert_eq!(last.unwrap(), want);
+    // Passes of another image size are refused; a ray-cast frame takes none.
+    let other = pairs(json!({"mode": "path", "tf": "shapes", "size": [20, 20], "env": 1}));
+    let oplan = Plan::for_source(other.options(), &source).unwrap();
+    let e = volscene::render_from(
+        other.options(),
+        &source,
+        &oplan,
+        &Cancel::new(),
+        acc,
+        |_| {},
+    )
+    .err()
+    .unwrap();
+    assert!(e.message().contains("another scene or image size"), "{e}");
+    let cast = pairs(json!({"tf": "shapes", "size": [20, 20]}));
+    let cplan = Plan::for_source(cast.options(), &source).unwrap();
+    let prior = render(options, &source, &plan, &Cancel::new(), |_| {})
+        .unwrap()
+        .into_passes();
+    assert!(prior.is_some());
+    let e = volscene::render_from(
+        cast.options(),
+        &source,
+        &cplan,
+        &Cancel::new(),
+        prior,
+        |_| {},
+    );
+    assert_eq!(e.err().unwrap().kind(), ErrorKind::Option);
+}

@@ -1,0 +1,129 @@
+//! The first message a page gets: vol-render's options from clap's
+//! definition (names, help, defaults, choices: the page keeps no list of
+//! its own), the volume, its histogram, the startup view's effective
+//! scene and the camera's orbit frame.
+
+use crate::viewer::Viewer;
+use clap::{ArgAction, CommandFactory, ValueHint};
+use glam::Vec3;
+use serde_json::{json, Value};
+use volscene::{Error, Options};
+
+/// Bins of the histogram sent to the page's transfer function editor.
+pub const HISTOGRAM_BINS: usize = 256;
+
+/// The hello message's header.
+pub fn hello(viewer: &Viewer, save_dir: bool) -> Result<Value, Error> {
+    let plan = viewer.plan(&viewer.startup)?;
+    let meta = &viewer.source.volume.meta;
+    let camera = camera(viewer, &plan)?;
+    Ok(json!({
+        "type": "hello",
+        "version": env!("CARGO_PKG_VERSION"),
+        "options": options(),
+        "presets": volrender::tf::PRESETS,
+        "scene": serde_json::to_value(&plan.scene).map_err(|e| Error::option(e.to_string()))?,
+        "camera": camera,
+        "volume": {
+            "name": viewer.volume.display().to_string(),
+            "dims": [meta.dims.x, meta.dims.y, meta.dims.z],
+            "spacing": meta.spacing,
+            "type": format!("{:?}", meta.sample_type).to_lowercase(),
+            "range": [meta.range.min, meta.range.max],
+            "extent": meta.world_extent(),
+            "origin": meta.geometry.origin,
+        },
+        "histogram": histogram(viewer),
+        "save_dir": save_dir,
+    }))
+}
+
+/// Every option of vol-render as the page builds its form from it.
+pub fn options() -> Value {
+    let cmd = Options::command();
+    let list: Vec<Value> = cmd
+        .get_arguments()
+        .filter(|a| !a.is_hide_set())
+        .map(|a| {
+            let kind = match a.get_action() {
+                ArgAction::SetTrue => "flag",
+                ArgAction::Append => "list",
+                _ if a.get_num_args().is_some_and(|n| n.min_values() == 0) => "optional",
+                _ => "value",
+            };
+            json!({
+                "id": a.get_id().as_str(),
+                "long": a.get_long(),
+                "help": a.get_help().map(|h| h.to_string()),
+                "long_help": a.get_long_help().map(|h| h.to_string()),
+                "heading": a.get_help_heading(),
+                "kind": kind,
+                "defaults": a.get_default_values().iter()
+                    .map(|v| v.to_string_lossy().into_owned()).collect::<Vec<_>>(),
+                "choices": a.get_possible_values().iter()
+                    .filter(|p| !p.is_hide_set())
+                    .map(|p| p.get_name().to_string()).collect::<Vec<_>>(),
+                "value_name": a.get_value_names().map(|v| v.iter().map(|s| s.to_string()).collect::<Vec<_>>()),
+                "path": a.get_value_hint() == ValueHint::AnyPath,
+            })
+        })
+        .collect();
+    Value::Array(list)
+}
+
+/// The startup camera as an orbit (azimuth, elevation, distance around
+/// the look-at point) and the orbit's frame: `front` (azimuth 0), `side`
+/// (azimuth 90) and `up`, measured from the cameras the plan makes at
+/// those angles, so the page turns the camera as `--orbit` does.
+fn camera(viewer: &Viewer, plan: &volscene::Plan) -> Result<Value, Error> {
+    let look_at = plan.resolved.look_at;
+    let axis = |az: f32, el: f32| -> Result<Vec3, Error> {
+        let mut o = viewer.startup.clone();
+        o.eye = None;
+        o.orbit = Some(Vec3::new(az, el, 1.0));
+        o.look_at = Some(look_at);
+        o.size = (1, 1);
+        let p = viewer.plan(&o)?;
+        Ok((p.camera.eye() - look_at).normalize_or_zero())
+    };
+    let (front, side, up) = (axis(0.0, 0.0)?, axis(90.0, 0.0)?, axis(0.0, 90.0)?);
+    let orbit = match plan.resolved.orbit {
+        Some(o) => o,
+        None => {
+            let d = plan.camera.eye() - look_at;
+            let dist = d.length();
+            let el = (d.dot(up) / dist.max(f32::MIN_POSITIVE))
+                .clamp(-1.0, 1.0)
+                .asin();
+            let az = d.dot(side).atan2(d.dot(front));
+            Vec3::new(az.to_degrees(), el.to_degrees(), dist)
+        }
+    };
+    let (w, h) = viewer.startup.size;
+    Ok(json!({
+        "orbit": orbit.to_array(),
+        "look_at": look_at.to_array(),
+        "front": front.to_array(),
+        "side": side.to_array(),
+        "up": up.to_array(),
+        "size": [w, h],
+        "fov": viewer.startup.fov,
+        "diagonal": glam::Vec3::from(viewer.source.volume.meta.world_extent()).length(),
+    }))
+}
+
+/// The index's histogram in at most [`HISTOGRAM_BINS`] bins, `null`
+/// without an index.
+fn histogram(viewer: &Viewer) -> Value {
+    let Some(ix) = viewer.source.index.as_ref() else {
+        return Value::Null;
+    };
+    let h = ix.histogram();
+    let counts = h.counts();
+    let group = counts.len().div_ceil(HISTOGRAM_BINS).max(1);
+    let merged: Vec<u64> = counts.chunks(group).map(|c| c.iter().sum()).collect();
+    // The last group may be short: the bins' top as the page spaces them.
+    let hi =
+        h.lo() + (h.hi() - h.lo()) * (merged.len() * group) as f64 / counts.len().max(1) as f64;
+    json!({"lo": h.lo(), "hi": hi, "counts": merged})
+}

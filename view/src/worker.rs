@@ -1,0 +1,551 @@
+//! One page's render worker. It renders the newest request only: a
+//! request that arrives while a frame renders raises that frame's
+//! [`Cancel`] (the renderer stops between tiles or passes), and a frame
+//! whose flag was raised is never sent, so no stale frame reaches the
+//! page after a newer request. Path tracing goes on a pass of one sample
+//! at a time until the budget is met; the PSNR reference renders when
+//! nothing else waits.
+
+use crate::cost;
+use crate::protocol::Out;
+use crate::save::Snapshot;
+use crate::viewer::Viewer;
+use serde_json::{json, Map, Value};
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Condvar, Mutex, MutexGuard};
+use std::time::Instant;
+use volcompare::{Depth, Image as CmpImage, ImageOptions};
+use volrender::path::{Accumulator, Budget, MAX_SPP};
+use volscene::{Cancel, Error, ErrorKind, Options, Plan, Rendered};
+
+/// A render the page asked for.
+#[derive(Clone, Debug)]
+pub struct Job {
+    /// The request's number.
+    pub seq: u64,
+    /// vol-render's options as name/value pairs.
+    pub pairs: Map<String, Value>,
+    /// A preview while the camera moves.
+    pub preview: bool,
+}
+
+/// What the page's connection hands the worker.
+#[derive(Default)]
+struct Pending {
+    job: Option<Job>,
+    /// The flag of the view being worked on.
+    running: Cancel,
+    psnr: Option<u64>,
+    closed: bool,
+    last_seq: Option<u64>,
+}
+
+/// The worker's inbox: the newest request (a newer one replaces it and
+/// cancels the frame in progress), a PSNR request, and closing.
+#[derive(Default)]
+pub struct Queue {
+    state: Mutex<Pending>,
+    wake: Condvar,
+}
+
+impl Queue {
+    fn lock(&self) -> MutexGuard<'_, Pending> {
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Take `job`: it replaces any request not yet started and cancels
+    /// the frame in progress. `seq` must rise.
+    pub fn submit(&self, job: Job) -> Result<(), String> {
+        let mut p = self.lock();
+        if let Some(last) = p.last_seq {
+            if job.seq <= last {
+                return Err(format!(
+                    "request {} is not newer than request {last}: seq must rise",
+                    job.seq
+                ));
+            }
+        }
+        p.last_seq = Some(job.seq);
+        p.running.cancel();
+        p.job = Some(job);
+        self.wake.notify_all();
+        Ok(())
+    }
+
+    /// Ask for the PSNR of view `seq`.
+    pub fn want_psnr(&self, seq: u64) {
+        self.lock().psnr = Some(seq);
+        self.wake.notify_all();
+    }
+
+    /// Stop the worker: the frame in progress is cancelled.
+    pub fn close(&self) {
+        let mut p = self.lock();
+        p.closed = true;
+        p.running.cancel();
+        self.wake.notify_all();
+    }
+}
+
+/// What the worker does next.
+enum Work {
+    Start(Job, Cancel),
+    Pass,
+    Reference,
+}
+
+/// A path-traced view's progress.
+struct Passes {
+    /// The plan of one pass of one sample.
+    plan: Plan,
+    budget: Budget,
+    acc: Option<Accumulator>,
+    started: Instant,
+    done: bool,
+}
+
+/// The view being shown.
+struct View {
+    seq: u64,
+    preview: bool,
+    /// The options and plan as rendered (a preview's coarser ones).
+    options: Options,
+    plan: Plan,
+    /// The options of the full view (the reference starts from them).
+    full: Options,
+    cancel: Cancel,
+    passes: Option<Passes>,
+    command: String,
+    toml: String,
+    note: Option<String>,
+    /// The last frame's 8-bit image and its channels.
+    shown: Option<(usize, Vec<u8>)>,
+    psnr_wanted: bool,
+    /// Whether the reference has been rendered and the PSNR sent.
+    referenced: bool,
+}
+
+/// Where the worker sends its messages and keeps the frame to save.
+pub struct Worker {
+    viewer: Arc<Viewer>,
+    queue: Arc<Queue>,
+    out: Sender<Out>,
+    snapshot: Arc<Mutex<Option<Snapshot>>>,
+    view: Option<View>,
+}
+
+impl Worker {
+    /// A worker for one page.
+    pub fn new(
+        viewer: Arc<Viewer>,
+        queue: Arc<Queue>,
+        out: Sender<Out>,
+        snapshot: Arc<Mutex<Option<Snapshot>>>,
+    ) -> Worker {
+        Worker {
+            viewer,
+            queue,
+            out,
+            snapshot,
+            view: None,
+        }
+    }
+
+    /// Work until the queue is closed.
+    pub fn run(mut self) {
+        while let Some(work) = self.next() {
+            match work {
+                Work::Start(job, cancel) => self.start(job, cancel),
+                Work::Pass => self.pass(),
+                Work::Reference => self.reference(),
+            }
+        }
+    }
+
+    /// Wait for the next piece of work: a new request first, then the
+    /// passes of the view, then its reference.
+    fn next(&mut self) -> Option<Work> {
+        let queue = Arc::clone(&self.queue);
+        let mut p = queue.lock();
+        loop {
+            if p.closed {
+                return None;
+            }
+            if let Some(job) = p.job.take() {
+                p.running = Cancel::new();
+                return Some(Work::Start(job, p.running.clone()));
+            }
+            if let Some(v) = self.view.as_mut() {
+                if p.psnr.is_some_and(|s| s == v.seq) {
+                    p.psnr = None;
+                    if v.preview {
+                        drop(p);
+                        send(
+                            &self.out,
+                            Out::error(Some(v.seq), "the PSNR is for full frames, not previews"),
+                        );
+                        p = queue.lock();
+                        continue;
+                    }
+                    v.psnr_wanted = true;
+                    // Asked again: measured again.
+                    v.referenced = false;
+                }
+                if v.passes.as_ref().is_some_and(|ps| !ps.done) {
+                    return Some(Work::Pass);
+                }
+                if v.psnr_wanted && !v.referenced {
+                    return Some(Work::Reference);
+                }
+            }
+            p = queue.wake.wait(p).unwrap_or_else(|e| e.into_inner());
+        }
+    }
+
+    /// A new view: resolve its options, render its first frame (or
+    /// pass).
+    fn start(&mut self, job: Job, cancel: Cancel) {
+        self.view = None;
+        match self.prepare(&job, cancel) {
+            Ok(view) => {
+                let path = view.passes.is_some();
+                self.view = Some(view);
+                if path {
+                    self.pass();
+                } else {
+                    self.cast();
+                }
+            }
+            Err(e) => send(&self.out, Out::error(Some(job.seq), e.message())),
+        }
+    }
+
+    /// The view `job` asks for, ready to render.
+    fn prepare(&self, job: &Job, cancel: Cancel) -> Result<View, Error> {
+        let viewer = &self.viewer;
+        let full = viewer.options(&job.pairs)?;
+        let full_plan = viewer.plan(&full)?;
+        let toml = volscene::file::to_toml(&full_plan.scene)?;
+        let command = viewer.command(&job.pairs)?;
+        let (options, plan, note) = if job.preview {
+            preview(viewer, &full, &full_plan)?
+        } else {
+            (full.clone(), full_plan, None)
+        };
+        let passes = match &plan.path {
+            Some((_, budget)) => {
+                let mut one = plan.clone();
+                if let Some((_, b)) = one.path.as_mut() {
+                    *b = Budget {
+                        spp: Some(1),
+                        seconds: None,
+                        until_error: None,
+                    };
+                }
+                Some(Passes {
+                    plan: one,
+                    budget: *budget,
+                    acc: None,
+                    started: Instant::now(),
+                    done: false,
+                })
+            }
+            None => None,
+        };
+        Ok(View {
+            seq: job.seq,
+            preview: job.preview,
+            options,
+            plan,
+            full,
+            cancel,
+            passes,
+            command,
+            toml,
+            note,
+            shown: None,
+            psnr_wanted: false,
+            referenced: false,
+        })
+    }
+
+    /// Render the view's ray-cast frame and send it.
+    fn cast(&mut self) {
+        let Some(v) = self.view.as_ref() else { return };
+        let result = self.viewer.render(&v.options, &v.plan, &v.cancel, None);
+        self.deliver(result, true);
+    }
+
+    /// Add one pass of one sample to the path-traced view and send it.
+    fn pass(&mut self) {
+        let Some(v) = self.view.as_mut() else { return };
+        let Some(ps) = v.passes.as_mut() else { return };
+        let prior = ps.acc.take();
+        let result = self.viewer.render(&v.options, &ps.plan, &v.cancel, prior);
+        let done = match &result {
+            Ok(r) => match &r.image {
+                volscene::Image::Path(t) => {
+                    let spp = t.acc.spp();
+                    v.preview
+                        || spp >= ps.budget.spp.unwrap_or(MAX_SPP)
+                        || ps
+                            .budget
+                            .seconds
+                            .is_some_and(|s| ps.started.elapsed().as_secs_f64() >= s)
+                        || ps
+                            .budget
+                            .until_error
+                            .is_some_and(|e| t.acc.relative_error().is_some_and(|r| r <= e))
+                }
+                volscene::Image::Frame(_) => true,
+            },
+            Err(_) => true,
+        };
+        ps.done = done;
+        self.deliver(result, done);
+    }
+
+    /// Send a rendered frame (unless its view went stale meanwhile), keep
+    /// it for saving and for the PSNR.
+    fn deliver(&mut self, result: Result<Rendered, Error>, last: bool) {
+        let Some(v) = self.view.as_mut() else { return };
+        let rendered = match result {
+            Ok(r) => r,
+            Err(e) if e.kind() == ErrorKind::Cancelled => {
+                send(
+                    &self.out,
+                    Out::json(json!({"type": "cancelled", "seq": v.seq})),
+                );
+                return;
+            }
+            Err(e) => {
+                if let Some(ps) = v.passes.as_mut() {
+                    ps.done = true;
+                }
+                send(&self.out, Out::error(Some(v.seq), e.message()));
+                return;
+            }
+        };
+        if v.cancel.is_cancelled() {
+            // A newer request came while this frame rendered.
+            send(
+                &self.out,
+                Out::json(json!({"type": "cancelled", "seq": v.seq})),
+            );
+            return;
+        }
+        let (w, h) = (rendered.width(), rendered.height());
+        let (channels, pixels) = rendered.display8(&v.options);
+        let mut png = Vec::new();
+        if let Err(e) = volformats::image::encode_png8(&mut png, w, h, channels, &pixels) {
+            send(
+                &self.out,
+                Out::error(Some(v.seq), format!("the frame's PNG: {e}")),
+            );
+            return;
+        }
+        let volume = self.viewer.volume.clone();
+        let scene_json = serde_json::to_value(&v.plan.scene).unwrap_or(Value::Null);
+        let report = rendered.report(&volscene::report::Context {
+            options: &v.options,
+            volume: &volume,
+            output: None,
+            scene: &scene_json,
+        });
+        let extent = self.viewer.source.volume.meta.world_extent();
+        let cost = cost::figures(&rendered, &v.plan.camera, extent, v.plan.settings.step);
+        let target = v.passes.as_ref().map(|ps| ps.budget.spp);
+        let header = json!({
+            "type": "frame",
+            "seq": v.seq,
+            "width": w,
+            "height": h,
+            "preview": v.preview,
+            "final": last,
+            "note": v.note,
+            "cost": cost,
+            "target_spp": target,
+            "notes": v.plan.notes,
+            "report": report.json,
+            "command": v.command,
+            "scene": v.toml,
+        });
+        if !v.preview {
+            let snap = Snapshot {
+                seq: v.seq,
+                width: w,
+                height: h,
+                rgb: rendered.linear_rgb(),
+                png: png.clone(),
+                toml: v.toml.clone(),
+            };
+            *self.snapshot.lock().unwrap_or_else(|p| p.into_inner()) = Some(snap);
+        }
+        v.shown = Some((channels, pixels));
+        if let Some(ps) = v.passes.as_mut() {
+            ps.acc = rendered.into_passes();
+        }
+        send(
+            &self.out,
+            Out {
+                header,
+                payload: png,
+            },
+        );
+    }
+
+    fn send_psnr(&self, seq: u64, db: Result<f64, String>, what: &str, secs: f64) {
+        match db {
+            Ok(db) => send(
+                &self.out,
+                Out::json(json!({
+                    "type": "psnr",
+                    "seq": seq,
+                    // JSON has no infinity: identical images say so.
+                    "db": db.is_finite().then_some(db),
+                    "identical": db.is_infinite(),
+                    "reference": what,
+                    "reference_s": secs,
+                })),
+            ),
+            Err(e) => send(&self.out, Out::error(Some(seq), e)),
+        }
+    }
+
+    /// Render the view's reference at the finest settings (the same
+    /// camera: a quarter of the step without early termination; path
+    /// tracing four times the samples, at least 64, with another seed),
+    /// then send the PSNR of the frame shown against it.
+    fn reference(&mut self) {
+        let Some(v) = self.view.as_mut() else { return };
+        let t = Instant::now();
+        let result = reference(&self.viewer, v);
+        let secs = t.elapsed().as_secs_f64();
+        match result {
+            Ok((rendered, options, what)) => {
+                let (c, pixels) = rendered.display8(&options);
+                let db = match &v.shown {
+                    Some((sc, shown)) => {
+                        psnr(rendered.width(), rendered.height(), *sc, shown, c, &pixels)
+                    }
+                    None => Err("no frame shown yet".to_string()),
+                };
+                v.referenced = true;
+                let seq = v.seq;
+                self.send_psnr(seq, db, &what, secs);
+            }
+            Err(e) if e.kind() == ErrorKind::Cancelled => {}
+            Err(e) => {
+                v.psnr_wanted = false;
+                let seq = v.seq;
+                send(
+                    &self.out,
+                    Out::error(Some(seq), format!("the reference: {}", e.message())),
+                );
+            }
+        }
+    }
+}
+
+/// Send `message` to the page (which has gone when this fails: the
+/// queue closes next).
+fn send(out: &Sender<Out>, message: Out) {
+    let _ = out.send(message);
+}
+
+/// The preview of a full view while the camera moves: half the image
+/// size while that leaves at least 256 pixels a side, and (ray casting)
+/// twice the step; with a line saying so.
+fn preview(
+    viewer: &Viewer,
+    full: &Options,
+    full_plan: &Plan,
+) -> Result<(Options, Plan, Option<String>), Error> {
+    let mut o = full.clone();
+    let (w, h) = full.size;
+    if w >= 512 && h >= 512 {
+        o.size = (w / 2, h / 2);
+    }
+    let ray_cast = full_plan.path.is_none();
+    if ray_cast {
+        o.step = Some(full_plan.resolved.step * 2.0);
+    }
+    let plan = viewer.plan(&o)?;
+    let note = if ray_cast {
+        format!(
+            "preview: {}x{}, step {} (2x the full {})",
+            o.size.0, o.size.1, plan.resolved.step, full_plan.resolved.step
+        )
+    } else {
+        format!("preview: {}x{}, one sample per pixel", o.size.0, o.size.1)
+    };
+    Ok((o, plan, Some(note)))
+}
+
+/// The reference render of view `v`, its options and what it is.
+fn reference(viewer: &Viewer, v: &View) -> Result<(Rendered, Options, String), Error> {
+    let mut o = v.full.clone();
+    match &v.plan.path {
+        None => {
+            let step = v.plan.resolved.step;
+            o.no_ert = true;
+            // The finest of a quarter, a half and the same step that the
+            // volume allows.
+            let mut last = None;
+            for f in [0.25f32, 0.5, 1.0] {
+                o.step = Some(step * f);
+                match viewer.plan(&o) {
+                    Ok(plan) => {
+                        let r = viewer.render(&o, &plan, &v.cancel, None)?;
+                        let what = format!("step {} without early ray termination", step * f);
+                        return Ok((r, o, what));
+                    }
+                    Err(e) => last = Some(e),
+                }
+            }
+            Err(last.unwrap_or_else(|| Error::option("no reference step")))
+        }
+        Some((_, budget)) => {
+            let spp = budget.spp.unwrap_or(64).saturating_mul(4).max(64);
+            o.seed = o.seed.wrapping_add(1);
+            o.spp = Some(spp);
+            o.seconds = None;
+            o.until_error = None;
+            let mut plan = viewer.plan(&o)?;
+            // In passes of 8 samples, so other pages' frames get their turn.
+            if let Some((_, b)) = plan.path.as_mut() {
+                b.spp = Some(8);
+            }
+            let mut acc = None;
+            let mut done = 0;
+            loop {
+                let r = viewer.render(&o, &plan, &v.cancel, acc)?;
+                done += 8;
+                if done >= spp {
+                    let what = format!("{done} samples per pixel (seed {})", o.seed);
+                    return Ok((r, o, what));
+                }
+                acc = r.into_passes();
+            }
+        }
+    }
+}
+
+/// The PSNR (dB, peak 255) of image `a` against `b`, both 8-bit with
+/// their channel counts.
+fn psnr(w: u32, h: u32, ca: usize, a: &[u8], cb: usize, b: &[u8]) -> Result<f64, String> {
+    let image = |c: usize, px: &[u8]| {
+        CmpImage::new(
+            w,
+            h,
+            if c >= 3 { 3 } else { 1 },
+            c == 4 || c == 2,
+            Depth::U8,
+            px.iter().map(|&v| f32::from(v)).collect(),
+        )
+        .map_err(|e| e.to_string())
+    };
+    let cmp = volcompare::compare_images(&image(ca, a)?, &image(cb, b)?, &ImageOptions::default())
+        .map_err(|e| format!("the PSNR: {e}"))?;
+    Ok(cmp.headline().psnr)
+}
