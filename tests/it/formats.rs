@@ -850,3 +850,42 @@ fn dicom_globs_are_dicom_series_in_both_tools() {
         "dicom series (CT, 10 images)"
     );
 }
+
+#[test]
+fn f64_values_rounded_to_f32_are_said_with_the_largest_change() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let write = |name: &str, f: &dyn Fn(usize) -> f64| {
+        let p = d.join(name);
+        let b: Vec<u8> = (0..64).flat_map(|i| f(i).to_le_bytes()).collect();
+        std::fs::write(&p, b).unwrap();
+        p
+    };
+    // Tenths are not f32 values: stored as f32, the change is said.
+    let inexact = write("tenths_4x4x4_float64.raw", &|i| i as f64 / 10.0);
+    let o = crate::common::run(
+        tool("vol-convert")
+            .arg(&inexact)
+            .arg("-o")
+            .arg(d.join("a.vvol")),
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("f64 values stored as f32") && err.contains("largest change"),
+        "{err}"
+    );
+    let want = (0..64)
+        .map(|i| ((i as f64 / 10.0) as f32 as f64 - i as f64 / 10.0).abs())
+        .fold(0.0, f64::max);
+    assert!(err.contains(&format!("{want:.3e}")), "{want:.3e}: {err}");
+    // Halves are: nothing to say.
+    let exact = write("halves_4x4x4_float64.raw", &|i| i as f64 / 2.0);
+    let o = crate::common::run(
+        tool("vol-convert")
+            .arg(&exact)
+            .arg("-o")
+            .arg(d.join("b.vvol")),
+    );
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("stored as f32"));
+}

@@ -32,7 +32,8 @@ use volkit_cli::{json, noteln, usage, Selection};
 /// 8, 16 and 32-bit integer and 32 and 64-bit float samples are read;
 /// types volkit does not store (i8, u32, i32, f64) become the smallest of
 /// u8, u16, i16, f32 that holds their values exactly, or need --type and
-/// --window.
+/// --window; f64 values that are not f32 values are rounded to f32 with a
+/// note giving the largest change.
 ///
 /// The output format follows OUTPUT: .vvol (sliced or bricked, optional
 /// zstd per brick), .vol (thesis format, u8), .raw (little-endian, x

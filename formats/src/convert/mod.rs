@@ -497,8 +497,21 @@ pub fn convert(
     let geometry = info
         .geometry
         .cropped(in_spacing, start, out_dims, plan.flip);
-    let (spacing, geometry, notes) =
+    let (spacing, geometry, mut notes) =
         units::resolve(in_spacing, geometry, plan, &target).at(target.path())?;
+    // A wide float input stored as f32 without a window: say by how much
+    // the values moved (nothing when every value is an f32).
+    if let (Some(h), ValueMap::Exact, SampleType::F32) = (hist.as_ref(), map, out_type) {
+        let e = h.f32_error();
+        if e > 0.0 && !from.is_integer() {
+            let (lo, hi) = h.range().unwrap_or((0.0, 0.0));
+            let scale = lo.abs().max(hi.abs());
+            notes.push(format!(
+                "{from} values stored as f32 (volkit stores u8, u16, i16, f32): the largest change is {e:.3e} ({:.1e} of the largest magnitude {scale:.6e})",
+                if scale > 0.0 { e / scale } else { 0.0 }
+            ));
+        }
+    }
     let args = RunArgs {
         reader: reader.as_ref(),
         crop,

@@ -342,6 +342,8 @@ pub struct Histogram {
     min: f64,
     max: f64,
     nan: u64,
+    /// The largest change rounding a sample to f32 makes (wide inputs).
+    f32_error: f64,
 }
 
 fn f32_key(v: f32) -> usize {
@@ -367,6 +369,7 @@ impl Histogram {
             min: f64::INFINITY,
             max: f64::NEG_INFINITY,
             nan: 0,
+            f32_error: 0.0,
         }
     }
 
@@ -384,7 +387,9 @@ impl Histogram {
                     if x.is_nan() {
                         self.nan += 1;
                     } else {
-                        c[f32_key(x as f32)] += 1;
+                        let r = x as f32;
+                        c[f32_key(r)] += 1;
+                        self.f32_error = self.f32_error.max((r as f64 - x).abs());
                         self.min = self.min.min(x);
                         self.max = self.max.max(x);
                     }
@@ -401,7 +406,14 @@ impl Histogram {
         self.min = self.min.min(o.min);
         self.max = self.max.max(o.max);
         self.nan += o.nan;
+        self.f32_error = self.f32_error.max(o.f32_error);
         self
+    }
+
+    /// The largest absolute change storing the samples as f32 makes (0
+    /// when every sample is an f32 value; infinite when one overflows).
+    pub fn f32_error(&self) -> f64 {
+        self.f32_error
     }
 
     /// Number of non-NaN samples counted.
