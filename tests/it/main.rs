@@ -9,6 +9,7 @@
 mod accuracy;
 mod common;
 mod convert;
+mod docs;
 mod formats;
 mod gen;
 mod hard_cases;
