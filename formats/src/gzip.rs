@@ -15,6 +15,9 @@ use std::io::{self, Write};
 /// Uncompressed bytes per gzip member.
 pub const BLOCK: usize = 4 << 20;
 
+/// The deflate level of `--compress gzip` (zlib's default).
+pub const DEFAULT_LEVEL: u32 = 6;
+
 /// A [`Write`] that gzips into `inner` with `level` (0-9), in parallel.
 /// Call [`ParallelGz::finish`] at the end: dropping it loses the last
 /// blocks.

@@ -889,3 +889,44 @@ fn f64_values_rounded_to_f32_are_said_with_the_largest_change() {
     );
     assert!(!String::from_utf8_lossy(&o.stderr).contains("stored as f32"));
 }
+
+#[test]
+fn gzip_levels_trade_size_for_time_and_read_back_alike() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let v = d.join("p.vvol");
+    ok(tool("vol-gen")
+        .args(["phantom", "--dims", "96,96,64", "-q", "-o"])
+        .arg(&v));
+    let mut sizes = Vec::new();
+    for (name, c) in [
+        ("l1.nii.gz", Some("gzip:1")),
+        ("l6.nii.gz", None),
+        ("l9.nii.gz", Some("gzip:9")),
+    ] {
+        let o = d.join(name);
+        let mut cmd = tool("vol-convert");
+        cmd.arg(&v).args(["-q", "-o"]).arg(&o);
+        if let Some(c) = c {
+            cmd.args(["--compress", c]);
+        }
+        ok(&mut cmd);
+        sizes.push(std::fs::metadata(&o).unwrap().len());
+        ok(tool("vol-psnr")
+            .arg(&v)
+            .arg(&o)
+            .args(["--min-psnr", "inf", "-q"]));
+    }
+    assert!(sizes[0] > sizes[1] && sizes[1] >= sizes[2], "{sizes:?}");
+    // NRRD data too; an out-of-range level is a usage error naming it.
+    ok(tool("vol-convert")
+        .arg(&v)
+        .args(["--compress", "gzip:1", "-q", "-o"])
+        .arg(d.join("p.nrrd")));
+    let mut c = tool("vol-convert");
+    c.arg(&v)
+        .args(["--compress", "gzip:10", "-o"])
+        .arg(d.join("x.nrrd"));
+    fails(&mut c, "gzip level must be 1..=9");
+    assert_eq!(c.status().unwrap().code(), Some(2));
+}

@@ -67,8 +67,11 @@ struct Cli {
     #[arg(long, default_value = "sliced", value_parser = args::layout)]
     layout: LayoutArg,
     /// Compression: none; zstd or zstd:LEVEL per brick for bricked .vvol;
-    /// gzip for NRRD (.nrrd, .nhdr), MetaImage (zlib: .mha, .mhd) and
-    /// NIfTI .hdr/.img data (.nii.gz is gzip by its name).
+    /// gzip or gzip:LEVEL (1 fastest to 9 smallest; gzip is 6) for NRRD
+    /// (.nrrd, .nhdr), MetaImage (zlib: .mha, .mhd) and NIfTI .hdr/.img
+    /// data (.nii.gz is gzip by its name; --compress gzip:1 sets its
+    /// level). gzip is compressed on every core, as independent gzip
+    /// members every reader accepts.
     #[arg(long, default_value = "none", value_parser = compress_arg)]
     compress: CompressArg,
     /// Output sample type: u8, u16, i16, f32 (default: the input's).

@@ -74,19 +74,26 @@ pub fn compression(s: &str) -> Result<Compression, String> {
 pub enum CompressArg {
     /// Per-brick compression of a .vvol (or none).
     Vvol(Compression),
-    /// gzip/zlib for the header formats.
-    Gzip,
+    /// gzip/zlib for the header formats, at this deflate level (1-9).
+    Gzip(u32),
 }
 
 impl CompressArg {
-    /// Parse `none`, `zstd`, `zstd:LEVEL` or `gzip`.
+    /// Parse `none`, `zstd`, `zstd:LEVEL`, `gzip` or `gzip:LEVEL` (1 the
+    /// fastest, 9 the smallest; `gzip` is level 6).
     pub fn parse(s: &str) -> Result<CompressArg, String> {
         if s == "gzip" {
-            return Ok(CompressArg::Gzip);
+            return Ok(CompressArg::Gzip(crate::gzip::DEFAULT_LEVEL));
+        }
+        if let Some(l) = s.strip_prefix("gzip:") {
+            return match l.parse::<u32>() {
+                Ok(l) if (1..=9).contains(&l) => Ok(CompressArg::Gzip(l)),
+                _ => Err(format!("'{s}': gzip level must be 1..=9")),
+            };
         }
         compression(s)
             .map(CompressArg::Vvol)
-            .map_err(|e| format!("{e}, or gzip"))
+            .map_err(|e| format!("{e}, gzip or gzip:LEVEL"))
     }
 
     /// The name it is parsed from.
@@ -94,7 +101,7 @@ impl CompressArg {
         match self {
             CompressArg::Vvol(Compression::None) => "none".into(),
             CompressArg::Vvol(Compression::Zstd(l)) => format!("zstd:{l}"),
-            CompressArg::Gzip => "gzip".into(),
+            CompressArg::Gzip(l) => format!("gzip:{l}"),
         }
     }
 }
@@ -159,7 +166,7 @@ impl Target {
             }
             let compression = match o.compress {
                 CompressArg::Vvol(c) => c,
-                CompressArg::Gzip => {
+                CompressArg::Gzip(_) => {
                     return Err(usage_at(
                         out,
                         "--compress gzip does not apply to .vvol parts",
@@ -203,7 +210,12 @@ impl Target {
                 ));
             }
         }
-        if let Some(t) = Target::headed(out, o.compress == CompressArg::Gzip) {
+        let gzip = match o.compress {
+            CompressArg::Gzip(l) => Some(l),
+            CompressArg::Vvol(_) => None,
+        };
+        if let Some(t) = Target::headed(out, gzip.is_some()) {
+            let t = t.with_deflate_level(gzip.unwrap_or(crate::gzip::DEFAULT_LEVEL));
             if o.layout != LayoutArg::Sliced {
                 return Err(usage_at(
                     out,
@@ -218,7 +230,7 @@ impl Target {
             }
             return Ok(t);
         }
-        if o.compress == CompressArg::Gzip {
+        if gzip.is_some() {
             return Err(usage_at(
                 out,
                 "--compress gzip applies to NIfTI, NRRD and MetaImage output",
@@ -226,7 +238,7 @@ impl Target {
         }
         let compress = match o.compress {
             CompressArg::Vvol(c) => c,
-            CompressArg::Gzip => Compression::None,
+            CompressArg::Gzip(_) => Compression::None,
         };
         let sliced_only = |what: &str| -> Result<(), String> {
             if o.layout != LayoutArg::Sliced {

@@ -94,6 +94,8 @@ pub enum Target {
         data: Option<PathBuf>,
         /// How the samples (for `.nii.gz`: the whole file) are compressed.
         codec: DataCodec,
+        /// The deflate level of gzip and zlib (1-9).
+        level: u32,
     },
 }
 
@@ -178,7 +180,29 @@ impl Target {
             format,
             data,
             codec,
+            level: crate::gzip::DEFAULT_LEVEL,
         })
+    }
+
+    /// The same target compressing at deflate `level` (1-9; header
+    /// formats only, others are returned as they are).
+    pub fn with_deflate_level(self, level: u32) -> Target {
+        match self {
+            Target::Headed {
+                path,
+                format,
+                data,
+                codec,
+                ..
+            } => Target::Headed {
+                path,
+                format,
+                data,
+                codec,
+                level: level.clamp(1, 9),
+            },
+            other => other,
+        }
     }
 }
 
@@ -434,8 +458,9 @@ pub(crate) fn run_target<T: SliceSample>(
             format,
             data,
             codec,
+            level,
             ..
-        } => write_headed::<T>(&path, format, data.as_deref(), codec, spec, drive),
+        } => write_headed::<T>(&path, format, data.as_deref(), (codec, level), spec, drive),
         Target::OmeZarr {
             levels,
             downsample,
@@ -588,8 +613,11 @@ fn header_bytes<T: Sample>(
 }
 
 /// `w` behind the codec's encoder.
-fn encoder<'w>(w: &'w mut (dyn Write + Send), codec: DataCodec) -> Box<dyn FinishWrite + 'w> {
-    let level = flate2::Compression::new(6);
+fn encoder<'w>(
+    w: &'w mut (dyn Write + Send),
+    (codec, level): (DataCodec, u32),
+) -> Box<dyn FinishWrite + 'w> {
+    let level = flate2::Compression::new(level);
     match codec {
         DataCodec::Raw => Box::new(std::io::BufWriter::with_capacity(1 << 20, w)),
         // Members compressed on every core (crate::gzip).
@@ -631,7 +659,7 @@ fn write_headed<T: SliceSample>(
     path: &Path,
     format: HeaderFormat,
     data: Option<&Path>,
-    codec: DataCodec,
+    (codec, level): (DataCodec, u32),
     spec: &OutSpec<'_>,
     drive: &mut Drive<'_, T>,
 ) -> CResult<(u64, Option<ValueRange>)> {
@@ -651,13 +679,13 @@ fn write_headed<T: SliceSample>(
         match data_file.as_mut() {
             Some((f, d)) => {
                 head_out.write_all(&header).at(path)?;
-                let mut enc = encoder(f.file(), codec);
+                let mut enc = encoder(f.file(), (codec, level));
                 stream_samples::<T>(&mut *enc, spec, d, drive)?;
                 enc.finish_all().at(d)?;
             }
             // A .nii.gz is one gzip stream of header and samples.
             None if format == HeaderFormat::Nifti => {
-                let mut enc = encoder(&mut head_out, codec);
+                let mut enc = encoder(&mut head_out, (codec, level));
                 enc.write_all(&header).at(path)?;
                 stream_samples::<T>(&mut *enc, spec, path, drive)?;
                 enc.finish_all().at(path)?;
@@ -665,7 +693,7 @@ fn write_headed<T: SliceSample>(
             // Attached data: a plain header, then the (compressed) samples.
             None => {
                 head_out.write_all(&header).at(path)?;
-                let mut enc = encoder(&mut head_out, codec);
+                let mut enc = encoder(&mut head_out, (codec, level));
                 stream_samples::<T>(&mut *enc, spec, path, drive)?;
                 enc.finish_all().at(path)?;
             }
