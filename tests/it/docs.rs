@@ -33,34 +33,33 @@ fn slug(heading: &str) -> String {
         .collect()
 }
 
-/// The anchors of a page's headings (outside code blocks).
-fn anchors(text: &str) -> Vec<String> {
+/// The lines of a page outside fenced code blocks.
+fn prose(text: &str) -> Vec<&str> {
     let mut fenced = false;
-    let mut out = Vec::new();
-    for l in text.lines() {
-        if l.trim_start().starts_with("```") {
-            fenced = !fenced;
-            continue;
-        }
-        if !fenced && l.starts_with('#') {
-            out.push(slug(l.trim_start_matches('#')));
-        }
-    }
-    out
+    text.lines()
+        .filter(|l| {
+            if l.trim_start().starts_with("```") {
+                fenced = !fenced;
+                return false;
+            }
+            !fenced
+        })
+        .collect()
+}
+
+/// The anchors of a page's headings.
+fn anchors(text: &str) -> Vec<String> {
+    prose(text)
+        .into_iter()
+        .filter(|l| l.starts_with('#'))
+        .map(|l| slug(l.trim_start_matches('#')))
+        .collect()
 }
 
 /// The link targets of a page, outside code blocks and inline code.
 fn links(text: &str) -> Vec<String> {
-    let mut fenced = false;
     let mut out = Vec::new();
-    for l in text.lines() {
-        if l.trim_start().starts_with("```") {
-            fenced = !fenced;
-            continue;
-        }
-        if fenced {
-            continue;
-        }
+    for l in prose(text) {
         // Drop inline code spans, then take every `](target)`.
         let plain: String = l.split('`').step_by(2).collect::<Vec<_>>().join("");
         let mut rest = plain.as_str();

@@ -667,33 +667,7 @@ print(json.dumps({{
 "#,
         dir = dir.to_string_lossy()
     );
-    let out = match std::process::Command::new("python3")
-        .arg("-c")
-        .arg(&script)
-        .output()
-    {
-        Ok(o) => o,
-        Err(_) => {
-            assert!(std::env::var("CI").is_err(), "CI must have python3");
-            eprintln!("SKIP: python3 is not installed; SimpleITK comparison not run");
-            return None;
-        }
-    };
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text} {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    if text.starts_with("SKIP") {
-        assert!(
-            std::env::var("CI").is_err(),
-            "CI must run the SimpleITK comparison: {text}"
-        );
-        eprintln!("{} (pip install SimpleITK)", text.trim());
-        return None;
-    }
-    Some(json(&text))
+    python_json(&script, "pip install SimpleITK")
 }
 
 const PACS_CT: &str = "1.2.826.0.1.3680043.8.498.40";
