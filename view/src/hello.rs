@@ -4,7 +4,7 @@
 //! scene and the camera's orbit frame.
 
 use crate::viewer::Viewer;
-use clap::{ArgAction, CommandFactory, ValueHint};
+use clap::{ArgAction, Args, CommandFactory, ValueHint};
 use glam::Vec3;
 use serde_json::{json, Value};
 use volscene::{Error, Options};
@@ -38,12 +38,16 @@ pub fn hello(viewer: &Viewer, save_dir: bool) -> Result<Value, Error> {
     }))
 }
 
-/// Every option of vol-render as the page builds its form from it.
+/// Every option of vol-render as the page builds its form from it, but
+/// the input selection (`--raw-*`, `--series`, ...), fixed when vol-view
+/// opened the volume: taken from its one definition, not named here.
 pub fn options() -> Value {
+    let selection = volformats::Selection::augment_args(clap::Command::new("input"));
+    let fixed = |id: &str| selection.get_arguments().any(|a| a.get_id().as_str() == id);
     let cmd = Options::command();
     let list: Vec<Value> = cmd
         .get_arguments()
-        .filter(|a| !a.is_hide_set())
+        .filter(|a| !a.is_hide_set() && !fixed(a.get_id().as_str()))
         .map(|a| {
             let kind = match a.get_action() {
                 ArgAction::SetTrue => "flag",
@@ -126,4 +130,26 @@ fn histogram(viewer: &Viewer) -> Value {
     let hi =
         h.lo() + (h.hi() - h.lo()) * (merged.len() * group) as f64 / counts.len().max(1) as f64;
     json!({"lo": h.lo(), "hi": hi, "counts": merged})
+}
+
+#[cfg(test)]
+mod tests {
+    use super::options;
+
+    #[test]
+    fn the_form_has_the_render_options_but_not_the_input_selection() {
+        let v = options();
+        let ids: Vec<&str> = v
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(|o| o["id"].as_str())
+            .collect();
+        for want in ["tf", "mode", "step", "seconds"] {
+            assert!(ids.contains(&want), "{want} missing: {ids:?}");
+        }
+        for fixed in ["raw_dims", "series", "channel", "time_point"] {
+            assert!(!ids.contains(&fixed), "{fixed} offered: {ids:?}");
+        }
+    }
 }

@@ -9,9 +9,7 @@ const params = new URLSearchParams(location.search);
 const VIEW = Math.max(128, Math.min(2048, Number(params.get("view")) || 512));
 // Options the page's camera and size drive, and those of no use here.
 const CAMERA = ["orbit", "eye", "look-at", "size"];
-const UNUSED = ["print-scene", "json", "quiet", "repeat", "threads", "in-memory", "cell",
-  // The input selection: fixed when vol-view opened the volume.
-  "raw-dims", "raw-type", "raw-endian", "raw-skip", "series", "channel", "time-point", "time"];
+const UNUSED = ["print-scene", "json", "quiet", "repeat", "threads", "in-memory", "cell"];
 // Options shown at the top of the form (the rest under "All options").
 const PRIMARY = ["mode", "tf", "iso", "shading", "step", "spp", "shadows", "ao", "light"];
 
