@@ -255,20 +255,11 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
     let kind = input_kind(path, opts)?;
     Ok(match kind {
         InputKind::Stdin => open_stdin(path, opts)?,
-        InputKind::TiffDir => {
-            let files = crate::tiff::list_dir(path)?;
-            Box::new(crate::tiff::open_files(
-                path,
-                files,
-                opts.channel,
-                opts.time,
-            )?)
-        }
-        InputKind::TiffGlob | InputKind::TiffList => {
-            let files = if kind == InputKind::TiffGlob {
-                crate::tiff::list_glob(path)?
-            } else {
-                crate::tiff::list_file(path)?
+        InputKind::TiffDir | InputKind::TiffGlob | InputKind::TiffList => {
+            let files = match kind {
+                InputKind::TiffDir => crate::tiff::list_dir(path)?,
+                InputKind::TiffGlob => crate::tiff::list_glob(path)?,
+                _ => crate::tiff::list_file(path)?,
             };
             Box::new(crate::tiff::open_files(
                 path,
