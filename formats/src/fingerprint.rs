@@ -235,6 +235,7 @@ mod tests {
             layout,
             compression: c,
             geometry: volcore::Geometry::IDENTITY,
+            narrowed: None,
         };
         let p = dir.join(name);
         let mut f = File::create(&p).unwrap();

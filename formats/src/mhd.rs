@@ -33,6 +33,7 @@ pub fn type_name(t: SampleType) -> &'static str {
         SampleType::U16 => "MET_USHORT",
         SampleType::I16 => "MET_SHORT",
         SampleType::F32 => "MET_FLOAT",
+        SampleType::F64 => "MET_DOUBLE",
     }
 }
 

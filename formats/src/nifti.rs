@@ -126,6 +126,7 @@ fn datatype_code(t: SampleType) -> (i16, i16) {
         SampleType::I16 => (4, 16),
         SampleType::U16 => (512, 16),
         SampleType::F32 => (16, 32),
+        SampleType::F64 => (64, 64),
     }
 }
 

@@ -115,6 +115,7 @@ pub fn type_name(t: volcore::SampleType) -> &'static str {
         volcore::SampleType::U16 => "uint16",
         volcore::SampleType::I16 => "int16",
         volcore::SampleType::F32 => "float",
+        volcore::SampleType::F64 => "double",
     }
 }
 

@@ -863,6 +863,7 @@ fn data_type(t: SampleType) -> zarrs::array::DataType {
         SampleType::U16 => data_type::uint16(),
         SampleType::I16 => data_type::int16(),
         SampleType::F32 => data_type::float32(),
+        SampleType::F64 => data_type::float64(),
     }
 }
 
@@ -873,6 +874,7 @@ fn dtype_v2(t: SampleType) -> &'static str {
         SampleType::U16 => "<u2",
         SampleType::I16 => "<i2",
         SampleType::F32 => "<f4",
+        SampleType::F64 => "<f8",
     }
 }
 

@@ -312,9 +312,13 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
             crate::datafile::open_data(path, &spec)?
         }
         InputKind::Vvol => {
-            let v = vvol::open(path, opts.vvol).at(path)?;
-            let format = format!("vvol ({})", v.meta.layout.describe());
-            Box::new(vvol::VolumeReader::new(path, v, &format))
+            let v = vvol::open_stored(path, opts.vvol).at(path)?;
+            let layout = match &v {
+                vvol::Stored::Volume(v) => v.meta.layout,
+                vvol::Stored::F64(meta, _) => meta.layout,
+            };
+            let format = format!("vvol ({})", layout.describe());
+            Box::new(vvol::VolumeReader::of_stored(path, v, &format))
         }
         InputKind::ThesisVol => Box::new(thesis::ThesisReader::open(path)?),
         InputKind::Raw => {
@@ -442,7 +446,8 @@ pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
 }
 
 /// Read everything `reader` holds into memory, as `sample_type` (or the
-/// input's own type, or the smallest stored type holding its values).
+/// input's own type, or the smallest stored type holding its values;
+/// `f64` as `f32`, recorded in [`volcore::VolumeMeta::narrowed`]).
 pub fn load(reader: Box<dyn SliceReader>, sample_type: Option<SampleType>) -> CResult<Volume> {
     let slot = convert::MemorySlot::default();
     let plan = Plan {
@@ -450,18 +455,20 @@ pub fn load(reader: Box<dyn SliceReader>, sample_type: Option<SampleType>) -> CR
         temp_dir: Some(std::env::temp_dir()),
         ..Plan::default()
     };
-    convert::convert(
+    let report = convert::convert(
         reader,
         &plan,
         convert::Target::Memory(slot.clone()),
         &|_| {},
     )?;
-    slot.take().ok_or_else(|| {
+    let mut v = slot.take().ok_or_else(|| {
         ConvertError::new(
             Path::new("-"),
             Error::invalid("nothing was read (internal error)"),
         )
-    })
+    })?;
+    v.meta.narrowed = v.meta.narrowed.or(report.narrowed);
+    Ok(v)
 }
 
 /// [`open`] with the options of the `.vvol` reader and an optional raw

@@ -17,7 +17,7 @@ use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use volcore::volume::{IntoVolumeData, TypedGrid};
+use volcore::volume::{OpenSample, TypedGrid};
 use volcore::{
     Data, Dims, Geometry, RegionSource, Sample, SampleType, SlicedGrid, Volume, VolumeMeta,
 };
@@ -168,6 +168,7 @@ pub fn type_name(t: SampleType) -> &'static str {
         SampleType::U16 => "uint16",
         SampleType::I16 => "int16",
         SampleType::F32 => "float32",
+        SampleType::F64 => "float64",
     }
 }
 
@@ -212,19 +213,13 @@ pub fn open(path: &Path, spec: RawLayout) -> Result<Volume> {
     // SAFETY: read-only map; the file must not be truncated meanwhile.
     let map = Arc::new(unsafe { Mmap::map(&f)? });
     let f = Arc::new(f);
-    let data = match t {
-        SampleType::U8 => typed::<u8>(map, f, spec)?,
-        SampleType::U16 => typed::<u16>(map, f, spec)?,
-        SampleType::I16 => typed::<i16>(map, f, spec)?,
-        SampleType::F32 => typed::<f32>(map, f, spec)?,
-    };
-    finish(spec.dims, t, data)
-}
-
-fn finish(dims: Dims, t: SampleType, data: volcore::VolumeData) -> Result<Volume> {
-    let mut v = Volume {
-        meta: VolumeMeta::sliced(dims, t),
-        data,
+    let meta = VolumeMeta::sliced(spec.dims, t);
+    let mut v = match t {
+        SampleType::U8 => typed::<u8>(map, f, spec, meta)?,
+        SampleType::U16 => typed::<u16>(map, f, spec, meta)?,
+        SampleType::I16 => typed::<i16>(map, f, spec, meta)?,
+        SampleType::F32 => typed::<f32>(map, f, spec, meta)?,
+        SampleType::F64 => typed::<f64>(map, f, spec, meta)?,
     };
     v.meta.range = range_of(&v);
     Ok(v)
@@ -259,11 +254,12 @@ fn range_of(v: &Volume) -> volcore::ValueRange {
     v.visit(R)
 }
 
-fn typed<T: IntoVolumeData>(
+fn typed<T: OpenSample>(
     map: Arc<Mmap>,
     file: Arc<File>,
     spec: RawLayout,
-) -> Result<volcore::VolumeData> {
+    meta: VolumeMeta,
+) -> Result<Volume> {
     let n = spec.dims.count() as usize;
     let aligned = (spec.skip as usize).is_multiple_of(std::mem::align_of::<T>());
     let data = if !spec.big_endian && aligned {
@@ -274,9 +270,8 @@ fn typed<T: IntoVolumeData>(
         swap_if_needed(&mut v, spec.big_endian);
         Data::Owned(v)
     };
-    Ok(T::into_data(TypedGrid::Sliced(SlicedGrid::new(
-        spec.dims, data,
-    )?)))
+    let grid = TypedGrid::Sliced(SlicedGrid::new(spec.dims, data)?);
+    Ok(T::open_grid(meta, grid)?)
 }
 
 fn swap_if_needed<T: Sample>(v: &mut [T], big_endian: bool) {

@@ -22,6 +22,7 @@ fn meta(dims: Dims, t: SampleType, layout: Layout, c: Compression) -> VolumeMeta
         layout,
         compression: c,
         geometry: volcore::Geometry::IDENTITY,
+        narrowed: None,
     }
 }
 

@@ -42,6 +42,7 @@ fn run() -> Result<(), String> {
         SampleType::U16 => generate::<u16>(&scene, dims)?,
         SampleType::I16 => generate::<i16>(&scene, dims)?,
         SampleType::F32 => generate::<f32>(&scene, dims)?,
+        SampleType::F64 => return Err("f64 volumes open as f32: index those".into()),
     };
     println!("generated {dims} {ty} in {:.3?}", t.elapsed());
 

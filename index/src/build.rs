@@ -116,6 +116,11 @@ pub fn build_source<S: VoxelSource>(
         SampleType::F32 => {
             build_walk::<f32>(&BandWalk::new(SourceRows(src), edge), opts, fingerprint)
         }
+        // Opening narrows f64 volumes to f32 once (Volume::narrowed_from_f64),
+        // so the index never gets its own f64 copy of the scan.
+        SampleType::F64 => Err(IndexError::Source(
+            "f64 samples are indexed as the f32 volume they open as".into(),
+        )),
     }?;
     match src.error() {
         Some(msg) => Err(IndexError::Source(msg)),

@@ -87,7 +87,7 @@ fn exact_values(t: SampleType) -> usize {
     match t {
         SampleType::U8 => 1 << 8,
         SampleType::U16 | SampleType::I16 => 1 << 16,
-        SampleType::F32 => 0,
+        SampleType::F32 | SampleType::F64 => 0,
     }
 }
 

@@ -93,6 +93,11 @@ fn write_bounds(w: &mut impl Write, values: &[f32], t: SampleType) -> io::Result
                 }
             }
             SampleType::F32 => LittleEndian::write_f32_into(part, bytes),
+            SampleType::F64 => {
+                for (b, &v) in bytes.chunks_exact_mut(8).zip(part) {
+                    LittleEndian::write_f64(b, f64::from(v));
+                }
+            }
         }
         w.write_all(bytes)?;
     }
@@ -135,6 +140,11 @@ fn read_bounds(
                 }
             }
             SampleType::F32 => LittleEndian::read_f32_into(bytes, dst),
+            SampleType::F64 => {
+                for (o, b) in dst.iter_mut().zip(bytes.chunks_exact(8)) {
+                    *o = LittleEndian::read_f64(b) as f32;
+                }
+            }
         }
     }
     Ok(out)

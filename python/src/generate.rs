@@ -85,6 +85,9 @@ pub fn generate(
                     SampleType::U16 => samples::<u16>(scene.as_ref(), d),
                     SampleType::I16 => samples::<i16>(scene.as_ref(), d),
                     SampleType::F32 => samples::<f32>(scene.as_ref(), d),
+                    SampleType::F64 => Err(
+                        "type f64: volumes in memory hold f64 as f32, so generate f32".to_string(),
+                    ),
                 }
             },
         )?;

@@ -60,6 +60,7 @@ pub fn dtype_name(t: SampleType) -> &'static str {
         SampleType::U16 => "uint16",
         SampleType::I16 => "int16",
         SampleType::F32 => "float32",
+        SampleType::F64 => "float64",
     }
 }
 

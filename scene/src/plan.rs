@@ -46,6 +46,11 @@ impl Plan {
     /// Errors do not name the volume (the caller does).
     pub fn new(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<Plan> {
         let mut notes = Vec::new();
+        if let Some(note) = vol.meta.narrowed.and_then(|n| n.note()) {
+            notes.push(format!(
+                "{note} (the renderer reads f32; converted once on opening)"
+            ));
+        }
         let tf = match cli.mode {
             ModeArg::Dvr => Some(transfer_function(cli, vol, index, &mut notes)?),
             ModeArg::Path if cli.density_scale.is_none() => {

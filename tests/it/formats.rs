@@ -75,7 +75,7 @@ fn nibabel_nifti_reads_with_geometry_and_rescale() {
     // NIfTI-2, float64 written by nibabel.
     let p = fixture("nibabel_f64.nii");
     let j = info(&p, &[]);
-    assert_eq!(j["type"], "f32");
+    assert_eq!(j["type"], "f64");
     assert_eq!(j["format"], "nifti");
     assert!(close(&j["spacing"], &[2.0, 2.0, 3.0]), "{j}");
     let v = samples(&p, &[]);
@@ -825,43 +825,172 @@ fn dicom_globs_are_dicom_series_in_both_tools() {
     );
 }
 
+/// `n` f64 values none of which is an f32 value (tenths plus a little).
+fn f64_values(n: usize) -> Vec<f64> {
+    (0..n).map(|i| i as f64 / 10.0 + 1e-9 * i as f64).collect()
+}
+
+fn f64_raw(d: &Path, name: &str, vals: &[f64]) -> PathBuf {
+    let p = d.join(name);
+    let b: Vec<u8> = vals.iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(&p, b).unwrap();
+    p
+}
+
 #[test]
-fn f64_values_rounded_to_f32_are_said_with_the_largest_change() {
+fn f64_is_kept_exactly_through_vvol_and_every_format_that_has_it() {
     let d = tempfile::tempdir().unwrap();
     let d = d.path();
-    let write = |name: &str, f: &dyn Fn(usize) -> f64| {
-        let p = d.join(name);
-        let b: Vec<u8> = (0..64).flat_map(|i| f(i).to_le_bytes()).collect();
-        std::fs::write(&p, b).unwrap();
-        p
+    let vals = f64_values(12 * 10 * 8);
+    let input = f64_raw(d, "in_12x10x8_float64.raw", &vals);
+    let input_bytes = std::fs::read(&input).unwrap();
+    // Into .vvol, sliced and bricked with zstd: stored as f64, no note.
+    for (name, layout) in [
+        ("s.vvol", &[][..]),
+        (
+            "b.vvol",
+            &["--layout", "bricked:8", "--compress", "zstd:3"][..],
+        ),
+    ] {
+        let v = d.join(name);
+        let o = crate::common::run(
+            tool("vol-convert")
+                .arg(&input)
+                .args(layout)
+                .arg("-o")
+                .arg(&v),
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{err}");
+        assert!(!err.contains("f32"), "nothing is narrowed: {err}");
+        let j = info(&v, &[]);
+        assert_eq!(j["type"], "f64", "{j}");
+        // And back to raw: the same bytes.
+        let back = d.join(format!("{name}_12x10x8_float64.raw"));
+        ok(tool("vol-convert").arg(&v).args(["-q", "-o"]).arg(&back));
+        assert!(std::fs::read(&back).unwrap() == input_bytes, "{name}");
+    }
+    // From .vvol into every writer that has f64: read back by the
+    // anchors (nibabel, SimpleITK, tifffile, zarr) bit for bit.
+    let outs = [
+        "o.nii",
+        "o.nii.gz",
+        "o.nrrd",
+        "o.mha",
+        "o.tif",
+        "o.ome.zarr",
+    ];
+    for o in outs {
+        ok(tool("vol-convert")
+            .arg(d.join("b.vvol"))
+            .args(["-q", "-o"])
+            .arg(d.join(o)));
+    }
+    let script = format!(
+        r#"
+import json, sys
+try:
+    import numpy as np, nibabel, SimpleITK as sitk, tifffile, zarr
+except ImportError as e:
+    print("SKIP:", e); sys.exit(0)
+d = {d:?}
+ref = np.fromfile(d + "/in_12x10x8_float64.raw", dtype="<f8").reshape(8, 10, 12)
+def z(p):
+    g = zarr.open_group(p, mode="r")
+    return np.asarray(g["0"]).squeeze()
+got = {{
+    "o.nii": np.asanyarray(nibabel.load(d + "/o.nii").dataobj).T,
+    "o.nii.gz": np.asanyarray(nibabel.load(d + "/o.nii.gz").dataobj).T,
+    "o.nrrd": sitk.GetArrayFromImage(sitk.ReadImage(d + "/o.nrrd")),
+    "o.mha": sitk.GetArrayFromImage(sitk.ReadImage(d + "/o.mha")),
+    "o.tif": tifffile.imread(d + "/o.tif"),
+    "o.ome.zarr": z(d + "/o.ome.zarr"),
+}}
+print(json.dumps({{k: [str(a.dtype), list(a.shape) == list(ref.shape) and bool(np.array_equal(a, ref))] for k, a in got.items()}}))
+"#,
+        d = d.display().to_string()
+    );
+    let Some(j) = python_json(&script, "pip install numpy nibabel SimpleITK tifffile zarr") else {
+        return;
     };
-    // Tenths are not f32 values: stored as f32, the change is said.
-    let inexact = write("tenths_4x4x4_float64.raw", &|i| i as f64 / 10.0);
+    for o in outs {
+        assert_eq!(j[o], serde_json::json!(["float64", true]), "{o}: {j}");
+    }
+    // And volkit reads each back exactly.
+    for o in outs {
+        let back = d.join(format!("{o}_12x10x8_float64.raw"));
+        ok(tool("vol-convert")
+            .arg(d.join(o))
+            .args(["-q", "-o"])
+            .arg(&back));
+        assert!(std::fs::read(&back).unwrap() == input_bytes, "{o}");
+    }
+}
+
+#[test]
+fn f64_narrowed_to_f32_says_the_largest_change_and_renders_like_f32() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let vals = f64_values(32 * 32 * 32);
+    let input = f64_raw(d, "in_32x32x32_float64.raw", &vals);
+    let want = vals
+        .iter()
+        .map(|&v| (v as f32 as f64 - v).abs())
+        .fold(0.0, f64::max);
+    let said = format!("largest change is {want:.3e}");
+    // --type f32 rounds and says by how much.
+    let f32_vol = d.join("f32.vvol");
     let o = crate::common::run(
         tool("vol-convert")
-            .arg(&inexact)
-            .arg("-o")
-            .arg(d.join("a.vvol")),
+            .arg(&input)
+            .args(["--type", "f32", "-o"])
+            .arg(&f32_vol),
     );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(
-        err.contains("f64 values stored as f32") && err.contains("largest change"),
-        "{err}"
+        err.contains("f64 values rounded to f32") && err.contains(&said),
+        "{said}: {err}"
     );
-    let want = (0..64)
-        .map(|i| ((i as f64 / 10.0) as f32 as f64 - i as f64 / 10.0).abs())
-        .fold(0.0, f64::max);
-    assert!(err.contains(&format!("{want:.3e}")), "{want:.3e}: {err}");
-    // Halves are: nothing to say.
-    let exact = write("halves_4x4x4_float64.raw", &|i| i as f64 / 2.0);
+    // Halves are f32 values: nothing to say.
+    let halves: Vec<f64> = (0..64).map(|i| i as f64 / 2.0).collect();
+    let exact = f64_raw(d, "halves_4x4x4_float64.raw", &halves);
     let o = crate::common::run(
         tool("vol-convert")
             .arg(&exact)
-            .arg("-o")
-            .arg(d.join("b.vvol")),
+            .args(["--type", "f32", "-o"])
+            .arg(d.join("h.vvol")),
     );
-    assert!(!String::from_utf8_lossy(&o.stderr).contains("stored as f32"));
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("rounded"));
+    // The renderer reads an f64 .vvol (and the raw f64 file) through its
+    // f32 path: said once, and the image is the f32 volume's, bit for bit.
+    let f64_vol = d.join("f64.vvol");
+    ok(tool("vol-convert")
+        .arg(&input)
+        .args(["-q", "-o"])
+        .arg(&f64_vol));
+    let render = |v: &Path, png: &str| {
+        let out = d.join(png);
+        let o = crate::common::run(
+            tool("vol-render")
+                .arg(v)
+                .arg("-o")
+                .arg(&out)
+                .args(["--size", "48x40", "--mode", "mip"]),
+        );
+        let err = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "{err}");
+        (std::fs::read(&out).unwrap(), err)
+    };
+    let (a, _) = render(&f32_vol, "a.png");
+    for (v, png) in [(&f64_vol, "b.png"), (&input, "c.png")] {
+        let (b, err) = render(v, png);
+        assert!(
+            err.contains("f64 values rounded to f32") && err.contains(&said),
+            "{err}"
+        );
+        assert!(a == b, "{png}: f64 renders as its f32 rounding");
+    }
 }
 
 #[test]

@@ -26,6 +26,8 @@ pub fn unit(u: volcore::LengthUnit) -> Value {
 /// `direction` (rows), `orientation`, `layout`, `compression`, `min`,
 /// `max` (`null` when no sample but NaN).
 pub fn volume(m: &VolumeMeta) -> Value {
+    // As the file stores it (f64, not the f32 it is held as).
+    let m = &m.as_stored();
     let range = (!m.range.is_empty()).then_some((m.range.min, m.range.max));
     json!({
         "dims": m.dims.as_array(),

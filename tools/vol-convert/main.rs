@@ -29,11 +29,12 @@ use volkit_cli::{json, noteln, usage, Selection};
 /// .vol, a .vvol, or - for standard input (a .vvol stream, a NRRD with
 /// attached data, or raw with --raw-dims).
 ///
-/// 8, 16 and 32-bit integer and 32 and 64-bit float samples are read;
-/// types volkit does not store (i8, u32, i32, f64) become the smallest of
-/// u8, u16, i16, f32 that holds their values exactly, or need --type and
-/// --window; f64 values that are not f32 values are rounded to f32 with a
-/// note giving the largest change.
+/// 8, 16 and 32-bit integer and 32 and 64-bit float samples are read.
+/// u8, u16, i16, f32 and f64 are kept as they are (f64 in every output
+/// but the u8-only .vol); i8, u32 and i32 become the smallest of u8, u16,
+/// i16, f32 that holds their values exactly, or need --type and --window.
+/// --type f32 from f64 rounds each value to the nearest f32 and says the
+/// largest change.
 ///
 /// The output format follows OUTPUT: .vvol (sliced or bricked, optional
 /// zstd per brick), .vol (thesis format, u8), .raw (little-endian, x
@@ -50,7 +51,7 @@ use volkit_cli::{json, noteln, usage, Selection};
 /// percentiles of the histogram, P = 0.5) or full (the input type's range;
 /// for f32 input the data's min..max). Float to int rounds half away from
 /// zero; NaN becomes the bottom of the output range (0 for u8/u16, -32768
-/// for i16) and stays NaN for f32. With a window, f32 output spans 0..1.
+/// for i16) and stays NaN for floats. With a window, f32 output spans 0..1.
 ///
 /// The output appears only when complete: a failed conversion leaves no
 /// file behind.
@@ -74,7 +75,7 @@ struct Cli {
     /// members every reader accepts.
     #[arg(long, default_value = "none", value_parser = compress_arg)]
     compress: CompressArg,
-    /// Output sample type: u8, u16, i16, f32 (default: the input's).
+    /// Output sample type: u8, u16, i16, f32, f64 (default: the input's).
     #[arg(long = "type", value_parser = args::sample_type)]
     sample_type: Option<SampleType>,
     /// Value window for --type: lo:hi, auto, auto:P or full.

@@ -136,6 +136,7 @@ fn generate(cli: &Cli) -> Result<()> {
         SampleType::U16 => write_as::<u16>(cli, dims, scene.as_ref()),
         SampleType::I16 => write_as::<i16>(cli, dims, scene.as_ref()),
         SampleType::F32 => write_as::<f32>(cli, dims, scene.as_ref()),
+        SampleType::F64 => write_as::<f64>(cli, dims, scene.as_ref()),
     }
     .with_context(|| cli.output.display().to_string())?;
     let seconds = start.elapsed().as_secs_f64();
@@ -247,6 +248,7 @@ fn write_as<T: Sample>(cli: &Cli, dims: Dims, scene: &dyn Scene) -> Result<Writt
         layout,
         compression: cli.compress,
         geometry: volcore::Geometry::IDENTITY,
+        narrowed: None,
     };
     let range_of = |r: volcore::ValueRange| {
         if r.is_empty() {

@@ -206,6 +206,9 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
     let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
     let vol = volformats::open(volume, &read).map_err(|e| anyhow!("{e}"))?;
     let load_s = start.elapsed().as_secs_f64();
+    if let (false, Some(note)) = (cli.quiet, vol.meta.narrowed.and_then(|n| n.note())) {
+        noteln!("vol-index: {vname}: {note} (indexed as f32, as the renderer reads it)");
+    }
 
     let t = Instant::now();
     let ix = MinMaxIndex::build_volume(&vol, &opts, fp).map_err(at(&vname))?;

@@ -127,7 +127,7 @@ fn report(
     file_bytes: Option<u64>,
     seconds: f64,
 ) -> std::io::Result<()> {
-    let m = &vol.meta;
+    let m = &vol.meta.as_stored();
     let (brick, bricks) = match m.layout {
         Layout::Sliced => (None, None),
         Layout::Bricked(g) => (Some(g.brick()), Some(g.brick_count())),

@@ -372,6 +372,11 @@ fn volumes(cli: &Cli) -> Result<Report, Fail> {
     let open =
         |p: &Path| volformats::open(p, &opts).map_err(|e| Fail::new(EXIT_READ, e.to_string()));
     let (a, b) = (open(&cli.a)?, open(&cli.b)?);
+    for (path, v) in [(&cli.a, &a), (&cli.b, &b)] {
+        if let (false, Some(note)) = (cli.quiet, v.meta.narrowed.and_then(|n| n.note())) {
+            noteln!("vol-psnr: {}: {note} (compared as f32)", path.display());
+        }
+    }
     let opts = VolumeOptions {
         range: cli.range,
         error_map: cli.diff.is_some(),

@@ -32,7 +32,7 @@ pub use brick::BrickGeometry;
 pub use dims::Dims;
 pub use error::{Error, Result};
 pub use grid::{BrickedGrid, CompressedGrid, Cursor, SliceOrder, SlicedGrid, VoxelSource};
-pub use meta::{Compression, Geometry, Layout, ValueRange, VolumeMeta};
+pub use meta::{Compression, Geometry, Layout, Narrowing, ValueRange, VolumeMeta};
 pub use region::RegionSource;
 pub use sample::{Sample, SampleType};
 pub use shard::Shard;

@@ -77,11 +77,8 @@ impl ValueRange {
 
     /// Range of a slice of samples, ignoring NaN.
     pub fn of<T: crate::Sample>(data: &[T]) -> ValueRange {
-        let (lo, hi) = T::min_max(data);
-        ValueRange {
-            min: lo as f64,
-            max: hi as f64,
-        }
+        let (min, max) = T::min_max(data);
+        ValueRange { min, max }
     }
 }
 
@@ -282,9 +279,60 @@ pub struct VolumeMeta {
     pub compression: Compression,
     /// Origin and axis directions in the world frame.
     pub geometry: Geometry,
+    /// Set when the samples were narrowed on opening (an `f64` file read
+    /// as `f32` for rendering): what they were and how far they moved.
+    pub narrowed: Option<Narrowing>,
+}
+
+/// What opening a volume did to samples of a type the renderer does not
+/// read (`f64`, held as `f32`, converted once).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Narrowing {
+    /// The stored type.
+    pub from: SampleType,
+    /// The stored layout (the samples in memory are sliced).
+    pub layout: Layout,
+    /// The stored compression (the samples in memory are not compressed).
+    pub compression: Compression,
+    /// The largest absolute change a sample took (0 when every value was
+    /// exact; infinite when one overflowed `f32`).
+    pub largest_change: f64,
+    /// The largest magnitude among the samples (to judge the change by).
+    pub largest_magnitude: f64,
+}
+
+impl Narrowing {
+    /// One line for the user: what was converted and by how much it moved
+    /// (`None` when no value changed).
+    pub fn note(&self) -> Option<String> {
+        let e = self.largest_change;
+        if e == 0.0 || e.is_nan() {
+            return None;
+        }
+        let m = self.largest_magnitude;
+        let rel = if m > 0.0 && m.is_finite() { e / m } else { 0.0 };
+        Some(format!(
+            "{} values rounded to f32: the largest change is {e:.3e} ({rel:.1e} of the largest magnitude {m:.6e})",
+            self.from
+        ))
+    }
 }
 
 impl VolumeMeta {
+    /// The volume as its file stores it: the type, layout and compression
+    /// it had before opening narrowed it (itself when nothing was).
+    pub fn as_stored(&self) -> VolumeMeta {
+        match self.narrowed {
+            Some(n) => VolumeMeta {
+                sample_type: n.from,
+                layout: n.layout,
+                compression: n.compression,
+                ..*self
+            },
+            None => *self,
+        }
+    }
+
     /// Metadata for a sliced, uncompressed volume with unit spacing.
     pub fn sliced(dims: Dims, sample_type: SampleType) -> VolumeMeta {
         VolumeMeta {
@@ -295,6 +343,7 @@ impl VolumeMeta {
             layout: Layout::Sliced,
             compression: Compression::None,
             geometry: Geometry::IDENTITY,
+            narrowed: None,
         }
     }
 
@@ -329,6 +378,9 @@ impl fmt::Display for VolumeMeta {
         }
         if let Compression::Zstd(l) = self.compression {
             write!(f, " zstd:{l}")?;
+        }
+        if let Some(n) = self.narrowed {
+            write!(f, " (stored as {})", n.from)?;
         }
         Ok(())
     }

@@ -14,15 +14,20 @@ pub enum SampleType {
     I16,
     /// 32-bit IEEE float.
     F32,
+    /// 64-bit IEEE float: a storage type (files and conversions keep it
+    /// exactly); volumes opened for rendering hold it as `f32`, converted
+    /// once (see [`crate::meta::Narrowing`]).
+    F64,
 }
 
 impl SampleType {
     /// Every supported type, in code order.
-    pub const ALL: [SampleType; 4] = [
+    pub const ALL: [SampleType; 5] = [
         SampleType::U8,
         SampleType::U16,
         SampleType::I16,
         SampleType::F32,
+        SampleType::F64,
     ];
 
     /// Bytes per sample.
@@ -31,6 +36,7 @@ impl SampleType {
             SampleType::U8 => 1,
             SampleType::U16 | SampleType::I16 => 2,
             SampleType::F32 => 4,
+            SampleType::F64 => 8,
         }
     }
 
@@ -41,6 +47,7 @@ impl SampleType {
             SampleType::U16 => "u16",
             SampleType::I16 => "i16",
             SampleType::F32 => "f32",
+            SampleType::F64 => "f64",
         }
     }
 
@@ -51,6 +58,7 @@ impl SampleType {
             SampleType::U16 => 2,
             SampleType::I16 => 3,
             SampleType::F32 => 4,
+            SampleType::F64 => 5,
         }
     }
 
@@ -65,7 +73,7 @@ impl SampleType {
             SampleType::U8 => Some((0.0, 255.0)),
             SampleType::U16 => Some((0.0, 65535.0)),
             SampleType::I16 => Some((-32768.0, 32767.0)),
-            SampleType::F32 => None,
+            SampleType::F32 | SampleType::F64 => None,
         }
     }
 }
@@ -78,24 +86,26 @@ impl fmt::Display for SampleType {
 
 impl FromStr for SampleType {
     type Err = String;
-    /// Accepts `u8 u16 i16 f32` and the Open SciVis spellings
-    /// `uint8 uint16 int16 float32` (and `float`).
+    /// Accepts `u8 u16 i16 f32 f64` and the Open SciVis spellings
+    /// `uint8 uint16 int16 float32 float64` (and `float`, `double`).
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s.to_ascii_lowercase().as_str() {
             "u8" | "uint8" => Ok(SampleType::U8),
             "u16" | "uint16" => Ok(SampleType::U16),
             "i16" | "int16" => Ok(SampleType::I16),
             "f32" | "float32" | "float" => Ok(SampleType::F32),
+            "f64" | "float64" | "double" => Ok(SampleType::F64),
             other => Err(format!(
-                "unknown sample type '{}' (expected u8, u16, i16 or f32)",
+                "unknown sample type '{}' (expected u8, u16, i16, f32 or f64)",
                 crate::text::excerpt(other)
             )),
         }
     }
 }
 
-/// A stored sample: plain old data with lossless widening to `f32`
-/// (every supported type is exact in `f32`) and a defined narrowing.
+/// A stored sample: plain old data with a widening to `f32` (exact for
+/// every type the renderer reads; `f64`, a storage type only, rounds to
+/// nearest) and a defined narrowing.
 pub trait Sample:
     bytemuck::Pod + Copy + Default + Send + Sync + PartialEq + fmt::Debug + 'static
 {
@@ -104,7 +114,7 @@ pub trait Sample:
     /// Whether [`Sample::bricked_values8`] has a batched path (it declines
     /// every call otherwise).
     const BATCHES: bool = false;
-    /// Exact widening conversion.
+    /// Widening conversion (exact but for `f64`, which rounds to nearest).
     fn to_f32(self) -> f32;
     /// `hi.to_f32() − lo.to_f32()`, bit for bit; integer types subtract
     /// before converting (exact: every difference fits `f32`'s 24 bits),
@@ -116,6 +126,12 @@ pub trait Sample:
     /// Narrowing from `f32`: round half away from zero, clamp to the type's
     /// range; NaN becomes 0 for integer types and stays NaN for `f32`.
     fn from_f32(v: f32) -> Self;
+    /// Narrowing from `f64`: through `f32` ([`Sample::from_f32`] of the
+    /// value rounded to `f32`) for every type but `f64`, which keeps it.
+    #[inline(always)]
+    fn from_f64(v: f64) -> Self {
+        Self::from_f32(v as f32)
+    }
     /// The trilinear value at offsets `t` of the cell whose first corner
     /// is `s[base]`, corners `o` samples apart per axis (all in `s`):
     /// [`crate::grid::blend`] of its corners, bit for bit.
@@ -198,9 +214,9 @@ pub trait Sample:
     }
     /// Convert a little-endian byte slice in place to native order.
     fn slice_from_le(data: &mut [Self]);
-    /// Smallest and largest non-NaN sample of a slice as `f32`
+    /// Smallest and largest non-NaN sample of a slice, exactly
     /// (`(inf, -inf)` when there is none).
-    fn min_max(data: &[Self]) -> (f32, f32);
+    fn min_max(data: &[Self]) -> (f64, f64);
 }
 
 macro_rules! int_sample {
@@ -230,14 +246,14 @@ macro_rules! int_sample {
                     *v = <$t>::from_le(*v);
                 }
             }
-            fn min_max(data: &[Self]) -> (f32, f32) {
+            fn min_max(data: &[Self]) -> (f64, f64) {
                 if data.is_empty() {
-                    return (f32::INFINITY, f32::NEG_INFINITY);
+                    return (f64::INFINITY, f64::NEG_INFINITY);
                 }
                 // Integer min/max in the native type vectorises well.
                 let lo = data.iter().copied().fold(<$t>::MAX, <$t>::min);
                 let hi = data.iter().copied().fold(<$t>::MIN, <$t>::max);
-                (lo as f32, hi as f32)
+                (lo as f64, hi as f64)
             }
         }
     };
@@ -334,11 +350,47 @@ impl Sample for f32 {
             *v = f32::from_bits(u32::from_le(v.to_bits()));
         }
     }
-    fn min_max(data: &[Self]) -> (f32, f32) {
+    fn min_max(data: &[Self]) -> (f64, f64) {
         let mut lo = f32::INFINITY;
         let mut hi = f32::NEG_INFINITY;
         for &f in data {
             // NaN compares false both ways and is skipped.
+            lo = if f < lo { f } else { lo };
+            hi = if f > hi { f } else { hi };
+        }
+        (lo as f64, hi as f64)
+    }
+}
+
+/// `f64` is a storage type: files and conversions hold it; the renderer's
+/// loops never see it (volumes opened for rendering are narrowed to `f32`
+/// once, see [`crate::meta::Narrowing`]), so it costs no copy of them.
+impl Sample for f64 {
+    const TYPE: SampleType = SampleType::F64;
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+    #[inline(always)]
+    fn from_f32(v: f32) -> Self {
+        v as f64
+    }
+    #[inline(always)]
+    fn from_f64(v: f64) -> Self {
+        v
+    }
+    fn is_nan(self) -> bool {
+        f64::is_nan(self)
+    }
+    fn slice_from_le(data: &mut [Self]) {
+        for v in data {
+            *v = f64::from_bits(u64::from_le(v.to_bits()));
+        }
+    }
+    fn min_max(data: &[Self]) -> (f64, f64) {
+        let mut lo = f64::INFINITY;
+        let mut hi = f64::NEG_INFINITY;
+        for &f in data {
             lo = if f < lo { f } else { lo };
             hi = if f > hi { f } else { hi };
         }

@@ -235,7 +235,7 @@ fn nan_in_float_images() {
     assert_eq!(c.pooled.mse, 0.0625);
 }
 
-fn vol<T: volcore::volume::IntoVolumeData>(d: [u64; 3], f: impl Fn(u64) -> T) -> Volume {
+fn vol<T: volcore::volume::OpenSample>(d: [u64; 3], f: impl Fn(u64) -> T) -> Volume {
     let dims = Dims::new(d[0], d[1], d[2]).unwrap();
     Volume::from_samples(dims, (0..dims.count()).map(f).collect()).unwrap()
 }

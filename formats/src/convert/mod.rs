@@ -33,7 +33,9 @@ use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use volcore::{Dims, Geometry, LengthUnit, RegionSource, Sample, SampleType, ValueRange};
+use volcore::{
+    Dims, Geometry, LengthUnit, Narrowing, RegionSource, Sample, SampleType, ValueRange,
+};
 
 /// An error tied to the file it concerns (the input, one slice file of a
 /// stack, or the output). Displays as `path: problem`, on one line.
@@ -188,6 +190,10 @@ pub struct Report {
     /// (units converted for an output that cannot hold the input's), one
     /// line each, for stderr.
     pub notes: Vec<String>,
+    /// Set when `f64` input was stored as `f32` without a window: how far
+    /// rounding moved the values (in [`Report::notes`] too when `--type`
+    /// asked for it; an in-memory volume records it in its metadata).
+    pub narrowed: Option<Narrowing>,
 }
 
 /// Decodes input slices and turns them into output slices (crop, flip,
@@ -444,17 +450,25 @@ pub fn convert(
         ));
     }
     let from = info.sample_type;
-    // Wide inputs (i8, 32-bit integers, f64) are narrowed by their values:
-    // their range decides the output type or whether it fits.
-    let wide = from.stored().is_none();
+    // f64 into an output that holds no f64 (the renderer's memory) is f32.
+    let asked = plan
+        .sample_type
+        .or_else(|| (from == SliceType::F64 && !target.holds_f64()).then_some(SampleType::F32));
+    // Inputs narrowed by their values (i8, 32-bit integers; f64 to f32):
+    // their range decides the output type or whether it fits, and f64
+    // says how far rounding to f32 moved them.
+    let wide = match asked {
+        Some(t) => window::by_value(from, t),
+        None => from.stored().is_none(),
+    };
     let needs_stats = match plan.window {
         Some(Window::Auto(_)) => true,
         Some(Window::Full) => !from.is_integer() || from.size() == 4,
-        None => wide && !plan.sample_type.is_some_and(|t| window::is_exact(from, t)),
+        None => wide && !asked.is_some_and(|t| window::is_exact(from, t)),
         _ => false,
     };
     // Fail early on a narrowing conversion without a window.
-    if let (None, Some(t), Some(out)) = (plan.window, from.stored(), plan.sample_type) {
+    if let (None, Some(t), Some(out), false) = (plan.window, from.stored(), asked, wide) {
         ValueMap::plan(t.into(), out, None, None).at(target.path())?;
     }
     let temp_dir = plan.temp_dir.clone().unwrap_or_else(|| target.temp_dir());
@@ -489,7 +503,7 @@ pub fn convert(
             .try_reduce(|| Histogram::new(t), |a, b| Ok(a.merge(b)))?;
         hist = Some(h.merge(merged));
     }
-    let out_type = output_type(&info, plan.sample_type, hist.as_ref()).at(&in_path)?;
+    let out_type = output_type(&info, asked, hist.as_ref()).at(&in_path)?;
     let map = ValueMap::plan(from, out_type, plan.window, hist.as_ref()).at(&in_path)?;
     let in_spacing = info.spacing.unwrap_or([1.0; 3]);
     let out_dims = [0, 1, 2].map(|a| crop[a].end - crop[a].start);
@@ -499,17 +513,24 @@ pub fn convert(
         .cropped(in_spacing, start, out_dims, plan.flip);
     let (spacing, geometry, mut notes) =
         units::resolve(in_spacing, geometry, plan, &target).at(target.path())?;
-    // A wide float input stored as f32 without a window: say by how much
-    // the values moved (nothing when every value is an f32).
+    // f64 stored as f32 without a window: say by how much the values
+    // moved (nothing when every value is an f32).
+    let mut narrowed = None;
     if let (Some(h), ValueMap::Exact, SampleType::F32) = (hist.as_ref(), map, out_type) {
-        let e = h.f32_error();
-        if e > 0.0 && !from.is_integer() {
+        if from == SliceType::F64 {
             let (lo, hi) = h.range().unwrap_or((0.0, 0.0));
-            let scale = lo.abs().max(hi.abs());
-            notes.push(format!(
-                "{from} values stored as f32 (volkit stores u8, u16, i16, f32): the largest change is {e:.3e} ({:.1e} of the largest magnitude {scale:.6e})",
-                if scale > 0.0 { e / scale } else { 0.0 }
-            ));
+            narrowed = Some(Narrowing {
+                from: SampleType::F64,
+                layout: volcore::Layout::Sliced,
+                compression: volcore::Compression::None,
+                largest_change: h.f32_error(),
+                largest_magnitude: lo.abs().max(hi.abs()),
+            });
+        }
+    }
+    if let Some(note) = narrowed.and_then(|n| n.note()) {
+        if plan.sample_type.is_some() {
+            notes.push(note);
         }
     }
     let args = RunArgs {
@@ -526,7 +547,9 @@ pub fn convert(
         SampleType::U16 => run::<u16>(&args, target, progress)?,
         SampleType::I16 => run::<i16>(&args, target, progress)?,
         SampleType::F32 => run::<f32>(&args, target, progress)?,
+        SampleType::F64 => run::<f64>(&args, target, progress)?,
     };
+    report.narrowed = narrowed;
     report.bytes_in = reader.bytes_in();
     report.input_format = info.format.clone();
     report.input_type = from;
@@ -620,6 +643,7 @@ fn run<T: SliceSample>(
         input_format: String::new(),
         spooled: false,
         notes: Vec::new(),
+        narrowed: None,
     })
 }
 

@@ -3,8 +3,8 @@
 use volcore::{Sample, SampleType};
 
 /// The type of the samples an input hands out: one of the stored types,
-/// or a wider one (`i8`, `u32`, `i32`, `f64`) that a conversion narrows to
-/// a stored type (see [`super::window`]).
+/// or another (`i8`, `u32`, `i32`) that a conversion maps to a stored
+/// type (see [`super::window`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum SliceType {
     /// Unsigned 8-bit.
@@ -43,6 +43,7 @@ impl SliceType {
             SliceType::U16 => Some(SampleType::U16),
             SliceType::I16 => Some(SampleType::I16),
             SliceType::F32 => Some(SampleType::F32),
+            SliceType::F64 => Some(SampleType::F64),
             _ => None,
         }
     }
@@ -85,6 +86,7 @@ impl From<SampleType> for SliceType {
             SampleType::U16 => SliceType::U16,
             SampleType::I16 => SliceType::I16,
             SampleType::F32 => SliceType::F32,
+            SampleType::F64 => SliceType::F64,
         }
     }
 }
@@ -267,7 +269,7 @@ impl SliceData {
 }
 
 /// Sample types that can be moved in and out of a [`SliceData`].
-pub trait SliceSample: Sample + volcore::volume::IntoVolumeData {
+pub trait SliceSample: Sample + volcore::volume::OpenSample {
     /// Wrap samples of this type.
     fn wrap(v: Vec<Self>) -> SliceData;
     /// The samples, if `d` holds this type.
@@ -293,6 +295,7 @@ slice_sample!(u8, U8);
 slice_sample!(u16, U16);
 slice_sample!(i16, I16);
 slice_sample!(f32, F32);
+slice_sample!(f64, F64);
 
 #[cfg(test)]
 mod tests {

@@ -14,12 +14,14 @@
 //!   the volume's actual min..max) onto the output range.
 //! - Float to integer rounds half away from zero after the linear map.
 //! - NaN maps to the bottom of the output range for integer outputs (0 for
-//!   `u8`/`u16`, -32768 for `i16`) and stays NaN for `f32` output.
-//! - Wider inputs (`i8`, `u32`, `i32`, `f64`), which volkit does not store,
-//!   convert without a window when every value of the data fits the output
-//!   type exactly (integers within its range; `i32` to `f32` up to 2^24;
-//!   `f64` to `f32` rounds to the nearest `f32`). Without `--type` they
-//!   become the smallest stored type that holds them ([`fit_type`]).
+//!   `u8`/`u16`, -32768 for `i16`) and stays NaN for float outputs.
+//! - Integer inputs volkit does not store (`i8`, `u32`, `i32`) convert
+//!   without a window when every value of the data fits the output type
+//!   exactly (within its range; to `f32` up to 2^24). Without `--type`
+//!   they become the smallest stored type that holds them ([`fit_type`]).
+//! - `f64` is stored as it is; to `f32` (asked for, or for an output that
+//!   holds no `f64`) it rounds each value to the nearest `f32` without a
+//!   window, and the conversion says how far the values moved.
 
 use super::slice::{SliceData, SliceType};
 use crate::error::{Error, Result};
@@ -91,6 +93,14 @@ pub fn is_exact(from: SliceType, to: SampleType) -> bool {
             (from, to),
             (I::U8, _) | (I::U16, S::F32) | (I::I16, S::F32) | (I::I8, S::I16 | S::F32)
         )
+}
+
+/// Whether converting `from` to `to` without a window is decided by the
+/// values (their range, from a [`Histogram`]) rather than by the types:
+/// types that are not stored (`i8`, 32-bit integers), and `f64` to `f32`,
+/// which keeps every value `f32` holds and says how far the others moved.
+pub fn by_value(from: SliceType, to: SampleType) -> bool {
+    from.stored().is_none() || (from == SliceType::F64 && to == SampleType::F32)
 }
 
 /// Largest integer magnitude `f32` holds exactly.
@@ -166,10 +176,10 @@ impl ValueMap {
         let range = stats.and_then(|h| h.range());
         let (lo, hi) = match window {
             None if is_exact(from, to) => return Ok(ValueMap::Exact),
-            None if from.stored().is_none() && stats.is_some() && fits(from, range, to) => {
+            None if by_value(from, to) && stats.is_some() && fits(from, range, to) => {
                 return Ok(ValueMap::Exact)
             }
-            None if from.stored().is_none() && stats.is_some() => {
+            None if by_value(from, to) && stats.is_some() => {
                 let (lo, hi) = range.unwrap_or((0.0, 0.0));
                 return Err(Error::invalid(format!(
                     "{from} values {lo}..{hi} do not fit {to}: pass --window lo:hi, --window auto or --window full"
@@ -223,20 +233,21 @@ impl ValueMap {
     /// output sample out).
     #[inline]
     pub fn apply<T: Sample>(&self, v: f64) -> T {
+        let float = matches!(T::TYPE, SampleType::F32 | SampleType::F64);
         match *self {
-            ValueMap::Exact => T::from_f32(v as f32),
+            ValueMap::Exact => T::from_f64(v),
             ValueMap::Linear { lo, hi } => {
                 let (a, b) = out_range(T::TYPE);
                 if v.is_nan() {
-                    return if T::TYPE == SampleType::F32 {
-                        T::from_f32(f32::NAN)
+                    return if float {
+                        T::from_f64(f64::NAN)
                     } else {
                         T::from_f32(a as f32)
                     };
                 }
                 let m = (a + (v - lo) * (b - a) / (hi - lo)).clamp(a, b);
-                if T::TYPE == SampleType::F32 {
-                    T::from_f32(m as f32)
+                if float {
+                    T::from_f64(m)
                 } else {
                     // Round half away from zero in f64, then the value is an
                     // integer well inside f32's exact range.
@@ -319,6 +330,11 @@ impl<T: Sample> Mapper<T> {
             (SliceData::F32(s), _) => {
                 for (o, i) in out.iter_mut().zip(idx) {
                     *o = self.map.apply(s[i] as f64);
+                }
+            }
+            (SliceData::F64(s), _) => {
+                for (o, i) in out.iter_mut().zip(idx) {
+                    *o = self.map.apply(s[i]);
                 }
             }
             // Wide types, through f64.
@@ -524,8 +540,19 @@ mod tests {
         assert_eq!(fit_type(SliceType::U32, Some((0.0, 60000.0))), Some(U16));
         assert_eq!(fit_type(SliceType::I32, Some((0.0, 1e6))), Some(F32));
         assert_eq!(fit_type(SliceType::I32, Some((0.0, 3e7))), None);
-        assert_eq!(fit_type(SliceType::F64, Some((-0.5, 2.0))), Some(F32));
-        assert_eq!(fit_type(SliceType::F64, Some((0.0, 1e300))), None);
+        assert_eq!(fit_type(SliceType::F64, Some((-0.5, 2.0))), Some(F64));
+        assert_eq!(fit_type(SliceType::F64, Some((0.0, 1e300))), Some(F64));
+        let mut h = Histogram::new(SliceType::F64);
+        h.add(&SliceData::F64(vec![0.1, -2.0]));
+        assert!(h.f32_error() > 0.0);
+        assert!(by_value(SliceType::F64, F32) && !by_value(SliceType::F64, F64));
+        assert_eq!(
+            ValueMap::plan(SliceType::F64, F32, None, Some(&h)).unwrap(),
+            ValueMap::Exact
+        );
+        assert!(ValueMap::plan(SliceType::F64, U8, None, Some(&h)).is_err());
+        assert_eq!(ValueMap::Exact.apply::<f64>(0.1), 0.1);
+        assert_eq!(ValueMap::Exact.apply::<f32>(0.1), 0.1f32);
         assert_eq!(fit_type(SliceType::I8, None), Some(I16));
         let mut h = Histogram::new(SliceType::I32);
         h.add(&SliceData::I32(vec![-1024, 0, 3071]));

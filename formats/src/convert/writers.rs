@@ -258,6 +258,13 @@ impl Target {
         }
     }
 
+    /// Whether the output holds `f64` samples: every file format volkit
+    /// writes `f64` to does; an in-memory volume is read by the renderer,
+    /// which takes `f64` as `f32` (see [`volcore::Narrowing`]).
+    pub fn holds_f64(&self) -> bool {
+        !matches!(self, Target::Memory(_))
+    }
+
     /// Check what can be checked before any work: a directory target
     /// must not exist or be empty.
     pub fn preflight(&self) -> CResult<()> {
@@ -823,6 +830,7 @@ fn vvol_meta<T: Sample>(
         layout,
         compression,
         geometry: spec.geometry,
+        narrowed: None,
     })
 }
 

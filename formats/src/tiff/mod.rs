@@ -120,6 +120,7 @@ pub fn write_page<T: Sample, W: Write + Seek, K: TiffKind>(
         SampleType::U16 => page!(colortype::Gray16, u16),
         SampleType::I16 => page!(colortype::GrayI16, i16),
         SampleType::F32 => page!(colortype::Gray32Float, f32),
+        SampleType::F64 => page!(colortype::Gray64Float, f64),
     }
 }
 

@@ -8,7 +8,8 @@ mod slices;
 mod write;
 
 pub use read::{
-    from_bytes, open, parallel_crc, read_header, read_header_from, read_stream, OpenOptions,
+    from_bytes, open, open_stored, parallel_crc, read_header, read_header_from, read_stream,
+    OpenOptions, Stored,
 };
 pub use slices::{vvol_stream, VolumeReader};
 pub use write::{write, VvolWriter, WriteStats};
@@ -286,6 +287,7 @@ impl Header {
             layout,
             compression,
             geometry,
+            narrowed: None,
         };
         let h = Header {
             meta,

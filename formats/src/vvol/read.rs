@@ -9,10 +9,11 @@ use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 use std::sync::Arc;
 use volcore::grid::BrickEntry;
-use volcore::volume::{IntoVolumeData, TypedGrid};
+use volcore::volume::{OpenSample, TypedGrid};
+use volcore::VolumeData;
 use volcore::{
-    BrickGeometry, BrickedGrid, CompressedGrid, Compression, Data, Dims, Layout, Sample,
-    SampleType, SlicedGrid, Volume,
+    BrickGeometry, BrickedGrid, CompressedGrid, Compression, Data, Layout, Sample, SampleType,
+    SlicedGrid, Volume,
 };
 
 /// How to open a `.vvol` file.
@@ -79,9 +80,28 @@ fn check_len(h: &Header, len: u64) -> Result<()> {
     Ok(())
 }
 
+/// A `.vvol` file's samples as stored: a volume of a type the renderer
+/// reads, or `f64` samples kept as they are (what conversions read).
+pub enum Stored {
+    /// A volume of a type the renderer reads.
+    Volume(Volume),
+    /// `f64` samples and their description.
+    F64(volcore::VolumeMeta, TypedGrid<f64>),
+}
+
 /// Open a `.vvol` file: uncompressed layouts are memory-mapped and sampled
-/// in place, compressed bricks are decoded on demand.
+/// in place, compressed bricks are decoded on demand. `f64` samples open
+/// as `f32`, converted once (see [`OpenSample`]); [`open_stored`] keeps
+/// them.
 pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
+    match open_stored(path, opts)? {
+        Stored::Volume(v) => Ok(v),
+        Stored::F64(meta, grid) => Ok(f64::open_grid(meta, grid)?),
+    }
+}
+
+/// [`open`], keeping `f64` samples as they are.
+pub fn open_stored(path: &Path, opts: OpenOptions) -> Result<Stored> {
     // One open file for the header, the trailer and the map: a file
     // replaced (renamed over) meanwhile is never read half old, half new.
     let mut file = File::open(path)?;
@@ -116,13 +136,15 @@ pub fn open(path: &Path, opts: OpenOptions) -> Result<Volume> {
             table
         }
     };
-    let data = match meta.sample_type {
-        SampleType::U8 => build::<u8>(&h, &t, source, table, opts)?,
-        SampleType::U16 => build::<u16>(&h, &t, source, table, opts)?,
-        SampleType::I16 => build::<i16>(&h, &t, source, table, opts)?,
-        SampleType::F32 => build::<f32>(&h, &t, source, table, opts)?,
-    };
-    Ok(Volume { meta, data })
+    let args = (&h, &t, source, table, opts);
+    let as_is = |data| Ok(Stored::Volume(Volume { meta, data }));
+    match meta.sample_type {
+        SampleType::U8 => as_is(VolumeData::U8(grid::<u8>(args)?)),
+        SampleType::U16 => as_is(VolumeData::U16(grid::<u16>(args)?)),
+        SampleType::I16 => as_is(VolumeData::I16(grid::<i16>(args)?)),
+        SampleType::F32 => as_is(VolumeData::F32(grid::<f32>(args)?)),
+        SampleType::F64 => Ok(Stored::F64(meta, grid::<f64>(args)?)),
+    }
 }
 
 /// The brick table's bytes in `map`: `brick_count` entries right after
@@ -254,13 +276,18 @@ impl MapSource {
     }
 }
 
-fn build<T: IntoVolumeData>(
-    h: &Header,
-    t: &Trailer,
-    source: MapSource,
-    table: Vec<BrickEntry>,
-    opts: OpenOptions,
-) -> Result<volcore::VolumeData> {
+/// What [`grid`] reads: the checked header and trailer, the map and the
+/// brick table.
+type GridArgs<'a> = (
+    &'a Header,
+    &'a Trailer,
+    MapSource,
+    Vec<BrickEntry>,
+    OpenOptions,
+);
+
+/// The grid of samples a checked header and map describe.
+fn grid<T: Sample>((h, t, source, table, opts): GridArgs<'_>) -> Result<TypedGrid<T>> {
     let map = &source.map;
     let meta = &h.meta;
     let size = std::mem::size_of::<T>() as u64;
@@ -309,7 +336,7 @@ fn build<T: IntoVolumeData>(
             }
         },
     };
-    Ok(T::into_data(grid))
+    Ok(grid)
 }
 
 fn verify_bricks(map: &[u8], table: &[BrickEntry]) -> Result<()> {
@@ -375,24 +402,23 @@ pub fn read_stream(r: &mut dyn Read) -> Result<Volume> {
     }
     let mut meta = h.meta;
     meta.range = t.range;
-    let data = match meta.sample_type {
-        SampleType::U8 => from_bytes::<u8>(meta.dims, bytes)?,
-        SampleType::U16 => from_bytes::<u16>(meta.dims, bytes)?,
-        SampleType::I16 => from_bytes::<i16>(meta.dims, bytes)?,
-        SampleType::F32 => from_bytes::<f32>(meta.dims, bytes)?,
-    };
-    Ok(Volume { meta, data })
+    match meta.sample_type {
+        SampleType::U8 => from_bytes::<u8>(meta, bytes),
+        SampleType::U16 => from_bytes::<u16>(meta, bytes),
+        SampleType::I16 => from_bytes::<i16>(meta, bytes),
+        SampleType::F32 => from_bytes::<f32>(meta, bytes),
+        SampleType::F64 => from_bytes::<f64>(meta, bytes),
+    }
 }
 
-/// Samples from little-endian bytes into an owned sliced grid.
-pub fn from_bytes<T: IntoVolumeData>(dims: Dims, bytes: Vec<u8>) -> Result<volcore::VolumeData> {
+/// The volume `meta` describes from its samples as little-endian bytes,
+/// in an owned sliced grid (`f64` samples open as `f32`).
+pub fn from_bytes<T: OpenSample>(meta: volcore::VolumeMeta, bytes: Vec<u8>) -> Result<Volume> {
     let mut v: Vec<T> = match bytemuck::try_cast_vec(bytes) {
         Ok(v) => v,
         Err((_, bytes)) => bytemuck::pod_collect_to_vec(&bytes),
     };
     T::slice_from_le(&mut v);
-    Ok(T::into_data(TypedGrid::Sliced(SlicedGrid::new(
-        dims,
-        Data::Owned(v),
-    )?)))
+    let grid = TypedGrid::Sliced(SlicedGrid::new(meta.dims, Data::Owned(v))?);
+    Ok(T::open_grid(meta, grid)?)
 }

@@ -1,6 +1,7 @@
 //! `.vvol` inputs read slice by slice: open files (any layout) and
 //! streams (sliced, from a pipe).
 
+use super::read::Stored;
 use crate::convert::input::{Access, InputInfo, SliceReader};
 use crate::convert::At;
 use crate::convert::{CResult, ConvertError, SliceData};
@@ -8,6 +9,7 @@ use crate::error::Error;
 use crate::stream::{Counted, SampleLayout, StreamEnd, StreamReader};
 use std::io::Read;
 use std::path::{Path, PathBuf};
+use volcore::volume::TypedGrid;
 use volcore::{SampleType, Volume, VolumeVisitor, VoxelSource};
 
 /// Open a `.vvol` stream (as written by `vol-gen -o -`): the header is read
@@ -42,22 +44,31 @@ pub fn vvol_stream(path: &Path, reader: Box<dyn Read + Send>) -> CResult<StreamR
 pub struct VolumeReader {
     info: InputInfo,
     path: PathBuf,
-    volume: Volume,
+    volume: Stored,
     bytes: u64,
 }
 
 impl VolumeReader {
     /// Wrap an open volume read from `path`.
     pub fn new(path: &Path, volume: Volume, format: &str) -> VolumeReader {
+        VolumeReader::of_stored(path, Stored::Volume(volume), format)
+    }
+
+    /// Wrap an open `.vvol` file's samples as stored (`f64` kept).
+    pub fn of_stored(path: &Path, volume: Stored, format: &str) -> VolumeReader {
         let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+        let meta = match &volume {
+            Stored::Volume(v) => v.meta,
+            Stored::F64(meta, _) => *meta,
+        };
         VolumeReader {
             info: InputInfo {
                 nifti_codes: None,
                 path: path.to_path_buf(),
-                dims: volume.meta.dims,
-                sample_type: volume.meta.sample_type.into(),
-                spacing: Some(volume.meta.spacing),
-                geometry: volume.meta.geometry,
+                dims: meta.dims,
+                sample_type: meta.sample_type.into(),
+                spacing: Some(meta.spacing),
+                geometry: meta.geometry,
                 format: format.to_string(),
             },
             path: path.to_path_buf(),
@@ -88,6 +99,7 @@ fn to_slice_data<T: volcore::Sample>(v: Vec<T>) -> SliceData {
         SampleType::U16 => SliceData::U16(cast_vec_or_copy(v)),
         SampleType::I16 => SliceData::I16(cast_vec_or_copy(v)),
         SampleType::F32 => SliceData::F32(cast_vec_or_copy(v)),
+        SampleType::F64 => SliceData::F64(cast_vec_or_copy(v)),
     }
 }
 
@@ -107,8 +119,13 @@ impl SliceReader for VolumeReader {
         Access::Random
     }
     fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        let s = self.volume.visit(ReadSlice(z));
-        if let Some(e) = self.volume.error() {
+        let (s, e) = match &self.volume {
+            Stored::Volume(v) => (v.visit(ReadSlice(z)), v.error()),
+            Stored::F64(_, TypedGrid::Sliced(g)) => (ReadSlice(z).visit(g), g.error()),
+            Stored::F64(_, TypedGrid::Bricked(g)) => (ReadSlice(z).visit(g), g.error()),
+            Stored::F64(_, TypedGrid::Compressed(g)) => (ReadSlice(z).visit(g), g.error()),
+        };
+        if let Some(e) = e {
             return Err(ConvertError::new(&self.path, Error::invalid(e)));
         }
         Ok(s)

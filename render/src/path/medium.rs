@@ -63,13 +63,13 @@ pub struct DensityMedium {
 
 /// What a sample value counts as in `--density-scale` mode: value / 255
 /// for u8, / 65535 for u16, / 32767 for i16 (negative values count as 0),
-/// and the value itself for f32 (negative values count as 0).
+/// and the value itself for floats (negative values count as 0).
 pub fn density_norm(t: SampleType) -> f32 {
     match t {
         SampleType::U8 => 1.0 / 255.0,
         SampleType::U16 => 1.0 / 65535.0,
         SampleType::I16 => 1.0 / 32767.0,
-        SampleType::F32 => 1.0,
+        SampleType::F32 | SampleType::F64 => 1.0,
     }
 }
 

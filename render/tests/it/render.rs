@@ -11,7 +11,7 @@ use volindex::{BuildOptions, MinMaxIndex};
 use volrender::tf::{TfPoint, TransferFunction};
 use volrender::{render, Camera, Frame, GradientMethod, Interp, Mode, Projection, RenderSettings};
 
-fn volume<T: Sample + volcore::volume::IntoVolumeData>(scene: &dyn Scene) -> Volume {
+fn volume<T: Sample + volcore::volume::OpenSample>(scene: &dyn Scene) -> Volume {
     Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<T>::new(scene))).unwrap()
 }
 

@@ -11,7 +11,7 @@ use volrender::tf::parse::parse_any;
 use volrender::tf::{Tf, TransferFunction, TransferFunction2d};
 use volrender::{render_tf, Camera, Frame, GradientMethod, Interp, Projection, RenderSettings};
 
-fn volume<T: Sample + volcore::volume::IntoVolumeData>(scene: &dyn Scene) -> Volume {
+fn volume<T: Sample + volcore::volume::OpenSample>(scene: &dyn Scene) -> Volume {
     Volume::from_samples(scene.dims(), pack_sliced(&SceneSource::<T>::new(scene))).unwrap()
 }
 
