@@ -31,6 +31,7 @@ pub mod output;
 pub mod pipeline;
 pub mod raw;
 pub mod select;
+pub mod stacks;
 pub mod stream;
 pub mod thesis;
 pub mod tiff;

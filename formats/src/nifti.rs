@@ -499,6 +499,12 @@ fn read_head(path: &Path) -> Result<Vec<u8>> {
     Ok(b)
 }
 
+/// The header of the NIfTI input `path` names (either file of a pair).
+pub fn read_header(path: &Path) -> Result<NiftiHeader> {
+    let (hdr, _) = pair_paths(path);
+    NiftiHeader::decode(&read_head(&hdr)?)
+}
+
 /// Read a NIfTI header and locate its samples (volume `time` of a 4D
 /// series; required when there are several).
 pub fn open(path: &Path, time: Option<u64>) -> Result<DataSpec> {

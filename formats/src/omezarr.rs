@@ -367,6 +367,72 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
     })
 }
 
+/// The channels and time points of the OME-Zarr image at `root`: the
+/// lengths of its `c` and `t` axes (1 without them), and the time step,
+/// the `t` axis's scale in its unit, when it states either (see
+/// [`crate::stacks`]). Reads the metadata only.
+pub fn stacks(root: &Path) -> CResult<crate::stacks::Stacks> {
+    use crate::stacks::{step, Stacks, TimeUnit};
+    let bad = |m: &str| ConvertError::new(root, Error::invalid(m));
+    let (attrs, _) =
+        ome_attributes(root).ok_or_else(|| bad("no Zarr group metadata (zarr.json or .zattrs)"))?;
+    let ms = attrs
+        .get("multiscales")
+        .and_then(|m| m.as_array())
+        .and_then(|m| m.first())
+        .ok_or_else(|| bad("Zarr group without OME multiscales"))?;
+    // Each axis's name and unit.
+    let axes: Vec<(String, Option<&str>)> = match ms.get("axes").and_then(|a| a.as_array()) {
+        Some(a) => a
+            .iter()
+            .map(|x| {
+                let name = x.get("name").and_then(|n| n.as_str()).or(x.as_str());
+                let unit = x.get("unit").and_then(|u| u.as_str());
+                (name.unwrap_or("").to_ascii_lowercase(), unit)
+            })
+            .collect(),
+        None => ["t", "c", "z", "y", "x"]
+            .map(|a| (a.to_string(), None))
+            .to_vec(),
+    };
+    let ds = ms
+        .get("datasets")
+        .and_then(|d| d.as_array())
+        .and_then(|d| d.first())
+        .ok_or_else(|| bad("OME multiscales without datasets"))?;
+    let ds_path = ds.get("path").and_then(|p| p.as_str()).unwrap_or("0");
+    let n = axes.len();
+    let (scale, _) = transforms(ds.get("coordinateTransformations"), n);
+    let (s2, _) = transforms(ms.get("coordinateTransformations"), n);
+    let store = Arc::new(FilesystemStore::new(root).map_err(zerr).at(root)?);
+    let array = Array::open(store, &format!("/{ds_path}"))
+        .map_err(zerr)
+        .at(root)?;
+    let shape = array.shape();
+    if shape.len() != n {
+        return Err(bad(&format!(
+            "array has {} dimensions but the axes are {:?}",
+            shape.len(),
+            axes.iter().map(|a| &a.0).collect::<Vec<_>>()
+        )));
+    }
+    let find = |name: &str| axes.iter().position(|a| a.0 == name);
+    let mut s = Stacks {
+        channels: find("c").map_or(1, |a| shape[a]),
+        time_points: find("t").map_or(1, |a| shape[a]),
+        ..Stacks::default()
+    };
+    if let Some(t) = find("t").filter(|_| s.time_points > 1) {
+        let unit = axes[t].1.and_then(TimeUnit::parse);
+        let v = scale[t] * s2[t];
+        if unit.is_some() || v != 1.0 {
+            s.time_step = step(v);
+            s.time_unit = unit.filter(|_| s.time_step.is_some());
+        }
+    }
+    Ok(s)
+}
+
 fn dir_size(root: &Path) -> u64 {
     let mut total = 0;
     let mut todo = vec![root.to_path_buf()];

@@ -421,13 +421,17 @@ fn tiff_values(nx: i64, ny: i64, nz: i64, c: i64, t: i64, f: impl Fn(i64) -> i64
 #[test]
 fn tifffile_ome_hyperstacks_and_zstd_int32() {
     // OME-TIFF: physical sizes, and one channel of ZCYX.
+    // vol-info describes its first channel; vol-convert needs a pick.
     let p = fixture("tifffile_ome.ome.tif");
-    let e = fails(tool("vol-info").arg(&p), "--channel");
+    let j = info(&p, &[]);
+    assert_eq!(j["channels"], 2, "{j}");
+    assert_eq!(j["channel"], 0, "{j}");
+    let d = tempfile::tempdir().unwrap();
+    let o = d.path().join("ome.nrrd");
+    let e = fails(tool("vol-convert").arg(&p).arg("-o").arg(&o), "--channel");
     assert!(e.contains("ZCYX"), "{e}");
     let v = samples(&p, &["--channel", "1"]);
     assert_eq!(v, tiff_values(6, 8, 5, 1, 0, |v| v));
-    let d = tempfile::tempdir().unwrap();
-    let o = d.path().join("ome.nrrd");
     ok(tool("vol-convert")
         .arg(&p)
         .args(["--channel", "1", "-q", "-o"])

@@ -7,6 +7,7 @@
 //! them through `CARGO_MANIFEST_DIR`.
 
 mod accuracy;
+mod channels;
 mod common;
 mod convert;
 mod docs;

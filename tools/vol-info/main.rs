@@ -9,6 +9,8 @@ use std::time::Instant;
 use volcore::{Dims, Layout, SampleType, Volume};
 use volformats::dicom::{Scan, SeriesInfo};
 use volformats::open::{input_kind, InputKind};
+use volformats::stacks::Stacks;
+use volformats::tiff::ChannelSel;
 use volformats::vvol;
 use volkit_cli::json;
 use volkit_cli::{noteln, outln, Selection};
@@ -22,6 +24,12 @@ use volkit_cli::{noteln, outln, Selection};
 /// Prints dimensions, sample type, spacing, layout, value range, and the
 /// geometry: the origin (world position of voxel 0,0,0), the direction of
 /// each index axis in LPS patient coordinates, and its orientation code.
+///
+/// An input with several channels or time points (colour TIFF, ImageJ
+/// hyperstack, OME-TIFF, OME-Zarr, 4D NIfTI) is described without a
+/// selection too: its first channel at its first time point, with the
+/// number of channels and time points, the time step where the file
+/// states it, and the flags that pick another (--channel, --time-point).
 ///
 /// A DICOM input holding several series is listed instead (UID, number,
 /// description, modality, images, dimensions), one series a line; pick
@@ -50,6 +58,8 @@ const EXAMPLES: &str = "Examples:
   vol-info shapes.vvol
   vol-info --verify --json bricked.vvol
   vol-info brain.nii.gz
+  vol-info cells.ome.tif               # channels: 2, time points: 5; described: channel 0, time point 0
+  vol-info cells.ome.tif --channel 1 --time-point 4
   vol-info ct-series/                  # one series: described; several: listed
   vol-info ct-series/ --series 3       # by SeriesNumber, or a unique UID prefix
   vol-info --json 'ct/*.dcm'
@@ -77,6 +87,20 @@ fn info(cli: &Cli) -> Result<()> {
     } else {
         Some(input_kind(&cli.input, &opts)?)
     };
+    // The channels and time points of the file, whatever is selected.
+    // Without a selection the first channel and time point are described.
+    let stacks = match kind {
+        None | Some(InputKind::DicomDir | InputKind::Dicom) => Ok(Stacks::default()),
+        Some(_) => volformats::stacks::stacks(&cli.input, &opts),
+    };
+    let sizes = stacks.as_ref().copied().unwrap_or_default();
+    let sel = &cli.input_sel;
+    if sizes.channels > 1 && sel.channel.is_none() {
+        opts.channel = ChannelSel::Channel(0);
+    }
+    if sizes.time_points > 1 && sel.time_point.is_none() {
+        opts.time = Some(0);
+    }
     let mut format = kind.map(|k| k.name().to_string());
     let mut notes = Vec::new();
     let vol = if matches!(kind, Some(InputKind::DicomDir | InputKind::Dicom)) {
@@ -110,19 +134,118 @@ fn info(cli: &Cli) -> Result<()> {
     if let Some(e) = vol.error() {
         anyhow::bail!("{name}: {e}");
     }
+    // The reader's error, when there is one, came first: it says more.
+    // Along an axis of one, any pick the reader let pass read the one.
+    let sizes = stacks?;
+    let described = Described {
+        sizes,
+        channel: sel
+            .channel
+            .map_or(0, u64::from)
+            .min(sizes.channels.saturating_sub(1)),
+        time_point: sel
+            .time_point
+            .unwrap_or(0)
+            .min(sizes.time_points.saturating_sub(1)),
+        channel_given: sel.channel.is_some(),
+        time_point_given: sel.time_point.is_some(),
+    };
     if !cli.quiet {
         for note in &notes {
             noteln!("vol-info: {note}");
         }
         let format = format.as_deref().unwrap_or("stream");
-        report(cli, &vol, format, file_bytes, start.elapsed().as_secs_f64())?;
+        report(
+            cli,
+            &vol,
+            &described,
+            format,
+            file_bytes,
+            start.elapsed().as_secs_f64(),
+        )?;
     }
     Ok(())
+}
+
+/// The channels and time points of the input and the one volume of them
+/// described.
+struct Described {
+    sizes: Stacks,
+    channel: u64,
+    time_point: u64,
+    channel_given: bool,
+    time_point_given: bool,
+}
+
+impl Described {
+    /// Whether the input holds more than one volume.
+    fn several(&self) -> bool {
+        self.sizes.channels > 1 || self.sizes.time_points > 1
+    }
+
+    /// The `channels`, `time_points`, `time_step`, `time_unit`, `channel`
+    /// and `time_point` keys: present for every input (1, 1, null, null,
+    /// 0, 0 for a single volume).
+    fn json(&self) -> serde_json::Value {
+        let s = &self.sizes;
+        json!({
+            "channels": s.channels,
+            "time_points": s.time_points,
+            "time_step": s.time_step,
+            "time_unit": s.time_unit.map(|u| u.ngff_name()),
+            "channel": self.channel,
+            "time_point": self.time_point,
+        })
+    }
+
+    /// The text lines (without indent): none for a single volume; else
+    /// the sizes, the time step, and which volume is described with the
+    /// flags that pick another.
+    fn lines(&self) -> Vec<String> {
+        let s = &self.sizes;
+        if !self.several() {
+            return Vec::new();
+        }
+        let step = match (s.time_step, s.time_unit) {
+            (Some(v), Some(u)) => format!(" (step {v} {})", u.symbol()),
+            (Some(v), None) => format!(" (step {v}, no unit stated)"),
+            _ => String::new(),
+        };
+        let mut which = Vec::new();
+        let mut flags = Vec::new();
+        if s.channels > 1 {
+            which.push(format!("channel {}", self.channel));
+            if !self.channel_given {
+                flags.push("--channel C");
+            }
+        }
+        if s.time_points > 1 {
+            which.push(format!("time point {}", self.time_point));
+            if !self.time_point_given {
+                flags.push("--time-point T");
+            }
+        }
+        let mut described = format!("described: {}", which.join(", "));
+        if !flags.is_empty() {
+            described.push_str(&format!("; pick another with {}", flags.join(", ")));
+        }
+        vec![
+            format!("channels: {}", s.channels),
+            format!("time points: {}{step}", s.time_points),
+            described,
+        ]
+    }
+
+    /// Volumes the file holds (C x T), saturating.
+    fn volumes(&self) -> u64 {
+        self.sizes.channels.saturating_mul(self.sizes.time_points)
+    }
 }
 
 fn report(
     cli: &Cli,
     vol: &Volume,
+    described: &Described,
     format: &str,
     file_bytes: Option<u64>,
     seconds: f64,
@@ -139,6 +262,7 @@ fn report(
             "format": format,
         });
         json::merge(&mut v, json::volume(m));
+        json::merge(&mut v, described.json());
         json::merge(
             &mut v,
             json!({
@@ -152,8 +276,14 @@ fn report(
         return outln!("{v}");
     }
     outln!("{}: {} ({format})", cli.input.display(), m)?;
+    for line in described.lines() {
+        outln!("  {line}")?;
+    }
     if let Some(b) = file_bytes {
-        match sample_bytes(m.dims, m.sample_type) {
+        // The samples of every channel and time point the file holds.
+        let all =
+            sample_bytes(m.dims, m.sample_type).and_then(|n| n.checked_mul(described.volumes()));
+        match all {
             Some(samples) => outln!(
                 "  {b} bytes on disk, {samples} bytes of samples ({:.3}x)",
                 b as f64 / samples.max(1) as f64

@@ -4,6 +4,7 @@
 //! `DimensionOrder` and `PhysicalSizeX/Y/Z`). A file with several channels
 //! or time points holds many 3D stacks; [`Axes::pages`] picks one.
 
+use crate::stacks::TimeUnit;
 use volcore::LengthUnit;
 
 /// The non-spatial layout of a file's pages.
@@ -264,6 +265,39 @@ impl Axes {
     }
 }
 
+/// The time between time points an image description states, and its
+/// unit: ImageJ's `finterval=` and `tunit=` (seconds when absent, as
+/// ImageJ has it), or OME's `TimeIncrement` and `TimeIncrementUnit`
+/// (seconds when absent, as the OME schema says). The unit is `None` when
+/// the file names one volkit does not know.
+pub fn time_step(desc: &str) -> (Option<f64>, Option<TimeUnit>) {
+    let (v, unit) = if desc.starts_with("ImageJ") {
+        let text = |key: &str| {
+            desc.lines()
+                .find_map(|l| l.trim().strip_prefix(key)?.strip_prefix('='))
+                .map(str::trim)
+        };
+        (text("finterval"), text("tunit"))
+    } else {
+        let Some(start) = desc.find("<Pixels").or_else(|| desc.find(":Pixels")) else {
+            return (None, None);
+        };
+        let Some(end) = desc[start..].find('>') else {
+            return (None, None);
+        };
+        let tag = &desc[start..start + end];
+        (attr(tag, "TimeIncrement"), attr(tag, "TimeIncrementUnit"))
+    };
+    let Some(step) = v.and_then(|v| v.parse().ok()).and_then(crate::stacks::step) else {
+        return (None, None);
+    };
+    let unit = match unit {
+        None => Some(TimeUnit::Second),
+        Some(u) => TimeUnit::parse(&xml_unescape(u)),
+    };
+    (Some(step), unit)
+}
+
 /// The most image planes (pages) a hyperstack's axes may describe: far
 /// more than any TIFF holds, small enough that every index product fits.
 const MAX_PLANES: u64 = 1 << 40;
@@ -297,6 +331,34 @@ mod tests {
         assert!(Axes::parse(&ij("channels=4294967296\nframes=4294967296\n")).is_none());
         assert!(Axes::parse(&ij("channels=4\nslices=4611686018427387904\n")).is_none());
         assert!(Axes::parse(&ij("channels=2\nslices=3\n")).is_some());
+    }
+
+    #[test]
+    fn time_steps_of_imagej_and_ome_descriptions() {
+        let ij = "ImageJ=1.11a\nimages=6\nframes=3\nchannels=2\nfinterval=0.5\n";
+        assert_eq!(time_step(ij), (Some(0.5), Some(TimeUnit::Second)));
+        let ij = "ImageJ=1.11a\nframes=3\nfinterval=2\ntunit=min\n";
+        assert_eq!(time_step(ij), (Some(2.0), Some(TimeUnit::Minute)));
+        assert_eq!(time_step("ImageJ=1.11a\nframes=3\n"), (None, None));
+        let ome = |extra: &str| {
+            format!(
+                r#"<OME><Image><Pixels DimensionOrder="XYZCT" SizeZ="2" SizeT="4"{extra}/></Image></OME>"#
+            )
+        };
+        assert_eq!(
+            time_step(&ome(r#" TimeIncrement="2.5""#)),
+            (Some(2.5), Some(TimeUnit::Second))
+        );
+        assert_eq!(
+            time_step(&ome(r#" TimeIncrement="40" TimeIncrementUnit="ms""#)),
+            (Some(40.0), Some(TimeUnit::Millisecond))
+        );
+        assert_eq!(
+            time_step(&ome(r#" TimeIncrement="40" TimeIncrementUnit="&#181;s""#)),
+            (Some(40.0), Some(TimeUnit::Microsecond))
+        );
+        assert_eq!(time_step(&ome(r#" TimeIncrement="0""#)), (None, None));
+        assert_eq!(time_step(&ome("")), (None, None));
     }
 
     #[test]

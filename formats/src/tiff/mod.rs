@@ -29,7 +29,7 @@ pub mod axes;
 mod read;
 mod stack;
 
-pub use read::{imagej_raw, open_files, ImageJRaw, PageInfo, TiffStackReader};
+pub use read::{imagej_raw, open_files, stacks, ImageJRaw, PageInfo, TiffStackReader};
 pub use stack::{glob_match, list_dir, list_file, list_glob, natural_cmp};
 
 use ::tiff::encoder::colortype;

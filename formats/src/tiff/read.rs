@@ -5,6 +5,7 @@ use super::ChannelSel;
 use crate::convert::input::{Access, InputInfo, SliceReader};
 use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::Error;
+use crate::stacks::Stacks;
 use ::tiff::decoder::{Decoder, DecodingResult, Limits};
 use ::tiff::tags::Tag;
 use ::tiff::TiffError;
@@ -693,6 +694,68 @@ pub fn open_files(
         chan,
         pages,
         bytes_in: std::sync::atomic::AtomicU64::new(bytes_in),
+    })
+}
+
+/// The channels and time points of a stack of files (see
+/// [`crate::stacks`]): those of a multipage file's hyperstack or OME-TIFF
+/// axes, as [`open_files`] finds them, else the samples per pixel of the
+/// first page (colour).
+pub fn stacks(input: &Path, files: &[PathBuf]) -> CResult<Stacks> {
+    let first = files
+        .first()
+        .ok_or_else(|| ConvertError::new(input, Error::invalid("no slices")))?;
+    let mut d = open_file(first, None)?;
+    // The first two full-resolution pages: a file's axes count only when
+    // it has more than one.
+    let mut full = Vec::new();
+    let mut idx = 0usize;
+    loop {
+        if !is_thumbnail(&mut d) {
+            full.push(idx);
+        }
+        if files.len() > 1 || full.len() > 1 || !d.more_images() {
+            break;
+        }
+        d.next_image().map_err(tiff_err).at(first)?;
+        idx += 1;
+    }
+    let Some(&page0) = full.first() else {
+        return Err(ConvertError::new(
+            first,
+            Error::invalid("file holds only reduced-resolution images"),
+        ));
+    };
+    d.seek_to_image(page0).map_err(tiff_err).at(first)?;
+    let page = page_info(&mut d).at(first)?;
+    let colour = Stacks {
+        channels: page.channels as u64,
+        ..Stacks::default()
+    };
+    if files.len() > 1 || full.len() < 2 {
+        return Ok(colour);
+    }
+    let desc = d
+        .find_tag(Tag::ImageDescription)
+        .ok()
+        .flatten()
+        .and_then(|v| v.into_string().ok());
+    let Some(desc) = desc else {
+        return Ok(colour);
+    };
+    let Some(a) = super::axes::Axes::parse(&desc) else {
+        return Ok(colour);
+    };
+    let (time_step, time_unit) = if a.t > 1 {
+        super::axes::time_step(&desc)
+    } else {
+        (None, None)
+    };
+    Ok(Stacks {
+        channels: if a.c > 1 { a.c } else { colour.channels },
+        time_points: a.t,
+        time_step,
+        time_unit,
     })
 }
 

@@ -1,0 +1,178 @@
+//! How many 3D volumes an input holds along its non-spatial axes: its
+//! channels (colour TIFF samples, the C axis of an ImageJ hyperstack,
+//! OME-TIFF or OME-Zarr) and time points (the T axis of those, the 4th
+//! dimension of NIfTI), with the time step where the file states one.
+//! Read from the headers alone, whatever `--channel` and `--time-point`
+//! pick: what `vol-info` reports beside the one volume it describes.
+
+use crate::convert::{At, CResult};
+use crate::open::{input_kind, InputKind, ReadOptions};
+use std::path::Path;
+
+/// The sizes of an input's channel and time axes (1 where it has none).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stacks {
+    /// Channels.
+    pub channels: u64,
+    /// Time points.
+    pub time_points: u64,
+    /// Time between two time points, in `time_unit`, when the file states
+    /// it (and has more than one time point).
+    pub time_step: Option<f64>,
+    /// The unit of `time_step`; `None` when the file states none (or one
+    /// volkit does not know).
+    pub time_unit: Option<TimeUnit>,
+}
+
+impl Default for Stacks {
+    fn default() -> Self {
+        Stacks {
+            channels: 1,
+            time_points: 1,
+            time_step: None,
+            time_unit: None,
+        }
+    }
+}
+
+/// A unit of time, as microscopy and imaging files state them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeUnit {
+    Day,
+    Hour,
+    Minute,
+    Second,
+    Millisecond,
+    Microsecond,
+    Nanosecond,
+}
+
+impl TimeUnit {
+    /// A unit from its symbol or name in any of the spellings files use:
+    /// OME's `s`, `ms`, `µs`; ImageJ's `sec`, `min`; NGFF's (UDUNITS)
+    /// `second`, `millisecond`; plurals; any case.
+    pub fn parse(s: &str) -> Option<TimeUnit> {
+        let s = s.trim().to_ascii_lowercase();
+        let one = |s: &str| {
+            Some(match s {
+                "d" | "day" => TimeUnit::Day,
+                "h" | "hr" | "hour" => TimeUnit::Hour,
+                "min" | "minute" => TimeUnit::Minute,
+                "s" | "sec" | "second" => TimeUnit::Second,
+                "ms" | "msec" | "millisecond" => TimeUnit::Millisecond,
+                "\u{00B5}s" | "\u{03BC}s" | "us" | "usec" | "microsecond" => TimeUnit::Microsecond,
+                "ns" | "nsec" | "nanosecond" => TimeUnit::Nanosecond,
+                _ => return None,
+            })
+        };
+        one(&s).or_else(|| one(s.strip_suffix('s')?))
+    }
+
+    /// The NGFF (UDUNITS) name, as `--json` gives it (`second`, ...).
+    pub fn ngff_name(self) -> &'static str {
+        match self {
+            TimeUnit::Day => "day",
+            TimeUnit::Hour => "hour",
+            TimeUnit::Minute => "minute",
+            TimeUnit::Second => "second",
+            TimeUnit::Millisecond => "millisecond",
+            TimeUnit::Microsecond => "microsecond",
+            TimeUnit::Nanosecond => "nanosecond",
+        }
+    }
+
+    /// The symbol, as text reports give it (`s`, `ms`, `µs`, ...).
+    pub fn symbol(self) -> &'static str {
+        match self {
+            TimeUnit::Day => "d",
+            TimeUnit::Hour => "h",
+            TimeUnit::Minute => "min",
+            TimeUnit::Second => "s",
+            TimeUnit::Millisecond => "ms",
+            TimeUnit::Microsecond => "\u{00B5}s",
+            TimeUnit::Nanosecond => "ns",
+        }
+    }
+}
+
+/// A time step: positive and finite, else none.
+pub(crate) fn step(v: f64) -> Option<f64> {
+    (v.is_finite() && v > 0.0).then_some(v)
+}
+
+/// The channels and time points of the input `path` names (see
+/// [`input_kind`]); 1 and 1 for formats without such axes (NRRD,
+/// MetaImage, DICOM, raw, `.vvol`, `.vol`, standard input). An error only
+/// where the input's header cannot be read.
+pub fn stacks(path: &Path, opts: &ReadOptions) -> CResult<Stacks> {
+    let kind = input_kind(path, opts)?;
+    match kind {
+        // An ImageJ stack of one directory is read as raw images: z only.
+        InputKind::Tiff if crate::tiff::imagej_raw(path)?.is_some() => Ok(Stacks::default()),
+        InputKind::Tiff => crate::tiff::stacks(path, &[path.to_path_buf()]),
+        InputKind::TiffDir | InputKind::TiffGlob | InputKind::TiffList => {
+            let files = match kind {
+                InputKind::TiffDir => crate::tiff::list_dir(path)?,
+                InputKind::TiffGlob => crate::tiff::list_glob(path)?,
+                _ => crate::tiff::list_file(path)?,
+            };
+            crate::tiff::stacks(path, &files)
+        }
+        InputKind::OmeZarr => crate::omezarr::stacks(path),
+        InputKind::Nifti => {
+            let h = crate::nifti::read_header(path).at(path)?;
+            let (_, volumes) = h.shape().at(path)?;
+            if volumes < 2 {
+                return Ok(Stacks::default());
+            }
+            // xyzt_units bits 3-5: 8 s, 16 ms, 24 µs (32 and up are Hz,
+            // ppm, rad/s: not times).
+            let time_unit = match h.xyzt_units & 0x38 {
+                8 => Some(TimeUnit::Second),
+                16 => Some(TimeUnit::Millisecond),
+                24 => Some(TimeUnit::Microsecond),
+                _ => None,
+            };
+            Ok(Stacks {
+                time_points: volumes,
+                time_step: step(h.pixdim[4]),
+                time_unit,
+                ..Stacks::default()
+            })
+        }
+        _ => Ok(Stacks::default()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_units_in_every_spelling() {
+        for (s, u) in [
+            ("s", TimeUnit::Second),
+            ("sec", TimeUnit::Second),
+            ("Seconds", TimeUnit::Second),
+            ("second", TimeUnit::Second),
+            ("ms", TimeUnit::Millisecond),
+            ("millisecond", TimeUnit::Millisecond),
+            ("µs", TimeUnit::Microsecond),
+            ("min", TimeUnit::Minute),
+            ("mins", TimeUnit::Minute),
+            ("hr", TimeUnit::Hour),
+            ("hrs", TimeUnit::Hour),
+            ("days", TimeUnit::Day),
+            ("h", TimeUnit::Hour),
+            ("ns", TimeUnit::Nanosecond),
+        ] {
+            assert_eq!(TimeUnit::parse(s), Some(u), "{s}");
+            assert_eq!(TimeUnit::parse(u.ngff_name()), Some(u));
+            assert_eq!(TimeUnit::parse(u.symbol()), Some(u));
+        }
+        assert_eq!(TimeUnit::parse("furlong"), None);
+        assert_eq!(TimeUnit::parse("Hz"), None);
+        assert_eq!(step(0.0), None);
+        assert_eq!(step(f64::NAN), None);
+    }
+}
