@@ -216,11 +216,11 @@ impl SliceReader for StreamReader {
                 std::io::copy(&mut st.reader, &mut std::io::sink()).at(&self.path)?;
             }
             StreamEnd::VvolTrailer => {
-                let mut t = [0u8; crate::vvol::TRAILER_LEN as usize];
+                let mut t = [0u8; crate::vvol::trailer::TRAILER_LEN as usize];
                 read_full(&mut st.reader, &mut t).map_err(|_| {
                     self.err("input is truncated: the .vvol trailer is missing".into())
                 })?;
-                let t = crate::vvol::Trailer::decode(&t).at(&self.path)?;
+                let t = crate::vvol::trailer::Trailer::decode(&t).at(&self.path)?;
                 let crc = st.crc.clone().finalize();
                 if crc != t.crc32 {
                     return Err(ConvertError::new(
