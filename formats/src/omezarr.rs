@@ -14,9 +14,9 @@
 //! above (2×2×2 mean or max) while they pass, so memory stays at one
 //! chunk layer per level. Chunks are zstd-compressed.
 
-use crate::convert::input::{Access, InputInfo, SliceReader};
-use crate::convert::{At, CResult, ConvertError, SliceData, SliceSample, SliceType};
 use crate::error::Error;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
+use crate::slice::{SliceData, SliceSample, SliceType};
 use serde_json::{json, Value};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -387,7 +387,7 @@ fn dir_size(root: &Path) -> u64 {
     total
 }
 
-fn slice_type(name: &str) -> crate::Result<SliceType> {
+fn slice_type(name: &str) -> crate::error::Result<SliceType> {
     Ok(match name {
         "uint8" => SliceType::U8,
         "int8" => SliceType::I8,
@@ -416,7 +416,7 @@ pub const MAX_SLAB_BYTES: u64 = 1 << 30;
 
 /// Bytes of one chunk of `shape` with samples of `size` bytes: the
 /// checked product, refused past [`MAX_CHUNK_BYTES`].
-fn chunk_bytes(shape: &[std::num::NonZeroU64], size: usize) -> crate::Result<u64> {
+fn chunk_bytes(shape: &[std::num::NonZeroU64], size: usize) -> crate::error::Result<u64> {
     shape
         .iter()
         .try_fold(size as u64, |a, d| a.checked_mul(d.get()))
@@ -590,7 +590,10 @@ impl ZarrReader {
     /// The C-order block `ranges` (one range per array axis), assembled
     /// from chunks decoded one by one with [`ZarrReader::chunk`], a few at
     /// a time in parallel; missing chunks read as the fill value.
-    fn read_block<T: bytemuck::Pod + Send>(&self, ranges: &[Range<u64>]) -> crate::Result<Vec<T>> {
+    fn read_block<T: bytemuck::Pod + Send>(
+        &self,
+        ranges: &[Range<u64>],
+    ) -> crate::error::Result<Vec<T>> {
         use rayon::prelude::*;
         let size = std::mem::size_of::<T>();
         let lens: Vec<u64> = ranges.iter().map(|r| r.end - r.start).collect();
@@ -637,7 +640,7 @@ impl ZarrReader {
             let decoded = batch
                 .par_iter()
                 .map(|idx| self.chunk::<T>(idx).map(|c| (idx, c)))
-                .collect::<crate::Result<Vec<_>>>()?;
+                .collect::<crate::error::Result<Vec<_>>>()?;
             for (idx, chunk) in decoded {
                 let Some(chunk) = chunk else { continue };
                 let cs = self.array.chunk_subset(idx).map_err(zerr)?;
@@ -654,7 +657,7 @@ impl ZarrReader {
     /// the size the next step expects (zstd and gzip through a bounded
     /// reader, blosc by its header), and the result must be exactly one
     /// chunk. A chunk that disagrees is an error, never a larger buffer.
-    fn chunk<T: bytemuck::Pod>(&self, idx: &[u64]) -> crate::Result<Option<Vec<T>>> {
+    fn chunk<T: bytemuck::Pod>(&self, idx: &[u64]) -> crate::error::Result<Option<Vec<T>>> {
         use zarrs::array::codec::api::ArrayToBytesCodecTraits;
         use zarrs::array::codec::api::CodecOptions;
         use zarrs::array::codec::CodecChain;
@@ -942,7 +945,11 @@ pub fn multiscales(
 }
 
 /// Write the root group with `attrs` in the layout of `ngff`.
-fn create_group(store: &Arc<FilesystemStore>, attrs: Value, ngff: Ngff) -> crate::Result<()> {
+fn create_group(
+    store: &Arc<FilesystemStore>,
+    attrs: Value,
+    ngff: Ngff,
+) -> crate::error::Result<()> {
     let attrs = attrs.as_object().cloned().unwrap_or_default();
     let group = match ngff {
         Ngff::V05 => zarrs::group::GroupBuilder::new()
@@ -971,7 +978,7 @@ fn create_array(
     chunk: [u64; 3],
     t: SampleType,
     ngff: Ngff,
-) -> crate::Result<Array<FilesystemStore>> {
+) -> crate::error::Result<Array<FilesystemStore>> {
     let array = match ngff {
         Ngff::V05 => zarrs::array::ArrayBuilder::new(
             shape.to_vec(),
@@ -989,7 +996,7 @@ fn create_array(
             let chunks = chunk
                 .iter()
                 .map(|&c| std::num::NonZeroU64::new(c).ok_or_else(|| zerr("empty chunk")))
-                .collect::<crate::Result<Vec<_>>>()?;
+                .collect::<crate::error::Result<Vec<_>>>()?;
             let compressor =
                 serde_json::from_value(json!({"id": "zstd", "level": 3})).map_err(zerr)?;
             let fill = serde_json::from_value(json!(0)).map_err(zerr)?;
@@ -1042,7 +1049,7 @@ pub fn max_levels(dims: Dims) -> u32 {
 
 /// Refuse more pyramid levels than [`max_levels`], saying how many
 /// `dims` makes.
-pub fn check_levels(dims: Dims, levels: u32) -> crate::Result<()> {
+pub fn check_levels(dims: Dims, levels: u32) -> crate::error::Result<()> {
     let most = max_levels(dims);
     if levels > most {
         return Err(Error::invalid(format!(
@@ -1056,7 +1063,7 @@ pub fn check_levels(dims: Dims, levels: u32) -> crate::Result<()> {
 
 /// The dims of the `levels` pyramid levels of `dims` (see
 /// [`check_levels`]).
-fn level_dims(dims: Dims, levels: u32) -> crate::Result<Vec<Dims>> {
+fn level_dims(dims: Dims, levels: u32) -> crate::error::Result<Vec<Dims>> {
     check_levels(dims, levels)?;
     let mut dl = Vec::new();
     let mut d = dims;
@@ -1075,7 +1082,7 @@ fn level_shape(dims: Dims, n: u32) -> String {
 
 /// The full-resolution slices shard `shard` of a write of `dims` with
 /// `levels` levels converts: its share of the units (see [`unit_slices`]).
-pub fn shard_slices(dims: Dims, levels: u32, shard: Shard) -> crate::Result<Range<u64>> {
+pub fn shard_slices(dims: Dims, levels: u32, shard: Shard) -> crate::error::Result<Range<u64>> {
     let n = level_dims(dims, levels)?.len();
     let unit = unit_slices(dims, n);
     let units = shard.units(dims.z.div_ceil(unit));
@@ -1108,7 +1115,7 @@ impl<T: SliceSample> ZarrWriter<T> {
         levels: u32,
         down: Downsample,
         ngff: Ngff,
-    ) -> crate::Result<ZarrWriter<T>> {
+    ) -> crate::error::Result<ZarrWriter<T>> {
         let spec = StoreSpec {
             dims,
             spacing,
@@ -1126,7 +1133,7 @@ impl<T: SliceSample> ZarrWriter<T> {
         path: &Path,
         spec: &StoreSpec<'_>,
         name: &str,
-    ) -> crate::Result<ZarrWriter<T>> {
+    ) -> crate::error::Result<ZarrWriter<T>> {
         Self::start(path, spec, None, name)
     }
 
@@ -1140,7 +1147,7 @@ impl<T: SliceSample> ZarrWriter<T> {
         path: &Path,
         spec: &StoreSpec<'_>,
         shard: Shard,
-    ) -> crate::Result<ZarrWriter<T>> {
+    ) -> crate::error::Result<ZarrWriter<T>> {
         Self::start(path, spec, Some(shard), &file_name(path))
     }
 
@@ -1149,7 +1156,7 @@ impl<T: SliceSample> ZarrWriter<T> {
         spec: &StoreSpec<'_>,
         shard: Option<Shard>,
         name: &str,
-    ) -> crate::Result<ZarrWriter<T>> {
+    ) -> crate::error::Result<ZarrWriter<T>> {
         let &StoreSpec {
             dims,
             spacing,
@@ -1218,7 +1225,7 @@ impl<T: SliceSample> ZarrWriter<T> {
     }
 
     /// Write the group's and every level's metadata.
-    fn store_metadata(&self) -> crate::Result<()> {
+    fn store_metadata(&self) -> crate::error::Result<()> {
         create_group(&self.store, self.attrs.clone(), self.ngff)?;
         for lv in &self.levels {
             lv.array.store_metadata().map_err(zerr)?;
@@ -1228,7 +1235,7 @@ impl<T: SliceSample> ZarrWriter<T> {
 
     /// A shard's check that the store is new or another shard's of the
     /// same write, recording the write's description for the others.
-    fn claim_store(&self) -> crate::Result<()> {
+    fn claim_store(&self) -> crate::error::Result<()> {
         let dir = self.path.join(SHARDS_DIR);
         std::fs::create_dir_all(&dir)?;
         let job = dir.join("job.json");
@@ -1246,7 +1253,7 @@ impl<T: SliceSample> ZarrWriter<T> {
 
     /// A shard's end: mark it done, and if every shard is done, write the
     /// metadata that makes the store an OME-Zarr and remove the marks.
-    fn complete_shard(&self, shard: Shard) -> crate::Result<()> {
+    fn complete_shard(&self, shard: Shard) -> crate::error::Result<()> {
         let dir = self.path.join(SHARDS_DIR);
         write_atomic(&dir.join(format!("done-{}", shard.index)), b"")?;
         let done = (0..shard.count)
@@ -1263,11 +1270,11 @@ impl<T: SliceSample> ZarrWriter<T> {
     }
 
     /// Add the next z slice of the full-resolution volume.
-    pub fn push(&mut self, slice: Vec<T>) -> crate::Result<()> {
+    pub fn push(&mut self, slice: Vec<T>) -> crate::error::Result<()> {
         self.push_at(0, slice)
     }
 
-    fn push_at(&mut self, l: usize, slice: Vec<T>) -> crate::Result<()> {
+    fn push_at(&mut self, l: usize, slice: Vec<T>) -> crate::error::Result<()> {
         let last_z;
         let mut down = None;
         let more = l + 1 < self.levels_len();
@@ -1300,7 +1307,7 @@ impl<T: SliceSample> ZarrWriter<T> {
 
     /// Check every level is complete (a shard: its slices of every
     /// level), and complete a sharded store when this is its last shard.
-    pub fn finish(self) -> crate::Result<()> {
+    pub fn finish(self) -> crate::error::Result<()> {
         for (l, lv) in self.levels.iter().enumerate() {
             if lv.seen != lv.end_z || !lv.pending.is_empty() {
                 return Err(Error::invalid(format!(
@@ -1319,7 +1326,7 @@ impl<T: SliceSample> ZarrWriter<T> {
 }
 
 /// Write the pending slices of a level as one layer of chunks.
-fn flush<T: SliceSample>(lv: &mut Level<T>) -> crate::Result<()> {
+fn flush<T: SliceSample>(lv: &mut Level<T>) -> crate::error::Result<()> {
     use rayon::prelude::*;
     let d = lv.dims;
     let [cx, cy, _] = lv.chunk;
@@ -1330,7 +1337,7 @@ fn flush<T: SliceSample>(lv: &mut Level<T>) -> crate::Result<()> {
     let array = &lv.array;
     (0..nbx * nby)
         .into_par_iter()
-        .try_for_each(|b| -> crate::Result<()> {
+        .try_for_each(|b| -> crate::error::Result<()> {
             let (bx, by) = (b % nbx, b / nbx);
             let xs = bx * cx..((bx + 1) * cx).min(d.x);
             let ys = by * cy..((by + 1) * cy).min(d.y);

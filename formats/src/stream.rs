@@ -1,9 +1,9 @@
 //! Samples read front to back from a stream (a pipe, standard input, a
 //! decompressor), slice by slice with bounded memory.
 
-use crate::convert::input::{Access, InputInfo, NiftiCodes, SliceReader};
-use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::Error;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, NiftiCodes, SliceReader};
+use crate::slice::{SliceData, SliceType};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};

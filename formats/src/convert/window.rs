@@ -21,8 +21,8 @@
 //!   `f64` to `f32` rounds to the nearest `f32`). Without `--type` they
 //!   become the smallest stored type that holds them ([`fit_type`]).
 
-use super::slice::{SliceData, SliceType};
 use crate::error::{Error, Result};
+use crate::slice::{SliceData, SliceType};
 use std::str::FromStr;
 use volcore::{Sample, SampleType};
 

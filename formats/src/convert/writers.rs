@@ -805,7 +805,7 @@ fn vvol_meta<T: Sample>(
     spec: &OutSpec<'_>,
     brick: Option<u32>,
     compression: Compression,
-) -> crate::Result<VolumeMeta> {
+) -> crate::error::Result<VolumeMeta> {
     let layout = match brick {
         None => Layout::Sliced,
         Some(b) => Layout::Bricked(BrickGeometry::new(spec.dims, b)?),

@@ -1,10 +1,9 @@
 //! `.vvol` inputs read slice by slice: open files (any layout) and
 //! streams (sliced, from a pipe).
 
-use crate::convert::input::{Access, InputInfo, SliceReader};
-use crate::convert::At;
-use crate::convert::{CResult, ConvertError, SliceData};
 use crate::error::Error;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
+use crate::slice::SliceData;
 use crate::stream::{Counted, SampleLayout, StreamEnd, StreamReader};
 use std::io::Read;
 use std::path::{Path, PathBuf};
