@@ -85,6 +85,14 @@ pub fn is_zarr(path: &Path) -> bool {
                 || path.join(".zgroup").is_file()))
 }
 
+/// Whether `path` is a directory holding an OME-Zarr image: group
+/// attributes (`.zattrs`, or `zarr.json` of NGFF 0.5) with `multiscales`.
+/// What a write of the same name replaces; any other directory is not
+/// its to replace.
+pub fn is_image_store(path: &Path) -> bool {
+    path.is_dir() && ome_attributes(path).is_some_and(|(a, _)| a.get("multiscales").is_some())
+}
+
 fn read_json(p: &Path) -> Option<Value> {
     serde_json::from_slice(&std::fs::read(p).ok()?).ok()
 }
