@@ -2,10 +2,10 @@
 //! own file or a detached one, at an offset or at the end, raw or
 //! compressed; opened as a random-access or a streaming slice reader.
 
-use crate::convert::input::SliceReader;
-use crate::convert::{At, CResult, ConvertError, SliceType};
 use crate::error::Error;
 use crate::raw::RawFileReader;
+use crate::reader::{At, CResult, ConvertError, SliceReader};
+use crate::slice::SliceType;
 use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -46,7 +46,7 @@ pub struct DataSpec {
     pub geometry: Geometry,
     /// A linear map from stored to real values (NIfTI `scl_slope`,
     /// `scl_inter`), applied as the slices are read.
-    pub rescale: Option<crate::convert::rescale::Rescale>,
+    pub rescale: Option<crate::rescale::Rescale>,
     /// The file holding the samples.
     pub data_file: PathBuf,
     /// Where in it the (possibly compressed) data starts.
@@ -59,15 +59,15 @@ pub struct DataSpec {
     /// Format name for reports.
     pub format: String,
     /// NIfTI: the qform and sform codes to keep (see
-    /// [`crate::convert::InputInfo::nifti_codes`]).
-    pub nifti_codes: Option<crate::convert::NiftiCodes>,
+    /// [`crate::reader::InputInfo::nifti_codes`]).
+    pub nifti_codes: Option<crate::reader::NiftiCodes>,
 }
 
 /// The samples a header describes, memory-mapped in place when they can
 /// be used as stored: uncompressed, little-endian, of a stored type,
 /// unscaled, at an offset aligned for the type, and ending the file;
 /// `None` when they cannot (the caller reads them through [`open_data`]).
-pub fn open_mapped(spec: &DataSpec) -> crate::Result<Option<volcore::Volume>> {
+pub fn open_mapped(spec: &DataSpec) -> crate::error::Result<Option<volcore::Volume>> {
     let DataStart::At(offset) = spec.start else {
         return Ok(None);
     };
@@ -108,7 +108,7 @@ pub fn open_mapped(spec: &DataSpec) -> crate::Result<Option<volcore::Volume>> {
 pub fn open_data(input: &Path, spec: &DataSpec) -> CResult<Box<dyn SliceReader>> {
     let r = open_stored(input, spec)?;
     Ok(match spec.rescale {
-        Some(m) if !m.is_identity() => Box::new(crate::convert::rescale::Rescaled::new(r, m)),
+        Some(m) if !m.is_identity() => Box::new(crate::rescale::Rescaled::new(r, m)),
         _ => r,
     })
 }

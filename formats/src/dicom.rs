@@ -24,10 +24,10 @@
 //! - Geometry: origin at the first slice's ImagePositionPatient, axes
 //!   along the row, column and normal directions (DICOM is LPS, like volkit).
 
-use crate::convert::input::{Access, InputInfo, SliceReader};
-use crate::convert::rescale::Rescale;
-use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::Error;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
+use crate::rescale::Rescale;
+use crate::slice::{SliceData, SliceType};
 use dicom_dictionary_std::tags;
 use dicom_object::{DefaultDicomObject, OpenFileOptions};
 use dicom_pixeldata::PixelDecoder;

@@ -7,6 +7,10 @@
 //! - [`tiff`], [`nrrd`], [`mhd`]: TIFF stacks, NRRD and MetaImage, and
 //!   [`convert`], which turns any input into any output slice by slice.
 //! - [`image`]: the image files tools write (8-bit PNG, PFM, heat maps).
+//! - [`reader`] and [`slice`](mod@slice): what every reader hands out (z slices of any
+//!   sample type, errors located at a file), below the readers, [`open`](mod@open)
+//!   and [`convert`]; `tests/it/module_graph.rs` keeps the modules free of
+//!   import cycles.
 //!
 //! Writers pull samples from a [`volcore::RegionSource`] and produce them in
 //! parallel batches that one thread writes in file order
@@ -30,7 +34,10 @@ pub mod open;
 pub mod output;
 pub mod pipeline;
 pub mod raw;
+pub mod reader;
+pub mod rescale;
 pub mod select;
+pub mod slice;
 pub mod stacks;
 pub mod stream;
 pub mod thesis;

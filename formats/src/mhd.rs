@@ -13,9 +13,9 @@
 //!
 //! [`write_header`] writes the header volkit's MetaImage output uses.
 
-use crate::convert::SliceType;
 use crate::datafile::{DataSpec, DataStart, Encoding};
 use crate::error::{Error, Result};
+use crate::slice::SliceType;
 use nom::bytes::complete::{tag, take_till1};
 use nom::character::complete::space0;
 use nom::combinator::rest;

@@ -20,9 +20,11 @@
 //! anatomical) for both. The unit of length is read from and written to
 //! `xyzt_units` (m, mm, µm; none stated is code 0).
 
-use crate::convert::{rescale::Rescale, NiftiCodes, SliceType};
 use crate::datafile::{DataSpec, DataStart, Encoding};
 use crate::error::{Error, Result};
+use crate::reader::NiftiCodes;
+use crate::rescale::Rescale;
+use crate::slice::SliceType;
 use byteorder::{BigEndian, ByteOrder, LittleEndian};
 use std::io::Read;
 use std::path::{Path, PathBuf};

@@ -12,9 +12,9 @@
 //!
 //! [`write_header`] writes the header volkit's NRRD output uses.
 
-use crate::convert::SliceType;
 use crate::datafile::{DataSpec, DataStart, Encoding};
 use crate::error::{Error, Result};
+use crate::slice::SliceType;
 use nom::bytes::complete::{tag, take_until};
 use nom::combinator::rest;
 use nom::{IResult, Parser};

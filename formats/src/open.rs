@@ -3,11 +3,11 @@
 //! (what the other tools sample). Both read every format volkit knows,
 //! by existence, extension and first bytes.
 
-use crate::convert::input::SliceReader;
-use crate::convert::{self, At, CResult, ConvertError, Plan};
+use crate::convert::{self, Plan};
 use crate::datafile::Encoding;
 use crate::error::Error;
 use crate::raw::{RawFileReader, RawSpec};
+use crate::reader::{At, CResult, ConvertError, SliceReader};
 use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
 use crate::tiff::ChannelSel;
 use crate::{thesis, vvol};
@@ -477,7 +477,7 @@ pub fn open_volume(
     path: &Path,
     opts: vvol::OpenOptions,
     raw: Option<RawSpec>,
-) -> crate::Result<Volume> {
+) -> crate::error::Result<Volume> {
     let opts = ReadOptions {
         raw: raw.unwrap_or_default(),
         vvol: opts,

@@ -179,6 +179,86 @@ pub fn sweep(dir: &Path, prefix: &str, suffix: &str) {
     }
 }
 
+/// Put the complete directory `new` in place of the existing directory
+/// `target` (both in one directory), then remove the directory replaced.
+///
+/// Where the file system swaps two names in one step (`renameat2` with
+/// `RENAME_EXCHANGE` on Linux, `RENAME_SWAP` on macOS), that swap is the
+/// commit point: `target` names the whole old directory or the whole new
+/// one at every moment, and the old one is left at `new`'s name. Elsewhere
+/// the old one is renamed aside first (to `.NAME.XXXXXX.old.partial`
+/// for a `new` named `.NAME.XXXXXX.partial`), then `new` to `target`: a kill between the two renames leaves no `target`, the old
+/// directory whole under the aside name. Either way the old directory is
+/// then removed; what a kill or an error leaves of it has a temporary
+/// output's name, which the next write of `target` sweeps (see
+/// [`temp_dir_in`]).
+pub fn replace_dir(new: &Path, target: &Path) -> io::Result<()> {
+    let old = match swap_names(new, target) {
+        Ok(()) => new.to_path_buf(),
+        Err(e) if swap_unsupported(&e) => replace_aside(new, target)?,
+        Err(e) => return Err(e),
+    };
+    // After the commit point: a failure here loses nothing.
+    let _ = std::fs::remove_dir_all(&old);
+    Ok(())
+}
+
+/// [`replace_dir`]'s two renames where names cannot be swapped: the old
+/// directory's name after them.
+fn replace_aside(new: &Path, target: &Path) -> io::Result<PathBuf> {
+    let aside = aside_name(new);
+    std::fs::rename(target, &aside)?;
+    if let Err(e) = std::fs::rename(new, target) {
+        let _ = std::fs::rename(&aside, target);
+        return Err(e);
+    }
+    Ok(aside)
+}
+
+/// Where [`replace_dir`] puts the old directory when it cannot swap:
+/// `.NAME.XXXXXX.partial` becomes `.NAME.XXXXXX.old.partial`, a temporary
+/// output's name for the same target.
+fn aside_name(new: &Path) -> PathBuf {
+    let name = new
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let stem = name.strip_suffix(PARTIAL).unwrap_or(&name);
+    new.with_file_name(format!("{stem}.old{PARTIAL}"))
+}
+
+/// Exchange the names `a` and `b` in one step.
+#[cfg(any(target_os = "linux", target_os = "android", target_vendor = "apple"))]
+fn swap_names(a: &Path, b: &Path) -> io::Result<()> {
+    use rustix::fs::{renameat_with, RenameFlags, CWD};
+    Ok(renameat_with(CWD, a, CWD, b, RenameFlags::EXCHANGE)?)
+}
+
+#[cfg(not(any(target_os = "linux", target_os = "android", target_vendor = "apple")))]
+fn swap_names(_: &Path, _: &Path) -> io::Result<()> {
+    Err(io::ErrorKind::Unsupported.into())
+}
+
+/// Whether [`swap_names`] failed for want of support (an old kernel, a
+/// file system without it) rather than for a reason a rename would share.
+fn swap_unsupported(e: &io::Error) -> bool {
+    if e.kind() == io::ErrorKind::Unsupported {
+        return true;
+    }
+    #[cfg(unix)]
+    {
+        use rustix::io::Errno;
+        matches!(
+            Errno::from_io_error(e),
+            Some(Errno::INVAL | Errno::NOSYS | Errno::OPNOTSUPP)
+        )
+    }
+    #[cfg(not(unix))]
+    {
+        false
+    }
+}
+
 /// Take `f`'s exclusive lock, waiting for it (a sweep holds it briefly).
 fn lock_exclusive(f: &File) -> io::Result<()> {
     #[cfg(unix)]
@@ -357,6 +437,52 @@ mod tests {
         assert!(live.temp.path().exists() && second.temp.path().exists());
         second.commit().unwrap();
         assert!(live.temp.path().exists());
+    }
+
+    /// A directory of `files` (name, contents) at `dir`.
+    fn tree(dir: &Path, files: &[(&str, &str)]) {
+        std::fs::create_dir(dir).unwrap();
+        for (n, t) in files {
+            std::fs::write(dir.join(n), t).unwrap();
+        }
+    }
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn a_directory_replaces_another_whole_and_the_old_one_goes() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("s.ome.zarr");
+        let new = dir.path().join(".s.ome.zarr.abc123.partial");
+        tree(&target, &[("old", "1"), ("both", "old")]);
+        tree(&new, &[("new", "2"), ("both", "new")]);
+        replace_dir(&new, &target).unwrap();
+        assert_eq!(names(&target), ["both", "new"]);
+        assert_eq!(std::fs::read_to_string(target.join("both")).unwrap(), "new");
+        assert_eq!(names(dir.path()), ["s.ome.zarr"]);
+        // Without the swap: aside, in, and the old one removed.
+        let new = dir.path().join(".s.ome.zarr.def456.partial");
+        tree(&new, &[("third", "3")]);
+        assert_eq!(
+            aside_name(&new),
+            dir.path().join(".s.ome.zarr.def456.old.partial")
+        );
+        let old = replace_aside(&new, &target).unwrap();
+        assert_eq!(names(&old), ["both", "new"]);
+        assert_eq!(names(&target), ["third"]);
+        std::fs::remove_dir_all(&old).unwrap();
+        // A failed swap changes nothing.
+        let missing = dir.path().join(".s.ome.zarr.none.partial");
+        assert!(replace_dir(&missing, &target).is_err());
+        assert_eq!(names(&target), ["third"]);
+        assert_eq!(names(dir.path()), ["s.ome.zarr"]);
     }
 
     #[test]

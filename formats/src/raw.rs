@@ -8,10 +8,10 @@
 //! the `clap` feature it is also the tools' raw-input options
 //! (`--raw-dims`, `--raw-type`, `--raw-endian`, `--raw-skip`).
 
-use crate::convert::input::{Access, InputInfo, NiftiCodes, SliceReader};
-use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::{Error, Result};
 use crate::pipeline::write_rows;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, NiftiCodes, SliceReader};
+use crate::slice::{SliceData, SliceType};
 use memmap2::Mmap;
 use std::fs::File;
 use std::io::Write;

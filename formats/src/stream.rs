@@ -1,9 +1,9 @@
 //! Samples read front to back from a stream (a pipe, standard input, a
 //! decompressor), slice by slice with bounded memory.
 
-use crate::convert::input::{Access, InputInfo, NiftiCodes, SliceReader};
-use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::Error;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, NiftiCodes, SliceReader};
+use crate::slice::{SliceData, SliceType};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -216,11 +216,11 @@ impl SliceReader for StreamReader {
                 std::io::copy(&mut st.reader, &mut std::io::sink()).at(&self.path)?;
             }
             StreamEnd::VvolTrailer => {
-                let mut t = [0u8; crate::vvol::TRAILER_LEN as usize];
+                let mut t = [0u8; crate::vvol::trailer::TRAILER_LEN as usize];
                 read_full(&mut st.reader, &mut t).map_err(|_| {
                     self.err("input is truncated: the .vvol trailer is missing".into())
                 })?;
-                let t = crate::vvol::Trailer::decode(&t).at(&self.path)?;
+                let t = crate::vvol::trailer::Trailer::decode(&t).at(&self.path)?;
                 let crc = st.crc.clone().finalize();
                 if crc != t.crc32 {
                     return Err(ConvertError::new(

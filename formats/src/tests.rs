@@ -699,8 +699,8 @@ fn geometry_round_trips_and_version_1_and_2_files_stay_readable() {
 /// slices of any type from memory convert as a file's would.
 #[test]
 fn nifti_is_mapped_when_its_samples_can_be_used_as_stored() {
-    use crate::convert::input::MemoryReader;
     use crate::convert::{convert, Plan, SliceData, Target};
+    use crate::reader::MemoryReader;
     let dir = tempfile::tempdir().unwrap();
     let dims = Dims::new(5, 4, 3).unwrap();
     let want: Vec<i16> = (0..60).map(|v| v * 37 - 900).collect();

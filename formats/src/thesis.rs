@@ -11,10 +11,10 @@
 //!   `(bx, by, bz)` position `(i, j, k)` holds voxel
 //!   `(bx(B−1)+i, by(B−1)+j, bz(B−1)+k)`, and positions past the volume hold 0.
 
-use crate::convert::input::{Access, InputInfo, SliceReader};
-use crate::convert::{At, CResult, SliceData, SliceType};
 use crate::error::{truncated, Error, Result};
 use crate::pipeline::ordered;
+use crate::reader::{Access, At, CResult, InputInfo, SliceReader};
+use crate::slice::{SliceData, SliceType};
 use memmap2::Mmap;
 use std::fs::File;
 use std::io::{Read, Write};

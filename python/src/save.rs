@@ -9,11 +9,11 @@ use pyo3::prelude::*;
 use std::path::{Path, PathBuf};
 use volcore::volume::TypedGrid;
 use volcore::{Dims, Geometry, Sample, VolumeData};
-use volformats::convert::input::MemoryReader;
 use volformats::convert::{
     self, CompressArg, OutputOptions, Plan, SliceData, SliceReader, Target, Window,
 };
 use volformats::omezarr::{Downsample, Ngff};
+use volformats::reader::MemoryReader;
 
 /// `samples` (x fastest) cut into z slices of `dims`, each wrapped by `wrap`.
 fn slices_of<T: Copy>(dims: Dims, samples: &[T], wrap: fn(Vec<T>) -> SliceData) -> Vec<SliceData> {
@@ -200,7 +200,7 @@ fn reader_for(
         let v = pv.get();
         if let (Some((p, o)), false) = (&v.file, moved) {
             let r = py
-                .detach(|| convert::open_input(p, o))
+                .detach(|| volformats::open_input(p, o))
                 .map_err(errors::convert)?;
             return Ok(r);
         }

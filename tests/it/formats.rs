@@ -509,12 +509,15 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
     // Default (no --ngff): NGFF 0.4 on Zarr v2.
     for (ngff, zarr_format) in [(None, 2), (Some("0.4"), 2), (Some("0.5"), 3)] {
         let z = d.join(format!("ct-{}.ome.zarr", ngff.unwrap_or("default")));
-        let mut c = tool("vol-convert");
-        c.arg(&src).args(["--pyramid", "3", "-q", "-o"]).arg(&z);
-        if let Some(v) = ngff {
-            c.args(["--ngff", v]);
-        }
-        ok(&mut c);
+        let write = || {
+            let mut c = tool("vol-convert");
+            c.arg(&src).args(["--pyramid", "3", "-q", "-o"]).arg(&z);
+            if let Some(v) = ngff {
+                c.args(["--ngff", v]);
+            }
+            ok(&mut c);
+        };
+        write();
         let version = ngff.unwrap_or("0.4");
         let meta = if zarr_format == 2 {
             ".zgroup"
@@ -532,15 +535,10 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
             .arg(&src)
             .arg(&z)
             .args(["--min-psnr", "inf", "-q"]));
-        // An existing output is refused before any work.
-        let o = tool("vol-convert")
-            .arg(&src)
-            .arg("-o")
-            .arg(&z)
-            .output()
-            .unwrap();
-        assert!(!o.status.success());
-        // zarr-python and ome-zarr-py read what we wrote: the version, the
+        // A second run replaces the store (see
+        // ome_zarr_output_replaces_an_earlier_store_whole), and
+        write();
+        // zarr-python and ome-zarr-py read what it wrote: the version, the
         // pyramid's levels, scale and translation per level, the values.
         let Some(j) = read_in_ome_zarr_py(&z) else {
             continue;
@@ -570,6 +568,95 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
         .arg(d.join("x.nrrd"));
     fails(&mut c, "--ngff applies to OME-Zarr output");
     assert_eq!(c.status().unwrap().code(), Some(2));
+}
+
+/// The names in `dir`, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// An OME-Zarr output replaces an earlier OME-Zarr store as a file output
+/// replaces a file (docs/OUTPUTS.md): whole, in one swap, nothing of the
+/// old store left in it or beside it; any other directory, and a file,
+/// are refused and left as they were.
+#[test]
+fn ome_zarr_output_replaces_an_earlier_store_whole() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let (a, b) = (d.join("a.vvol"), d.join("b.vvol"));
+    ok(tool("vol-gen")
+        .args(["shapes", "--dims", "40,30,20", "-q", "-o"])
+        .arg(&a));
+    ok(tool("vol-gen")
+        .args(["noise", "--dims", "24,20,18", "--type", "u16", "-q", "-o"])
+        .arg(&b));
+    let want = samples(&b, &[]);
+    let out = d.join("out");
+    std::fs::create_dir(&out).unwrap();
+    let z = out.join("v.ome.zarr");
+    for (first, second) in [("0.4", "0.5"), ("0.5", "0.4"), ("0.4", "0.4")] {
+        ok(tool("vol-convert")
+            .arg(&a)
+            .args(["--pyramid", "3", "--ngff", first, "-q", "-o"])
+            .arg(&z));
+        ok(tool("vol-convert")
+            .arg(&b)
+            .args(["--pyramid", "2", "--ngff", second, "-q", "-o"])
+            .arg(&z));
+        let j = info(&z, &[]);
+        assert_eq!(j["format"], "ome-zarr", "{first} -> {second}: {j}");
+        assert_eq!(j["dims"], serde_json::json!([24, 20, 18]));
+        assert_eq!(j["type"], "u16");
+        assert_eq!(samples(&z, &[]), want, "{first} -> {second}");
+        // Nothing of the first store: its third level, the other
+        // version's metadata.
+        assert!(!z.join("2").exists(), "{first} -> {second}");
+        let stale = if second == "0.5" {
+            ".zattrs"
+        } else {
+            "zarr.json"
+        };
+        assert!(!z.join(stale).exists(), "{first} -> {second}");
+        // Nothing beside it: no staging directory, no old store.
+        assert_eq!(names(&out), ["v.ome.zarr"], "{first} -> {second}");
+        if let Some(j) = read_in_ome_zarr_py(&z) {
+            assert_eq!(j["version"], second, "{j}");
+            assert_eq!(
+                j["shapes"],
+                serde_json::json!([[18, 20, 24], [9, 10, 12]]),
+                "{j}"
+            );
+            assert_eq!(
+                j["v"].as_f64(),
+                Some(want[9 * 20 * 24 + 11 * 24 + 15] as f64)
+            );
+        }
+    }
+    // A directory that is no OME-Zarr image, and a file, are refused.
+    let other = out.join("other.ome.zarr");
+    std::fs::create_dir(&other).unwrap();
+    std::fs::write(other.join("notes.txt"), b"mine").unwrap();
+    fails(
+        tool("vol-convert").arg(&b).arg("-o").arg(&other),
+        "is no OME-Zarr image to replace",
+    );
+    assert_eq!(names(&other), ["notes.txt"]);
+    let file = out.join("file.ome.zarr");
+    std::fs::write(&file, b"x").unwrap();
+    fails(
+        tool("vol-convert").arg(&b).arg("-o").arg(&file),
+        "exists and is not a directory",
+    );
+    assert_eq!(std::fs::read(&file).unwrap(), b"x");
+    assert_eq!(
+        names(&out),
+        ["file.ome.zarr", "other.ome.zarr", "v.ome.zarr"]
+    );
 }
 
 /// The qform and sform codes of a NIfTI-1 header file (uncompressed).

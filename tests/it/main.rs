@@ -15,6 +15,7 @@ mod formats;
 mod gen;
 mod hard_cases;
 mod index;
+mod module_graph;
 mod path;
 mod psnr;
 mod render;

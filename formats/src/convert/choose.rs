@@ -156,7 +156,8 @@ impl Target {
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase())
             .unwrap_or_default();
-        let zarr_out = crate::omezarr::is_zarr(out) && !out.is_file();
+        // A file of that name is refused when checked, as not a directory.
+        let zarr_out = crate::omezarr::is_zarr(out);
         if let Some(shard) = o.shard.filter(|_| !zarr_out) {
             if ext != part::EXTENSION {
                 return Err(usage_at(

@@ -12,74 +12,25 @@
 //! place only when complete, so a failed conversion leaves nothing behind.
 
 pub mod choose;
-pub mod input;
-pub mod rescale;
-pub mod slice;
 pub mod spool;
 pub mod units;
 pub mod window;
 mod writers;
 
-pub use crate::open::{open_input, ReadOptions};
+pub use crate::reader::{Access, At, CResult, ConvertError, InputInfo, NiftiCodes, SliceReader};
+pub use crate::slice::{SliceData, SliceSample, SliceType};
 pub use choose::{CompressArg, LayoutArg, OutputOptions};
-pub use input::{Access, InputInfo, NiftiCodes, SliceReader};
-pub use slice::{SliceData, SliceSample, SliceType};
 pub use window::{fit_type, Histogram, Mapper, ValueMap, Window};
 pub use writers::{MemorySlot, Target};
 
 use crate::error::Error;
 use rayon::prelude::*;
-use std::fmt;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use volcore::{
     Dims, Geometry, LengthUnit, Narrowing, RegionSource, Sample, SampleType, ValueRange,
 };
-
-/// An error tied to the file it concerns (the input, one slice file of a
-/// stack, or the output). Displays as `path: problem`, on one line.
-#[derive(Debug)]
-pub struct ConvertError {
-    /// The file the problem is about.
-    pub path: PathBuf,
-    /// What went wrong.
-    pub error: Error,
-}
-
-impl ConvertError {
-    /// An error about `path`.
-    pub fn new(path: &Path, error: impl Into<Error>) -> ConvertError {
-        ConvertError {
-            path: path.to_path_buf(),
-            error: error.into(),
-        }
-    }
-}
-
-impl fmt::Display for ConvertError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let msg = self.error.to_string().replace('\n', " ");
-        write!(f, "{}: {}", self.path.display(), msg)
-    }
-}
-
-impl std::error::Error for ConvertError {}
-
-/// Result of conversion steps.
-pub type CResult<T> = std::result::Result<T, ConvertError>;
-
-/// Attach a path to an error.
-pub trait At<T> {
-    /// The error, located at `path`.
-    fn at(self, path: &Path) -> CResult<T>;
-}
-
-impl<T, E: Into<Error>> At<T> for std::result::Result<T, E> {
-    fn at(self, path: &Path) -> CResult<T> {
-        self.map_err(|e| ConvertError::new(path, e))
-    }
-}
 
 /// What to do to the samples on the way.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -388,7 +339,7 @@ fn crop_xy(s: SliceData, dims: Dims, crop: &[Range<u64>; 3]) -> SliceData {
         }
         out
     }
-    slice::map_slice!(s, v => pick(&v, dims, crop))
+    crate::slice::map_slice!(s, v => pick(&v, dims, crop))
 }
 
 static STOP: AtomicBool = AtomicBool::new(false);
@@ -564,7 +515,7 @@ pub fn output_type(
     info: &InputInfo,
     asked: Option<SampleType>,
     stats: Option<&Histogram>,
-) -> crate::Result<SampleType> {
+) -> crate::error::Result<SampleType> {
     if let Some(t) = asked.or(info.sample_type.stored()) {
         return Ok(t);
     }

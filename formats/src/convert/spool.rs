@@ -1,7 +1,7 @@
 //! Sequential inputs copied to disk so they can be read in any order.
 
-use super::input::{Access, InputInfo, SliceReader};
-use super::{At, CResult, SliceData};
+use crate::reader::{Access, At, CResult, InputInfo, SliceReader};
+use crate::slice::SliceData;
 use std::io::Write;
 use std::path::Path;
 

@@ -1,5 +1,6 @@
-use super::input::MemoryReader;
 use super::*;
+use crate::open::{open_input, ReadOptions};
+use crate::reader::MemoryReader;
 use volcore::{Compression, Dims};
 
 fn ramp(d: Dims) -> Vec<u16> {

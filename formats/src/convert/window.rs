@@ -23,8 +23,8 @@
 //!   holds no `f64`) it rounds each value to the nearest `f32` without a
 //!   window, and the conversion says how far the values moved.
 
-use super::slice::{SliceData, SliceType};
 use crate::error::{Error, Result};
+use crate::slice::{SliceData, SliceType};
 use std::str::FromStr;
 use volcore::{Sample, SampleType};
 

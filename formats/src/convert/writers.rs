@@ -266,7 +266,8 @@ impl Target {
     }
 
     /// Check what can be checked before any work: a directory target
-    /// must not exist or be empty.
+    /// must not exist or be empty, or (OME-Zarr) hold an earlier OME-Zarr
+    /// image, which the write replaces.
     pub fn preflight(&self) -> CResult<()> {
         match self {
             Target::OmeZarr {
@@ -274,7 +275,8 @@ impl Target {
                 shard: Some(_),
                 ..
             } => check_shard_store(path),
-            Target::TiffDir { path } | Target::OmeZarr { path, .. } => check_dir_target(path),
+            Target::TiffDir { path } => check_dir_target(path, false).map(drop),
+            Target::OmeZarr { path, .. } => check_dir_target(path, true).map(drop),
             _ => Ok(()),
         }
     }
@@ -494,7 +496,7 @@ pub(crate) fn run_target<T: SliceSample>(
                     (w, zs, None)
                 }
                 None => {
-                    let dir = PartialDir::create(&path)?;
+                    let dir = PartialDir::create(&path, true)?;
                     let name = crate::omezarr::file_name(&path);
                     let w =
                         crate::omezarr::ZarrWriter::<T>::create_as(dir.temp.path(), &store, &name)
@@ -552,7 +554,7 @@ pub(crate) fn run_target<T: SliceSample>(
             Ok((bytes, Some(range)))
         }
         Target::TiffDir { .. } => {
-            let dir = PartialDir::create(&path)?;
+            let dir = PartialDir::create(&path, false)?;
             let width = (dims.z.max(1) - 1).to_string().len().max(4);
             let mut sink = TiffDirSink {
                 dir: dir.temp.path(),
@@ -812,7 +814,7 @@ fn vvol_meta<T: Sample>(
     spec: &OutSpec<'_>,
     brick: Option<u32>,
     compression: Compression,
-) -> crate::Result<VolumeMeta> {
+) -> crate::error::Result<VolumeMeta> {
     let layout = match brick {
         None => Layout::Sliced,
         Some(b) => Layout::Bricked(BrickGeometry::new(spec.dims, b)?),
@@ -989,12 +991,32 @@ impl<W: Write + std::io::Seek, K: ::tiff::encoder::TiffKind, T: SliceSample> Sla
     }
 }
 
-fn check_dir_target(target: &Path) -> CResult<()> {
+/// What a directory output found at its target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Found {
+    /// Nothing, or an empty directory.
+    Nothing,
+    /// An OME-Zarr image (an earlier write's), which the new one replaces.
+    Store,
+}
+
+/// What is at a directory output's target: nothing or an empty directory,
+/// or (`store`: an OME-Zarr output) an OME-Zarr image, which the output
+/// replaces as a file output replaces a file. Anything else is refused: a
+/// directory of other files is never replaced, nor a file.
+fn check_dir_target(target: &Path, store: bool) -> CResult<Found> {
     if let Ok(mut entries) = std::fs::read_dir(target) {
         if entries.next().is_some() {
+            if store && crate::omezarr::is_image_store(target) {
+                return Ok(Found::Store);
+            }
             return Err(ConvertError::new(
                 target,
-                Error::invalid("output directory exists and is not empty"),
+                Error::invalid(if store {
+                    "output directory exists and is not empty, and is no OME-Zarr image to replace"
+                } else {
+                    "output directory exists and is not empty"
+                }),
             ));
         }
     } else if target.exists() {
@@ -1003,7 +1025,7 @@ fn check_dir_target(target: &Path) -> CResult<()> {
             Error::invalid("exists and is not a directory"),
         ));
     }
-    Ok(())
+    Ok(Found::Nothing)
 }
 
 /// A shard's OME-Zarr store must be new, or hold only other shards of an
@@ -1013,24 +1035,27 @@ fn check_shard_store(target: &Path) -> CResult<()> {
     if unfinished {
         return Ok(());
     }
-    check_dir_target(target)
+    check_dir_target(target, false).map(drop)
 }
 
 /// A directory written under a temporary name beside the target and
 /// renamed into place when complete (removed if dropped before; swept by
 /// the next write of the same target if the writer is killed, see
-/// [`crate::output::temp_dir_in`]).
+/// [`crate::output::temp_dir_in`]). An OME-Zarr store (`store`) replaces
+/// an earlier one at the target in one swap
+/// ([`crate::output::replace_dir`]).
 struct PartialDir {
     temp: tempfile::TempDir,
     /// The temporary directory, open: its lock marks the writer alive.
     _lock: File,
     target: PathBuf,
+    store: bool,
 }
 
 impl PartialDir {
-    fn create(target: &Path) -> CResult<PartialDir> {
+    fn create(target: &Path, store: bool) -> CResult<PartialDir> {
         let target = target.components().as_path().to_path_buf();
-        check_dir_target(&target)?;
+        check_dir_target(&target, store)?;
         let parent = crate::output::parent_dir(&target);
         let (temp, lock) = crate::output::temp_dir_in(
             &parent,
@@ -1042,20 +1067,28 @@ impl PartialDir {
             temp,
             _lock: lock,
             target,
+            store,
         })
     }
 
     fn commit(self) -> CResult<()> {
         let target = self.target.clone();
-        if target.is_dir() {
-            // Empty (checked at creation): rename replaces it.
-            std::fs::remove_dir(&target).at(&target)?;
-        }
         let temp = self.temp.keep();
-        std::fs::rename(&temp, &target).map_err(|e| {
+        // What is there now (checked at creation too).
+        let done = check_dir_target(&target, self.store).and_then(|found| match found {
+            Found::Store => crate::output::replace_dir(&temp, &target).at(&target),
+            Found::Nothing => {
+                if target.is_dir() {
+                    // Empty: rename replaces it.
+                    std::fs::remove_dir(&target).at(&target)?;
+                }
+                std::fs::rename(&temp, &target).at(&target)
+            }
+        });
+        if done.is_err() {
             let _ = std::fs::remove_dir_all(&temp);
-            ConvertError::new(&target, e)
-        })
+        }
+        done
     }
 }
 

@@ -2,9 +2,9 @@
 
 use super::axes::imagej_unit;
 use super::ChannelSel;
-use crate::convert::input::{Access, InputInfo, SliceReader};
-use crate::convert::{At, CResult, ConvertError, SliceData, SliceType};
 use crate::error::Error;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
+use crate::slice::{SliceData, SliceType};
 use crate::stacks::Stacks;
 use ::tiff::decoder::{Decoder, DecodingResult, Limits};
 use ::tiff::tags::Tag;

@@ -1,7 +1,7 @@
 //! Finding the files of a slice stack: a directory, a glob, or a list file.
 
-use crate::convert::{At, CResult, ConvertError};
 use crate::error::Error;
+use crate::reader::{At, CResult, ConvertError};
 use std::cmp::Ordering;
 use std::path::{Path, PathBuf};
 

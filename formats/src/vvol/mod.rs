@@ -1,10 +1,11 @@
 //! The native `.vvol` format (specified in `FORMAT.md` beside this crate):
-//! the header and trailer codecs here, writing in [`write`], reading in
-//! [`read`].
+//! the header codec here, the trailer's in [`trailer`], writing in
+//! [`write`], reading in [`read`].
 
 pub mod part;
 mod read;
 mod slices;
+pub mod trailer;
 mod write;
 
 pub use read::{
@@ -12,9 +13,11 @@ pub use read::{
     OpenOptions, Stored,
 };
 pub use slices::{vvol_stream, VolumeReader};
+pub use trailer::{Trailer, TRAILER_LEN, TRAILER_MAGIC};
 pub use write::{write, VvolWriter, WriteStats};
 
 use crate::error::{Error, Result};
+use trailer::FLAG_RANGE;
 use volcore::grid::BrickEntry;
 use volcore::{
     BrickGeometry, Compression, Dims, Geometry, Layout, LengthUnit, SampleType, ValueRange,
@@ -23,8 +26,6 @@ use volcore::{
 
 /// First eight bytes of every `.vvol` file.
 pub const MAGIC: [u8; 8] = *b"\x89VVOL\r\n\x1a";
-/// First eight bytes of the trailer.
-pub const TRAILER_MAGIC: [u8; 8] = *b"VVOLEND\0";
 /// The format version this code writes (it reads 1, 2 and 3; 3 adds the
 /// unit of length to version 2's geometry).
 pub const VERSION: u16 = 3;
@@ -34,12 +35,9 @@ pub const HEADER_LEN: u64 = 256;
 pub const BASE_HEADER_LEN: u64 = 128;
 /// Size of one brick table entry.
 pub const ENTRY_LEN: u64 = 24;
-/// Size of the trailer.
-pub const TRAILER_LEN: u64 = 32;
 /// Alignment of the data section and of uncompressed bricks.
 pub const ALIGN: u64 = 64;
 
-const FLAG_RANGE: u32 = 1;
 /// Where version 3 keeps the unit of length code ([`LengthUnit::code`]).
 const UNIT_AT: usize = 224;
 
@@ -59,15 +57,6 @@ pub struct Header {
     pub brick_count: u64,
     /// Bytes from one uncompressed brick to the next (0 otherwise).
     pub brick_stride: u64,
-}
-
-/// The decoded trailer.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Trailer {
-    /// CRC-32 of the samples (sliced) or of the brick table (bricked).
-    pub crc32: u32,
-    /// Exact value range of the samples.
-    pub range: ValueRange,
 }
 
 fn align_up(v: u64) -> u64 {
@@ -316,19 +305,8 @@ impl Header {
     }
 }
 
+// Beside the header it is checked against (the codec is in trailer.rs).
 impl Trailer {
-    /// Encode as 32 bytes.
-    pub fn encode(&self) -> [u8; TRAILER_LEN as usize] {
-        let mut b = [0u8; TRAILER_LEN as usize];
-        b[0..8].copy_from_slice(&TRAILER_MAGIC);
-        b[8..12].copy_from_slice(&self.crc32.to_le_bytes());
-        let flags = if self.range.is_empty() { 0 } else { FLAG_RANGE };
-        b[12..16].copy_from_slice(&flags.to_le_bytes());
-        b[16..24].copy_from_slice(&self.range.min.to_le_bytes());
-        b[24..32].copy_from_slice(&self.range.max.to_le_bytes());
-        b
-    }
-
     /// Check that this trailer's value range is the header's, when the
     /// header has one (a streamed writer leaves it empty): a file has one
     /// range, and two that disagree mean one of them is damaged.
@@ -350,28 +328,6 @@ impl Trailer {
             show(h),
             show(t)
         )))
-    }
-
-    /// Decode 32 bytes.
-    pub fn decode(b: &[u8]) -> Result<Trailer> {
-        if b.len() < TRAILER_LEN as usize || b[0..8] != TRAILER_MAGIC {
-            return Err(Error::invalid(
-                "trailer is missing or damaged (file truncated?)",
-            ));
-        }
-        let f = |o: usize| f64::from_le_bytes(b[o..o + 8].try_into().unwrap_or_default());
-        let flags = u32::from_le_bytes([b[12], b[13], b[14], b[15]]);
-        Ok(Trailer {
-            crc32: u32::from_le_bytes([b[8], b[9], b[10], b[11]]),
-            range: if flags & FLAG_RANGE != 0 {
-                ValueRange {
-                    min: f(16),
-                    max: f(24),
-                }
-            } else {
-                ValueRange::EMPTY
-            },
-        })
     }
 }
 

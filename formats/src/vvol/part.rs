@@ -10,8 +10,8 @@
 //! value range. The layout is specified in `FORMAT.md`.
 
 use super::{decode_table, encode_table, Header, Trailer, ENTRY_LEN, HEADER_LEN};
-use crate::convert::{At, CResult, ConvertError};
 use crate::error::{Error, Result};
+use crate::reader::{At, CResult, ConvertError};
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::ops::Range;

@@ -2,10 +2,9 @@
 //! streams (sliced, from a pipe).
 
 use super::read::Stored;
-use crate::convert::input::{Access, InputInfo, SliceReader};
-use crate::convert::At;
-use crate::convert::{CResult, ConvertError, SliceData};
 use crate::error::Error;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
+use crate::slice::SliceData;
 use crate::stream::{Counted, SampleLayout, StreamEnd, StreamReader};
 use std::io::Read;
 use std::path::{Path, PathBuf};

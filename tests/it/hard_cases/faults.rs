@@ -120,7 +120,7 @@ fn remove(p: &Path) {
 /// A writer under test: the command that writes `units` into `out` (a
 /// directory holding nothing else), and the command that writes an
 /// earlier, different version of them (`None`: the output cannot be
-/// replaced, directories are refused when not empty).
+/// replaced: TIFF slice directories are refused when not empty).
 struct Writer {
     name: &'static str,
     tool: &'static str,
@@ -417,7 +417,8 @@ fn convert_writer(d: &Path, name: &'static str, file: &str, extra: &[&str]) -> W
         v.extend(extra.iter().map(OsString::from));
         v
     };
-    let dir = file.ends_with('/') || file.ends_with(".zarr");
+    // TIFF slice directories are never replaced; OME-Zarr stores are.
+    let dir = file.ends_with('/');
     let units = match Path::new(file).extension().and_then(|e| e.to_str()) {
         Some("nhdr") | Some("mhd") => {
             vec![Unit::pair(target.clone(), target.with_extension("raw"))]

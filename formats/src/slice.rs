@@ -4,7 +4,7 @@ use volcore::{Sample, SampleType};
 
 /// The type of the samples an input hands out: one of the stored types,
 /// or another (`i8`, `u32`, `i32`) that a conversion maps to a stored
-/// type (see [`super::window`]).
+/// type (see [`crate::convert::window`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum SliceType {
     /// Unsigned 8-bit.

@@ -1,4 +1,10 @@
-//! Inputs of a conversion, read slice by slice.
+//! Inputs of a conversion, read slice by slice, and the errors reading
+//! and writing raise ([`ConvertError`], located at a file).
+//!
+//! With [`crate::slice`], the vocabulary every reader speaks. It imports
+//! nothing of the crate but `slice` and [`crate::error`]; the readers,
+//! [`open`](mod@crate::open) and [`convert`](crate::convert) (which
+//! re-exports these names) all sit above it.
 //!
 //! A [`SliceReader`] hands out whole z slices. Random-access readers (files
 //! of slices, raw data read at offsets, open volumes) may be asked for any
@@ -9,13 +15,58 @@
 //! Each format keeps its reader beside its decoder: [`crate::raw`],
 //! [`crate::stream`] (pipes and decompressors), [`crate::thesis`],
 //! [`crate::vvol`], [`crate::tiff`], [`crate::nrrd`], [`crate::mhd`],
-//! [`crate::nifti`], [`crate::dicom`], and [`super::spool`] for inputs
+//! [`crate::nifti`], [`crate::dicom`], and [`crate::convert::spool`] for inputs
 //! copied to disk first.
 
-use super::slice::{SliceData, SliceSample, SliceType};
-use super::CResult;
+use crate::error::Error;
+use crate::slice::{SliceData, SliceSample, SliceType};
+use std::fmt;
 use std::path::{Path, PathBuf};
 use volcore::{Dims, Geometry};
+
+/// An error tied to the file it concerns (the input, one slice file of a
+/// stack, or the output). Displays as `path: problem`, on one line.
+#[derive(Debug)]
+pub struct ConvertError {
+    /// The file the problem is about.
+    pub path: PathBuf,
+    /// What went wrong.
+    pub error: Error,
+}
+
+impl ConvertError {
+    /// An error about `path`.
+    pub fn new(path: &Path, error: impl Into<Error>) -> ConvertError {
+        ConvertError {
+            path: path.to_path_buf(),
+            error: error.into(),
+        }
+    }
+}
+
+impl fmt::Display for ConvertError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let msg = self.error.to_string().replace('\n', " ");
+        write!(f, "{}: {}", self.path.display(), msg)
+    }
+}
+
+impl std::error::Error for ConvertError {}
+
+/// Result of conversion steps.
+pub type CResult<T> = std::result::Result<T, ConvertError>;
+
+/// Attach a path to an error.
+pub trait At<T> {
+    /// The error, located at `path`.
+    fn at(self, path: &Path) -> CResult<T>;
+}
+
+impl<T, E: Into<Error>> At<T> for std::result::Result<T, E> {
+    fn at(self, path: &Path) -> CResult<T> {
+        self.map_err(|e| ConvertError::new(path, e))
+    }
+}
 
 /// What an input holds.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,8 +1,8 @@
 //! Stored values mapped to real ones as slices are read: NIfTI
 //! `scl_slope`/`scl_inter`, DICOM RescaleSlope/RescaleIntercept.
 
-use super::input::{Access, InputInfo, SliceReader};
-use super::{CResult, SliceData, SliceType};
+use crate::reader::{Access, CResult, InputInfo, SliceReader};
+use crate::slice::{SliceData, SliceType};
 
 /// `real = slope · stored + intercept`.
 #[derive(Clone, Copy, Debug, PartialEq)]
