@@ -92,8 +92,8 @@ fn volume_slices(v: &volcore::Volume) -> Vec<SliceData> {
 /// `bricked:B`), `compress` (`zstd[:LEVEL]` for bricked .vvol, `gzip` for
 /// the header formats), `type` and `window` (a narrowing type needs a
 /// window, as `--window`), `pyramid`, `downsample` and `ngff` for OME-Zarr.
-/// Array types volkit does not store (int8, (u)int32, float64) become the
-/// smallest stored type that holds their values. `spacing`, `origin` and
+/// float64 is stored as it is; array types volkit does not store (int8,
+/// (u)int32) become the smallest stored type that holds their values. `spacing`, `origin` and
 /// `direction` are in numpy order (z, y, x) and replace the data's own.
 /// The file is written under a temporary name and renamed into place
 /// only when complete. Returns what was written (shape, type, bytes).

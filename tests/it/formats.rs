@@ -1082,6 +1082,18 @@ fn f64_narrowed_to_f32_says_the_largest_change_and_renders_like_f32() {
         );
         assert!(a == b, "{png}: f64 renders as its f32 rounding");
     }
+    // Past f32's range: the renderer still reads it (the value becomes
+    // infinite, and the change is said), whether the file is mapped (raw)
+    // or decoded slice by slice (.nii.gz), and names no flag it lacks.
+    let mut huge = halves.clone();
+    huge[21] = 1e300;
+    let raw = f64_raw(d, "huge_4x4x4_float64.raw", &huge);
+    let gz = d.join("huge.nii.gz");
+    ok(tool("vol-convert").arg(&raw).args(["-q", "-o"]).arg(&gz));
+    for v in [&raw, &gz] {
+        let (_, err) = render(v, "huge.png");
+        assert!(err.contains("largest change is inf"), "{err}");
+    }
 }
 
 #[test]

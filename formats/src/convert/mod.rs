@@ -455,7 +455,14 @@ pub fn convert(
         hist = Some(h.merge(merged));
     }
     let out_type = output_type(&info, asked, hist.as_ref()).at(&in_path)?;
-    let map = ValueMap::plan(from, out_type, plan.window, hist.as_ref()).at(&in_path)?;
+    // f64 read for the renderer rounds to f32 whatever the values, like
+    // an f64 .vvol opened (values past f32's range become infinite and
+    // the narrowing says so): nothing to window in a tool without --window.
+    let map = if plan.sample_type.is_none() && asked.is_some() && plan.window.is_none() {
+        ValueMap::Exact
+    } else {
+        ValueMap::plan(from, out_type, plan.window, hist.as_ref()).at(&in_path)?
+    };
     let in_spacing = info.spacing.unwrap_or([1.0; 3]);
     let out_dims = [0, 1, 2].map(|a| crop[a].end - crop[a].start);
     let start = [0, 1, 2].map(|a| crop[a].start);
