@@ -12,8 +12,7 @@ use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use volcore::volume::TypedGrid;
 use volcore::{Compression, Dims, Geometry, Sample, SampleType, VolumeData, VoxelSource};
-use volformats::convert::SliceType;
-use volformats::raw::{Endian, RawSpec};
+use volformats::raw::RawSpec;
 use volformats::tiff::ChannelSel;
 use volformats::ReadOptions;
 
@@ -279,58 +278,94 @@ fn text_of(v: &Bound<'_, PyAny>) -> PyResult<String> {
     }
 }
 
-/// The read options the selection keywords ask for (vol-convert's names:
-/// raw_dims, raw_type, raw_endian, raw_skip, channel, luma, time_point,
-/// series, and in_memory; `shape` is raw_dims in numpy's order; the old
-/// `time` is refused as the command line refuses `--time`).
+/// The keywords `open` takes beyond the input-selection flags: `shape`
+/// (raw_dims in numpy's order), `luma` (colour TIFF as luminance) and
+/// `in_memory` (read a .vvol into memory).
+const PYTHON_ONLY: [&str; 3] = ["shape", "luma", "in_memory"];
+
+/// The input-selection flags (`volformats::Selection`, the one definition
+/// every tool flattens into its command line) as a clap command.
+fn selection_command() -> clap::Command {
+    use clap::Args;
+    volformats::Selection::augment_args(clap::Command::new("open").no_binary_name(true))
+}
+
+/// Every keyword `open` takes: each visible selection flag by its long
+/// name in snake case, then the Python-only ones.
+pub fn selection_keywords() -> Vec<String> {
+    let cmd = selection_command();
+    let mut names: Vec<String> = cmd
+        .get_arguments()
+        .filter(|a| !a.is_hide_set())
+        .filter_map(|a| a.get_long())
+        .map(|l| l.replace('-', "_"))
+        .collect();
+    names.extend(PYTHON_ONLY.iter().map(|s| s.to_string()));
+    names
+}
+
+/// The read options the selection keywords ask for: the command line's
+/// input-selection flags by their long names in snake case (`raw_dims`,
+/// `raw_type`, `raw_endian`, `raw_skip`, `series`, `channel`,
+/// `time_point`), parsed by the tools' own definition, so a keyword
+/// means what its flag means; plus [`PYTHON_ONLY`]. The old `time` is
+/// refused as the command line refuses `--time`.
 pub fn read_options(sel: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
-    let mut o = ReadOptions::default();
     let Some(sel) = sel else {
-        return Ok(o);
+        return Ok(ReadOptions::default());
     };
-    let mut luma = false;
+    let known = selection_keywords();
+    let mut argv: Vec<String> = Vec::new();
+    let (mut shape, mut luma, mut in_memory) = (None, false, false);
     for (k, v) in sel.iter() {
         let key: String = k.extract()?;
+        let key = key.replace('-', "_");
+        if key == "time" {
+            return Err(errors::value(volformats::select::TIME_RENAMED));
+        }
+        if !known.contains(&key) {
+            return Err(errors::value(format!(
+                "unknown option `{key}` (open takes {})",
+                known.join(", ")
+            )));
+        }
         if v.is_none() {
             continue;
         }
-        let bad = |e: String| errors::value(format!("{key}: {e}"));
-        match key.replace('-', "_").as_str() {
-            "raw_dims" => {
-                o.raw.dims = Some(volformats::raw::parse_dims(&text_of(&v)?).map_err(bad)?);
-            }
+        match key.as_str() {
             "shape" => {
                 let s: Vec<u64> = v.extract()?;
                 let [z, y, x] = s[..] else {
-                    return Err(bad("expected (z, y, x)".into()));
+                    return Err(errors::value("shape: expected (z, y, x)"));
                 };
-                o.raw.dims = Some(Dims::new(x, y, z).map_err(|e| bad(e.to_string()))?);
+                shape = Some(Dims::new(x, y, z).map_err(|e| errors::value(format!("shape: {e}")))?);
             }
-            "raw_type" => {
-                let t = text_of(&v)?;
-                o.raw.sample_type = Some(parse_slice_type(&t).map_err(bad)?);
-            }
-            "raw_endian" => {
-                o.raw.endian = match text_of(&v)?.as_str() {
-                    "little" => Endian::Little,
-                    "big" => Endian::Big,
-                    other => return Err(bad(format!("'{other}' is not little or big"))),
-                }
-            }
-            "raw_skip" => o.raw.skip = v.extract()?,
-            "channel" => o.channel = ChannelSel::Channel(v.extract()?),
             "luma" => luma = v.extract()?,
-            "time_point" => o.time = Some(v.extract()?),
-            "time" => return Err(errors::value(volformats::select::TIME_RENAMED)),
-            "series" => o.series = Some(v.extract()?),
-            "in_memory" => o.vvol.in_memory = v.extract()?,
-            _ => {
-                return Err(errors::value(format!(
-                    "unknown option `{key}` (open takes raw_dims, shape, raw_type, raw_endian, raw_skip, channel, luma, time_point, series, in_memory)"
-                )))
+            "in_memory" => in_memory = v.extract()?,
+            flag => {
+                argv.push(format!("--{}", flag.replace('_', "-")));
+                argv.push(text_of(&v)?);
             }
         }
     }
+    let matches = selection_command()
+        .try_get_matches_from(&argv)
+        .map_err(|e| {
+            // clap's first line, without its `error: ` prefix or styling.
+            let text = e.render().to_string();
+            let line = text.lines().next().unwrap_or("").trim();
+            errors::value(line.strip_prefix("error: ").unwrap_or(line).to_string())
+        })?;
+    let selection = <volformats::Selection as clap::FromArgMatches>::from_arg_matches(&matches)
+        .map_err(|e| errors::value(e.to_string()))?;
+    let mut o = selection.read_options().map_err(errors::value)?;
+    if let Some(d) = shape {
+        if o.raw.dims.is_some() {
+            return Err(errors::value("give shape or raw_dims, not both"));
+        }
+        o.raw.dims = Some(d);
+    }
+    o.vvol.in_memory = in_memory;
     if luma {
         if matches!(o.channel, ChannelSel::Channel(_)) {
             return Err(errors::value("give channel or luma, not both"));
@@ -338,12 +373,6 @@ pub fn read_options(sel: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
         o.channel = ChannelSel::Luma;
     }
     Ok(o)
-}
-
-/// A sample type name as the raw options take it (`u8` .. `f64`, or
-/// numpy's `uint8` .. `float64`).
-pub fn parse_slice_type(s: &str) -> Result<SliceType, String> {
-    volformats::raw::parse_type(s)
 }
 
 /// Open anything vol-convert reads (.vvol, .vol, .raw, NIfTI, NRRD,

@@ -64,3 +64,29 @@ def test_raw_selection(tmp_path):
     np.testing.assert_array_equal(v.array(), a.astype(np.uint16))
     w = volkit.open(p, shape=(3, 4, 5), raw_type="uint16", raw_endian="big", raw_skip=4)
     np.testing.assert_array_equal(w.array(), a.astype(np.uint16))
+
+
+def test_selection_keywords_are_the_command_line_flags():
+    """open's keywords are the tools' input-selection flags, parsed by the
+    same definition: the same names, values and errors."""
+    from conftest import cli
+
+    src = FIXTURES / "tifffile_hyperstack.tif"
+    with pytest.raises(ValueError) as e:
+        volkit.open(src, chanel=1)
+    named = str(e.value).split("open takes ")[1].rstrip(")").split(", ")
+    python_only = {"shape", "luma", "in_memory"}
+    assert python_only <= set(named)
+    flags = [k for k in named if k not in python_only]
+    assert {"raw_dims", "raw_type", "raw_endian", "raw_skip", "series", "channel", "time_point"} <= set(flags)
+    for tool in ["vol-info", "vol-convert", "vol-render", "vol-index", "vol-psnr"]:
+        help_text = cli(tool, "--help").stdout
+        for k in flags:
+            assert "--" + k.replace("_", "-") in help_text, (tool, k)
+    with pytest.raises(ValueError, match="invalid value 'x' for '--channel"):
+        volkit.open(src, channel="x")
+    with pytest.raises(ValueError, match="--time-point T"):
+        volkit.open(src, time=1)
+    v = volkit.open(src, **{"time-point": 1, "channel": 1})
+    w = volkit.open(src, time_point=1, channel=1)
+    np.testing.assert_array_equal(v.array(), w.array())
