@@ -491,3 +491,48 @@ pub fn open_volume(
         }
     })
 }
+
+/// The channels and time points of the input `path` names (see
+/// [`input_kind`]); 1 and 1 for formats without such axes (NRRD,
+/// MetaImage, DICOM, raw, `.vvol`, `.vol`, standard input). An error only
+/// where the input's header cannot be read.
+pub fn stacks(path: &Path, opts: &ReadOptions) -> CResult<crate::stacks::Stacks> {
+    use crate::stacks::{step, Stacks, TimeUnit};
+    let kind = input_kind(path, opts)?;
+    match kind {
+        // An ImageJ stack of one directory is read as raw images: z only.
+        InputKind::Tiff if crate::tiff::imagej_raw(path)?.is_some() => Ok(Stacks::default()),
+        InputKind::Tiff => crate::tiff::stacks(path, &[path.to_path_buf()]),
+        InputKind::TiffDir | InputKind::TiffGlob | InputKind::TiffList => {
+            let files = match kind {
+                InputKind::TiffDir => crate::tiff::list_dir(path)?,
+                InputKind::TiffGlob => crate::tiff::list_glob(path)?,
+                _ => crate::tiff::list_file(path)?,
+            };
+            crate::tiff::stacks(path, &files)
+        }
+        InputKind::OmeZarr => crate::omezarr::stacks(path),
+        InputKind::Nifti => {
+            let h = crate::nifti::read_header(path).at(path)?;
+            let (_, volumes) = h.shape().at(path)?;
+            if volumes < 2 {
+                return Ok(Stacks::default());
+            }
+            // xyzt_units bits 3-5: 8 s, 16 ms, 24 µs (32 and up are Hz,
+            // ppm, rad/s: not times).
+            let time_unit = match h.xyzt_units & 0x38 {
+                8 => Some(TimeUnit::Second),
+                16 => Some(TimeUnit::Millisecond),
+                24 => Some(TimeUnit::Microsecond),
+                _ => None,
+            };
+            Ok(Stacks {
+                time_points: volumes,
+                time_step: step(h.pixdim[4]),
+                time_unit,
+                ..Stacks::default()
+            })
+        }
+        _ => Ok(Stacks::default()),
+    }
+}

@@ -3,11 +3,9 @@
 //! OME-TIFF or OME-Zarr) and time points (the T axis of those, the 4th
 //! dimension of NIfTI), with the time step where the file states one.
 //! Read from the headers alone, whatever `--channel` and `--time-point`
-//! pick: what `vol-info` reports beside the one volume it describes.
-
-use crate::convert::{At, CResult};
-use crate::open::{input_kind, InputKind, ReadOptions};
-use std::path::Path;
+//! pick: what `vol-info` reports beside the one volume it describes
+//! ([`crate::open::stacks`] reads them for any input). Below the readers,
+//! which use its vocabulary, it uses none of them.
 
 /// The sizes of an input's channel and time axes (1 where it has none).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,50 +96,6 @@ impl TimeUnit {
 /// A time step: positive and finite, else none.
 pub(crate) fn step(v: f64) -> Option<f64> {
     (v.is_finite() && v > 0.0).then_some(v)
-}
-
-/// The channels and time points of the input `path` names (see
-/// [`input_kind`]); 1 and 1 for formats without such axes (NRRD,
-/// MetaImage, DICOM, raw, `.vvol`, `.vol`, standard input). An error only
-/// where the input's header cannot be read.
-pub fn stacks(path: &Path, opts: &ReadOptions) -> CResult<Stacks> {
-    let kind = input_kind(path, opts)?;
-    match kind {
-        // An ImageJ stack of one directory is read as raw images: z only.
-        InputKind::Tiff if crate::tiff::imagej_raw(path)?.is_some() => Ok(Stacks::default()),
-        InputKind::Tiff => crate::tiff::stacks(path, &[path.to_path_buf()]),
-        InputKind::TiffDir | InputKind::TiffGlob | InputKind::TiffList => {
-            let files = match kind {
-                InputKind::TiffDir => crate::tiff::list_dir(path)?,
-                InputKind::TiffGlob => crate::tiff::list_glob(path)?,
-                _ => crate::tiff::list_file(path)?,
-            };
-            crate::tiff::stacks(path, &files)
-        }
-        InputKind::OmeZarr => crate::omezarr::stacks(path),
-        InputKind::Nifti => {
-            let h = crate::nifti::read_header(path).at(path)?;
-            let (_, volumes) = h.shape().at(path)?;
-            if volumes < 2 {
-                return Ok(Stacks::default());
-            }
-            // xyzt_units bits 3-5: 8 s, 16 ms, 24 µs (32 and up are Hz,
-            // ppm, rad/s: not times).
-            let time_unit = match h.xyzt_units & 0x38 {
-                8 => Some(TimeUnit::Second),
-                16 => Some(TimeUnit::Millisecond),
-                24 => Some(TimeUnit::Microsecond),
-                _ => None,
-            };
-            Ok(Stacks {
-                time_points: volumes,
-                time_step: step(h.pixdim[4]),
-                time_unit,
-                ..Stacks::default()
-            })
-        }
-        _ => Ok(Stacks::default()),
-    }
 }
 
 #[cfg(test)]

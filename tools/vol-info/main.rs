@@ -91,7 +91,7 @@ fn info(cli: &Cli) -> Result<()> {
     // Without a selection the first channel and time point are described.
     let stacks = match kind {
         None | Some(InputKind::DicomDir | InputKind::Dicom) => Ok(Stacks::default()),
-        Some(_) => volformats::stacks::stacks(&cli.input, &opts),
+        Some(_) => volformats::open::stacks(&cli.input, &opts),
     };
     let sizes = stacks.as_ref().copied().unwrap_or_default();
     let sel = &cli.input_sel;
