@@ -445,52 +445,6 @@ pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
     load(open_input(path, opts)?, None)
 }
 
-/// The channels and time points (see [`crate::stacks`]) of the input
-/// `path` names (see [`input_kind`]); 1 and 1 for formats without such axes (NRRD,
-/// MetaImage, DICOM, raw, `.vvol`, `.vol`, standard input). An error only
-/// where the input's header cannot be read.
-pub fn stacks(path: &Path, opts: &ReadOptions) -> CResult<crate::stacks::Stacks> {
-    let kind = input_kind(path, opts)?;
-    match kind {
-        // An ImageJ stack of one directory is read as raw images: z only.
-        InputKind::Tiff if crate::tiff::imagej_raw(path)?.is_some() => {
-            Ok(crate::stacks::Stacks::default())
-        }
-        InputKind::Tiff => crate::tiff::stacks(path, &[path.to_path_buf()]),
-        InputKind::TiffDir | InputKind::TiffGlob | InputKind::TiffList => {
-            let files = match kind {
-                InputKind::TiffDir => crate::tiff::list_dir(path)?,
-                InputKind::TiffGlob => crate::tiff::list_glob(path)?,
-                _ => crate::tiff::list_file(path)?,
-            };
-            crate::tiff::stacks(path, &files)
-        }
-        InputKind::OmeZarr => crate::omezarr::stacks(path),
-        InputKind::Nifti => {
-            let h = crate::nifti::read_header(path).at(path)?;
-            let (_, volumes) = h.shape().at(path)?;
-            if volumes < 2 {
-                return Ok(crate::stacks::Stacks::default());
-            }
-            // xyzt_units bits 3-5: 8 s, 16 ms, 24 µs (32 and up are Hz,
-            // ppm, rad/s: not times).
-            let time_unit = match h.xyzt_units & 0x38 {
-                8 => Some(crate::stacks::TimeUnit::Second),
-                16 => Some(crate::stacks::TimeUnit::Millisecond),
-                24 => Some(crate::stacks::TimeUnit::Microsecond),
-                _ => None,
-            };
-            Ok(crate::stacks::Stacks {
-                time_points: volumes,
-                time_step: crate::stacks::step(h.pixdim[4]),
-                time_unit,
-                ..crate::stacks::Stacks::default()
-            })
-        }
-        _ => Ok(crate::stacks::Stacks::default()),
-    }
-}
-
 /// Read everything `reader` holds into memory, as `sample_type` (or the
 /// input's own type, or the smallest stored type holding its values;
 /// `f64` as `f32`, recorded in [`volcore::VolumeMeta::narrowed`]).
@@ -536,4 +490,49 @@ pub fn open_volume(
             Error::invalid(e.to_string())
         }
     })
+}
+
+/// The channels and time points of the input `path` names (see
+/// [`input_kind`]); 1 and 1 for formats without such axes (NRRD,
+/// MetaImage, DICOM, raw, `.vvol`, `.vol`, standard input). An error only
+/// where the input's header cannot be read.
+pub fn stacks(path: &Path, opts: &ReadOptions) -> CResult<crate::stacks::Stacks> {
+    use crate::stacks::{step, Stacks, TimeUnit};
+    let kind = input_kind(path, opts)?;
+    match kind {
+        // An ImageJ stack of one directory is read as raw images: z only.
+        InputKind::Tiff if crate::tiff::imagej_raw(path)?.is_some() => Ok(Stacks::default()),
+        InputKind::Tiff => crate::tiff::stacks(path, &[path.to_path_buf()]),
+        InputKind::TiffDir | InputKind::TiffGlob | InputKind::TiffList => {
+            let files = match kind {
+                InputKind::TiffDir => crate::tiff::list_dir(path)?,
+                InputKind::TiffGlob => crate::tiff::list_glob(path)?,
+                _ => crate::tiff::list_file(path)?,
+            };
+            crate::tiff::stacks(path, &files)
+        }
+        InputKind::OmeZarr => crate::omezarr::stacks(path),
+        InputKind::Nifti => {
+            let h = crate::nifti::read_header(path).at(path)?;
+            let (_, volumes) = h.shape().at(path)?;
+            if volumes < 2 {
+                return Ok(Stacks::default());
+            }
+            // xyzt_units bits 3-5: 8 s, 16 ms, 24 µs (32 and up are Hz,
+            // ppm, rad/s: not times).
+            let time_unit = match h.xyzt_units & 0x38 {
+                8 => Some(TimeUnit::Second),
+                16 => Some(TimeUnit::Millisecond),
+                24 => Some(TimeUnit::Microsecond),
+                _ => None,
+            };
+            Ok(Stacks {
+                time_points: volumes,
+                time_step: step(h.pixdim[4]),
+                time_unit,
+                ..Stacks::default()
+            })
+        }
+        _ => Ok(Stacks::default()),
+    }
 }

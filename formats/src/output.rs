@@ -44,6 +44,14 @@ impl AtomicFile {
         self.temp.as_file_mut()
     }
 
+    /// A second handle on the temporary file, sharing its position: for a
+    /// writer (an encoder) that owns what it writes to while this waits
+    /// for [`AtomicFile::commit`]. Whatever the handle buffers must be
+    /// flushed before the commit.
+    pub fn handle(&self) -> io::Result<File> {
+        self.temp.as_file().try_clone()
+    }
+
     /// Flush, give the file ordinary permissions (those of the file it
     /// replaces, else read-write for the owner and readable by everyone,
     /// rather than the temporary file's owner-only mode), and rename into
@@ -379,6 +387,37 @@ pub enum Sink<'a> {
     File(&'a mut File),
     /// A stream such as standard output (written once, front to back).
     Stream(&'a mut (dyn Write + Send)),
+    /// A seekable file the writer owns, such as [`AtomicFile::handle`]
+    /// (for a writer that owns its output and is committed after).
+    OwnedFile(File),
+    /// A stream the writer owns.
+    OwnedStream(Box<dyn Write + Send + 'a>),
+}
+
+impl Sink<'_> {
+    /// Whether the sink is seekable (a file).
+    pub fn is_file(&self) -> bool {
+        matches!(self, Sink::File(_) | Sink::OwnedFile(_))
+    }
+
+    /// The file, when the sink is one.
+    pub fn file(&mut self) -> Option<&mut File> {
+        match self {
+            Sink::File(f) => Some(f),
+            Sink::OwnedFile(f) => Some(f),
+            Sink::Stream(_) | Sink::OwnedStream(_) => None,
+        }
+    }
+
+    /// Where the bytes go.
+    pub fn writer(&mut self) -> &mut (dyn Write + Send) {
+        match self {
+            Sink::File(f) => *f,
+            Sink::OwnedFile(f) => f,
+            Sink::Stream(s) => *s,
+            Sink::OwnedStream(s) => s,
+        }
+    }
 }
 
 #[cfg(test)]
@@ -398,6 +437,28 @@ mod tests {
         );
         assert!(is_disk_full(&e));
         assert!(free_space(&target).is_some());
+    }
+
+    #[test]
+    fn a_handle_writes_where_the_file_does_and_the_commit_keeps_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("h.raw");
+        let mut f = AtomicFile::create(&target).unwrap();
+        f.file().write_all(b"head ").unwrap();
+        {
+            let mut sink = Sink::OwnedFile(f.handle().unwrap());
+            assert!(sink.is_file());
+            sink.writer().write_all(b"body").unwrap();
+        }
+        f.file().write_all(b" tail").unwrap();
+        assert!(!target.exists());
+        f.commit().unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"head body tail");
+        // Dropped uncommitted, a handle's writes go with the temporary.
+        let f = AtomicFile::create(&dir.path().join("gone.raw")).unwrap();
+        f.handle().unwrap().write_all(b"x").unwrap();
+        drop(f);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
     #[test]

@@ -4,7 +4,8 @@
 //! dimension of NIfTI), with the time step where the file states one.
 //! Read from the headers alone, whatever `--channel` and `--time-point`
 //! pick: what `vol-info` reports beside the one volume it describes
-//! ([`crate::open::stacks`] reads them from any input).
+//! ([`crate::open::stacks`] reads them for any input). Below the readers,
+//! which use its vocabulary, it uses none of them.
 
 /// The sizes of an input's channel and time axes (1 where it has none).
 #[derive(Clone, Copy, Debug, PartialEq)]

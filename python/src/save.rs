@@ -12,7 +12,6 @@ use volcore::{Dims, Geometry, Sample, VolumeData};
 use volformats::convert::{
     self, CompressArg, OutputOptions, Plan, SliceData, SliceReader, Target, Window,
 };
-use volformats::omezarr::{Downsample, Ngff};
 use volformats::reader::MemoryReader;
 
 /// `samples` (x fastest) cut into z slices of `dims`, each wrapped by `wrap`.
@@ -122,17 +121,11 @@ pub fn save<'py>(
             layout: convert::choose::layout(layout).map_err(|e| bad("layout", e))?,
             compress: CompressArg::parse(compress).map_err(|e| bad("compress", e))?,
             pyramid,
-            downsample: match downsample {
-                "mean" => Downsample::Mean,
-                "max" => Downsample::Max,
-                other => return Err(bad("downsample", format!("'{other}' is not mean or max"))),
-            },
-            ngff: match ngff {
-                None => None,
-                Some("0.4") => Some(Ngff::V04),
-                Some("0.5") => Some(Ngff::V05),
-                Some(other) => return Err(bad("ngff", format!("'{other}' is not 0.4 or 0.5"))),
-            },
+            downsample: downsample.parse().map_err(|e| bad("downsample", e))?,
+            ngff: ngff
+                .map(str::parse)
+                .transpose()
+                .map_err(|e| bad("ngff", e))?,
             shard: None,
         };
         if !(1..=16).contains(&pyramid) {

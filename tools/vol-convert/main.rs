@@ -9,6 +9,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Compression, Dims, SampleType, Shard};
 use volformats::convert::{self, CompressArg, OutputOptions, Plan, Target, ValueMap, Window};
+use volformats::omezarr::{Downsample, Ngff};
 use volformats::open_input;
 use volformats::output::AtomicFile;
 use volformats::tiff::ChannelSel;
@@ -104,13 +105,13 @@ struct Cli {
     pyramid: u32,
     /// OME-Zarr output: how each pyramid level is made from the one above
     /// (2x2x2 blocks): mean or max.
-    #[arg(long, default_value = "mean", value_parser = ["mean", "max"])]
-    downsample: String,
+    #[arg(long, default_value = "mean", value_parser = one_of::<Downsample>(["mean", "max"]))]
+    downsample: Downsample,
     /// OME-Zarr output: NGFF 0.4 on Zarr v2 (the default: napari-ome-zarr,
     /// Fiji and every ome-zarr-py release read it) or 0.5 on Zarr v3 (read
     /// by ome-zarr-py 0.10 and later).
-    #[arg(long, value_name = "VERSION", value_parser = ["0.4", "0.5"])]
-    ngff: Option<String>,
+    #[arg(long, value_name = "VERSION", value_parser = one_of::<Ngff>(["0.4", "0.5"]))]
+    ngff: Option<Ngff>,
     /// Convert only shard K of N (K from 0) into a part file (-o
     /// NAME.vpart): its share of the brick layers (bricked) or slices
     /// (sliced), reading only the input slices those need. Run the N shards
@@ -312,6 +313,16 @@ fn stdout_file() -> Result<std::fs::File> {
     Ok(std::fs::File::from(fd))
 }
 
+/// A value among `names` (listed in the help and in clap's error),
+/// parsed by its type's `FromStr` (the rules the Python package follows).
+fn one_of<T>(names: [&'static str; 2]) -> impl clap::builder::TypedValueParser<Value = T>
+where
+    T: std::str::FromStr<Err = String> + Clone + Send + Sync + 'static,
+{
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(names).try_map(|s| s.parse::<T>())
+}
+
 fn compress_arg(s: &str) -> Result<CompressArg, String> {
     CompressArg::parse(s)
 }
@@ -323,15 +334,8 @@ fn target(cli: &Cli) -> Result<Target> {
         layout: cli.layout,
         compress: cli.compress,
         pyramid: cli.pyramid,
-        downsample: if cli.downsample == "max" {
-            volformats::omezarr::Downsample::Max
-        } else {
-            volformats::omezarr::Downsample::Mean
-        },
-        ngff: cli.ngff.as_deref().map(|v| match v {
-            "0.5" => volformats::omezarr::Ngff::V05,
-            _ => volformats::omezarr::Ngff::V04,
-        }),
+        downsample: cli.downsample,
+        ngff: cli.ngff,
         shard: cli.shard,
     };
     let stdout: Option<Box<dyn std::io::Write + Send>> = if cli.output.as_os_str() == "-" {

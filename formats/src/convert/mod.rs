@@ -563,7 +563,7 @@ fn run<T: SliceSample>(
     };
     let dims = loader.out_dims();
     let out_path = target.path().to_path_buf();
-    let mut drive = |sink: &mut dyn writers::SlabSink<T>| -> CResult<()> {
+    let mut drive = |sink: &mut dyn writers::SliceWriter<T>| -> CResult<()> {
         let mut window = SliceWindow::<T>::new(dims);
         loop {
             let zs = sink.next_slices();
@@ -587,7 +587,10 @@ fn run<T: SliceSample>(
         temp_dir: &args.temp_dir,
         progress,
     };
-    let (bytes_out, range) = writers::run_target::<T>(target, &spec, &mut drive)?;
+    let writers::Written {
+        bytes: bytes_out,
+        range,
+    } = writers::run_target::<T>(target, &spec, &mut drive)?;
     Ok(Report {
         dims,
         sample_type: T::TYPE,

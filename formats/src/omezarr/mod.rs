@@ -57,6 +57,18 @@ impl Ngff {
     }
 }
 
+impl std::str::FromStr for Ngff {
+    type Err = String;
+    /// `0.4` or `0.5`.
+    fn from_str(s: &str) -> std::result::Result<Ngff, String> {
+        match s {
+            "0.4" => Ok(Ngff::V04),
+            "0.5" => Ok(Ngff::V05),
+            other => Err(format!("'{other}' is not 0.4 or 0.5")),
+        }
+    }
+}
+
 /// How a pyramid level is computed from the one above.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Downsample {
@@ -65,6 +77,18 @@ pub enum Downsample {
     Mean,
     /// Maximum of each block (keeps thin bright structures).
     Max,
+}
+
+impl std::str::FromStr for Downsample {
+    type Err = String;
+    /// `mean` or `max`.
+    fn from_str(s: &str) -> std::result::Result<Downsample, String> {
+        match s {
+            "mean" => Ok(Downsample::Mean),
+            "max" => Ok(Downsample::Max),
+            other => Err(format!("'{other}' is not mean or max")),
+        }
+    }
 }
 
 fn zerr(e: impl std::fmt::Display) -> Error {

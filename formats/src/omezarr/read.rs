@@ -695,23 +695,6 @@ impl SliceReader for ZarrReader {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn copy_overlap_places_a_chunk_part_in_a_block() {
-        // A 2x3 chunk at (1, 2) into the block rows 0..3, columns 3..5.
-        let chunk = [1, 2, 3, 4, 5, 6];
-        let mut out = [0; 6];
-        copy_overlap(&chunk, &[1, 2], &[2, 3], &mut out, &[0..3, 3..5]);
-        assert_eq!(out, [0, 0, 2, 3, 5, 6]);
-        // No overlap: nothing changes.
-        copy_overlap(&chunk, &[9, 9], &[2, 3], &mut out, &[0..3, 3..5]);
-        assert_eq!(out, [0, 0, 2, 3, 5, 6]);
-    }
-}
-
 /// The channels and time points of the OME-Zarr image at `root`: the
 /// lengths of its `c` and `t` axes (1 without them), and the time step,
 /// the `t` axis's scale in its unit, when it states either (see
@@ -776,4 +759,21 @@ pub fn stacks(root: &Path) -> CResult<crate::stacks::Stacks> {
         }
     }
     Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn copy_overlap_places_a_chunk_part_in_a_block() {
+        // A 2x3 chunk at (1, 2) into the block rows 0..3, columns 3..5.
+        let chunk = [1, 2, 3, 4, 5, 6];
+        let mut out = [0; 6];
+        copy_overlap(&chunk, &[1, 2], &[2, 3], &mut out, &[0..3, 3..5]);
+        assert_eq!(out, [0, 0, 2, 3, 5, 6]);
+        // No overlap: nothing changes.
+        copy_overlap(&chunk, &[9, 9], &[2, 3], &mut out, &[0..3, 3..5]);
+        assert_eq!(out, [0, 0, 2, 3, 5, 6]);
+    }
 }

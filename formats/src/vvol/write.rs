@@ -89,14 +89,20 @@ impl<'a> VvolWriter<'a> {
     /// Start the part file of `shard` of the `.vvol` that `meta` describes
     /// (see [`super::part`]): it holds that shard's slices (sliced) or brick
     /// layers (bricked) and is assembled with the others by
-    /// [`super::part::merge`]. Parts are files: the header is written last.
+    /// [`super::part::merge`]. Parts are files (`sink` a [`Sink::File`] or
+    /// [`Sink::OwnedFile`]): the header is written last.
     pub fn new_part(
-        file: &'a mut std::fs::File,
+        sink: Sink<'a>,
         meta: VolumeMeta,
         shard: Shard,
         progress: &'a (dyn Fn(u64) + Sync),
     ) -> Result<VvolWriter<'a>> {
-        VvolWriter::start(Sink::File(file), meta, Some(shard), progress)
+        if !sink.is_file() {
+            return Err(Error::invalid(
+                "a part is written to a file (internal error)",
+            ));
+        }
+        VvolWriter::start(sink, meta, Some(shard), progress)
     }
 
     fn start(
@@ -118,7 +124,7 @@ impl<'a> VvolWriter<'a> {
                 next_z: units.start,
             },
             Layout::Bricked(geom) => {
-                if matches!(sink, Sink::Stream(_)) {
+                if !sink.is_file() {
                     return Err(Error::invalid(
                         "bricked .vvol files cannot be written to a stream; use a file or --layout sliced",
                     ));
@@ -140,7 +146,7 @@ impl<'a> VvolWriter<'a> {
                 }
             }
         };
-        let out = sink_writer(&mut sink);
+        let out = sink.writer();
         if part.is_some() {
             write_zeros(out, part::DATA_OFFSET)?;
         } else {
@@ -209,7 +215,7 @@ impl<'a> VvolWriter<'a> {
         }
         let base = self.done_bytes;
         let progress = self.progress;
-        let out = sink_writer(&mut self.sink);
+        let out = self.sink.writer();
         let d = self.header.meta.dims;
         let rows = (zs.start * d.y)..(zs.end * d.y);
         let w = write_rows(src, rows, out, &|n| progress(base + n))?;
@@ -236,7 +242,7 @@ impl<'a> VvolWriter<'a> {
     /// Write the next layer of bricks of a bricked volume.
     fn write_layer<R: RegionSource>(&mut self, src: &R) -> Result<()> {
         let progress = self.progress;
-        let out = sink_writer(&mut self.sink);
+        let out = self.sink.writer();
         let State::Bricked {
             geom,
             entries,
@@ -331,9 +337,8 @@ impl<'a> VvolWriter<'a> {
             crc32,
             range: self.range,
         };
-        let out = sink_writer(&mut self.sink);
-        out.write_all(&trailer.encode())?;
-        if let Sink::File(f) = &mut self.sink {
+        self.sink.writer().write_all(&trailer.encode())?;
+        if let Some(f) = self.sink.file() {
             f.seek(SeekFrom::Start(0))?;
             f.write_all(&h.encode())?;
             if let Some(t) = &table {
@@ -341,7 +346,7 @@ impl<'a> VvolWriter<'a> {
             }
             f.seek(SeekFrom::End(0))?;
         }
-        sink_writer(&mut self.sink).flush()?;
+        self.sink.writer().flush()?;
         Ok(WriteStats {
             bytes: h.file_len().unwrap_or(0).max(HEADER_LEN + TRAILER_LEN),
             range: self.range,
@@ -371,7 +376,7 @@ impl VvolWriter<'_> {
             crc32,
             volume: Header::for_meta(meta)?,
         };
-        let Sink::File(f) = &mut self.sink else {
+        let Some(f) = self.sink.file() else {
             return Err(Error::invalid(
                 "a part is written to a file (internal error)",
             ));
@@ -385,13 +390,6 @@ impl VvolWriter<'_> {
             bytes: part::DATA_OFFSET + data_len + table.len() as u64,
             range: self.range,
         })
-    }
-}
-
-fn sink_writer<'s>(sink: &'s mut Sink<'_>) -> &'s mut (dyn Write + Send) {
-    match sink {
-        Sink::File(f) => *f,
-        Sink::Stream(s) => *s,
     }
 }
 
