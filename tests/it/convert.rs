@@ -972,3 +972,25 @@ fn converts_in_a_pipe() {
     assert!(out.status.success());
     assert_eq!(&out.stdout[..8], b"\x89VVOL\r\n\x1a");
 }
+
+/// The bytes vol-convert reports for a multipage TIFF are the new file's,
+/// also when it replaces a smaller one (they were the old file's).
+#[test]
+fn tiff_output_reports_the_size_of_the_file_it_wrote() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let out = d.join("o.tif");
+    for (dims, name) in [("16,16,4", "small.vvol"), ("40,32,24", "big.vvol")] {
+        let v = d.join(name);
+        ok(tool("vol-gen")
+            .args(["noise", "--dims", dims, "-q", "-o"])
+            .arg(&v));
+        let j = json(&ok(tool("vol-convert")
+            .arg(&v)
+            .arg("-o")
+            .arg(&out)
+            .arg("--json")));
+        let len = std::fs::metadata(&out).unwrap().len();
+        assert_eq!(j["bytes"].as_u64(), Some(len), "{name}: {j}");
+    }
+}

@@ -108,8 +108,10 @@ impl<K: TiffKind, T: SliceSample> SliceWriter<T> for TiffOut<'_, K> {
             ..
         } = *self;
         drop(enc);
-        let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(bytes);
         file.commit().at(&path)?;
+        // The committed file's size (pages, directories and all), not that
+        // of a file it replaced.
+        let bytes = std::fs::metadata(&path).map(|m| m.len()).unwrap_or(bytes);
         Ok(Written { bytes, range: None })
     }
 }
