@@ -792,17 +792,20 @@ fn broken_stacks_fail_with_one_line_and_no_output() {
     std::fs::create_dir(&e).unwrap();
     fails(convert().arg(&e).arg("-o").arg(&o), "no .tif");
     assert!(!o.exists());
-    // Output directory of slices that is not empty is refused.
+    // An output directory of slices holding anything but slice files is
+    // refused and left as it was.
     let full_dir = d.join("full");
     std::fs::create_dir(&full_dir).unwrap();
     std::fs::write(full_dir.join("x"), b"x").unwrap();
+    std::fs::write(full_dir.join("slice_0000.tif"), b"x").unwrap();
     fails(
         convert()
             .arg(&t)
             .arg("-o")
             .arg(format!("{}/", full_dir.display())),
-        "not empty",
+        "no TIFF slice folder to replace",
     );
+    assert_eq!(std::fs::read(full_dir.join("x")).unwrap(), b"x");
     assert!(leftovers(d).is_empty());
 }
 
@@ -993,4 +996,46 @@ fn tiff_output_reports_the_size_of_the_file_it_wrote() {
         let len = std::fs::metadata(&out).unwrap().len();
         assert_eq!(j["bytes"].as_u64(), Some(len), "{name}: {j}");
     }
+}
+
+/// A TIFF slice folder replaces an earlier one, as files and OME-Zarr
+/// stores are replaced (docs/OUTPUTS.md): whole, no slice of the earlier
+/// write left, nothing beside it.
+#[test]
+fn tiff_slice_folder_replaces_an_earlier_one_whole() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let out = format!("{}/", d.join("slices").display());
+    let (a, b) = (d.join("a.vvol"), d.join("b.vvol"));
+    ok(tool("vol-gen")
+        .args(["noise", "--dims", "8,6,12", "--seed", "1", "-q", "-o"])
+        .arg(&a));
+    ok(tool("vol-gen")
+        .args(["noise", "--dims", "8,6,5", "--seed", "2", "-q", "-o"])
+        .arg(&b));
+    ok(tool("vol-convert").arg(&a).args(["-q", "-o", &out]));
+    assert_eq!(std::fs::read_dir(d.join("slices")).unwrap().count(), 12);
+    ok(tool("vol-convert").arg(&b).args(["-q", "-o", &out]));
+    let mut names: Vec<String> = std::fs::read_dir(d.join("slices"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        (0..5)
+            .map(|z| format!("slice_{z:04}.tif"))
+            .collect::<Vec<_>>()
+    );
+    // The folder reads back as the second input.
+    let (x, y) = (d.join("x_8x6x5_uint8.raw"), d.join("y_8x6x5_uint8.raw"));
+    ok(tool("vol-convert").arg(&out).args(["-q", "-o"]).arg(&x));
+    ok(tool("vol-convert").arg(&b).args(["-q", "-o"]).arg(&y));
+    assert!(std::fs::read(&x).unwrap() == std::fs::read(&y).unwrap());
+    let mut beside: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    beside.sort();
+    assert_eq!(beside.len(), 5, "{beside:?}");
 }

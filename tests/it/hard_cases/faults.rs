@@ -119,8 +119,8 @@ fn remove(p: &Path) {
 
 /// A writer under test: the command that writes `units` into `out` (a
 /// directory holding nothing else), and the command that writes an
-/// earlier, different version of them (`None`: the output cannot be
-/// replaced: TIFF slice directories are refused when not empty).
+/// earlier, different version of them (`None`: the output has no earlier
+/// version to replace).
 struct Writer {
     name: &'static str,
     tool: &'static str,
@@ -417,8 +417,6 @@ fn convert_writer(d: &Path, name: &'static str, file: &str, extra: &[&str]) -> W
         v.extend(extra.iter().map(OsString::from));
         v
     };
-    // TIFF slice directories are never replaced; OME-Zarr stores are.
-    let dir = file.ends_with('/');
     let units = match Path::new(file).extension().and_then(|e| e.to_str()) {
         Some("nhdr") | Some("mhd") => {
             vec![Unit::pair(target.clone(), target.with_extension("raw"))]
@@ -430,7 +428,7 @@ fn convert_writer(d: &Path, name: &'static str, file: &str, extra: &[&str]) -> W
         name,
         tool: "vol-convert",
         args: with(&a),
-        previous: (!dir).then(|| with(&b)),
+        previous: Some(with(&b)),
         units,
         out,
     }

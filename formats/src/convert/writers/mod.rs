@@ -17,7 +17,7 @@ use crate::pipeline::ITEM_BYTES;
 use crate::reader::{CResult, ConvertError, NiftiCodes};
 use crate::slice::SliceSample;
 use crate::thesis::ThesisLayout;
-use dir::{check_dir_target, check_shard_store};
+use dir::{check_dir_target, check_shard_store, DirOutput};
 use std::io::Write;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -68,7 +68,8 @@ pub enum Target {
     },
     /// A directory of single-page TIFFs `slice_0000.tif`, ...
     TiffDir {
-        /// Output directory (must not exist, or be empty).
+        /// Output directory (must not exist, be empty, or hold only the
+        /// slice files of an earlier write, which it replaces).
         path: PathBuf,
     },
     /// An in-memory [`Volume`], left in the slot (what
@@ -77,7 +78,8 @@ pub enum Target {
     /// An OME-Zarr directory (NGFF 0.4 on Zarr v2, or 0.5 on Zarr v3)
     /// with a multiscale pyramid.
     OmeZarr {
-        /// Output directory (must not exist, or be empty).
+        /// Output directory (must not exist, be empty, or hold an earlier
+        /// OME-Zarr image, which it replaces).
         path: PathBuf,
         /// Pyramid levels, the full resolution included (at least 1).
         levels: u32,
@@ -271,8 +273,9 @@ impl Target {
     }
 
     /// Check what can be checked before any work: a directory target
-    /// must not exist or be empty, or (OME-Zarr) hold an earlier OME-Zarr
-    /// image, which the write replaces.
+    /// must not exist or be empty, or hold what an earlier write of the
+    /// same kind left (an OME-Zarr image, TIFF slice files), which the
+    /// write replaces.
     pub fn preflight(&self) -> CResult<()> {
         match self {
             Target::OmeZarr {
@@ -280,8 +283,8 @@ impl Target {
                 shard: Some(_),
                 ..
             } => check_shard_store(path),
-            Target::TiffDir { path } => check_dir_target(path, false).map(drop),
-            Target::OmeZarr { path, .. } => check_dir_target(path, true).map(drop),
+            Target::TiffDir { path } => check_dir_target(path, DirOutput::TiffSlices).map(drop),
+            Target::OmeZarr { path, .. } => check_dir_target(path, DirOutput::OmeZarr).map(drop),
             _ => Ok(()),
         }
     }

@@ -2,7 +2,7 @@
 //! renamed into place, or one shard's chunks written straight into a
 //! shared store.
 
-use super::dir::{check_shard_store, PartialDir};
+use super::dir::{check_shard_store, DirOutput, PartialDir};
 use super::{slice_of, Opened, OutSpec, SliceWriter, Written};
 use crate::convert::SliceWindow;
 use crate::omezarr::{Downsample, Ngff, ZarrWriter};
@@ -52,7 +52,7 @@ pub(super) fn open<'a, T: SliceSample>(
             (w, zs, None)
         }
         None => {
-            let dir = PartialDir::create(&path, true)?;
+            let dir = PartialDir::create(&path, DirOutput::OmeZarr)?;
             let name = crate::omezarr::file_name(&path);
             let w = ZarrWriter::<T>::create_as(dir.temp.path(), &store, &name).at(&path)?;
             (w, 0..dims.z, Some(dir))

@@ -1,7 +1,7 @@
 //! TIFF output: one multipage file (BigTIFF past 4 GiB), or a directory of
 //! single-page files `slice_0000.tif`, ...
 
-use super::dir::PartialDir;
+use super::dir::{DirOutput, PartialDir};
 use super::{slab, slice_of, Opened, OutSpec, SliceWriter, Written};
 use crate::convert::SliceWindow;
 use crate::error::Error;
@@ -134,7 +134,7 @@ struct TiffDirOut<'a> {
 /// A directory of single-page TIFFs.
 pub(super) fn open_dir<'a, T: SliceSample>(path: PathBuf, spec: &OutSpec<'a>) -> Opened<'a, T> {
     let dims = spec.dims;
-    let dir = PartialDir::create(&path, false)?;
+    let dir = PartialDir::create(&path, DirOutput::TiffSlices)?;
     Ok(Box::new(TiffDirOut {
         dir,
         dims,
