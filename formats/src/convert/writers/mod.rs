@@ -137,46 +137,28 @@ impl Target {
         let s = path.to_string_lossy();
         let l = s.to_ascii_lowercase();
         let stem = |ext: &str| s[..s.len() - ext.len()].to_string();
+        // The format's codec under --compress, else raw samples.
+        let packed = |c| if compress { c } else { DataCodec::Raw };
         let (format, data, codec) = if l.ends_with(".nii.gz") {
             (HeaderFormat::Nifti, None, DataCodec::Gzip)
         } else if l.ends_with(".nii") {
             (HeaderFormat::Nifti, None, DataCodec::Raw)
         } else if l.ends_with(".hdr") {
-            let codec = if compress {
-                DataCodec::Gzip
-            } else {
-                DataCodec::Raw
-            };
+            let codec = packed(DataCodec::Gzip);
             let img = stem(".hdr") + if compress { ".img.gz" } else { ".img" };
             (HeaderFormat::Nifti, Some(PathBuf::from(img)), codec)
         } else if l.ends_with(".nrrd") {
-            let codec = if compress {
-                DataCodec::Gzip
-            } else {
-                DataCodec::Raw
-            };
+            let codec = packed(DataCodec::Gzip);
             (HeaderFormat::Nrrd, None, codec)
         } else if l.ends_with(".nhdr") {
-            let codec = if compress {
-                DataCodec::Gzip
-            } else {
-                DataCodec::Raw
-            };
+            let codec = packed(DataCodec::Gzip);
             let raw = stem(".nhdr") + if compress { ".raw.gz" } else { ".raw" };
             (HeaderFormat::Nrrd, Some(PathBuf::from(raw)), codec)
         } else if l.ends_with(".mha") {
-            let codec = if compress {
-                DataCodec::Zlib
-            } else {
-                DataCodec::Raw
-            };
+            let codec = packed(DataCodec::Zlib);
             (HeaderFormat::MetaImage, None, codec)
         } else if l.ends_with(".mhd") {
-            let codec = if compress {
-                DataCodec::Zlib
-            } else {
-                DataCodec::Raw
-            };
+            let codec = packed(DataCodec::Zlib);
             let raw = stem(".mhd") + if compress { ".zraw" } else { ".raw" };
             (HeaderFormat::MetaImage, Some(PathBuf::from(raw)), codec)
         } else {
