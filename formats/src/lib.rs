@@ -7,6 +7,9 @@
 //! - [`tiff`], [`nrrd`], [`mhd`]: TIFF stacks, NRRD and MetaImage, and
 //!   [`convert`], which turns any input into any output slice by slice.
 //! - [`image`]: the image files tools write (8-bit PNG, PFM, heat maps).
+//! - [`prepflags`]: the preprocessing flags (`--resample`, `--orient`,
+//!   `--smooth`, ...), resolved into the stages [`convert`] runs through
+//!   the `volprep` kernels.
 //! - [`reader`] and [`slice`](mod@slice): what every reader hands out (z slices of any
 //!   sample type, errors located at a file), below the readers, [`open`](mod@open)
 //!   and [`convert`]; `tests/it/module_graph.rs` keeps the modules free of
@@ -33,6 +36,7 @@ pub mod omezarr;
 pub mod open;
 pub mod output;
 pub mod pipeline;
+pub mod prepflags;
 pub mod raw;
 pub mod reader;
 pub mod rescale;
@@ -48,6 +52,7 @@ pub use detect::FileKind;
 pub use error::{Error, Result};
 pub use fingerprint::fingerprint;
 pub use open::{open, open_input, open_volume, ReadOptions};
+pub use prepflags::PrepFlags;
 pub use select::Selection;
 
 #[cfg(test)]

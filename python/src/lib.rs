@@ -11,6 +11,7 @@
 mod errors;
 mod generate;
 mod index;
+mod prep;
 mod psnr;
 mod render;
 mod save;

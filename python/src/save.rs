@@ -94,11 +94,17 @@ fn volume_slices(v: &volcore::Volume) -> Vec<SliceData> {
 /// float64 is stored as it is; array types volkit does not store (int8,
 /// (u)int32) become the smallest stored type that holds their values. `spacing`, `origin` and
 /// `direction` are in numpy order (z, y, x) and replace the data's own.
+/// Preprocessing in the same pass, by vol-convert's flag names:
+/// `orient="RAS"`, `resample="spacing:1"` (or `"dims:NX,NY,NZ"`,
+/// `"like:FILE"`), `kernel`, `no_antialias=True`, `background`,
+/// `smooth="gauss:1"`, `median=1`, `clamp="-1000:2000"`,
+/// `threshold="300:3000"`, `mask="FILE"`; the same stages, order and
+/// bytes as the command line (see docs/convert.md, Preprocessing).
 /// The file is written under a temporary name and renamed into place
 /// only when complete. Returns what was written (shape, type, bytes).
 #[pyfunction]
 #[pyo3(signature = (data, path, *, spacing=None, origin=None, direction=None, layout="sliced",
-    compress="none", r#type=None, window=None, pyramid=1, downsample="mean", ngff=None))]
+    compress="none", r#type=None, window=None, pyramid=1, downsample="mean", ngff=None, **prep))]
 #[allow(clippy::too_many_arguments)]
 pub fn save<'py>(
     py: Python<'py>,
@@ -114,8 +120,21 @@ pub fn save<'py>(
     pyramid: u32,
     downsample: &str,
     ngff: Option<&str>,
+    prep: Option<&Bound<'py, pyo3::types::PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     crate::guard(|| {
+        let mut kw = Vec::new();
+        for (k, v) in prep.into_iter().flat_map(|d| d.iter()) {
+            let key: String = k.extract()?;
+            if !crate::prep::is_prep_keyword(&key) {
+                return Err(errors::value(format!(
+                    "unknown option `{key}` (save's preprocessing keywords are {})",
+                    crate::prep::prep_keywords().join(", ")
+                )));
+            }
+            kw.push((key, v));
+        }
+        let flags = crate::prep::prep_flags(&kw)?;
         let bad = |what: &str, e: String| errors::value(format!("{what}: {e}"));
         let opts = OutputOptions {
             layout: convert::choose::layout(layout).map_err(|e| bad("layout", e))?,
@@ -152,6 +171,10 @@ pub fn save<'py>(
         };
         let target = Target::for_output(&path, &opts, None).map_err(errors::value)?;
         target.preflight().map_err(errors::convert)?;
+        let plan = Plan {
+            prep: flags.resolve(&target.temp_dir()).map_err(errors::convert)?,
+            ..plan
+        };
         let reader = reader_for(py, data, origin, direction)?;
         let out = crate::run(py, convert::request_stop, || {
             convert::convert(reader, &plan, target, &|_| {})

@@ -263,7 +263,7 @@ pub fn decode<S: VoxelSource>(src: &S, d: Dims) -> Vec<S::Sample> {
 
 /// A selection option's value as text (a string as it is; a number or a
 /// sequence of numbers as the command line writes it).
-fn text_of(v: &Bound<'_, PyAny>) -> PyResult<String> {
+pub(crate) fn text_of(v: &Bound<'_, PyAny>) -> PyResult<String> {
     match crate::value::to_json(v)? {
         serde_json::Value::String(s) => Ok(s),
         serde_json::Value::Array(items) => Ok(items

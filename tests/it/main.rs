@@ -17,6 +17,7 @@ mod hard_cases;
 mod index;
 mod module_graph;
 mod path;
+mod preprocess;
 mod psnr;
 mod render;
 mod scene;

@@ -7,10 +7,10 @@ use clap::Parser;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
-use volcore::{Compression, Dims, SampleType, Shard};
+use volcore::{Compression, SampleType, Shard};
 use volformats::convert::{self, CompressArg, OutputOptions, Plan, Target, ValueMap, Window};
 use volformats::omezarr::{Downsample, Ngff};
-use volformats::open_input;
+use volformats::{open_input, PrepFlags};
 use volformats::output::AtomicFile;
 use volformats::tiff::ChannelSel;
 use volformats::vvol::part;
@@ -128,9 +128,12 @@ struct Cli {
     #[arg(long, value_name = "PART", num_args = 1.., conflicts_with_all = [
         "input", "shard", "layout", "compress", "sample_type", "window", "spacing", "crop",
         "flip", "channel", "luma", "pyramid", "downsample", "ngff", "time_point", "series",
-        "units",
+        "units", "orient", "resample", "kernel", "no_antialias", "smooth", "median", "clamp",
+        "threshold", "mask",
     ])]
     merge: Vec<PathBuf>,
+    #[command(flatten, next_help_heading = "Preprocessing (in this order after --crop: orient, resample, smooth, median, clamp, threshold, mask)")]
+    prep: PrepFlags,
     #[command(flatten, next_help_heading = "Input")]
     input_sel: Selection,
     /// Colour TIFF: keep the luma 0.299 R + 0.587 G + 0.114 B (instead of
@@ -155,6 +158,15 @@ const EXAMPLES: &str = "Examples:
   vol-convert ct.nii.gz --pyramid 4 -o ct.ome.zarr            # NGFF 0.4, Zarr v2
   vol-convert ct.nii.gz --pyramid 4 --ngff 0.5 -o ct.ome.zarr # NGFF 0.5, Zarr v3
   vol-gen shapes --dims 256,256,256 -o - | vol-convert - --layout bricked:32 -o out.vvol
+
+Preprocessing (one pass; the stages apply in the order of the help's heading):
+  vol-convert ct/ --series 3 --orient RAS --resample spacing:1 -o ct-1mm.nii.gz
+  vol-convert ct.nii --resample spacing:0.5,0.5,1 --kernel bspline3 -o fine.nii
+  vol-convert labels.nii --resample like:ct-1mm.nii.gz --kernel label -o labels-1mm.nii
+  vol-convert ct.nii --smooth gauss:1 --clamp -1000:2000 -o smooth.nii
+  vol-convert ct.nii --median 1 --threshold 300:3000 -o bone-mask.nii
+  vol-convert ct.nii --mask bone-mask.nii --background -1024 -o bone.nii
+  vol-convert ct.nii --orient RAS -o - | vol-convert - --smooth gauss:2 -o ras-smooth.nii   # another order
 
 Sharded (each shard reads only the slices its brick layers need):
   for k in 0 1 2 3; do vol-convert scan/ --layout bricked:32 --shard $k/4 -o scan.$k.vpart; done
@@ -377,23 +389,10 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         None => None,
     };
     let flip = ["x", "y", "z"].map(|a| cli.flip.iter().any(|f| f == a));
-    let out_type = cli
-        .sample_type
-        .or(info.sample_type.stored())
-        .unwrap_or(SampleType::F32);
-    let out_dims = match &crop {
-        Some(c) => Dims::new(
-            c[0].end - c[0].start,
-            c[1].end - c[1].start,
-            c[2].end - c[2].start,
-        )
-        .map_err(|e| at(input, e))?,
-        None => info.dims,
-    };
-    if volformats::omezarr::is_zarr(&cli.output) {
-        // Before any sample is read: the pyramid must fit the output dims.
-        volformats::omezarr::check_levels(out_dims, cli.pyramid).map_err(|e| at(&cli.output, e))?;
-    }
+    let prep = cli
+        .prep
+        .resolve(&target.temp_dir())
+        .map_err(anyhow::Error::new)?;
     let plan = Plan {
         crop,
         flip,
@@ -402,7 +401,17 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         spacing: cli.spacing,
         unit: cli.units,
         temp_dir: None,
+        prep,
     };
+    // The grid and type the output will have (crop, units, stages).
+    let (out_grid, out_type) =
+        convert::output_grid(&info, &plan, &target).map_err(anyhow::Error::new)?;
+    let out_dims = out_grid.dims;
+    let out_type = out_type.unwrap_or(SampleType::F32);
+    if volformats::omezarr::is_zarr(&cli.output) {
+        // Before any sample is read: the pyramid must fit the output dims.
+        volformats::omezarr::check_levels(out_dims, cli.pyramid).map_err(|e| at(&cli.output, e))?;
+    }
     let mut total = out_dims.count().saturating_mul(out_type.size() as u64);
     if let Some(shard) = cli.shard {
         // The shard's share of the units (slices, brick layers, or chunk

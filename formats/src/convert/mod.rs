@@ -13,6 +13,7 @@
 
 pub mod choose;
 pub mod spool;
+pub mod stages;
 pub mod units;
 pub mod window;
 mod writers;
@@ -20,6 +21,7 @@ mod writers;
 pub use crate::reader::{Access, At, CResult, ConvertError, InputInfo, NiftiCodes, SliceReader};
 pub use crate::slice::{SliceData, SliceSample, SliceType};
 pub use choose::{CompressArg, LayoutArg, OutputOptions};
+pub use stages::{MaskInput, Preprocess, ResampleTo, Resampling};
 pub use window::{fit_type, Histogram, Mapper, ValueMap, Window};
 pub use writers::{MemorySlot, Target};
 
@@ -31,9 +33,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use volcore::{
     Dims, Geometry, LengthUnit, Narrowing, RegionSource, Sample, SampleType, ValueRange,
 };
+use volprep::chain::{ChainError, Source};
+use volprep::{Chain, Grid, Stage};
 
 /// What to do to the samples on the way.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default)]
 pub struct Plan {
     /// Keep only voxels `x0..x1, y0..y1, z0..z1` (input coordinates).
     pub crop: Option<[Range<u64>; 3]>,
@@ -53,6 +57,9 @@ pub struct Plan {
     /// Directory for temporary files (spooled streams); `None`: the
     /// output's directory.
     pub temp_dir: Option<PathBuf>,
+    /// The preprocessing stages (orient, resample, smooth, median, clamp,
+    /// threshold, mask), after crop and units and before the type.
+    pub prep: Preprocess,
 }
 
 /// A parsed `--crop`: per axis, optional bounds (`None`: the whole axis).
@@ -236,6 +243,64 @@ impl<T: SliceSample> Loader<'_, T> {
     }
 }
 
+/// Where a [`SliceWindow`] gets the output slices it lacks: the input
+/// read directly ([`Loader`]) or through preprocessing stages
+/// ([`Staged`]).
+trait Produce<T> {
+    /// Output slices `zs`, in order.
+    fn produce(&mut self, zs: Range<u64>) -> CResult<Vec<Vec<T>>>;
+    /// A slice the window is done with, for reuse.
+    fn recycle(&mut self, v: Vec<T>);
+}
+
+impl<T: SliceSample> Produce<T> for &Loader<'_, T> {
+    fn produce(&mut self, zs: Range<u64>) -> CResult<Vec<Vec<T>>> {
+        let loader: &Loader<'_, T> = self;
+        match loader.reader.access() {
+            Access::Random => zs.into_par_iter().map(|z| loader.load(z)).collect(),
+            Access::Sequential => zs.map(|z| loader.load(z)).collect(),
+        }
+    }
+    fn recycle(&mut self, v: Vec<T>) {
+        Loader::recycle(self, v);
+    }
+}
+
+/// Output slices from a chain of preprocessing stages: `f32` slices
+/// rounded to the output type (or mapped by `--window lo:hi`).
+struct Staged<'a, T> {
+    chain: Chain<'a, ConvertError>,
+    map: ValueMap,
+    out_path: PathBuf,
+    _type: std::marker::PhantomData<T>,
+}
+
+impl<T: SliceSample> Produce<T> for Staged<'_, T> {
+    fn produce(&mut self, zs: Range<u64>) -> CResult<Vec<Vec<T>>> {
+        let map = self.map;
+        let out_path = self.out_path.clone();
+        let slab = self.chain.slices(zs.clone()).map_err(|e| match e {
+            ChainError::Source(e) => e,
+            ChainError::Stage(msg) => ConvertError::new(&out_path, Error::invalid(msg)),
+            ChainError::Spill(dir, e) => ConvertError::new(
+                &dir,
+                Error::invalid(format!("cannot write the temporary copy a stage reads: {e}")),
+            ),
+        })?;
+        Ok(zs
+            .into_par_iter()
+            .map(|z| {
+                let s = slab.slice(z);
+                match map {
+                    ValueMap::Exact => s.iter().map(|&v| T::from_f32(v)).collect(),
+                    m => s.iter().map(|&v| m.apply::<T>(v as f64)).collect(),
+                }
+            })
+            .collect())
+    }
+    fn recycle(&mut self, _: Vec<T>) {}
+}
+
 #[cold]
 fn unreachable_type<T>() -> CResult<T> {
     Err(ConvertError::new(
@@ -270,7 +335,7 @@ impl<T: SliceSample> SliceWindow<T> {
     }
 
     /// Hold exactly slices `zs`: drop those before, load those missing.
-    fn advance(&mut self, zs: Range<u64>, loader: &Loader<'_, T>) -> CResult<()> {
+    fn advance(&mut self, zs: Range<u64>, src: &mut dyn Produce<T>) -> CResult<()> {
         let end = self.first + self.slices.len() as u64;
         let drop_n = if zs.start >= end || zs.start < self.first {
             self.slices.len()
@@ -278,7 +343,7 @@ impl<T: SliceSample> SliceWindow<T> {
             (zs.start - self.first) as usize
         };
         for v in self.slices.drain(..drop_n) {
-            loader.recycle(v);
+            src.recycle(v);
         }
         self.first = zs.start;
         let have = self.first + self.slices.len() as u64;
@@ -286,13 +351,7 @@ impl<T: SliceSample> SliceWindow<T> {
         if need.is_empty() {
             return Ok(());
         }
-        let loaded: Vec<Vec<T>> = match loader.reader.access() {
-            Access::Random => need
-                .into_par_iter()
-                .map(|z| loader.load(z))
-                .collect::<CResult<_>>()?,
-            Access::Sequential => need.map(|z| loader.load(z)).collect::<CResult<_>>()?,
-        };
+        let loaded = src.produce(need)?;
         self.slices.extend(loaded);
         Ok(())
     }
@@ -401,6 +460,12 @@ pub fn convert(
         ));
     }
     let from = info.sample_type;
+    // Geometry and units first: the preprocessing stages work on that grid.
+    let (grid, stages, mut notes) = plan_stages(&info, &crop, plan, &target)?;
+    if !stages.is_empty() {
+        return convert_staged(reader, plan, target, progress, stages, grid, crop, notes);
+    }
+    let (spacing, geometry) = (grid.spacing_f32(), grid.geometry);
     // f64 into an output that holds no f64 (the renderer's memory) is f32.
     let asked = plan
         .sample_type
@@ -463,14 +528,6 @@ pub fn convert(
     } else {
         ValueMap::plan(from, out_type, plan.window, hist.as_ref()).at(&in_path)?
     };
-    let in_spacing = info.spacing.unwrap_or([1.0; 3]);
-    let out_dims = [0, 1, 2].map(|a| crop[a].end - crop[a].start);
-    let start = [0, 1, 2].map(|a| crop[a].start);
-    let geometry = info
-        .geometry
-        .cropped(in_spacing, start, out_dims, plan.flip);
-    let (spacing, geometry, mut notes) =
-        units::resolve(in_spacing, geometry, plan, &target).at(target.path())?;
     // f64 stored as f32 without a window: say by how much the values
     // moved (nothing when every value is an f32).
     let mut narrowed = None;
@@ -514,6 +571,55 @@ pub fn convert(
     report.spooled = spooled;
     report.notes = notes;
     Ok(report)
+}
+
+/// The grid after crop, flips and units (the stages' input), the
+/// preprocessing stages on it (none when nothing would change), and the
+/// notes for the user.
+fn plan_stages(
+    info: &InputInfo,
+    crop: &[Range<u64>; 3],
+    plan: &Plan,
+    target: &Target,
+) -> CResult<(Grid, Vec<Box<dyn Stage>>, Vec<String>)> {
+    let in_spacing = info.spacing.unwrap_or([1.0; 3]);
+    let dims = [0, 1, 2].map(|a| crop[a].end - crop[a].start);
+    let start = [0, 1, 2].map(|a| crop[a].start);
+    let geometry = info.geometry.cropped(in_spacing, start, dims, plan.flip);
+    let (spacing, geometry, mut notes) =
+        units::resolve(in_spacing, geometry, plan, target).at(target.path())?;
+    let dims = Dims::new(dims[0], dims[1], dims[2]).at(&info.path)?;
+    let grid = Grid::new(dims, spacing, geometry);
+    let stages = if plan.prep.is_empty() {
+        Vec::new()
+    } else {
+        plan.prep.stages(grid, &info.path, &mut notes)?
+    };
+    Ok((grid, stages, notes))
+}
+
+/// The grid a conversion of `info`'s volume by `plan` writes (after crop,
+/// units and the preprocessing stages) and its sample type, known before
+/// any sample is read: for progress, disk space and pyramid checks.
+pub fn output_grid(
+    info: &InputInfo,
+    plan: &Plan,
+    target: &Target,
+) -> CResult<(Grid, Option<SampleType>)> {
+    let d = info.dims;
+    let crop = plan.crop.clone().unwrap_or([0..d.x, 0..d.y, 0..d.z]);
+    let (grid, stages, _) = plan_stages(info, &crop, plan, target)?;
+    let out = stages.last().map_or(grid, |s| s.output());
+    let t = match plan.sample_type {
+        Some(t) => Some(t),
+        None if !stages.is_empty() && plan.prep.makes_mask() => Some(SampleType::U8),
+        None if !stages.is_empty() => Some(match info.sample_type.stored() {
+            Some(SampleType::F64) | None => SampleType::F32,
+            Some(t) => t,
+        }),
+        None => info.sample_type.stored(),
+    };
+    Ok((out, t))
 }
 
 /// The output sample type: the one asked for, else the input's stored
@@ -563,6 +669,7 @@ fn run<T: SliceSample>(
     };
     let dims = loader.out_dims();
     let out_path = target.path().to_path_buf();
+    let mut src = &loader;
     let mut drive = |sink: &mut dyn writers::SliceWriter<T>| -> CResult<()> {
         let mut window = SliceWindow::<T>::new(dims);
         loop {
@@ -570,7 +677,7 @@ fn run<T: SliceSample>(
             if zs.is_empty() {
                 break;
             }
-            window.advance(zs, &loader)?;
+            window.advance(zs, &mut src)?;
             sink.write_next(&window)?;
             window.check().at(&out_path)?;
             check_stop(&out_path)?;
@@ -596,6 +703,169 @@ fn run<T: SliceSample>(
         sample_type: T::TYPE,
         spacing: args.spacing,
         geometry: args.geometry,
+        input_type: info.sample_type,
+        bytes_in: 0,
+        bytes_out,
+        range,
+        map: args.map,
+        input_format: String::new(),
+        spooled: false,
+        notes: Vec::new(),
+        narrowed: None,
+    })
+}
+
+/// [`convert`] through preprocessing stages: the input is read as `f32`
+/// (cropped and flipped), the stages run in a [`Chain`], and their
+/// output is rounded to the output type (half away from zero, clamped to
+/// its range, NaN to 0 for integers) or mapped by `--window lo:hi`.
+#[allow(clippy::too_many_arguments)]
+fn convert_staged(
+    reader: Box<dyn SliceReader>,
+    plan: &Plan,
+    target: Target,
+    progress: &(dyn Fn(u64) + Sync),
+    stages: Vec<Box<dyn Stage>>,
+    grid: Grid,
+    crop: [Range<u64>; 3],
+    mut notes: Vec<String>,
+) -> CResult<Report> {
+    let info = reader.info().clone();
+    let in_path = info.path.clone();
+    let from = info.sample_type;
+    let out_type = match plan.sample_type {
+        Some(t) => t,
+        None if plan.prep.makes_mask() => SampleType::U8,
+        None => match from.stored() {
+            Some(SampleType::F64) => {
+                notes.push(
+                    "the preprocessing stages compute in f32: the output is f32 (--type f64 stores those values as f64)"
+                        .into(),
+                );
+                SampleType::F32
+            }
+            Some(t) => t,
+            None => SampleType::F32,
+        },
+    };
+    let map = match plan.window {
+        None => ValueMap::Exact,
+        Some(w @ Window::Range(..)) => {
+            ValueMap::plan(SliceType::F32, out_type, Some(w), None).at(&in_path)?
+        }
+        Some(_) => {
+            return Err(ConvertError::new(
+                &in_path,
+                Error::invalid(
+                    "--window auto and full read the input's histogram, which the preprocessing stages change: give --window lo:hi",
+                ),
+            ))
+        }
+    };
+    let temp_dir = plan.temp_dir.clone().unwrap_or_else(|| target.temp_dir());
+    let mut reader = reader;
+    let mut spooled = false;
+    if reader.access() == Access::Sequential && plan.flip[2] {
+        reader = Box::new(spool::Spooled::new(reader.as_ref(), &temp_dir, |_| {})?);
+        spooled = true;
+    }
+    let args = RunArgs {
+        reader: reader.as_ref(),
+        crop,
+        flip: plan.flip,
+        map,
+        spacing: grid.spacing_f32(),
+        geometry: grid.geometry,
+        temp_dir,
+    };
+    let mut report = match out_type {
+        SampleType::U8 => run_staged::<u8>(&args, stages, grid, target, progress)?,
+        SampleType::U16 => run_staged::<u16>(&args, stages, grid, target, progress)?,
+        SampleType::I16 => run_staged::<i16>(&args, stages, grid, target, progress)?,
+        SampleType::F32 => run_staged::<f32>(&args, stages, grid, target, progress)?,
+        SampleType::F64 => run_staged::<f64>(&args, stages, grid, target, progress)?,
+    };
+    report.bytes_in = reader.bytes_in();
+    report.input_format = info.format.clone();
+    report.input_type = from;
+    report.spooled = spooled;
+    report.notes = notes;
+    Ok(report)
+}
+
+/// [`run`] through a chain of stages on `grid` (the cropped input's).
+fn run_staged<T: SliceSample>(
+    args: &RunArgs<'_>,
+    stages: Vec<Box<dyn Stage>>,
+    grid: Grid,
+    target: Target,
+    progress: &(dyn Fn(u64) + Sync),
+) -> CResult<Report> {
+    let info = args.reader.info();
+    let loader = Loader::<f32> {
+        reader: args.reader,
+        crop: args.crop.clone(),
+        flip: args.flip,
+        mapper: Mapper::new(info.sample_type, ValueMap::Exact),
+        in_dims: info.dims,
+        spare: Default::default(),
+        spare_in: Default::default(),
+    };
+    let access = args.reader.access();
+    let source: Source<'_, ConvertError> = Box::new(|zs: Range<u64>| match access {
+        Access::Random => zs.into_par_iter().map(|z| loader.load(z)).collect(),
+        Access::Sequential => zs.map(|z| loader.load(z)).collect(),
+    });
+    let chain = Chain::new(grid, source, stages, &args.temp_dir);
+    let out = chain.output();
+    let spacing = out.spacing_f32();
+    if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err(ConvertError::new(
+            target.path(),
+            Error::invalid(format!(
+                "the output spacing {spacing:?} is not a positive, finite f32"
+            )),
+        ));
+    }
+    let dims = out.dims;
+    let out_path = target.path().to_path_buf();
+    let mut src = Staged::<T> {
+        chain,
+        map: args.map,
+        out_path: out_path.clone(),
+        _type: std::marker::PhantomData,
+    };
+    let mut drive = |sink: &mut dyn writers::SliceWriter<T>| -> CResult<()> {
+        let mut window = SliceWindow::<T>::new(dims);
+        loop {
+            let zs = sink.next_slices();
+            if zs.is_empty() {
+                break;
+            }
+            window.advance(zs, &mut src)?;
+            sink.write_next(&window)?;
+            window.check().at(&out_path)?;
+            check_stop(&out_path)?;
+        }
+        args.reader.finish()
+    };
+    let spec = writers::OutSpec {
+        dims,
+        spacing,
+        geometry: out.geometry,
+        nifti_codes: info.nifti_codes,
+        temp_dir: &args.temp_dir,
+        progress,
+    };
+    let writers::Written {
+        bytes: bytes_out,
+        range,
+    } = writers::run_target::<T>(target, &spec, &mut drive)?;
+    Ok(Report {
+        dims,
+        sample_type: T::TYPE,
+        spacing,
+        geometry: out.geometry,
         input_type: info.sample_type,
         bytes_in: 0,
         bytes_out,

@@ -47,6 +47,17 @@ pub fn resolve(
             geometry.unit = LengthUnit::Unknown;
         }
     }
+    if let Some(relabel) = plan.spacing {
+        if relabel != spacing {
+            let f = |v: [f32; 3]| format!("{},{},{}", v[0], v[1], v[2]);
+            notes.push(format!(
+                "--spacing relabels the voxels ({} becomes {}) without resampling them: --resample spacing:{} resamples",
+                f(spacing),
+                f(relabel),
+                f(relabel)
+            ));
+        }
+    }
     let mut spacing = plan.spacing.unwrap_or(spacing);
     if let Some((held, format)) = target.units() {
         let to = geometry.unit.nearest_in(held);
