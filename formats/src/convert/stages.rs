@@ -15,6 +15,9 @@ use volprep::pointwise::{Clamp, Mask, Threshold};
 use volprep::resample::{target_grid, Kernel, Resample, ResampleSpec};
 use volprep::{Grid, Stage};
 
+/// The most voxels a resampled output may have (2^40).
+pub const MAX_VOXELS: u64 = 1 << 40;
+
 /// Where `--resample` goes.
 #[derive(Clone, Debug)]
 pub enum ResampleTo {
@@ -123,6 +126,13 @@ impl Preprocess {
                 }
                 ResampleTo::Like(path, like) => in_unit(like, &grid, path)?,
             };
+            if target.dims.count() > MAX_VOXELS {
+                return Err(at(format!(
+                    "--resample would write {} voxels ({}), more than the 2^40 volkit writes",
+                    target.dims.count(),
+                    target.dims
+                )));
+            }
             if let Some(s) = Resample::new(
                 grid,
                 target,
