@@ -422,7 +422,7 @@ mod tests {
             (2, [8, 7, 6], 5),
             (2, [11, 3, 2], 1000),
         ] {
-            let v = volume(d, 7 + r as u64, range);
+            let v = volume(d, 7 + r, range);
             let m = Median::new(grid(d), r).unwrap();
             let s = slab(&v, d);
             let n = (d[0] * d[1]) as usize;
