@@ -14,7 +14,10 @@
 //! - [`chain`]: runs stages one after another with bounded memory.
 
 pub mod chain;
+pub mod gauss;
 pub mod grid;
+pub mod median;
+pub mod pointwise;
 pub mod stage;
 
 pub use chain::Chain;
