@@ -12,12 +12,15 @@
 //! - [`grid`]: where samples lie (dims, spacing, origin, directions).
 //! - [`stage`]: the stage interface and the slab a stage reads.
 //! - [`chain`]: runs stages one after another with bounded memory.
+//! - the stages, in their order: [`orient`], `resample`, [`gauss`],
+//!   [`median`], [`pointwise`] (clamp, threshold, mask).
 
 pub mod chain;
 pub mod gauss;
 pub mod grid;
 pub mod median;
 pub mod pointwise;
+pub mod orient;
 pub mod stage;
 
 pub use chain::Chain;

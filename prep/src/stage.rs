@@ -72,7 +72,10 @@ pub trait Stage: Send + Sync {
     fn output(&self) -> Grid;
 
     /// The input z slices that output slices `zs` read: a range inside
-    /// `0 .. input.dims.z`, whose ends do not decrease as `zs` moves up.
+    /// `0 .. input.dims.z`. Its ends move up with `zs` for every stage
+    /// but an orientation that reverses z, which reads down: the chain
+    /// serves any order, and `vol-convert` copies a stream to disk first
+    /// when it is oriented.
     fn needs(&self, zs: Range<u64>) -> Range<u64>;
 
     /// The most input slices one output slice reads (its window), for

@@ -765,7 +765,9 @@ fn convert_staged(
     let temp_dir = plan.temp_dir.clone().unwrap_or_else(|| target.temp_dir());
     let mut reader = reader;
     let mut spooled = false;
-    if reader.access() == Access::Sequential && plan.flip[2] {
+    // A stream read backwards (a flip of z, an orientation that reverses
+    // or moves z) is copied to disk first.
+    if reader.access() == Access::Sequential && (plan.flip[2] || plan.prep.orient.is_some()) {
         reader = Box::new(spool::Spooled::new(reader.as_ref(), &temp_dir, |_| {})?);
         spooled = true;
     }

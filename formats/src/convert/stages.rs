@@ -155,10 +155,10 @@ impl Preprocess {
             out.push(Box::new(s));
         }
         if let Some((lo, hi)) = self.clamp {
-            out.push(Box::new(Clamp::new(grid, lo, hi)));
+            out.push(Box::new(Clamp { grid, lo, hi }));
         }
         if let Some((lo, hi)) = self.threshold {
-            out.push(Box::new(Threshold::new(grid, lo, hi)));
+            out.push(Box::new(Threshold { grid, lo, hi }));
         }
         if let Some(m) = &self.mask {
             let info = m.reader.info();
