@@ -15,6 +15,7 @@
 
 pub mod chain;
 pub mod grid;
+pub mod resample;
 pub mod stage;
 
 pub use chain::Chain;
