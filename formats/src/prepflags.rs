@@ -131,7 +131,7 @@ impl PrepFlags {
                 };
                 Some(Resampling {
                     to,
-                    kernel: self.kernel.unwrap_or_default(),
+                    kernel: self.kernel.unwrap_or(Kernel::Linear),
                     antialias: !self.no_antialias,
                 })
             }

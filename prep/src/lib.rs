@@ -12,7 +12,7 @@
 //! - [`grid`]: where samples lie (dims, spacing, origin, directions).
 //! - [`stage`]: the stage interface and the slab a stage reads.
 //! - [`chain`]: runs stages one after another with bounded memory.
-//! - the stages, in their order: [`orient`], `resample`, [`gauss`],
+//! - the stages, in their order: [`orient`], [`resample`], [`gauss`],
 //!   [`median`], [`pointwise`] (clamp, threshold, mask).
 
 pub mod chain;
@@ -21,6 +21,7 @@ pub mod grid;
 pub mod median;
 pub mod pointwise;
 pub mod orient;
+pub mod resample;
 pub mod stage;
 
 pub use chain::Chain;
