@@ -120,7 +120,11 @@ fn linear_and_nearest_equal_simpleitk_on_an_axis_aligned_grid() {
     let dir = tempfile::tempdir().unwrap();
     let nii = phantom(dir.path(), "48,40,12");
     for (k, interp) in [("linear", "sitkLinear"), ("nearest", "sitkNearestNeighbor")] {
-        for spec in ["spacing:1", "spacing:0.3,0.7,1.3", "dims:17,50,31"] {
+        // No output centre falls exactly half-way between two input voxels
+        // (nearest would then depend on the last bit of each side's
+        // arithmetic), except on spacing:1, where both sides compute the
+        // halves exactly.
+        for spec in ["spacing:1", "spacing:0.3,0.45,1.3", "dims:17,50,31"] {
             let out = dir.path().join(format!("{k}.nii"));
             convert(
                 &nii,
@@ -472,15 +476,8 @@ fn bad_preprocessing_input_is_refused_in_one_line_with_nothing_written() {
     refuse(&["--smooth", "gauss:-1"], "--smooth");
     refuse(&["--clamp", "5:1"], "--clamp");
     refuse(&["--threshold", "a:b"], "--threshold");
-    // A huge median window does not fit the slab budget: it names it.
-    let wide = dir.path().join("wide.vvol");
-    ok(tool("vol-gen").args(["solid", "--dims", "2048,2048,4", "-q", "-o"]).arg(&wide));
-    let line = fails(
-        tool("vol-convert").arg(&wide).args(["--median", "20", "-o"]).arg(&out),
-        "budget",
-    );
-    assert!(line.contains("GiB"), "{line}");
-    assert!(!out.exists());
+    // (A window past the slab budget is refused before any work too:
+    // volprep's median and gauss unit tests, which need no giant file.)
 }
 
 #[test]
