@@ -420,6 +420,29 @@ fn rotated_needs_are_a_window_that_moves_up() {
     assert_eq!(st.needs(3..4), 0..60);
 }
 
+#[test]
+fn a_chain_gives_what_the_driver_gives() {
+    use crate::chain::{Chain, Source};
+    let g = grid([20, 18, 16], [0.5, 0.7, 2.0], rotated([1.0, -2.0, 3.0]));
+    let mut rng = fastrand::Rng::with_seed(21);
+    let vol = volume(&g, |_, _, _| rng.f32());
+    let mut out = grid([12, 14, 17], [0.9, 0.8, 1.1], Geometry::IDENTITY);
+    out.geometry.origin = g.world([2.0, 1.0, 1.0]);
+    for k in [Kernel::Linear, Kernel::Cubic, Kernel::Label] {
+        let (st, want) = resample(&g, &vol, out, k, true);
+        let source: Source<'_, String> =
+            Box::new(|zs: Range<u64>| Ok(zs.map(|z| vol[z as usize].clone()).collect()));
+        let mut chain = Chain::new(g, source, vec![Box::new(st)], &std::env::temp_dir());
+        for z0 in (0..17).step_by(5) {
+            let zs = z0..(z0 + 5).min(17);
+            let s = chain.slices(zs.clone()).unwrap();
+            for z in zs {
+                assert_eq!(s.slice(z), want[z as usize].as_slice(), "{k} {z}");
+            }
+        }
+    }
+}
+
 /// Linear 512×512×300 at 0.5,0.5,2 to spacing 1 through a Chain (run:
 /// `cargo test --release -p volprep bench_linear -- --ignored --nocapture`).
 #[test]
