@@ -6,7 +6,9 @@ use std::str::FromStr;
 use std::sync::OnceLock;
 
 /// The names `--kernel` accepts, in the order `--help` lists them.
-pub const KERNEL_NAMES: [&str; 6] = ["nearest", "linear", "cubic", "bspline3", "lanczos3", "label"];
+pub const KERNEL_NAMES: [&str; 6] = [
+    "nearest", "linear", "cubic", "bspline3", "lanczos3", "label",
+];
 
 /// How output samples are computed from the input's.
 ///
@@ -307,7 +309,12 @@ mod tests {
 
     #[test]
     fn folded_weights_sum_to_one_at_the_edges() {
-        for k in [Kernel::Linear, Kernel::Cubic, Kernel::BSpline3, Kernel::Lanczos3] {
+        for k in [
+            Kernel::Linear,
+            Kernel::Cubic,
+            Kernel::BSpline3,
+            Kernel::Lanczos3,
+        ] {
             for sigma in [1.0, 1.7, 3.0] {
                 for n in [1u64, 3, 40] {
                     let s = AxisSampler::new(n, k, sigma);

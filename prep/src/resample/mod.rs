@@ -172,7 +172,12 @@ impl Resample {
             return Ok(None);
         }
         let map = Affine::between(&input, &output);
-        if map.c0.iter().chain(map.j.iter().flatten()).any(|v| !v.is_finite()) {
+        if map
+            .c0
+            .iter()
+            .chain(map.j.iter().flatten())
+            .any(|v| !v.is_finite())
+        {
             return Err(format!(
                 "resample: cannot map {} onto {}",
                 output.describe(),

@@ -115,7 +115,9 @@ pub fn target_grid(input: &Grid, spec: &ResampleSpec) -> Result<Grid, String> {
                 ));
             }
             let d: [f64; 3] = std::array::from_fn(|a| (extent[a] / t[a]).round().max(1.0));
-            if d.iter().any(|v| !v.is_finite() || *v > MAX_OUTPUT_VOXELS as f64) {
+            if d.iter()
+                .any(|v| !v.is_finite() || *v > MAX_OUTPUT_VOXELS as f64)
+            {
                 return Err(format!(
                     "resampling {} to spacing {},{},{} gives {}x{}x{} voxels, over the limit of 2^40",
                     input.dims, t[0], t[1], t[2], d[0], d[1], d[2]
@@ -151,8 +153,8 @@ pub fn target_grid(input: &Grid, spec: &ResampleSpec) -> Result<Grid, String> {
         std::array::from_fn(|a| ((n[a] - 1) as f64 * s[a] - (nd[a] - 1) as f64 * spacing[a]) / 2.0);
     let mut geometry = input.geometry;
     let d = &input.geometry.direction;
-    for r in 0..3 {
-        geometry.origin[r] += d[r][0] * shift[0] + d[r][1] * shift[1] + d[r][2] * shift[2];
+    for (o, row) in geometry.origin.iter_mut().zip(d) {
+        *o += row[0] * shift[0] + row[1] * shift[1] + row[2] * shift[2];
     }
     Ok(Grid {
         dims,
@@ -205,7 +207,11 @@ mod tests {
 
     #[test]
     fn huge_output_is_refused() {
-        let g = Grid::new(Dims::new(1000, 1000, 1000).unwrap(), [1.0; 3], Geometry::IDENTITY);
+        let g = Grid::new(
+            Dims::new(1000, 1000, 1000).unwrap(),
+            [1.0; 3],
+            Geometry::IDENTITY,
+        );
         let e = target_grid(&g, &ResampleSpec::Spacing([0.01; 3])).unwrap_err();
         assert!(e.contains("100000x100000x100000"), "{e}");
     }

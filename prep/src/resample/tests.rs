@@ -16,8 +16,16 @@ fn grid(n: [u64; 3], s: [f64; 3], g: Geometry) -> Grid {
 fn rotated(origin: [f64; 3]) -> Geometry {
     // A rotation about a skew axis (orthonormal columns).
     let (a, b) = (0.3f64, 0.5f64);
-    let rz = [[a.cos(), -a.sin(), 0.0], [a.sin(), a.cos(), 0.0], [0.0, 0.0, 1.0]];
-    let rx = [[1.0, 0.0, 0.0], [0.0, b.cos(), -b.sin()], [0.0, b.sin(), b.cos()]];
+    let rz = [
+        [a.cos(), -a.sin(), 0.0],
+        [a.sin(), a.cos(), 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let rx = [
+        [1.0, 0.0, 0.0],
+        [0.0, b.cos(), -b.sin()],
+        [0.0, b.sin(), b.cos()],
+    ];
     let m: [[f64; 3]; 3] =
         std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|k| rz[r][k] * rx[k][c]).sum()));
     let axes = std::array::from_fn(|c| [m[0][c], m[1][c], m[2][c]]);
@@ -124,7 +132,10 @@ fn ramps_are_reproduced_at_several_scales() {
             assert!(!pts.is_empty(), "{k} {spec:?}");
             for (u, c) in pts {
                 let (got, want) = (at(&v, &out, u), ramp(c));
-                assert!((got - want).abs() < 2e-4, "{k} {spec:?} {u:?}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 2e-4,
+                    "{k} {spec:?} {u:?}: {got} vs {want}"
+                );
             }
         }
     }
@@ -158,7 +169,13 @@ fn separable_equals_general_on_an_axis_aligned_grid() {
         // Nudge the output by a hair of rotation so the general path runs.
         let mut tilted = out;
         tilted.geometry.direction[0][1] += 1e-8;
-        for k in [Kernel::Nearest, Kernel::Linear, Kernel::Cubic, Kernel::BSpline3, Kernel::Lanczos3] {
+        for k in [
+            Kernel::Nearest,
+            Kernel::Linear,
+            Kernel::Cubic,
+            Kernel::BSpline3,
+            Kernel::Lanczos3,
+        ] {
             for aa in [false, true] {
                 let (s1, a) = resample(&g, &vol, out, k, aa);
                 let (s2, b) = resample(&g, &vol, tilted, k, aa);
@@ -166,7 +183,10 @@ fn separable_equals_general_on_an_axis_aligned_grid() {
                 let d = out.dims.as_array().map(|v| v as usize);
                 for (i, (x, y)) in a.iter().flatten().zip(b.iter().flatten()).enumerate() {
                     let u = [i % d[0], i / d[0] % d[1], i / d[0] / d[1]];
-                    assert!((x - y).abs() < 1e-5 * 10.0, "{k} {aa} {spec:?} {u:?}: {x} vs {y}");
+                    assert!(
+                        (x - y).abs() < 1e-5 * 10.0,
+                        "{k} {aa} {spec:?} {u:?}: {x} vs {y}"
+                    );
                 }
             }
         }
@@ -183,12 +203,21 @@ fn nyquist_checkerboard_is_removed_by_antialiasing() {
     let vol = volume(&g, |i, j, k| if (i + j + k) % 2 == 0 { 1.0 } else { -1.0 });
     let out = target_grid(&g, &ResampleSpec::Spacing([2.0; 3])).unwrap();
     assert_eq!(out.dims.as_array(), [33, 33, 33]);
-    for k in [Kernel::Linear, Kernel::Cubic, Kernel::BSpline3, Kernel::Lanczos3] {
+    for k in [
+        Kernel::Linear,
+        Kernel::Cubic,
+        Kernel::BSpline3,
+        Kernel::Lanczos3,
+    ] {
         let (_, with) = resample(&g, &vol, out, k, true);
         let (_, without) = resample(&g, &vol, out, k, false);
         let mut worst_aliased = 0.0f32;
         for (u, _) in interior(&g, &out, 2.0 * k.radius() + 1.0) {
-            assert!(at(&with, &out, u).abs() < 0.05, "{k} {u:?}: {}", at(&with, &out, u));
+            assert!(
+                at(&with, &out, u).abs() < 0.05,
+                "{k} {u:?}: {}",
+                at(&with, &out, u)
+            );
             worst_aliased = worst_aliased.max(at(&without, &out, u).abs());
         }
         assert!(worst_aliased > 0.9, "{k}: {worst_aliased}");
@@ -258,11 +287,15 @@ fn target_grid_keeps_the_box_centre() {
             assert!((c[a] - c0[a]).abs() < 1e-12, "{c:?} vs {c0:?}");
         }
     }
-    // The formula, on the first axis: origin + D·((n−1)s − (n'−1)s')/2.
-    let shift = [(9.0 * 0.5 - 4.0) / 2.0, (6.0 * 0.9 - 5.0) / 2.0, (4.0 * 2.5 - 12.0) / 2.0];
+    // The formula: origin + D·((n−1)s − (n'−1)s')/2.
+    let shift = [
+        (9.0 * 0.5 - 4.0) / 2.0,
+        (6.0 * 0.9 - 5.0) / 2.0,
+        (4.0 * 2.5 - 12.0) / 2.0,
+    ];
     let want = g.world([shift[0] / 0.5, shift[1] / 0.9, shift[2] / 2.5]);
-    for a in 0..3 {
-        assert!((s.geometry.origin[a] - want[a]).abs() < 1e-12);
+    for (o, w) in s.geometry.origin.iter().zip(want) {
+        assert!((o - w).abs() < 1e-12, "{o} vs {w}");
     }
 }
 
@@ -280,11 +313,17 @@ fn outside_voxels_get_the_background_and_itk_edges_hold() {
     for o in [out, tilted] {
         let (_, v) = resample(&g, &vol, o, Kernel::Nearest, true);
         let row: Vec<f32> = v[2][2 * 14..3 * 14].to_vec();
-        let want = [-7.0, 220.0, 220.0, 221.0, 221.0, 222.0, 222.0, 223.0, 223.0, 224.0, 224.0, 225.0, 225.0, -7.0];
+        let want = [
+            -7.0, 220.0, 220.0, 221.0, 221.0, 222.0, 222.0, 223.0, 223.0, 224.0, 224.0, 225.0,
+            225.0, -7.0,
+        ];
         assert_eq!(row, want);
         let (_, v) = resample(&g, &vol, o, Kernel::Linear, false);
         let row: Vec<f32> = v[2][2 * 14..3 * 14].to_vec();
-        let want = [-7.0, 220.0, 220.0, 220.5, 221.0, 221.5, 222.0, 222.5, 223.0, 223.5, 224.0, 224.5, 225.0, -7.0];
+        let want = [
+            -7.0, 220.0, 220.0, 220.5, 221.0, 221.5, 222.0, 222.5, 223.0, 223.5, 224.0, 224.5,
+            225.0, -7.0,
+        ];
         for (a, b) in row.iter().zip(want) {
             assert!((a - b).abs() < 1e-4, "{row:?}");
         }
@@ -345,7 +384,10 @@ fn rotated_linear_and_nearest_follow_itk() {
                         let ijk = std::array::from_fn(|a| (c[a] + 0.5).floor() as usize);
                         at(&vol, &g, ijk) as f64
                     };
-                    assert!((got - want).abs() < 1e-4 * 100.0, "{k} {i},{j},{kk}: {got} vs {want}");
+                    assert!(
+                        (got - want).abs() < 1e-4 * 100.0,
+                        "{k} {i},{j},{kk}: {got} vs {want}"
+                    );
                 }
             }
         }
@@ -357,7 +399,9 @@ fn rotated_linear_and_nearest_follow_itk() {
 fn rotated_needs_are_a_window_that_moves_up() {
     let g = grid([40, 40, 60], [1.0; 3], Geometry::IDENTITY);
     let out = grid([30, 30, 50], [1.0; 3], rotated([5.0, 5.0, 5.0]));
-    let st = Resample::new(g, out, Kernel::Linear, true, 0.0).unwrap().unwrap();
+    let st = Resample::new(g, out, Kernel::Linear, true, 0.0)
+        .unwrap()
+        .unwrap();
     let mut last = st.needs(0..1);
     for z in 1..50 {
         let r = st.needs(z..z + 1);
@@ -369,9 +413,34 @@ fn rotated_needs_are_a_window_that_moves_up() {
     // A reversed z reads everything.
     let mut flipped = g;
     flipped.geometry.direction[2][2] = -1.0;
-    let st = Resample::new(g, flipped, Kernel::Linear, true, 0.0).unwrap().unwrap();
+    let st = Resample::new(g, flipped, Kernel::Linear, true, 0.0)
+        .unwrap()
+        .unwrap();
     assert_eq!(st.window(), 60);
     assert_eq!(st.needs(3..4), 0..60);
+}
+
+#[test]
+fn a_chain_gives_what_the_driver_gives() {
+    use crate::chain::{Chain, Source};
+    let g = grid([20, 18, 16], [0.5, 0.7, 2.0], rotated([1.0, -2.0, 3.0]));
+    let mut rng = fastrand::Rng::with_seed(21);
+    let vol = volume(&g, |_, _, _| rng.f32());
+    let mut out = grid([12, 14, 17], [0.9, 0.8, 1.1], Geometry::IDENTITY);
+    out.geometry.origin = g.world([2.0, 1.0, 1.0]);
+    for k in [Kernel::Linear, Kernel::Cubic, Kernel::Label] {
+        let (st, want) = resample(&g, &vol, out, k, true);
+        let source: Source<'_, String> =
+            Box::new(|zs: Range<u64>| Ok(zs.map(|z| vol[z as usize].clone()).collect()));
+        let mut chain = Chain::new(g, source, vec![Box::new(st)], &std::env::temp_dir());
+        for z0 in (0..17).step_by(5) {
+            let zs = z0..(z0 + 5).min(17);
+            let s = chain.slices(zs.clone()).unwrap();
+            for z in zs {
+                assert_eq!(s.slice(z), want[z as usize].as_slice(), "{k} {z}");
+            }
+        }
+    }
 }
 
 /// Linear 512×512×300 at 0.5,0.5,2 to spacing 1 through a Chain (run:
@@ -384,11 +453,46 @@ fn bench_linear_512x512x300_to_1mm() {
     let g = grid([512, 512, 300], [0.5, 0.5, 2.0], Geometry::IDENTITY);
     let vol = volume(&g, |i, j, k| ((i * 7 + j * 3 + k * 5) % 1000) as f32);
     let out = target_grid(&g, &ResampleSpec::Spacing([1.0; 3])).unwrap();
-    for aa in [true, false, true, false] {
-        let st = Resample::new(g, out, Kernel::Linear, aa, 0.0).unwrap().unwrap();
+    // The first run has no stage: the cost of the source (copying the
+    // input slices), which the other runs include.
+    // Last, the same output grid rotated about its centre (the general
+    // path).
+    let mut tilted = out;
+    tilted.geometry = rotated([0.0; 3]);
+    let c_in = g.world(g.dims.as_array().map(|n| (n as f64 - 1.0) / 2.0));
+    let c_out = tilted.world(tilted.dims.as_array().map(|n| (n as f64 - 1.0) / 2.0));
+    for (o, (a, b)) in tilted
+        .geometry
+        .origin
+        .iter_mut()
+        .zip(c_in.iter().zip(c_out))
+    {
+        *o += a - b;
+    }
+    let runs = [
+        (None, out),
+        (Some(true), out),
+        (Some(false), out),
+        (Some(true), out),
+        (Some(false), out),
+        (None, out),
+        (Some(true), tilted),
+        (Some(false), tilted),
+    ];
+    for (aa, target) in runs {
+        let stages: Vec<Box<dyn Stage>> = match aa {
+            Some(aa) => vec![Box::new(
+                Resample::new(g, target, Kernel::Linear, aa, 0.0)
+                    .unwrap()
+                    .unwrap(),
+            )],
+            None => vec![],
+        };
+        let rot = target.geometry.direction != g.geometry.direction;
         let source: Source<'_, String> =
             Box::new(|zs: Range<u64>| Ok(zs.map(|z| vol[z as usize].clone()).collect()));
-        let mut chain = Chain::new(g, source, vec![Box::new(st)], &std::env::temp_dir());
+        let mut chain = Chain::new(g, source, stages, &std::env::temp_dir());
+        let out = chain.output();
         let t = Instant::now();
         let mut sum = 0.0f64;
         let nz = out.dims.z;
@@ -404,7 +508,7 @@ fn bench_linear_512x512x300_to_1mm() {
         let dt = t.elapsed().as_secs_f64();
         let mv = out.dims.count() as f64 / 1e6;
         println!(
-            "linear antialias={aa}: {} -> {}: {dt:.3} s, {:.0} Mvoxel/s out ({} threads) [{sum}]",
+            "linear antialias={aa:?} rotated={rot}: {} -> {}: {dt:.3} s, {:.0} Mvoxel/s out ({} threads) [{sum}]",
             g.dims,
             out.dims,
             mv / dt,
