@@ -16,7 +16,7 @@ pub use phantom::{PhantomScene, PHANTOM_AIR, PHANTOM_EDGE, PHANTOM_NOISE_SD};
 pub use shapes::{Shape, ShapeKind, ShapesScene};
 pub use spec::{SceneName, SceneSpec};
 pub use spheres::SpheresScene;
-pub use waves::{Wave, Waves, WavesScene, AMPLITUDES, WAVELENGTHS, WAVE_COUNT};
+pub use waves::{Wave, Waves, WavesScene, AMPLITUDES, NEAR_AXIS_DEG, WAVELENGTHS, WAVE_COUNT};
 
 use crate::dims::Dims;
 use crate::region::RegionSource;
