@@ -800,6 +800,17 @@ fn csv_text(rows: &[Row]) -> String {
     s
 }
 
+/// Seconds for the tables: milliseconds shown, not an exponent.
+fn secs(x: f64) -> String {
+    if x >= 10.0 {
+        format!("{x:.0}")
+    } else if x >= 1.0 {
+        format!("{x:.1}")
+    } else {
+        format!("{x:.3}")
+    }
+}
+
 /// A Markdown table per case.
 fn summary(rows: &[Row]) -> String {
     let mut s = String::new();
@@ -827,7 +838,7 @@ fn summary(rows: &[Row]) -> String {
                     r.tool,
                     r.kernel,
                     r.antialias,
-                    seconds(r.median_s),
+                    secs(r.median_s),
                     r.psnr_db,
                     r.psnr_lowpass_db
                         .map_or("-".to_string(), |p| format!("{p:.1}")),
@@ -839,7 +850,7 @@ fn summary(rows: &[Row]) -> String {
                     "| {} | {} | {} | {:.1} | {:.1e} | {grid} |",
                     r.tool,
                     r.kernel,
-                    seconds(r.median_s),
+                    secs(r.median_s),
                     r.psnr_db,
                     r.max_err
                 );
