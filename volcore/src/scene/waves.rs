@@ -279,7 +279,6 @@ mod tests {
     /// coarse grid's Nyquist limit, the shortest among them.
     #[test]
     fn lowpass_keeps_what_a_coarse_grid_can_hold() {
-        let w = Waves::new(1, 1.0);
         for seed in 0..50 {
             let w = Waves::new(seed, 1.0);
             let kept = w.lowpassed([3.0; 3]);
