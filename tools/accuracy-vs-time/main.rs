@@ -14,6 +14,11 @@
 //! and by time, for the grid and global majorants, single scattering and
 //! eight bounces.
 //!
+//! With `--resample` it runs the resampling and smoothing study instead
+//! ([`resample_study`]): vol-convert's `--resample` kernels and `--smooth`
+//! on a band-limited analytic volume, PSNR against the exact function by
+//! time, beside SimpleITK and unu when they are there.
+//!
 //! It drives the other tools (`vol-gen`, `vol-render`, `vol-psnr`), which it
 //! looks for next to its own executable unless `--bin-dir` says otherwise.
 
@@ -29,6 +34,7 @@ macro_rules! say {
     }};
 }
 mod path_study;
+mod resample_study;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Parser;
@@ -61,6 +67,22 @@ struct Cli {
     /// spp and by time (path.csv, path.md, path-SCENE.png and .svg).
     #[arg(long, conflicts_with_all = ["scene", "repeat"])]
     path: bool,
+    /// Run the resampling and smoothing study instead (issue 52): the
+    /// waves scene resampled down x2, x3, up x2 and CT 0.5x0.5x2 to 1 mm
+    /// with every --kernel, with and without anti-aliasing, and smoothed
+    /// with --smooth gauss:S, beside SimpleITK and unu resample when
+    /// found: PSNR against the exact function by time (resample.csv,
+    /// resample.md, resample.png and .svg).
+    #[arg(long, conflicts_with_all = ["scene", "path"])]
+    resample: bool,
+    /// --resample: a Python that imports SimpleITK (default: python3;
+    /// SimpleITK's rows are skipped with a note when it cannot).
+    #[arg(long, value_name = "FILE", requires = "resample")]
+    python: Option<PathBuf>,
+    /// --resample: the unu executable (default: unu, then teem-unu, on
+    /// PATH; Debian's teem-apps); skipped with a note when missing.
+    #[arg(long, value_name = "FILE", requires = "resample")]
+    unu: Option<PathBuf>,
     /// Directory for the volumes, images, CSV and plots (`--out` is the
     /// old spelling, still taken).
     #[arg(
@@ -100,12 +122,16 @@ const AFTER_HELP: &str = "Examples:
   vol-accuracy --quick -o /tmp/acc --json
   vol-accuracy --scene noise --repeat 5
   vol-accuracy --path                 # the path tracer's convergence study
+  vol-accuracy --resample --python ~/venv/bin/python   # resampling study
 
 Outputs: accuracy.csv (scene, knob, value, median_s, min_s, max_s, samples,
 psnr_db; psnr_db is inf when the image equals the reference) and, per scene,
 accuracy-SCENE.png and accuracy-SCENE.svg. With --path: path.csv (scene,
 bounces, majorant, spp, seconds, psnr_db, relative_error, lookups_per_path),
-path.md (a summary table) and path-SCENE.png and .svg.";
+path.md (a summary table) and path-SCENE.png and .svg. With --resample:
+resample.csv (study, case, tool, kernel, antialias, median_s, min_s, max_s,
+psnr_db, psnr_lowpass_db, max_err, grid), resample.md (a table per case)
+and resample.png and .svg.";
 
 /// One scene of a study: how to make the volume and how to look at it.
 struct Scene {
@@ -193,7 +219,7 @@ fn run(cli: &Cli) -> Result<()> {
         let v = serde_json::json!({
             "tool": "vol-accuracy",
             "output": cli.output.display().to_string(),
-            "study": if cli.path { "path" } else { "ray casting" },
+            "study": if cli.path { "path" } else if cli.resample { "resample" } else { "ray casting" },
             "files": files.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
             "seconds": start.elapsed().as_secs_f64(),
             "threads": std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -213,7 +239,12 @@ fn study_files(cli: &Cli) -> Result<Vec<PathBuf>> {
             .map(Path::to_path_buf)
             .ok_or_else(|| anyhow!("cannot find this executable's directory"))?,
     };
-    for t in ["vol-gen", "vol-render", "vol-psnr"] {
+    let needed: &[&str] = if cli.resample {
+        &["vol-gen", "vol-convert"]
+    } else {
+        &["vol-gen", "vol-render", "vol-psnr"]
+    };
+    for t in needed {
         let p = bin_dir.join(exe(t));
         if !p.is_file() {
             bail!(
@@ -225,6 +256,17 @@ fn study_files(cli: &Cli) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(&cli.output)
         .with_context(|| format!("{}: cannot create directory", cli.output.display()))?;
     let repeat = cli.repeat.unwrap_or(if cli.quick { 1 } else { 3 });
+    if cli.resample {
+        let font = load_font(cli.font.as_deref())?;
+        let ctx = Ctx {
+            bin: bin_dir,
+            out: cli.output.clone(),
+            repeat,
+            ref_step: REF_STEP,
+        };
+        let peers = resample_study::Peers::find(cli.python.as_deref(), cli.unu.as_deref());
+        return resample_study::run(&ctx, cli.quick, font, &peers);
+    }
     if cli.path {
         let font = load_font(cli.font.as_deref())?;
         let ctx = Ctx {

@@ -69,6 +69,7 @@ const EXAMPLES: &str = "Examples:
   vol-gen sphere --dims 64,64,64 --type f32 --radius 30 -o sphere.vvol
   vol-gen sphere --dims 96,96,96 --radius 36 --edge 4 -o ball.vvol
   vol-gen phantom --dims 256,256,256 --layout bricked:32 -o head.vvol
+  vol-gen waves --dims 120,120,120 --type f32 --spacing 0.5,0.5,2 -o waves.vvol
   vol-gen shapes --dims 256,256,256 --layout bricked:16 -o thesis.vol
   vol-gen shapes --dims 128,128,128 -o - | vol-info -";
 

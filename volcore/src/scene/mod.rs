@@ -8,6 +8,7 @@ mod phantom;
 mod shapes;
 pub mod spec;
 mod spheres;
+mod waves;
 
 pub use analytic::{BoxScene, RampScene, SolidScene, SphereScene};
 pub use noise::{NoiseKind, NoiseScene};
@@ -15,6 +16,7 @@ pub use phantom::{PhantomScene, PHANTOM_AIR, PHANTOM_EDGE, PHANTOM_NOISE_SD};
 pub use shapes::{Shape, ShapeKind, ShapesScene};
 pub use spec::{SceneName, SceneSpec};
 pub use spheres::SpheresScene;
+pub use waves::{Wave, Waves, WavesScene, AMPLITUDES, NEAR_AXIS_DEG, WAVELENGTHS, WAVE_COUNT};
 
 use crate::dims::Dims;
 use crate::region::RegionSource;
@@ -150,6 +152,7 @@ mod tests {
             Box::new(RampScene::new(d, 1, 100.0)),
             Box::new(SphereScene::new(d, 5.0, 100.0)),
             Box::new(PhantomScene::new(d, 5)),
+            Box::new(WavesScene::new(d, 3, 255.0)),
         ];
         for s in &scenes {
             let whole = pack_sliced(&SceneSource::<f32>::new(s.as_ref()));

@@ -5,7 +5,7 @@
 
 use super::{
     BoxScene, NoiseKind, NoiseScene, PhantomScene, RampScene, Scene, ShapesScene, SolidScene,
-    SphereScene, SpheresScene,
+    SphereScene, SpheresScene, WavesScene,
 };
 use crate::dims::Dims;
 use crate::sample::SampleType;
@@ -31,6 +31,10 @@ pub enum SceneName {
     /// CT-like head in Hounsfield units (air −1000, brain 35, bone 1100)
     /// with partial-volume edges and noise; i16 unless --type f32.
     Phantom,
+    /// Analytic, band-limited: 5 plane waves of wavelengths 40 to 4
+    /// voxels (directions and phases from --seed), values 0..--value;
+    /// for resampling studies (write --type f32).
+    Waves,
 }
 
 impl SceneName {
@@ -45,6 +49,7 @@ impl SceneName {
             SceneName::Ramp => "ramp",
             SceneName::Sphere => "sphere",
             SceneName::Phantom => "phantom",
+            SceneName::Waves => "waves",
         }
     }
 }
@@ -231,6 +236,7 @@ impl SceneSpec {
                 }
             }
             SceneName::Phantom => Box::new(PhantomScene::new(dims, self.seed)),
+            SceneName::Waves => Box::new(WavesScene::new(dims, self.seed, value(255.0))),
         }
     }
 }
