@@ -19,8 +19,8 @@ pub mod chain;
 pub mod gauss;
 pub mod grid;
 pub mod median;
-pub mod pointwise;
 pub mod orient;
+pub mod pointwise;
 pub mod resample;
 pub mod stage;
 

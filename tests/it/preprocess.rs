@@ -24,7 +24,17 @@ fn f32s(path: &Path) -> Vec<f32> {
 fn phantom(dir: &Path, dims: &str) -> PathBuf {
     let vvol = dir.join("ph.vvol");
     ok(tool("vol-gen")
-        .args(["phantom", "--dims", dims, "--type", "f32", "--spacing", "0.5,0.5,2", "-q", "-o"])
+        .args([
+            "phantom",
+            "--dims",
+            dims,
+            "--type",
+            "f32",
+            "--spacing",
+            "0.5,0.5,2",
+            "-q",
+            "-o",
+        ])
         .arg(&vvol));
     let nii = dir.join("ph.nii");
     ok(tool("vol-convert")
@@ -35,7 +45,12 @@ fn phantom(dir: &Path, dims: &str) -> PathBuf {
 }
 
 fn convert(input: &Path, args: &[&str], out: &Path) {
-    ok(tool("vol-convert").arg(input).args(args).arg("-q").arg("-o").arg(out));
+    ok(tool("vol-convert")
+        .arg(input)
+        .args(args)
+        .arg("-q")
+        .arg("-o")
+        .arg(out));
 }
 
 /// Python that reads `src` (a file or a DICOM folder) and `ours` with
@@ -102,7 +117,9 @@ fn same_grid_resampling_returns_the_input_bit_for_bit() {
     let plain = dir.path().join("plain.raw");
     convert(&nii, &[], &plain);
     let want = std::fs::read(&plain).unwrap();
-    for k in ["nearest", "linear", "cubic", "bspline3", "lanczos3", "label"] {
+    for k in [
+        "nearest", "linear", "cubic", "bspline3", "lanczos3", "label",
+    ] {
         for spec in ["spacing:0.5,0.5,2", "dims:24,20,9"] {
             let out = dir.path().join(format!("{k}.raw"));
             convert(&nii, &["--resample", spec, "--kernel", k], &out);
@@ -128,7 +145,15 @@ fn linear_and_nearest_equal_simpleitk_on_an_axis_aligned_grid() {
             let out = dir.path().join(format!("{k}.nii"));
             convert(
                 &nii,
-                &["--resample", spec, "--kernel", k, "--no-antialias", "--type", "f32"],
+                &[
+                    "--resample",
+                    spec,
+                    "--kernel",
+                    k,
+                    "--no-antialias",
+                    "--type",
+                    "f32",
+                ],
                 &out,
             );
             if let Some(j) = sitk_resample_diff(&nii, &out, interp) {
@@ -140,7 +165,13 @@ fn linear_and_nearest_equal_simpleitk_on_an_axis_aligned_grid() {
 
 /// A NIfTI grid rotated against the phantom's (about z by 30° and x by
 /// 10°) whose box is centred on `centre`, written by SimpleITK.
-fn rotated_grid(dir: &Path, name: &str, size: [u32; 3], spacing: [f64; 3], centre: [f64; 3]) -> Option<PathBuf> {
+fn rotated_grid(
+    dir: &Path,
+    name: &str,
+    size: [u32; 3],
+    spacing: [f64; 3],
+    centre: [f64; 3],
+) -> Option<PathBuf> {
     let path = dir.join(name);
     let script = format!(
         r#"
@@ -176,7 +207,13 @@ fn a_rotated_like_grid_equals_simpleitk() {
     let nii = phantom(dir.path(), "40,40,10");
     // The phantom's voxel centres span 0..19.5 x 0..19.5 x 0..18 mm: a
     // smaller rotated grid centred in it, and reaching past its edges.
-    let Some(like) = rotated_grid(dir.path(), "like.nii", [20, 18, 9], [0.8, 0.9, 1.1], [9.75, 9.75, 9.0]) else {
+    let Some(like) = rotated_grid(
+        dir.path(),
+        "like.nii",
+        [20, 18, 9],
+        [0.8, 0.9, 1.1],
+        [9.75, 9.75, 9.0],
+    ) else {
         return;
     };
     for (k, interp) in [("linear", "sitkLinear"), ("nearest", "sitkNearestNeighbor")] {
@@ -184,7 +221,15 @@ fn a_rotated_like_grid_equals_simpleitk() {
         let spec = format!("like:{}", like.display());
         convert(
             &nii,
-            &["--resample", &spec, "--kernel", k, "--no-antialias", "--type", "f32"],
+            &[
+                "--resample",
+                &spec,
+                "--kernel",
+                k,
+                "--no-antialias",
+                "--type",
+                "f32",
+            ],
             &out,
         );
         if let Some(j) = sitk_resample_diff(&nii, &out, interp) {
@@ -201,7 +246,15 @@ fn an_lps_dicom_series_resamples_as_simpleitk_does() {
         let out = dir.path().join(format!("{k}.nii"));
         convert(
             &ct,
-            &["--resample", "spacing:0.5,0.6,1", "--kernel", k, "--no-antialias", "--type", "f32"],
+            &[
+                "--resample",
+                "spacing:0.5,0.6,1",
+                "--kernel",
+                k,
+                "--no-antialias",
+                "--type",
+                "f32",
+            ],
             &out,
         );
         if let Some(j) = sitk_resample_diff(&ct, &out, interp) {
@@ -213,7 +266,13 @@ fn an_lps_dicom_series_resamples_as_simpleitk_does() {
 #[test]
 fn a_nifti_with_a_rotated_sform_resamples_in_its_own_axes_as_simpleitk_does() {
     let dir = tempfile::tempdir().unwrap();
-    let Some(rot) = rotated_grid(dir.path(), "rot.nii", [30, 26, 12], [0.6, 0.7, 1.5], [3.0, -2.0, 1.0]) else {
+    let Some(rot) = rotated_grid(
+        dir.path(),
+        "rot.nii",
+        [30, 26, 12],
+        [0.6, 0.7, 1.5],
+        [3.0, -2.0, 1.0],
+    ) else {
         return;
     };
     // Give it content: the phantom's values, relabelled onto that grid.
@@ -241,12 +300,25 @@ print(json.dumps({{"ok": True}}))
     }
     for (k, interp) in [("linear", "sitkLinear"), ("nearest", "sitkNearestNeighbor")] {
         let out = dir.path().join(format!("{k}.nii"));
-        let o = run(tool("vol-convert").arg(&rot).args([
-            "--resample", "spacing:1", "--kernel", k, "--no-antialias", "--type", "f32", "-o",
-        ]).arg(&out));
+        let o = run(tool("vol-convert")
+            .arg(&rot)
+            .args([
+                "--resample",
+                "spacing:1",
+                "--kernel",
+                k,
+                "--no-antialias",
+                "--type",
+                "f32",
+                "-o",
+            ])
+            .arg(&out));
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let err = String::from_utf8_lossy(&o.stderr);
-        assert!(err.contains("oblique"), "no note that the axes are oblique: {err}");
+        assert!(
+            err.contains("oblique"),
+            "no note that the axes are oblique: {err}"
+        );
         if let Some(j) = sitk_resample_diff(&rot, &out, interp) {
             assert_agrees(&j, &format!("{k} rotated sform"));
         }
@@ -279,7 +351,14 @@ print(json.dumps({{"ok": True}}))
 /// The 48 orientation codes.
 fn all_codes() -> Vec<String> {
     let pairs = [['R', 'L'], ['A', 'P'], ['S', 'I']];
-    let perms = [[0, 1, 2], [0, 2, 1], [1, 0, 2], [1, 2, 0], [2, 0, 1], [2, 1, 0]];
+    let perms = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
     let mut out = Vec::new();
     for p in perms {
         for signs in 0..8 {
@@ -302,7 +381,11 @@ fn orient_equals_simpleitk_dicomorient_for_all_48_codes() {
     let codes = all_codes();
     assert_eq!(codes.len(), 48);
     for c in &codes {
-        convert(&src, &["--orient", c], &dir.path().join(format!("o_{c}.nii")));
+        convert(
+            &src,
+            &["--orient", c],
+            &dir.path().join(format!("o_{c}.nii")),
+        );
     }
     let script = format!(
         r#"
@@ -392,7 +475,13 @@ print(json.dumps(out))
     let Some(j) = python_json(&script, "pip install SimpleITK numpy") else {
         return;
     };
-    for key in ["med.nii interior", "med2.nii interior", "clamp", "threshold", "mask"] {
+    for key in [
+        "med.nii interior",
+        "med2.nii interior",
+        "clamp",
+        "threshold",
+        "mask",
+    ] {
         assert_eq!(j[key], serde_json::json!(true), "{key}: {j}");
     }
     assert_eq!(j["med.nii dtype"], "int16", "{j}");
@@ -413,7 +502,11 @@ fn sharded(dir: &Path, input: &Path, args: &[&str], n: u32) -> Vec<u8> {
     }
     let out = dir.join("merged.vvol");
     let _ = std::fs::remove_file(&out);
-    ok(tool("vol-convert").arg("--merge").args(&parts).args(["-q", "-o"]).arg(&out));
+    ok(tool("vol-convert")
+        .arg("--merge")
+        .args(&parts)
+        .args(["-q", "-o"])
+        .arg(&out));
     for p in &parts {
         std::fs::remove_file(p).unwrap();
     }
@@ -429,17 +522,32 @@ fn sharded_stages_equal_the_unsharded_run_byte_for_byte() {
         &["--resample", "spacing:1.5", "--kernel", "lanczos3"],
         &["--smooth", "gauss:1.5"],
         &["--median", "1"],
-        &["--orient", "SAR", "--resample", "spacing:1", "--smooth", "gauss:1", "--clamp", "0:500"],
+        &[
+            "--orient",
+            "SAR",
+            "--resample",
+            "spacing:1",
+            "--smooth",
+            "gauss:1",
+            "--clamp",
+            "0:500",
+        ],
     ];
     for args in cases {
-        for layout in [&["--layout", "sliced"][..], &["--layout", "bricked:8", "--compress", "zstd"]] {
+        for layout in [
+            &["--layout", "sliced"][..],
+            &["--layout", "bricked:8", "--compress", "zstd"],
+        ] {
             let mut all: Vec<&str> = args.to_vec();
             all.extend_from_slice(layout);
             let whole = dir.path().join("whole.vvol");
             convert(&nii, &all, &whole);
             let want = std::fs::read(&whole).unwrap();
             for n in [3, 7] {
-                assert!(sharded(dir.path(), &nii, &all, n) == want, "{all:?} in {n} shards");
+                assert!(
+                    sharded(dir.path(), &nii, &all, n) == want,
+                    "{all:?} in {n} shards"
+                );
             }
         }
     }
@@ -451,17 +559,34 @@ fn bad_preprocessing_input_is_refused_in_one_line_with_nothing_written() {
     let nii = phantom(dir.path(), "16,16,8");
     let out = dir.path().join("o.nii");
     let refuse = |args: &[&str], needle: &str| {
-        let line = fails(tool("vol-convert").arg(&nii).args(args).arg("-o").arg(&out), needle);
+        let line = fails(
+            tool("vol-convert").arg(&nii).args(args).arg("-o").arg(&out),
+            needle,
+        );
         assert!(!out.exists(), "{args:?} left {}", out.display());
         line
     };
-    for bad in ["spacing:0", "spacing:-1", "spacing:nan", "spacing:inf", "spacing:1,1", "dims:0,4,4", "cube:2"] {
+    for bad in [
+        "spacing:0",
+        "spacing:-1",
+        "spacing:nan",
+        "spacing:inf",
+        "spacing:1,1",
+        "dims:0,4,4",
+        "cube:2",
+    ] {
         refuse(&["--resample", bad], "--resample");
     }
     refuse(&["--resample", "dims:20000,20000,20000"], "2^40");
-    refuse(&["--resample", "like:/nonexistent/grid.nii"], "/nonexistent/grid.nii");
+    refuse(
+        &["--resample", "like:/nonexistent/grid.nii"],
+        "/nonexistent/grid.nii",
+    );
     let line = refuse(&["--resample", "spacing:1", "--kernel", "sinc"], "--kernel");
-    assert!(line.contains("lanczos3") && line.contains("bspline3"), "{line}");
+    assert!(
+        line.contains("lanczos3") && line.contains("bspline3"),
+        "{line}"
+    );
     for code in ["RRS", "RA", "RAX"] {
         let line = refuse(&["--orient", code], "--orient");
         assert!(line.contains("R/L") || line.contains("R, L"), "{line}");
@@ -470,7 +595,10 @@ fn bad_preprocessing_input_is_refused_in_one_line_with_nothing_written() {
     let other = dir.path().join("other.nii");
     convert(&nii, &["--crop", "0:8,:,:"], &other);
     let line = refuse(&["--mask", other.to_str().unwrap()], "other.nii");
-    assert!(line.contains("16x16x8") && line.contains("8x16x8"), "{line}");
+    assert!(
+        line.contains("16x16x8") && line.contains("8x16x8"),
+        "{line}"
+    );
     refuse(&["--median", "400"], "--median");
     refuse(&["--median", "0"], "--median");
     refuse(&["--smooth", "gauss:-1"], "--smooth");
@@ -490,5 +618,8 @@ fn spacing_relabels_and_says_so() {
         .arg(dir.path().join("o.nii")));
     assert!(o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("relabels") && err.contains("--resample"), "{err}");
+    assert!(
+        err.contains("relabels") && err.contains("--resample"),
+        "{err}"
+    );
 }

@@ -10,10 +10,10 @@ use std::time::Instant;
 use volcore::{Compression, SampleType, Shard};
 use volformats::convert::{self, CompressArg, OutputOptions, Plan, Target, ValueMap, Window};
 use volformats::omezarr::{Downsample, Ngff};
-use volformats::{open_input, PrepFlags};
 use volformats::output::AtomicFile;
 use volformats::tiff::ChannelSel;
 use volformats::vvol::part;
+use volformats::{open_input, PrepFlags};
 use volkit_cli::args::{self, LayoutArg};
 use volkit_cli::{json, noteln, usage, Selection};
 
@@ -132,7 +132,10 @@ struct Cli {
         "threshold", "mask",
     ])]
     merge: Vec<PathBuf>,
-    #[command(flatten, next_help_heading = "Preprocessing (in this order after --crop: orient, resample, smooth, median, clamp, threshold, mask)")]
+    #[command(
+        flatten,
+        next_help_heading = "Preprocessing (in this order after --crop: orient, resample, smooth, median, clamp, threshold, mask)"
+    )]
     prep: PrepFlags,
     #[command(flatten, next_help_heading = "Input")]
     input_sel: Selection,

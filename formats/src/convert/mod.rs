@@ -284,7 +284,9 @@ impl<T: SliceSample> Produce<T> for Staged<'_, T> {
             ChainError::Stage(msg) => ConvertError::new(&out_path, Error::invalid(msg)),
             ChainError::Spill(dir, e) => ConvertError::new(
                 &dir,
-                Error::invalid(format!("cannot write the temporary copy a stage reads: {e}")),
+                Error::invalid(format!(
+                    "cannot write the temporary copy a stage reads: {e}"
+                )),
             ),
         })?;
         Ok(zs

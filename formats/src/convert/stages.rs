@@ -126,6 +126,13 @@ impl Preprocess {
                 }
                 ResampleTo::Like(path, like) => in_unit(like, &grid, path)?,
             };
+            // The grid as files store it: spacing is f32 everywhere, and
+            // NIfTI stores the origin as f32 too. Computing on the stored
+            // grid makes a reader of the output (and nearest's choice at a
+            // half-voxel tie) see the grid the samples were computed on.
+            let mut target = target;
+            target.spacing = target.spacing.map(|v| f64::from(v as f32));
+            target.geometry.origin = target.geometry.origin.map(|v| f64::from(v as f32));
             if target.dims.count() > MAX_VOXELS {
                 return Err(at(format!(
                     "--resample would write {} voxels ({}), more than the 2^40 volkit writes",
@@ -133,14 +140,9 @@ impl Preprocess {
                     target.dims
                 )));
             }
-            if let Some(s) = Resample::new(
-                grid,
-                target,
-                r.kernel,
-                r.antialias,
-                self.background as f32,
-            )
-            .map_err(at)?
+            if let Some(s) =
+                Resample::new(grid, target, r.kernel, r.antialias, self.background as f32)
+                    .map_err(at)?
             {
                 grid = s.output();
                 out.push(Box::new(s));
@@ -172,7 +174,11 @@ impl Preprocess {
                 let s = reader.read_slice(z).map_err(|e| e.to_string())?;
                 Ok((0..s.len()).map(|i| s.value(i) as f32).collect())
             };
-            out.push(Box::new(Mask::new(grid, self.background as f32, Box::new(read))));
+            out.push(Box::new(Mask::new(
+                grid,
+                self.background as f32,
+                Box::new(read),
+            )));
         }
         Ok(out)
     }
@@ -200,7 +206,10 @@ fn in_unit(other: &Grid, grid: &Grid, path: &Path) -> CResult<Grid> {
     if g.spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
         return Err(ConvertError::new(
             path,
-            Error::invalid(format!("its spacing {:?} is not positive and finite", g.spacing)),
+            Error::invalid(format!(
+                "its spacing {:?} is not positive and finite",
+                g.spacing
+            )),
         ));
     }
     Ok(g)
@@ -214,6 +223,10 @@ pub fn random_access(
 ) -> CResult<Arc<dyn SliceReader>> {
     Ok(match reader.access() {
         Access::Random => Arc::from(reader),
-        Access::Sequential => Arc::new(super::spool::Spooled::new(reader.as_ref(), temp_dir, |_| {})?),
+        Access::Sequential => Arc::new(super::spool::Spooled::new(
+            reader.as_ref(),
+            temp_dir,
+            |_| {},
+        )?),
     })
 }
