@@ -12,14 +12,6 @@ fn fixture(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn f32s(path: &Path) -> Vec<f32> {
-    std::fs::read(path)
-        .unwrap()
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect()
-}
-
 /// A smooth CT-like volume (the phantom, f32) at 0.5,0.5,2 mm as NIfTI.
 fn phantom(dir: &Path, dims: &str) -> PathBuf {
     let vvol = dir.join("ph.vvol");

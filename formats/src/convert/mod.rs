@@ -575,6 +575,9 @@ pub fn convert(
     Ok(report)
 }
 
+/// The preprocessing stages of one conversion, in order.
+type Stages = Vec<Box<dyn Stage>>;
+
 /// The grid after crop, flips and units (the stages' input), the
 /// preprocessing stages on it (none when nothing would change), and the
 /// notes for the user.
@@ -583,7 +586,7 @@ fn plan_stages(
     crop: &[Range<u64>; 3],
     plan: &Plan,
     target: &Target,
-) -> CResult<(Grid, Vec<Box<dyn Stage>>, Vec<String>)> {
+) -> CResult<(Grid, Stages, Vec<String>)> {
     let in_spacing = info.spacing.unwrap_or([1.0; 3]);
     let dims = [0, 1, 2].map(|a| crop[a].end - crop[a].start);
     let start = [0, 1, 2].map(|a| crop[a].start);
