@@ -449,15 +449,22 @@ pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
 /// input's own type, or the smallest stored type holding its values;
 /// `f64` as `f32`, recorded in [`volcore::VolumeMeta::narrowed`]).
 pub fn load(reader: Box<dyn SliceReader>, sample_type: Option<SampleType>) -> CResult<Volume> {
-    let slot = convert::MemorySlot::default();
     let plan = Plan {
         sample_type,
         temp_dir: Some(std::env::temp_dir()),
         ..Plan::default()
     };
+    load_with(reader, &plan)
+}
+
+/// Read everything `reader` holds into memory through `plan` (crop,
+/// preprocessing stages, type): what `vol-convert` would write, as a
+/// [`Volume`] (whose types are u8, u16, i16 and f32).
+pub fn load_with(reader: Box<dyn SliceReader>, plan: &Plan) -> CResult<Volume> {
+    let slot = convert::MemorySlot::default();
     let report = convert::convert(
         reader,
-        &plan,
+        plan,
         convert::Target::Memory(slot.clone()),
         &|_| {},
     )?;

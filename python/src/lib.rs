@@ -92,6 +92,7 @@ fn _volkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(volume::open, m)?)?;
     m.add_function(wrap_pyfunction!(volume::from_array, m)?)?;
     m.add_function(wrap_pyfunction!(save::save, m)?)?;
+    m.add_function(wrap_pyfunction!(save::preprocess, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
     m.add_function(wrap_pyfunction!(psnr::psnr, m)?)?;
     m.add_function(wrap_pyfunction!(index::index, m)?)?;

@@ -123,18 +123,7 @@ pub fn save<'py>(
     prep: Option<&Bound<'py, pyo3::types::PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     crate::guard(|| {
-        let mut kw = Vec::new();
-        for (k, v) in prep.into_iter().flat_map(|d| d.iter()) {
-            let key: String = k.extract()?;
-            if !crate::prep::is_prep_keyword(&key) {
-                return Err(errors::value(format!(
-                    "unknown option `{key}` (save's preprocessing keywords are {})",
-                    crate::prep::prep_keywords().join(", ")
-                )));
-            }
-            kw.push((key, v));
-        }
-        let flags = crate::prep::prep_flags(&kw)?;
+        let flags = prep_of("save", prep)?;
         let bad = |what: &str, e: String| errors::value(format!("{what}: {e}"));
         let opts = OutputOptions {
             layout: convert::choose::layout(layout).map_err(|e| bad("layout", e))?,
@@ -193,6 +182,59 @@ pub fn save<'py>(
             "bytes": report.bytes_out,
         });
         crate::value::to_py(py, &json)
+    })
+}
+
+/// The preprocessing keywords of `kw` as flags (unknown ones refused,
+/// naming the ones there are).
+fn prep_of(what: &str, kw: Option<&Bound<'_, pyo3::types::PyDict>>) -> PyResult<volformats::PrepFlags> {
+    let mut pairs = Vec::new();
+    for (k, v) in kw.into_iter().flat_map(|d| d.iter()) {
+        let key: String = k.extract()?;
+        if !crate::prep::is_prep_keyword(&key) {
+            return Err(errors::value(format!(
+                "unknown option `{key}` ({what}'s preprocessing keywords are {})",
+                crate::prep::prep_keywords().join(", ")
+            )));
+        }
+        pairs.push((key, v));
+    }
+    crate::prep::prep_flags(&pairs)
+}
+
+/// A Volume or a numpy array (z, y, x) preprocessed in memory, with
+/// save's preprocessing keywords (`orient`, `resample`, `kernel`,
+/// `no_antialias`, `background`, `smooth`, `median`, `clamp`,
+/// `threshold`, `mask`) and `type`: the samples `save` would write, as a
+/// new Volume (u8, u16, i16 or float32) with its geometry.
+#[pyfunction]
+#[pyo3(signature = (data, *, r#type=None, **prep))]
+pub fn preprocess(
+    py: Python<'_>,
+    data: &Bound<'_, PyAny>,
+    r#type: Option<&str>,
+    prep: Option<&Bound<'_, pyo3::types::PyDict>>,
+) -> PyResult<PyVolume> {
+    crate::guard(|| {
+        let flags = prep_of("preprocess", prep)?;
+        let sample_type = r#type
+            .map(|t| t.parse::<volcore::SampleType>())
+            .transpose()
+            .map_err(|e| errors::value(format!("type: {e}")))?;
+        let temp = std::env::temp_dir();
+        let plan = Plan {
+            sample_type,
+            temp_dir: Some(temp.clone()),
+            prep: flags.resolve(&temp).map_err(errors::convert)?,
+            ..Plan::default()
+        };
+        let reader = reader_for(py, data, None, None)?;
+        let out = crate::run(py, convert::request_stop, || {
+            volformats::open::load_with(reader, &plan)
+        });
+        convert::clear_stop();
+        let vol = out?.map_err(errors::convert)?;
+        Ok(PyVolume { vol, file: None })
     })
 }
 

@@ -57,3 +57,19 @@ def test_unknown_preprocessing_keyword_is_refused(source, tmp_path):
     with pytest.raises(ValueError, match="lanczos3"):
         volkit.save(volkit.open(src), tmp_path / "o.nii", resample="spacing:1", kernel="sinc")
     assert not (tmp_path / "o.nii").exists()
+
+
+def test_preprocess_in_memory_equals_save(source, tmp_path):
+    d, src = source
+    kw = {"orient": "RAS", "resample": "spacing:1", "smooth": "gauss:0.8"}
+    v = volkit.preprocess(volkit.open(src), **kw)
+    path = tmp_path / "o.nii"
+    volkit.save(volkit.open(src), path, **kw)
+    back = volkit.open(path)
+    np.testing.assert_array_equal(v.array(), back.array())
+    np.testing.assert_allclose(v.spacing, back.spacing)
+    np.testing.assert_allclose(v.origin, back.origin, atol=1e-5)
+    # A numpy array works too, and a threshold makes a uint8 mask.
+    a = np.arange(4 * 5 * 6, dtype=np.int16).reshape(4, 5, 6)
+    m = volkit.preprocess(a, threshold="10:50").array()
+    np.testing.assert_array_equal(m, ((a >= 10) & (a <= 50)).astype(np.uint8))

@@ -118,9 +118,37 @@ def save(
     pyramid: int = ...,
     downsample: str = ...,
     ngff: Optional[str] = ...,
+    orient: Optional[str] = ...,
+    resample: Optional[str] = ...,
+    kernel: Optional[str] = ...,
+    no_antialias: bool = ...,
+    background: Optional[float] = ...,
+    smooth: Optional[str] = ...,
+    median: Optional[int] = ...,
+    clamp: Optional[str] = ...,
+    threshold: Optional[str] = ...,
+    mask: Optional[PathLike] = ...,
 ) -> dict[str, Any]:
     """Write any format vol-convert writes (by the path's extension), with
-    vol-convert's options, atomically."""
+    vol-convert's options and preprocessing stages, atomically."""
+
+def preprocess(
+    data: Union[Volume, npt.ArrayLike],
+    *,
+    type: Optional[str] = ...,
+    orient: Optional[str] = ...,
+    resample: Optional[str] = ...,
+    kernel: Optional[str] = ...,
+    no_antialias: bool = ...,
+    background: Optional[float] = ...,
+    smooth: Optional[str] = ...,
+    median: Optional[int] = ...,
+    clamp: Optional[str] = ...,
+    threshold: Optional[str] = ...,
+    mask: Optional[PathLike] = ...,
+) -> Volume:
+    """The samples save would write with these preprocessing keywords,
+    as a new Volume in memory."""
 
 def generate(
     scene: str,
