@@ -462,12 +462,7 @@ pub fn load(reader: Box<dyn SliceReader>, sample_type: Option<SampleType>) -> CR
 /// [`Volume`] (whose types are u8, u16, i16 and f32).
 pub fn load_with(reader: Box<dyn SliceReader>, plan: &Plan) -> CResult<Volume> {
     let slot = convert::MemorySlot::default();
-    let report = convert::convert(
-        reader,
-        plan,
-        convert::Target::Memory(slot.clone()),
-        &|_| {},
-    )?;
+    let report = convert::convert(reader, plan, convert::Target::Memory(slot.clone()), &|_| {})?;
     let mut v = slot.take().ok_or_else(|| {
         ConvertError::new(
             Path::new("-"),

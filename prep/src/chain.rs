@@ -33,6 +33,9 @@ enum Store {
 struct Level {
     grid: Grid,
     store: Store,
+    /// Slices done with, for reuse: fresh allocations would make the
+    /// allocator's heap grow with every batch (and fault in new pages).
+    spare: Vec<Vec<f32>>,
 }
 
 /// The errors a chain adds to its source's: the disk copy of a level.
@@ -68,6 +71,8 @@ pub struct Chain<'f, E> {
     temp_dir: PathBuf,
     /// Output slices computed per request at the least (parallelism).
     batch: u64,
+    /// Where the source's slices go when the chain is done with them.
+    recycle: Option<Box<dyn FnMut(Vec<f32>) + 'f>>,
 }
 
 impl<'f, E: Send> Chain<'f, E> {
@@ -85,6 +90,7 @@ impl<'f, E: Send> Chain<'f, E> {
                 first: 0,
                 slices: Vec::new(),
             },
+            spare: Vec::new(),
         }];
         for s in &stages {
             levels.push(Level {
@@ -93,6 +99,7 @@ impl<'f, E: Send> Chain<'f, E> {
                     first: 0,
                     slices: Vec::new(),
                 },
+                spare: Vec::new(),
             });
         }
         // A stage whose window would not fit half the budget reads its
@@ -120,6 +127,22 @@ impl<'f, E: Send> Chain<'f, E> {
             levels,
             temp_dir: temp_dir.to_path_buf(),
             batch,
+            recycle: None,
+        }
+    }
+
+    /// Hand the source's slices back to `recycle` when the chain is done
+    /// with them (a source that reuses its buffers).
+    pub fn with_recycler(mut self, recycle: Box<dyn FnMut(Vec<f32>) + 'f>) -> Self {
+        self.recycle = Some(recycle);
+        self
+    }
+
+    /// A slice the caller is done with (one [`Chain::slices`] gave), for
+    /// reuse by the last stage.
+    pub fn recycle(&mut self, v: Vec<f32>) {
+        if let Some(l) = self.levels.last_mut() {
+            l.spare.push(v);
         }
     }
 
@@ -143,7 +166,14 @@ impl<'f, E: Send> Chain<'f, E> {
         let top = self.levels.len() - 1;
         let nz = self.levels[top].grid.dims.z;
         let want = zs.start..zs.end.max(zs.start + self.batch).min(nz).max(zs.end);
-        self.ensure(top, want)?;
+        // A batch at a time: the levels below then hold what one batch
+        // needs, not what the whole request does (a writer's slab of
+        // many slices).
+        let mut end = want.start;
+        while end < want.end {
+            end = (end + self.batch).min(want.end);
+            self.ensure(top, want.start..end)?;
+        }
         Ok(self.slab(top, zs))
     }
 
@@ -185,14 +215,24 @@ impl<'f, E: Send> Chain<'f, E> {
             return Ok(());
         }
         let need = {
-            let Store::Window { first, slices } = &mut self.levels[level].store else {
+            let l = &mut self.levels[level];
+            let Store::Window { first, slices } = &mut l.store else {
                 unreachable!()
             };
             let end = *first + slices.len() as u64;
-            if zs.start < *first || zs.start >= end {
-                slices.clear();
+            let gone = if zs.start < *first || zs.start >= end {
+                slices.len()
             } else {
-                slices.drain(..(zs.start - *first) as usize);
+                (zs.start - *first) as usize
+            };
+            let dropped: Vec<Vec<f32>> = slices.drain(..gone).collect();
+            if level == 0 {
+                // The source's slices go back to the source.
+                if let Some(r) = self.recycle.as_mut() {
+                    dropped.into_iter().for_each(|v| r(v));
+                }
+            } else {
+                l.spare.extend(dropped);
             }
             *first = zs.start;
             (*first + slices.len() as u64).max(zs.start)..zs.end
@@ -215,12 +255,19 @@ impl<'f, E: Send> Chain<'f, E> {
         let stage_i = level - 1;
         let inr = self.stages[stage_i].needs(zs.clone());
         self.ensure(stage_i, inr.clone())?;
+        let n = self.levels[level].grid.dims.slice_len() as usize;
+        let want = (zs.end - zs.start) as usize;
+        let spare = &mut self.levels[level].spare;
+        let mut bufs: Vec<Vec<f32>> = spare.split_off(spare.len().saturating_sub(want));
+        bufs.resize_with(want, Vec::new);
         let stage = &self.stages[stage_i];
         let slab = self.slab(stage_i, inr);
-        let n = self.levels[level].grid.dims.slice_len() as usize;
-        zs.into_par_iter()
-            .map(|z| {
-                let mut out = vec![0.0f32; n];
+        bufs.into_par_iter()
+            .enumerate()
+            .map(|(i, mut out)| {
+                let z = zs.start + i as u64;
+                out.clear();
+                out.resize(n, 0.0);
                 stage.run(z, &slab, &mut out).map_err(ChainError::Stage)?;
                 Ok(out)
             })

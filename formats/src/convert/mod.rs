@@ -272,7 +272,8 @@ struct Staged<'a, T> {
     chain: Chain<'a, ConvertError>,
     map: ValueMap,
     out_path: PathBuf,
-    _type: std::marker::PhantomData<T>,
+    /// Output slices the window is done with, for reuse.
+    spare: Vec<Vec<T>>,
 }
 
 impl<T: SliceSample> Produce<T> for Staged<'_, T> {
@@ -289,18 +290,26 @@ impl<T: SliceSample> Produce<T> for Staged<'_, T> {
                 )),
             ),
         })?;
-        Ok(zs
+        let want = (zs.end - zs.start) as usize;
+        let mut bufs = self.spare.split_off(self.spare.len().saturating_sub(want));
+        bufs.resize_with(want, Vec::new);
+        Ok(bufs
             .into_par_iter()
-            .map(|z| {
-                let s = slab.slice(z);
+            .enumerate()
+            .map(|(i, mut out)| {
+                let s = slab.slice(zs.start + i as u64);
+                out.clear();
                 match map {
-                    ValueMap::Exact => s.iter().map(|&v| T::from_f32(v)).collect(),
-                    m => s.iter().map(|&v| m.apply::<T>(v as f64)).collect(),
+                    ValueMap::Exact => out.extend(s.iter().map(|&v| T::from_f32(v))),
+                    m => out.extend(s.iter().map(|&v| m.apply::<T>(v as f64))),
                 }
+                out
             })
             .collect())
     }
-    fn recycle(&mut self, _: Vec<T>) {}
+    fn recycle(&mut self, v: Vec<T>) {
+        self.spare.push(v);
+    }
 }
 
 #[cold]
@@ -823,7 +832,8 @@ fn run_staged<T: SliceSample>(
         Access::Random => zs.into_par_iter().map(|z| loader.load(z)).collect(),
         Access::Sequential => zs.map(|z| loader.load(z)).collect(),
     });
-    let chain = Chain::new(grid, source, stages, &args.temp_dir);
+    let chain = Chain::new(grid, source, stages, &args.temp_dir)
+        .with_recycler(Box::new(|v: Vec<f32>| loader.recycle(v)));
     let out = chain.output();
     let spacing = out.spacing_f32();
     if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
@@ -840,7 +850,7 @@ fn run_staged<T: SliceSample>(
         chain,
         map: args.map,
         out_path: out_path.clone(),
-        _type: std::marker::PhantomData,
+        spare: Vec::new(),
     };
     let mut drive = |sink: &mut dyn writers::SliceWriter<T>| -> CResult<()> {
         let mut window = SliceWindow::<T>::new(dims);
