@@ -229,7 +229,7 @@ impl<'f, E: Send> Chain<'f, E> {
             if level == 0 {
                 // The source's slices go back to the source.
                 if let Some(r) = self.recycle.as_mut() {
-                    dropped.into_iter().for_each(|v| r(v));
+                    dropped.into_iter().for_each(r);
                 }
             } else {
                 l.spare.extend(dropped);
