@@ -570,6 +570,8 @@ fn bad_preprocessing_input_is_refused_in_one_line_with_nothing_written() {
         refuse(&["--resample", bad], "--resample");
     }
     refuse(&["--resample", "dims:20000,20000,20000"], "2^40");
+    // Fewer voxels than 2^40, but one slice past the slab budget.
+    refuse(&["--resample", "dims:100000,100000,1"], "slab budget");
     refuse(
         &["--resample", "like:/nonexistent/grid.nii"],
         "/nonexistent/grid.nii",

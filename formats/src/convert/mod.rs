@@ -609,6 +609,23 @@ fn plan_stages(
     } else {
         plan.prep.stages(grid, &info.path, &mut notes)?
     };
+    // The stages hold whole z slices as f32: refuse slices past the slab
+    // budget before allocating one (a resample to dims:100000,100000,1).
+    let grids = std::iter::once(grid).chain(stages.iter().map(|s| s.output()));
+    for g in grids.filter(|_| !stages.is_empty()) {
+        let bytes = g.dims.slice_len().saturating_mul(4);
+        if bytes > volprep::SLAB_BUDGET {
+            return Err(ConvertError::new(
+                &info.path,
+                Error::invalid(format!(
+                    "the preprocessing stages hold z slices as f32: one {}x{} slice takes {bytes} bytes, more than the {} GiB slab budget",
+                    g.dims.x,
+                    g.dims.y,
+                    volprep::SLAB_BUDGET >> 30
+                )),
+            ));
+        }
+    }
     Ok((grid, stages, notes))
 }
 
