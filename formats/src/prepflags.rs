@@ -3,6 +3,9 @@
 //! own parsers, resolved into a [`Preprocess`] with the files that
 //! `--resample like:FILE` and `--mask FILE` name opened.
 
+// The value parsers are named only in the clap attributes.
+#![cfg_attr(not(feature = "clap"), allow(unused_imports, dead_code))]
+
 use crate::convert::{MaskInput, Preprocess, ResampleTo, Resampling};
 use crate::open::{open_input, ReadOptions};
 use std::path::{Path, PathBuf};
