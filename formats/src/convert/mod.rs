@@ -699,51 +699,15 @@ fn run<T: SliceSample>(
         spare_in: Default::default(),
     };
     let dims = loader.out_dims();
-    let out_path = target.path().to_path_buf();
     let mut src = &loader;
-    let mut drive = |sink: &mut dyn writers::SliceWriter<T>| -> CResult<()> {
-        let mut window = SliceWindow::<T>::new(dims);
-        loop {
-            let zs = sink.next_slices();
-            if zs.is_empty() {
-                break;
-            }
-            window.advance(zs, &mut src)?;
-            sink.write_next(&window)?;
-            window.check().at(&out_path)?;
-            check_stop(&out_path)?;
-        }
-        // Read what is left of a stream (and check its trailer) before the
-        // output is committed: a damaged input must leave no output.
-        args.reader.finish()
-    };
-    let spec = writers::OutSpec {
+    write_all(
+        args,
+        &mut src,
         dims,
-        spacing: args.spacing,
-        geometry: args.geometry,
-        nifti_codes: info.nifti_codes,
-        temp_dir: &args.temp_dir,
+        (args.spacing, args.geometry),
+        target,
         progress,
-    };
-    let writers::Written {
-        bytes: bytes_out,
-        range,
-    } = writers::run_target::<T>(target, &spec, &mut drive)?;
-    Ok(Report {
-        dims,
-        sample_type: T::TYPE,
-        spacing: args.spacing,
-        geometry: args.geometry,
-        input_type: info.sample_type,
-        bytes_in: 0,
-        bytes_out,
-        range,
-        map: args.map,
-        input_format: String::new(),
-        spooled: false,
-        notes: Vec::new(),
-        narrowed: None,
-    })
+    )
 }
 
 /// [`convert`] through preprocessing stages: the input is read as `f32`
@@ -861,14 +825,36 @@ fn run_staged<T: SliceSample>(
             )),
         ));
     }
-    let dims = out.dims;
-    let out_path = target.path().to_path_buf();
     let mut src = Staged::<T> {
         chain,
         map: args.map,
-        out_path: out_path.clone(),
+        out_path: target.path().to_path_buf(),
         spare: Vec::new(),
     };
+    write_all(
+        args,
+        &mut src,
+        out.dims,
+        (spacing, out.geometry),
+        target,
+        progress,
+    )
+}
+
+/// Write `target` from the output slices `src` produces (a grid of
+/// `dims` at `place`: spacing and geometry), each writer unit's slices
+/// in a [`SliceWindow`]; the input's rest is read (and a stream's trailer
+/// checked) before the output is committed.
+fn write_all<T: SliceSample>(
+    args: &RunArgs<'_>,
+    src: &mut dyn Produce<T>,
+    dims: Dims,
+    place: ([f32; 3], Geometry),
+    target: Target,
+    progress: &(dyn Fn(u64) + Sync),
+) -> CResult<Report> {
+    let info = args.reader.info();
+    let out_path = target.path().to_path_buf();
     let mut drive = |sink: &mut dyn writers::SliceWriter<T>| -> CResult<()> {
         let mut window = SliceWindow::<T>::new(dims);
         loop {
@@ -876,17 +862,19 @@ fn run_staged<T: SliceSample>(
             if zs.is_empty() {
                 break;
             }
-            window.advance(zs, &mut src)?;
+            window.advance(zs, src)?;
             sink.write_next(&window)?;
             window.check().at(&out_path)?;
             check_stop(&out_path)?;
         }
+        // A damaged input must leave no output.
         args.reader.finish()
     };
+    let (spacing, geometry) = place;
     let spec = writers::OutSpec {
         dims,
         spacing,
-        geometry: out.geometry,
+        geometry,
         nifti_codes: info.nifti_codes,
         temp_dir: &args.temp_dir,
         progress,
@@ -899,7 +887,7 @@ fn run_staged<T: SliceSample>(
         dims,
         sample_type: T::TYPE,
         spacing,
-        geometry: out.geometry,
+        geometry,
         input_type: info.sample_type,
         bytes_in: 0,
         bytes_out,
