@@ -8,7 +8,7 @@
 //! (MIP, MinIP, X-ray), and composites over the background. The result
 //! stays linear light; [`Frame::srgb8`] encodes it for 8-bit output.
 
-use crate::integrator::RayResult;
+use crate::trace::RayResult;
 use glam::Vec3;
 
 /// Counts and times for one frame.
@@ -30,7 +30,41 @@ pub struct FrameStats {
     /// AO field, built once per transfer function (its own figure).
     pub render_s: f64,
     /// What the effects did (zero when they are off).
-    pub effects: crate::effects::EffectStats,
+    pub effects: EffectStats,
+}
+
+/// What the effects did in a frame (all zero when they are off).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct EffectStats {
+    /// Shadow rays marched.
+    pub shadow_rays: u64,
+    /// Samples those shadow rays took.
+    pub shadow_samples: u64,
+    /// Light grids built.
+    pub shadow_grids: u32,
+    /// Seconds spent building them.
+    pub shadow_grid_s: f64,
+    /// Their memory, bytes.
+    pub shadow_grid_bytes: u64,
+    /// Samples their build took.
+    pub shadow_grid_samples: u64,
+    /// Occlusion rays marched (`--ao N`: N per shaded sample).
+    pub ao_rays: u64,
+    /// Grid reads those rays took.
+    pub ao_samples: u64,
+    /// Seconds spent building the occlusion grid.
+    pub ao_grid_s: f64,
+    /// Its memory, bytes.
+    pub ao_grid_bytes: u64,
+    /// Samples its build took.
+    pub ao_grid_samples: u64,
+    /// Seconds spent precomputing the AO field (`--ao-field K`; not
+    /// counted in the frame's render time).
+    pub ao_field_s: f64,
+    /// The field's memory, bytes.
+    pub ao_field_bytes: u64,
+    /// Grid reads its build took.
+    pub ao_field_samples: u64,
 }
 
 /// How a pixel's accumulated result becomes a colour.
@@ -199,7 +233,7 @@ impl Film {
     /// (their build time is part of the frame's wall time: they are built
     /// once per frame); and the AO field's, which is reported beside the
     /// frame's time (it is built once per transfer function).
-    pub fn add_grid_stats(&mut self, s: &crate::effects::EffectStats) {
+    pub fn add_grid_stats(&mut self, s: &EffectStats) {
         let e = &mut self.stats.effects;
         e.shadow_grids += s.shadow_grids;
         e.shadow_grid_s += s.shadow_grid_s;

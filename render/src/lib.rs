@@ -43,13 +43,15 @@ pub mod settings;
 pub mod shade;
 pub mod tf;
 pub mod tiles;
+pub mod trace;
 
 pub use camera::{Camera, Projection};
-pub use effects::{Ao, AoMethod, EffectStats, ShadowMethod, Shadows};
 pub use error::RenderError;
-pub use film::{Frame, FrameStats};
+pub use film::{EffectStats, Frame, FrameStats};
 pub use frame::{render, render_tf};
 pub use light::Light;
-pub use settings::{Cancel, GradientMethod, Interp, Mode, RenderSettings};
+pub use settings::{
+    Ao, AoMethod, Cancel, GradientMethod, Interp, Mode, RenderSettings, ShadowMethod, Shadows,
+};
 pub use shade::{BlinnPhong, Lighting};
 pub use tf::{Tf, TransferFunction};

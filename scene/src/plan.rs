@@ -235,7 +235,7 @@ fn patient_up(vol: &Volume) -> Result<Vec3> {
 /// no `--eye` did).
 fn camera(cli: &Options, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
     let hi = Vec3::from(vol.meta.world_extent());
-    let Some(diagonal64) = volrender::frame::world_diagonal(vol) else {
+    let Some(diagonal64) = vol.meta.world_diagonal() else {
         let (d, s) = (vol.dims(), vol.meta.spacing);
         return Err(Error::option(format!(
             "the volume's extent (dims {d} x spacing {},{},{}) is too large for f32 world coordinates",
@@ -284,7 +284,7 @@ fn camera(cli: &Options, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
 /// the user gives may still be refused.
 fn default_step(cli: &Options, vol: &Volume, notes: &mut Vec<String>) -> f32 {
     let half = 0.5 * vol.meta.min_spacing();
-    let Some(finest) = volrender::settings::check::finest_step(vol) else {
+    let Some(finest) = volrender::frame::check::finest_step(vol) else {
         // No step is feasible: the frame's check says why.
         return half;
     };

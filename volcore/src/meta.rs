@@ -355,6 +355,18 @@ impl VolumeMeta {
         std::array::from_fn(|a| (d[a] - 1) as f32 * self.spacing[a])
     }
 
+    /// The box's diagonal in world units, in f64 (`None` when the extent
+    /// [`VolumeMeta::world_extent`] is not a finite f32 on some axis).
+    pub fn world_diagonal(&self) -> Option<f64> {
+        let e = self.world_extent();
+        e.iter().all(|c| c.is_finite()).then(|| {
+            e.iter()
+                .map(|&c| (c as f64) * (c as f64))
+                .sum::<f64>()
+                .sqrt()
+        })
+    }
+
     /// The smallest of the three voxel spacings.
     pub fn min_spacing(&self) -> f32 {
         self.spacing.iter().copied().fold(f32::INFINITY, f32::min)

@@ -3,8 +3,12 @@
 //! index's value ranges go through a function of the range (a transfer
 //! function's range-maximum table, or a density mapping), once per frame.
 
-use crate::path::medium::MAX_SIGMA_T;
 use volindex::{MinMaxIndex, RangeMaxTable};
+
+/// The largest extinction a medium takes, per world unit: a transfer
+/// function's opacity 1 (infinite optical depth) is this, so tracking
+/// stays finite (a unit of it transmits `e^−1e6`, nothing).
+pub const MAX_SIGMA_T: f32 = 1e6;
 
 /// Per-cell majorants of one index level.
 #[derive(Clone, Debug)]

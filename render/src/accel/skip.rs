@@ -298,8 +298,8 @@ impl Accel<bool> for IsoSides<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrator::march::RaySteps;
     use crate::ray::{intersect_box, Ray};
+    use crate::trace::march::RaySteps;
     use volcore::grid::Locator;
     use volcore::region::pack_sliced;
     use volcore::scene::{SceneSource, ShapesScene};

@@ -1,8 +1,8 @@
 //! A rank's share of every ray: the samples inside its box.
 
 use crate::camera::Camera;
-use crate::integrator::Span;
 use crate::ray::Ray;
+use crate::trace::Span;
 use glam::Vec3;
 
 /// A rectangle of pixels: columns `x[0]..x[1]`, rows `y[0]..y[1]`.

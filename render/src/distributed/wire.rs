@@ -245,7 +245,7 @@ impl Film {
 mod tests {
     use super::*;
     use crate::film::Display;
-    use crate::integrator::RayResult;
+    use crate::trace::RayResult;
     use glam::Vec3;
 
     #[test]

@@ -45,37 +45,6 @@ pub const MAX_AO_RAYS: u32 = 1024;
 /// The most directions of a precomputed field (`--ao-field K`).
 pub const MAX_AO_FIELD_DIRECTIONS: u32 = 256;
 
-/// How ambient occlusion is computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AoMethod {
-    /// `n` random directions per shaded sample.
-    Rays {
-        /// Directions per shaded sample.
-        n: u32,
-    },
-    /// A field of `k` fixed directions at points `cell` voxels apart,
-    /// precomputed per frame.
-    Field {
-        /// Directions.
-        k: u32,
-        /// Voxels between the field's points (the speed knob: each halving
-        /// takes eight times the memory and precomputation).
-        cell: u32,
-    },
-}
-
-/// Ambient occlusion settings of a frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ao {
-    /// The method.
-    pub method: AoMethod,
-    /// How far occluders count, world units (`None`: a tenth of the
-    /// volume's diagonal).
-    pub radius: Option<f32>,
-    /// Seed of the directions' sampler.
-    pub seed: u64,
-}
-
 /// The `N` directions of one shaded sample: a golden-angle spiral on the
 /// unit disk (point `i` at squared radius `(i + u)/N`, angle
 /// `i·golden + φ`), lifted onto the hemisphere around the normal (Malley's

@@ -22,10 +22,12 @@ pub mod caster;
 pub mod light_grid;
 pub mod occluder;
 pub mod occlusion_grid;
-pub mod setup;
 pub mod shadow_ray;
 
-pub use ao::{outward_normal, outward_normals8, Ao, AoField, AoLookup, AoMethod, AoSource};
+pub use crate::film::EffectStats;
+pub use crate::settings::{Ao, AoMethod, ShadowMethod, Shadows};
+pub use crate::trace::RayEffects;
+pub use ao::{outward_normal, outward_normals8, AoField, AoLookup, AoSource};
 pub use caster::ShadowCaster;
 pub use light_grid::LightGrid;
 pub use occluder::{Classified, IsoInside, Occluder};
@@ -38,77 +40,6 @@ pub const SHADOW_CUTOFF: f32 = 1e-3;
 
 /// The optical depth past which a shadow ray stops (`−ln SHADOW_CUTOFF`).
 pub const SHADOW_DEPTH_CUTOFF: f32 = 6.907_755;
-
-/// How shadows are computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ShadowMethod {
-    /// A shadow ray per shaded sample and light, marched with skipping.
-    Ray,
-    /// A transmittance grid per directional light, one point every
-    /// `divisor` voxels along each axis (1, 2 or 4); other lights fall
-    /// back to shadow rays.
-    Grid {
-        /// Voxels per grid cell along each axis.
-        divisor: u32,
-    },
-}
-
-/// Shadow settings of a frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Shadows {
-    /// The method.
-    pub method: ShadowMethod,
-    /// Distance between shadow samples, world units (`None`: the frame's
-    /// step).
-    pub step: Option<f32>,
-}
-
-/// What the effects did in a frame (all zero when they are off).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct EffectStats {
-    /// Shadow rays marched.
-    pub shadow_rays: u64,
-    /// Samples those shadow rays took.
-    pub shadow_samples: u64,
-    /// Light grids built.
-    pub shadow_grids: u32,
-    /// Seconds spent building them.
-    pub shadow_grid_s: f64,
-    /// Their memory, bytes.
-    pub shadow_grid_bytes: u64,
-    /// Samples their build took.
-    pub shadow_grid_samples: u64,
-    /// Occlusion rays marched (`--ao N`: N per shaded sample).
-    pub ao_rays: u64,
-    /// Grid reads those rays took.
-    pub ao_samples: u64,
-    /// Seconds spent building the occlusion grid.
-    pub ao_grid_s: f64,
-    /// Its memory, bytes.
-    pub ao_grid_bytes: u64,
-    /// Samples its build took.
-    pub ao_grid_samples: u64,
-    /// Seconds spent precomputing the AO field (`--ao-field K`; not
-    /// counted in the frame's render time).
-    pub ao_field_s: f64,
-    /// The field's memory, bytes.
-    pub ao_field_bytes: u64,
-    /// Grid reads its build took.
-    pub ao_field_samples: u64,
-}
-
-/// Per-ray effect counters, carried in a ray's result.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct RayEffects {
-    /// Shadow rays this ray's samples cast.
-    pub shadow_rays: u32,
-    /// Samples those shadow rays took.
-    pub shadow_samples: u64,
-    /// Occlusion rays this ray's samples cast.
-    pub ao_rays: u32,
-    /// Grid reads those occlusion rays took.
-    pub ao_samples: u64,
-}
 
 #[cfg(test)]
 mod tests {

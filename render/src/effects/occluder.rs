@@ -1,8 +1,8 @@
 //! What blocks light: the optical depth one shadow sample adds.
 
 use crate::classify::Classifier;
-use crate::integrator::reconstruct::{Gradient, Interp};
-use crate::integrator::FrameGeometry;
+use crate::trace::reconstruct::{Gradient, Interp};
+use crate::trace::FrameGeometry;
 use glam::Vec3;
 use std::marker::PhantomData;
 use volcore::grid::Locator;

@@ -9,7 +9,7 @@
 use super::occluder::Occluder;
 use super::SHADOW_DEPTH_CUTOFF;
 use crate::accel::Accel;
-use crate::integrator::march::{march, Flow, RayMarch, RaySteps};
+use crate::trace::march::{march, Flow, RayMarch, RaySteps};
 use glam::Vec3;
 use volcore::Cursor;
 

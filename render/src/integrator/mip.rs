@@ -1,15 +1,12 @@
 //! Maximum and minimum intensity projection.
 
-use super::march::{march, Flow, RayMarch, RaySteps};
-use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::{Accel, RunningMax, RunningMin};
-use crate::error::RenderError;
-use crate::film::Film;
 use crate::ray::Ray;
-use crate::tiles::Tiles;
+use crate::trace::march::{march, Flow, RayMarch, RaySteps};
+use crate::trace::{FrameGeometry, Integrator, RayResult, Span};
 use glam::Vec3;
 use std::marker::PhantomData;
-use volcore::{Cursor, Volume};
+use volcore::Cursor;
 use volindex::MinMaxIndex;
 
 /// Which extreme a projection keeps.
@@ -95,26 +92,6 @@ impl<'a, D: Extreme> Mip<'a, D> {
             extreme,
             _extreme: PhantomData,
         }
-    }
-}
-
-/// Render a MIP (`maximum`) or MinIP frame of `vol`, skipping over
-/// `index` when given; rays stop at the volume's `extreme` when
-/// `stop_at_extreme`.
-pub fn render_frame(
-    vol: &Volume,
-    index: Option<&MinMaxIndex>,
-    tiles: &Tiles<'_>,
-    geom: FrameGeometry,
-    maximum: bool,
-    stop_at_extreme: bool,
-    extreme: f32,
-) -> Result<Film, RenderError> {
-    let (g, ix, s, e) = (geom, index, stop_at_extreme, extreme);
-    if maximum {
-        tiles.render(vol, &Mip::<Maximum>::new(g, ix, s, e))
-    } else {
-        tiles.render(vol, &Mip::<Minimum>::new(g, ix, s, e))
     }
 }
 

@@ -1,14 +1,11 @@
 //! X-ray: the line integral, or the mean, of the value along the ray.
 
-use super::march::{march, Flow, RayMarch, RaySteps};
-use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::FixedCells;
-use crate::error::RenderError;
-use crate::film::Film;
 use crate::ray::Ray;
-use crate::tiles::Tiles;
+use crate::trace::march::{march, Flow, RayMarch, RaySteps};
+use crate::trace::{FrameGeometry, Integrator, RayResult, Span};
 use glam::Vec3;
-use volcore::{Cursor, Volume};
+use volcore::Cursor;
 
 /// What an X-ray pixel reports.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,18 +30,6 @@ impl<'a> Xray<'a> {
     pub fn new(geom: FrameGeometry, skip: Option<&'a FixedCells<'a>>, output: XrayOutput) -> Self {
         Xray { geom, skip, output }
     }
-}
-
-/// Render an X-ray frame of `vol`, skipping the zero cells of `skip` when
-/// given.
-pub fn render_frame(
-    vol: &Volume,
-    skip: Option<&FixedCells<'_>>,
-    tiles: &Tiles<'_>,
-    geom: FrameGeometry,
-    output: XrayOutput,
-) -> Result<Film, RenderError> {
-    tiles.render(vol, &Xray::new(geom, skip, output))
 }
 
 impl Integrator for Xray<'_> {

@@ -13,17 +13,13 @@
 //! NaN samples have extinction 0 (they are empty space, never propagated).
 
 use crate::accel::majorant::MajorantGrid;
+pub use crate::accel::majorant::MAX_SIGMA_T;
 use crate::classify::{optical_depth, Bins, TfTable};
 use crate::error::RenderError;
 use crate::tf::TransferFunction;
 use glam::Vec3;
 use volcore::SampleType;
 use volindex::{MinMaxIndex, RangeMaxTable};
-
-/// The largest extinction a medium takes, per world unit: a transfer
-/// function's opacity 1 (infinite optical depth) is this, so tracking
-/// stays finite (a unit of it transmits `e^−1e6`, nothing).
-pub const MAX_SIGMA_T: f32 = 1e6;
 
 /// Extinction and albedo as functions of a sample's value.
 pub trait Medium: Sync {

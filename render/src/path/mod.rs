@@ -279,7 +279,7 @@ impl<'a> PathTracer<'a> {
                 "give a constant environment or an environment map, not both".into(),
             ));
         }
-        if crate::frame::world_diagonal(vol).is_none() {
+        if vol.meta.world_diagonal().is_none() {
             return Err(RenderError::Setting(
                 "the volume's extent is too large for f32 world coordinates".into(),
             ));

@@ -812,7 +812,7 @@ fn nan_samples_are_transparent_and_finite() {
 /// camera (where the eye is no longer limits the step).
 #[test]
 fn finest_step_is_the_finest_the_frame_checks_accept() {
-    use volrender::settings::check;
+    use volrender::frame::check;
     let scene = SphereScene::new(Dims::new(8, 8, 8).unwrap(), 3.0, 200.0);
     for spacing in [
         [1000.0, 1.0, 0.001],

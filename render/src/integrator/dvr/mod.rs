@@ -7,15 +7,14 @@
 //! sample taken one by one; the frame's set-up ([`setup`]) picks the
 //! types.
 
-pub mod setup;
 pub mod shading;
 
-use super::march::{march, one_by_one, Flow, RayMarch, RaySteps};
-use super::reconstruct::{Gradient, Interp};
-use super::{FrameGeometry, Integrator, RayResult, Span};
 use crate::accel::FixedCells;
 use crate::classify::Classifier;
 use crate::ray::Ray;
+use crate::trace::march::{march, one_by_one, Flow, RayMarch, RaySteps};
+use crate::trace::reconstruct::{Gradient, Interp};
+use crate::trace::{FrameGeometry, Integrator, RayResult, Span};
 use glam::Vec3;
 use shading::Shading;
 use std::marker::PhantomData;

@@ -9,19 +9,19 @@
 //! method and shading together. Everything else (the reconstruction,
 //! termination, skipping, the lights, shadows and occlusion) is a value.
 
-use super::shading::{DvrCaster, Phong, Shading, Unshaded};
-use super::Dvr;
+use super::effects::{ao_parts, light_grids, open_skies, shadow_geometry};
 use crate::accel::{cull, FixedCells};
 use crate::classify::{Classifier, GradientBound, TfTable, TfTable2d};
-use crate::effects::setup::{ao_parts, light_grids, open_skies, shadow_geometry};
-use crate::effects::{Classified, EffectStats, ShadowCaster};
+use crate::effects::{Classified, ShadowCaster};
 use crate::error::RenderError;
-use crate::film::Film;
-use crate::integrator::reconstruct::{Analytic, Central, Gradient, NoGradient};
-use crate::integrator::FrameGeometry;
+use crate::film::{EffectStats, Film};
+use crate::integrator::dvr::shading::{DvrCaster, Phong, Shading, Unshaded};
+use crate::integrator::Dvr;
 use crate::settings::{GradientMethod, RenderSettings};
 use crate::tf::Tf;
 use crate::tiles::Tiles;
+use crate::trace::reconstruct::{Analytic, Central, Gradient, NoGradient};
+use crate::trace::FrameGeometry;
 use glam::Vec3;
 use volcore::Volume;
 use volindex::MinMaxIndex;

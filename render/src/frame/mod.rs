@@ -9,34 +9,29 @@ use crate::classify::{srgb_to_linear, GradientBound};
 use crate::distributed::ShareBox;
 use crate::error::RenderError;
 use crate::film::{Display, Film, Frame};
-use crate::integrator::dvr::setup::{DvrFrame, Tables};
 use crate::integrator::xray::XrayOutput;
-use crate::integrator::{iso, mip, xray, FrameGeometry};
-use crate::settings::{check, Mode, RenderSettings};
+use crate::settings::{Mode, RenderSettings};
 use crate::tf::{Tf, TransferFunction};
 use crate::tiles::Tiles;
+use crate::trace::FrameGeometry;
+use dvr::{DvrFrame, Tables};
 use glam::Vec3;
 use std::time::Instant;
 use volcore::Volume;
 use volindex::MinMaxIndex;
+
+pub mod check;
+pub mod dvr;
+pub mod effects;
+pub mod iso;
+pub mod mip;
+pub mod xray;
 
 /// The most samples one ray may take. Settings that imply more (a step
 /// tiny against the volume's size, or a voxel spacing so small or so
 /// large on one axis that the default step is) are refused before any ray
 /// is traced, so no input can make a ray's loop run without end.
 pub const MAX_SAMPLES_PER_RAY: f64 = 1e7;
-
-/// The volume's box diagonal in world units, in f64 (`None` when the
-/// extent `(dims − 1) × spacing` is not a finite f32 on some axis).
-pub fn world_diagonal(vol: &Volume) -> Option<f64> {
-    let e = vol.meta.world_extent();
-    e.iter().all(|c| c.is_finite()).then(|| {
-        e.iter()
-            .map(|&c| (c as f64) * (c as f64))
-            .sum::<f64>()
-            .sqrt()
-    })
-}
 
 /// Memory a frame may use for its per-pixel buffers (film, ray results,
 /// the resolved frame and its output encodings).

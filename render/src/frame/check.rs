@@ -2,14 +2,12 @@
 //! value in range, and no input able to make a ray's loop or a frame's
 //! buffers grow without bound.
 
-use super::{Mode, RenderSettings};
+use super::{FRAME_BYTES_PER_PIXEL, FRAME_MEMORY_BUDGET, MAX_SAMPLES_PER_RAY};
 use crate::camera::Camera;
-use crate::effects::{self, Ao, AoMethod, ShadowMethod, Shadows};
+use crate::effects;
 use crate::error::RenderError;
-use crate::frame::{
-    world_diagonal, FRAME_BYTES_PER_PIXEL, FRAME_MEMORY_BUDGET, MAX_SAMPLES_PER_RAY,
-};
 use crate::ray::NEAR_STEPS;
+use crate::settings::{Ao, AoMethod, Mode, RenderSettings, ShadowMethod, Shadows};
 use volcore::Volume;
 
 /// Check `settings` for a frame of `vol` through `camera` before anything
@@ -69,7 +67,7 @@ pub fn step(what: &str, s: f32, vol: &Volume) -> Result<f64, RenderError> {
         )));
     }
     let sp = vol.meta.spacing;
-    let Some(diagonal) = world_diagonal(vol) else {
+    let Some(diagonal) = vol.meta.world_diagonal() else {
         return Err(RenderError::Setting(format!(
             "the volume's extent (dims {} x spacing {},{},{}) is too large for f32 world coordinates",
             vol.dims(),
@@ -110,7 +108,7 @@ fn position_reach(diagonal: f64, step: f32) -> f64 {
 /// resolve across it. `None` when the volume's extent is not finite in f32
 /// (no step is accepted then).
 pub fn finest_step(vol: &Volume) -> Option<f32> {
-    let diagonal = world_diagonal(vol)?;
+    let diagonal = vol.meta.world_diagonal()?;
     let eps = f64::from(f32::EPSILON);
     let need =
         (diagonal / MAX_SAMPLES_PER_RAY).max(2.0 * diagonal * eps / (1.0 - 2.0 * NEAR_STEPS * eps));

@@ -2,18 +2,18 @@
 //! frame's lights need, and the occlusion grid and AO field, all built
 //! once before any ray is traced.
 
-use super::ao::{Ao, AoField, AoLookup, AoMethod, AoSource, Spiral};
-use super::light_grid::LightGrid;
-use super::occluder::{IsoInside, Occluder};
-use super::occlusion_grid::{Intervals, OcclusionGrid, OCCLUSION_CELL};
-use super::{EffectStats, ShadowMethod, Shadows};
 use crate::accel::open_sky::OpenSky;
 use crate::accel::{ClearBoxes, FixedCells};
+use crate::effects::ao::{AoField, AoLookup, AoSource, Spiral};
+use crate::effects::light_grid::LightGrid;
+use crate::effects::occluder::{IsoInside, Occluder};
+use crate::effects::occlusion_grid::{Intervals, OcclusionGrid, OCCLUSION_CELL};
 use crate::error::RenderError;
-use crate::integrator::FrameGeometry;
+use crate::film::EffectStats;
 use crate::light::Light;
 use crate::sampler::HashSampler;
-use crate::settings::RenderSettings;
+use crate::settings::{Ao, AoMethod, RenderSettings, ShadowMethod, Shadows};
+use crate::trace::FrameGeometry;
 use glam::Vec3;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
 
@@ -177,7 +177,7 @@ impl AoParts {
 /// The AO radius for a volume: the setting, or a tenth of the diagonal.
 pub fn ao_radius(vol: &Volume, ao: &Ao) -> f32 {
     ao.radius
-        .unwrap_or_else(|| crate::frame::world_diagonal(vol).map_or(0.0, |d| (d / 10.0) as f32))
+        .unwrap_or_else(|| vol.meta.world_diagonal().map_or(0.0, |d| (d / 10.0) as f32))
 }
 
 /// Build what `ao` needs through `occ` (query `q`, depth per `step`),

@@ -2,9 +2,6 @@
 //! set-up resolves them into the concrete integrator it traces
 //! ([`crate::integrator`]), and the checks they pass first ([`check`]).
 
-pub mod check;
-
-use crate::effects::{Ao, Shadows};
 use crate::shade::Lighting;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -33,6 +30,61 @@ impl Cancel {
     pub fn is_cancelled(&self) -> bool {
         self.0.load(Ordering::Relaxed)
     }
+}
+
+/// How shadows are computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadowMethod {
+    /// A shadow ray per shaded sample and light, marched with skipping.
+    Ray,
+    /// A transmittance grid per directional light, one point every
+    /// `divisor` voxels along each axis (1, 2 or 4); other lights fall
+    /// back to shadow rays.
+    Grid {
+        /// Voxels per grid cell along each axis.
+        divisor: u32,
+    },
+}
+
+/// Shadow settings of a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shadows {
+    /// The method.
+    pub method: ShadowMethod,
+    /// Distance between shadow samples, world units (`None`: the frame's
+    /// step).
+    pub step: Option<f32>,
+}
+
+/// How ambient occlusion is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AoMethod {
+    /// `n` random directions per shaded sample.
+    Rays {
+        /// Directions per shaded sample.
+        n: u32,
+    },
+    /// A field of `k` fixed directions at points `cell` voxels apart,
+    /// precomputed per frame.
+    Field {
+        /// Directions.
+        k: u32,
+        /// Voxels between the field's points (the speed knob: each halving
+        /// takes eight times the memory and precomputation).
+        cell: u32,
+    },
+}
+
+/// Ambient occlusion settings of a frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ao {
+    /// The method.
+    pub method: AoMethod,
+    /// How far occluders count, world units (`None`: a tenth of the
+    /// volume's diagonal).
+    pub radius: Option<f32>,
+    /// Seed of the directions' sampler.
+    pub seed: u64,
 }
 
 /// What a ray computes.
