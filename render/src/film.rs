@@ -1,12 +1,16 @@
-//! The film: per-pixel accumulation of what rays bring back, and its
-//! resolution into a displayable frame.
+//! The film of the ray-casting modes (DVR, MIP/MinIP, X-ray, iso): what
+//! each pixel's ray brings back, and its resolution into a displayable
+//! frame.
 //!
-//! Samples are summed per pixel in f64 (a ray caster adds one per pixel; a
-//! Monte Carlo integrator adds many, always in sample-index order, so the
-//! sums do not depend on the thread count). Resolving divides by the
-//! count, maps the mode's scalar to grey where the mode is a projection
-//! (MIP, MinIP, X-ray), and composites over the background. The result
-//! stays linear light; [`Frame::srgb8`] encodes it for 8-bit output.
+//! A pixel holds its ray's result with sums in f64 and a ray count
+//! ([`Film::put_ray`]: one ray per pixel; [`Film::add`] sums more, in the
+//! order given, so the sums do not depend on the thread count; a
+//! data-parallel frame joins its ranks' films front to back,
+//! [`crate::distributed`]). Resolving divides by the count, maps the mode's
+//! scalar to grey where the mode is a projection (MIP, MinIP, X-ray), and
+//! composites over the background. The result stays linear light;
+//! [`Frame::srgb8`] encodes it for 8-bit output. The path tracer keeps its
+//! own resumable per-pixel sums ([`crate::path::Accumulator`]).
 
 use crate::trace::RayResult;
 use glam::Vec3;

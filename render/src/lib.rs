@@ -3,8 +3,8 @@
 //! A frame is a [`Camera`], [`RenderSettings`] (mode, step,
 //! interpolation, gradient, shading, early termination, empty-space
 //! skipping) and, for the modes that need one, a transfer function
-//! ([`tf`]). [`render`] checks the settings, lets the mode's set-up
-//! ([`integrator`]) choose one concrete integrator type, and runs it for
+//! ([`tf`]). [`render`] ([`frame`]) checks the settings, lets the mode's
+//! set-up choose one concrete integrator type ([`integrator`]), and runs it for
 //! every pixel, tile by tile on all threads ([`tiles`]), into a
 //! [`film::Film`] that resolves to a [`Frame`]. Every pixel is computed on
 //! its own from its own ray, so the image does not depend on the thread
@@ -14,9 +14,12 @@
 //! (hashed random numbers for Monte Carlo work); [`film`]; [`light`] and
 //! [`shade`] (Blinn-Phong); [`tf`] (transfer functions as written) and
 //! [`classify`] (their per-frame tables); [`accel`] (macrocell skipping
-//! rules, DDA segments and majorants over the index); [`integrator`]
-//! (DVR, MIP/MinIP, X-ray, iso over one march loop); [`effects`]
-//! (shadows by shadow rays or light grids, only when a frame asks);
+//! rules, DDA segments and majorants over the index); [`trace`] (what
+//! one ray's trace is: the march loop, reconstruction, the frame's sample
+//! placement); [`effects`] (shadows by shadow rays or light grids, ambient
+//! occlusion, only when a frame asks); [`integrator`] (DVR, MIP/MinIP,
+//! X-ray, iso over one march loop); [`frame`] (per-frame set-up: checks,
+//! effect grids, the mode's integrator, the tiles);
 //! [`path`] (Monte Carlo volumetric path tracing over the majorant grid).
 //!
 //! Conventions (VTK's image data): voxel `(i, j, k)` sits at world position

@@ -1,6 +1,7 @@
-//! What a frame is asked to be: the user's choices, before each frame's
-//! set-up resolves them into the concrete integrator it traces
-//! ([`crate::integrator`]), and the checks they pass first ([`check`]).
+//! What a frame is asked to be: the user's choices (mode, sampling,
+//! shading, shadows, ambient occlusion), before each frame's set-up
+//! ([`crate::frame`]) checks them and resolves them into the concrete
+//! integrator it traces ([`crate::integrator`]).
 
 use crate::shade::Lighting;
 use std::sync::atomic::{AtomicBool, Ordering};

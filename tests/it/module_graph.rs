@@ -65,12 +65,6 @@ const ALLOWED: &[(&str, &str)] = &[
          walk (walk::Block, piece::piece_shape)",
     ),
     (
-        "render",
-        "one cycle of 36 modules: frame, film, tiles, settings, integrator \
-         and effects use each other (e.g. frame -> settings -> frame \
-         through settings::check, film -> effects -> frame)",
-    ),
-    (
         "compare",
         "image and pfm use each other: Image::load reads .pfm through \
          pfm::read_pfm, which returns an Image",

@@ -115,7 +115,7 @@ impl LightGrid {
         budget: u64,
         clear: Option<&ClearBoxes<'_>>,
     ) -> Result<LightGrid, RenderError> {
-        let depths = SourceDepths { src, occ, q };
+        let depths = OccluderSegmentDepths { src, occ, q };
         let options = GridOptions {
             towards,
             spacing,
@@ -493,14 +493,15 @@ trait SegmentDepths: Sync {
     fn slab(&self, sweep: &Sweep<'_>, slab: &Slab, data: &mut [f32], clear: &mut Vec<bool>) -> u64;
 }
 
-/// The depths of occluder `occ` (query `q`) over `src`.
-struct SourceDepths<'a, S, O: Occluder> {
+/// The optical depths of occluder `occ` (query `q`) over `src`, along a
+/// light grid slab's segments.
+struct OccluderSegmentDepths<'a, S, O: Occluder> {
     src: &'a S,
     occ: &'a O,
     q: O::Query,
 }
 
-impl<S: VoxelSource, O: Occluder> SegmentDepths for SourceDepths<'_, S, O> {
+impl<S: VoxelSource, O: Occluder> SegmentDepths for OccluderSegmentDepths<'_, S, O> {
     fn slab(&self, sweep: &Sweep<'_>, slab: &Slab, data: &mut [f32], clear: &mut Vec<bool>) -> u64 {
         let mut cur = self.src.cursor();
         let mut depth = |p: Vec3| self.occ.depth(&mut cur, p, self.q);

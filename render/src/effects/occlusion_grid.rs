@@ -229,7 +229,7 @@ impl OcclusionGrid {
         budget: u64,
         clear: Option<&ClearBoxes<'_>>,
     ) -> Result<OcclusionGrid, RenderError> {
-        let depths = SourceDepths { src, occ, q };
+        let depths = OccluderPointExtinction { src, occ, q };
         OcclusionGrid::build_with(&depths, src.dims(), spacing, step, budget, clear)
     }
 
@@ -786,14 +786,15 @@ trait PointDepths: Sync {
     fn slice(&self, s: &Slices<'_>, z: usize, slice: &mut [f32], row: &mut Vec<bool>) -> u64;
 }
 
-/// The depths of occluder `occ` (query `q`) over `src`.
-struct SourceDepths<'a, S, O: Occluder> {
+/// The mean extinction of occluder `occ` (query `q`) over `src`, at the
+/// points of an occlusion grid slice.
+struct OccluderPointExtinction<'a, S, O: Occluder> {
     src: &'a S,
     occ: &'a O,
     q: O::Query,
 }
 
-impl<S: VoxelSource, O: Occluder> PointDepths for SourceDepths<'_, S, O> {
+impl<S: VoxelSource, O: Occluder> PointDepths for OccluderPointExtinction<'_, S, O> {
     fn slice(&self, s: &Slices<'_>, z: usize, slice: &mut [f32], row: &mut Vec<bool>) -> u64 {
         let Slices {
             g,

@@ -1,7 +1,9 @@
-//! A whole frame: the settings checked, the set-up of the frame's mode
-//! ([`crate::integrator`]: each integrator's set-up sits beside it), its
-//! tiles traced in parallel into a film ([`crate::tiles`]), the film
-//! resolved into a frame.
+//! A whole frame, set up once before any ray is traced (after pbrt-v4's
+//! split of per-frame set-up from per-ray integration): the settings
+//! checked ([`check`]), the effects' grids and fields built ([`effects`]),
+//! the mode's one concrete integrator chosen ([`dvr`], [`iso`], [`mip`],
+//! [`xray`]), its tiles traced in parallel into a film
+//! ([`crate::tiles`]), the film resolved into a frame.
 
 use crate::accel::FixedCells;
 use crate::camera::Camera;

@@ -7,11 +7,11 @@
 //! (reconstruction, early termination, skipping on or off, the lights,
 //! shadows and occlusion) are values checked per ray or per sample taken
 //! one by one. Each
-//! integrator's frame set-up sits beside it and picks its types once per
+//! integrator's frame set-up ([`crate::frame`]) picks its types once per
 //! frame; a choice that is off costs nothing but that check: with shading
 //! off no gradient is computed, and MIP, MinIP and X-ray never touch a
 //! transfer function. They all walk the ray's samples with one loop,
-//! [`march::march`].
+//! [`crate::trace::march::march`].
 
 pub mod dvr;
 pub mod iso;

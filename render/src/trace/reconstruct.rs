@@ -75,9 +75,14 @@ pub trait Gradient: Copy + Send + Sync + 'static {
     /// it reads (then values read in a batch serve as well); `None` when it
     /// reads more.
     const FROM_VALUE: Option<Self::Early>;
-    /// Whether this is [`Central`] (whose blends cursors can read for eight
-    /// samples at once).
-    const CENTRAL: bool = false;
+    /// Whether this method's gradient is the blend of the cell's central
+    /// differences, which a cursor reads for a run of eight samples at once
+    /// (`Cursor::cross_blend8`), so such runs take their gradients in lanes
+    /// ([`Central`]'s is; the others' are not).
+    #[inline(always)]
+    fn reads_lane_blends() -> bool {
+        false
+    }
     /// The value at `p` (reconstructed by `interp`), and what the gradient
     /// can reuse.
     fn value<C: Cursor>(interp: Interp, loc: &Locator, cur: &mut C, p: Vec3) -> (f32, Self::Early);
@@ -114,7 +119,10 @@ impl Gradient for NoGradient {
 impl Gradient for Central {
     type Early = ();
     const FROM_VALUE: Option<()> = Some(());
-    const CENTRAL: bool = true;
+    #[inline(always)]
+    fn reads_lane_blends() -> bool {
+        true
+    }
     #[inline(always)]
     fn value<C: Cursor>(interp: Interp, loc: &Locator, cur: &mut C, p: Vec3) -> (f32, ()) {
         (interp.value(loc, cur, p), ())

@@ -4,8 +4,8 @@
 //! loop: gradient method, classifier (1D or 2D) and shading ([`shading`]:
 //! unshaded or Blinn-Phong). The reconstruction, early termination and
 //! empty-space skipping are runtime values, decided once per ray or per
-//! sample taken one by one; the frame's set-up ([`setup`]) picks the
-//! types.
+//! sample taken one by one; the frame's set-up ([`crate::frame::dvr`])
+//! picks the types.
 
 pub mod shading;
 
@@ -146,7 +146,7 @@ where
             // Not reached: BATCH is false for such gradients.
             return one_by_one(self, cur, k, t, s);
         };
-        if S::LANES && G::CENTRAL && !K::NEEDS_GRADIENT {
+        if S::LANES && G::reads_lane_blends() && !K::NEEDS_GRADIENT {
             return self.take8(cur, k, t, v, early, s);
         }
         // Shaded frames read the central-difference blends of all eight in
@@ -206,7 +206,7 @@ where
             if S::ON {
                 if !K::NEEDS_GRADIENT {
                     let blend = match lanes {
-                        Some(l) if G::CENTRAL => l.blend(cur),
+                        Some(l) if G::reads_lane_blends() => l.blend(cur),
                         _ => None,
                     };
                     grad = self.world_gradient(cur, blend, early, p);
