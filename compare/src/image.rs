@@ -121,20 +121,6 @@ impl Image {
         format!("{} {layout}", self.depth.name())
     }
 
-    /// Load an image by its extension: `.png` (8 or 16-bit; grey,
-    /// grey-alpha, RGB, RGBA; palettes and lower bit depths are expanded to
-    /// 8 bits), `.pfm`, `.exr` (read as 32-bit float RGB or RGBA).
-    pub fn load(path: &Path) -> Result<Image> {
-        match image_extension(path) {
-            Some("pfm") => crate::pfm::read_pfm(path),
-            Some("png") => decode_with(path, image::ImageFormat::Png),
-            Some("exr") => decode_with(path, image::ImageFormat::OpenExr),
-            _ => Err(Error::invalid(
-                "unknown image type (expected .png, .pfm or .exr)",
-            )),
-        }
-    }
-
     /// Convert a decoded [`DynamicImage`], keeping its depth and channels.
     pub fn from_dynamic(img: DynamicImage) -> Result<Image> {
         let (w, h) = (img.width(), img.height());
@@ -176,30 +162,6 @@ pub fn image_extension(path: &Path) -> Option<&'static str> {
 /// the B44 variants less); a header whose size claims more is damaged.
 /// The same bound as TIFF pages (`volformats::tiff`).
 pub const MAX_EXPANSION: u64 = 4096;
-
-fn decode_with(path: &Path, format: image::ImageFormat) -> Result<Image> {
-    use image::ImageDecoder;
-    let err = |e: image::ImageError| match e {
-        image::ImageError::IoError(io) => Error::Io(io),
-        other => Error::invalid(volcore::text::clip(&other.to_string(), 200)),
-    };
-    let file = std::fs::File::open(path)?;
-    let file_len = file.metadata()?.len();
-    let reader = image::ImageReader::with_format(std::io::BufReader::new(file), format);
-    let decoder = reader.into_decoder().map_err(err)?;
-    // Checked before the decoder allocates the image (and, for OpenEXR,
-    // fills it).
-    let (w, h) = decoder.dimensions();
-    let bytes = decoder.total_bytes();
-    if bytes > file_len.max(1).saturating_mul(MAX_EXPANSION) {
-        return Err(Error::invalid(format!(
-            "the header describes a {w}x{h} image of {bytes} bytes, more than a file of {file_len} bytes can hold even compressed (damaged header?)"
-        )));
-    }
-    let mut limits = image::Limits::default();
-    limits.reserve(bytes).map_err(err)?;
-    Image::from_dynamic(DynamicImage::from_decoder(decoder).map_err(err)?)
-}
 
 #[cfg(test)]
 mod tests {

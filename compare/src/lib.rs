@@ -27,6 +27,7 @@
 pub mod compare;
 pub mod error;
 pub mod image;
+mod load;
 pub mod metrics;
 pub mod pfm;
 

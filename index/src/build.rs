@@ -35,10 +35,11 @@ use crate::error::IndexError;
 use crate::histogram::{self, Histogram, DEFAULT_BINS, MAX_BINS};
 use crate::index::MinMaxIndex;
 use crate::level::{cell_count, level_shapes, try_zeroed, Level};
-use crate::piece::{cells_meeting, piece_shape, CellBox, PieceRanges};
+use crate::piece::{cells_meeting, CellBox, PieceRanges};
 use crate::scan::{range_to_f32, Avx2, ExactCounts, ScanSample};
 use crate::walk::{
-    BandWalk, Block, BrickedWalk, CompressedWalk, Region, SlicedBands, SourceRows, Walk,
+    piece_shape, BandWalk, Block, BrickedWalk, CompressedWalk, Region, SlicedBands, SourceRows,
+    Walk,
 };
 use rayon::prelude::*;
 use std::ops::Range;
@@ -88,6 +89,27 @@ impl BuildOptions {
             )));
         }
         Ok(())
+    }
+}
+
+impl MinMaxIndex {
+    /// Build the index of `src` (see [`crate::build`], where the building is) on the current rayon
+    /// pool; `fingerprint` identifies the volume and is stored as given.
+    pub fn build<S: VoxelSource>(
+        src: &S,
+        opts: &BuildOptions,
+        fingerprint: u64,
+    ) -> Result<MinMaxIndex, IndexError> {
+        build_source(src, opts, fingerprint)
+    }
+
+    /// Build the index of an open volume of any layout and sample type.
+    pub fn build_volume(
+        vol: &Volume,
+        opts: &BuildOptions,
+        fingerprint: u64,
+    ) -> Result<MinMaxIndex, IndexError> {
+        build_volume(vol, opts, fingerprint)
     }
 }
 

@@ -1,11 +1,10 @@
 //! The index itself: metadata, global statistics and the level pyramid,
 //! with the queries renderers use while marching rays.
 
-use crate::build::{self, BuildOptions};
 use crate::error::IndexError;
 use crate::histogram::Histogram;
 use crate::level::{level_shapes, Level};
-use volcore::{Dims, SampleType, Volume, VoxelSource};
+use volcore::{Dims, SampleType};
 
 /// Min/max macrocell pyramid of one volume, plus its value range and
 /// histogram (see the crate docs).
@@ -36,25 +35,6 @@ pub struct IndexStats {
 }
 
 impl MinMaxIndex {
-    /// Build the index of `src` (see [`crate::build`]) on the current rayon
-    /// pool; `fingerprint` identifies the volume and is stored as given.
-    pub fn build<S: VoxelSource>(
-        src: &S,
-        opts: &BuildOptions,
-        fingerprint: u64,
-    ) -> Result<MinMaxIndex, IndexError> {
-        build::build_source(src, opts, fingerprint)
-    }
-
-    /// Build the index of an open volume of any layout and sample type.
-    pub fn build_volume(
-        vol: &Volume,
-        opts: &BuildOptions,
-        fingerprint: u64,
-    ) -> Result<MinMaxIndex, IndexError> {
-        build::build_volume(vol, opts, fingerprint)
-    }
-
     /// An index from its parts, checking that the levels form the pyramid
     /// `dims` and the level-0 edge call for.
     pub(crate) fn from_parts(

@@ -28,8 +28,6 @@
 
 #![warn(missing_docs)]
 
-#[cfg(target_arch = "x86_64")]
-mod avx2;
 pub mod build;
 pub mod error;
 pub mod histogram;

@@ -32,24 +32,6 @@ pub(crate) fn cells_meeting(vs: Range<u64>, edge: u64) -> Range<u64> {
     owners(vs.start, edge).0..(vs.end - 1) / edge + 1
 }
 
-/// Accumulator elements a piece aims for (per bound), so that its
-/// accumulator rows stay in cache.
-const PIECE_ACC: u64 = 1 << 15;
-/// Most slices in one piece (fewer streams through memory at once).
-const PIECE_SLICES: u64 = 32;
-
-/// Slices and rows of the pieces of a block `width × depth` voxels wide
-/// and deep: at most [`PIECE_SLICES`] slices, and rows (a multiple of the
-/// cell edge when more than one fits) keeping the accumulators near
-/// [`PIECE_ACC`] elements.
-pub(crate) fn piece_shape(width: u64, depth: u64, edge: u64) -> (u64, u64) {
-    let slices = depth.min(PIECE_SLICES);
-    let layers = slices / edge + 2;
-    let bands = PIECE_ACC / (layers * width);
-    let rows = (bands.saturating_sub(2) * edge).max(1);
-    (slices, rows)
-}
-
 /// The range of `lo[a ..= b]` and `hi[a ..= b]` in the native type.
 #[inline(always)]
 fn span<T: ScanSample>(lo: &[T], hi: &[T], a: usize, b: usize) -> (T, T) {

@@ -17,7 +17,6 @@
 //!   piece-sized band of rows at a time.
 
 use crate::error::IndexError;
-use crate::piece::piece_shape;
 use std::mem::size_of;
 use std::ops::Range;
 use std::sync::Mutex;
@@ -49,6 +48,24 @@ impl Region {
     pub fn axis(&self, a: usize) -> Range<u64> {
         self.lo[a]..self.hi[a]
     }
+}
+
+/// Accumulator elements a piece aims for (per bound), so that its
+/// accumulator rows stay in cache.
+const PIECE_ACC: u64 = 1 << 15;
+/// Most slices in one piece (fewer streams through memory at once).
+const PIECE_SLICES: u64 = 32;
+
+/// Slices and rows of the pieces of a block `width × depth` voxels wide
+/// and deep: at most [`PIECE_SLICES`] slices, and rows (a multiple of the
+/// cell edge when more than one fits) keeping the accumulators near
+/// [`PIECE_ACC`] elements.
+pub(crate) fn piece_shape(width: u64, depth: u64, edge: u64) -> (u64, u64) {
+    let slices = depth.min(PIECE_SLICES);
+    let layers = slices / edge + 2;
+    let bands = PIECE_ACC / (layers * width);
+    let rows = (bands.saturating_sub(2) * edge).max(1);
+    (slices, rows)
 }
 
 /// A region and its samples: voxel `(x, y, z)` of the region is

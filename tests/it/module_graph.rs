@@ -57,18 +57,6 @@ const ALLOWED: &[(&str, &str)] = &[
          grid::blend_cell_from and blend_cross_from), and grid, meta and \
          volume name the root's re-exports (crate::Result, crate::Sample)",
     ),
-    (
-        "index",
-        "three pairs use each other: scan and avx2 (scan dispatches to the \
-         AVX2 lanes, which implement scan's traits), build and index \
-         (MinMaxIndex builds through build, which returns one), piece and \
-         walk (walk::Block, piece::piece_shape)",
-    ),
-    (
-        "compare",
-        "image and pfm use each other: Image::load reads .pfm through \
-         pfm::read_pfm, which returns an Image",
-    ),
 ];
 
 /// A module path: `[]` is the crate root, `["convert", "writers"]` is

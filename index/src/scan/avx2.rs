@@ -8,8 +8,8 @@
 //! which of two equal zeros is kept included), so both builds give the same
 //! index bits; the tests compare them.
 
-use crate::scan::{count_column, fold_box_rest, Bounds, BoxTargets, ExactCounts, RowBox, Run};
-use crate::scan::{Avx2, ScanSample};
+use super::{count_column, fold_box_rest, Bounds, BoxTargets, ExactCounts, RowBox, Run};
+use super::{Avx2, ScanSample};
 use std::arch::x86_64::*;
 
 /// A sample type whose bounds fold on 256-bit registers (32 bytes of

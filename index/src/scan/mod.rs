@@ -1,7 +1,10 @@
 //! Per-sample-type kernels of the build pass: element-wise min/max of
 //! boxes of rows in the native sample type (no `f32` conversion per
-//! voxel; the AVX2 build is in module `avx2`), and exact per-value
+//! voxel; the AVX2 build is in its child module `avx2`), and exact per-value
 //! counting for integer types.
+
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 
 use std::ops::Range;
 use volcore::Sample;
@@ -64,7 +67,7 @@ fn fold_box_on<T: ScanSample + FoldLanes, const L: usize>(
     #[cfg(target_arch = "x86_64")]
     if let Some(cpu) = cpu {
         // SAFETY: `cpu` proves the CPU supports AVX2.
-        return unsafe { crate::avx2::fold_box::<T, L>(cpu, targets, rows, counts) };
+        return unsafe { avx2::fold_box::<T, L>(cpu, targets, rows, counts) };
     }
     let _ = cpu;
     fold_box::<T, L>(targets, rows, counts);
@@ -72,7 +75,7 @@ fn fold_box_on<T: ScanSample + FoldLanes, const L: usize>(
 
 /// The AVX2 lane operations where there are any.
 #[cfg(target_arch = "x86_64")]
-use crate::avx2::Lanes as FoldLanes;
+use avx2::Lanes as FoldLanes;
 /// Nothing extra elsewhere.
 #[cfg(not(target_arch = "x86_64"))]
 trait FoldLanes {}
