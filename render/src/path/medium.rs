@@ -12,8 +12,7 @@
 //!
 //! NaN samples have extinction 0 (they are empty space, never propagated).
 
-use crate::accel::majorant::MajorantGrid;
-pub use crate::accel::majorant::MAX_SIGMA_T;
+use crate::accel::majorant::{MajorantGrid, MAX_SIGMA_T};
 use crate::classify::{optical_depth, Bins, TfTable};
 use crate::error::RenderError;
 use crate::tf::TransferFunction;

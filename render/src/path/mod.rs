@@ -135,7 +135,7 @@ pub struct PathCounters {
     pub surface_events: u64,
     /// Continuation rays after a scattering event.
     pub bounce_rays: u64,
-    /// Extinction lookups at the cap [`medium::MAX_SIGMA_T`] (infinite or
+    /// Extinction lookups at the cap [`crate::accel::majorant::MAX_SIGMA_T`] (infinite or
     /// huge values, an opacity of 1): the medium there is as opaque as
     /// tracking honours.
     pub capped: u64,

@@ -10,7 +10,7 @@
 //! Distances along the ray are f64 (a tiny step never stalls against a
 //! large `t`); every loop is bounded by [`MAX_COLLISIONS`], and both the
 //! extinction and the majorants are finite, at most
-//! [`super::medium::MAX_SIGMA_T`] (above it a medium is as opaque as at
+//! [`crate::accel::majorant::MAX_SIGMA_T`] (above it a medium is as opaque as at
 //! it).
 //!
 //! A sample next to an infinite voxel (or between values near ±FLT_MAX)
@@ -20,10 +20,10 @@
 //! tentative collision at the capped majorant was a null one, a million
 //! per unit, and a frame of an infinite medium never ended).
 
-use super::medium::{Medium, MAX_SIGMA_T};
+use super::medium::Medium;
 use super::PathCounters;
 use crate::accel::dda::{segments, voxel_segments};
-use crate::accel::majorant::MajorantGrid;
+use crate::accel::majorant::{MajorantGrid, MAX_SIGMA_T};
 use crate::accel::VoxelRay;
 use crate::sampler::PixelSampler;
 use volcore::Cursor;
