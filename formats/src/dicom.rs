@@ -1226,7 +1226,7 @@ impl SliceReader for DicomReader {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
         let s = self.slices.get(z as usize).ok_or_else(|| {
             bad(
                 &self.info.path,

@@ -403,9 +403,6 @@ impl SliceReader for RawFileReader {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        self.read_slice_into(z, None)
-    }
     fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         let d = self.info.dims;
         let t = self.info.sample_type;

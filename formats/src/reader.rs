@@ -120,13 +120,14 @@ pub trait SliceReader: Send + Sync {
     fn info(&self) -> &InputInfo;
     /// Random or sequential access.
     fn access(&self) -> Access;
-    /// Slice `z`, x fastest. Sequential readers need increasing `z`.
-    fn read_slice(&self, z: u64) -> CResult<SliceData>;
-    /// Like [`SliceReader::read_slice`], reusing the allocation of `reuse`
-    /// where the reader can.
-    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
-        let _ = reuse;
-        self.read_slice(z)
+    /// Slice `z`, x fastest, reusing the allocation of `reuse` where the
+    /// reader can (readers that cannot drop it). Sequential readers need
+    /// increasing `z`.
+    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData>;
+    /// Slice `z` in a new allocation: [`SliceReader::read_slice_into`]
+    /// with nothing to reuse.
+    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        self.read_slice_into(z, None)
     }
     /// Input bytes consumed so far (file sizes for files, bytes read for
     /// streams).
@@ -216,7 +217,7 @@ impl SliceReader for MemoryReader {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
         Ok(self.slices[z as usize].clone())
     }
     fn bytes_in(&self) -> u64 {

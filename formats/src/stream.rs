@@ -165,9 +165,6 @@ impl SliceReader for StreamReader {
     fn access(&self) -> Access {
         Access::Sequential
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        self.read_slice_into(z, None)
-    }
     fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         let mut st = self
             .state

@@ -807,9 +807,6 @@ impl SliceReader for TiffStackReader {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        self.read_slice_into(z, None)
-    }
     fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         match &self.pages {
             Pages::Files(files) => {
