@@ -27,10 +27,10 @@
 
 pub mod axes;
 mod read;
-mod stack;
+mod slice_files;
 
 pub use read::{imagej_raw, open_files, stacks, ImageJRaw, PageInfo, TiffStackReader};
-pub use stack::{glob_match, list_dir, list_file, list_glob, natural_cmp};
+pub use slice_files::{glob_match, list_dir, list_file, list_glob, natural_cmp};
 
 use ::tiff::encoder::colortype;
 use ::tiff::encoder::{Rational, TiffEncoder, TiffKind};
