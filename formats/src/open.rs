@@ -377,14 +377,14 @@ fn open_stdin(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> 
                 data,
                 counter,
                 SampleLayout {
-                    dims: h.dims,
-                    sample_type: h.sample_type,
-                    big_endian: h.big_endian,
+                    dims: h.samples.dims,
+                    sample_type: h.samples.sample_type,
+                    big_endian: h.samples.big_endian,
                 },
                 end,
                 "nrrd stream",
             )
-            .with_geometry(h.spacing, h.geometry),
+            .with_geometry(h.samples.spacing, h.samples.geometry),
         ));
     }
     if !opts.raw.is_given() {
