@@ -4,7 +4,7 @@
 
 use crate::error::Error;
 use crate::raw::RawFileReader;
-use crate::reader::{At, CResult, ConvertError, SliceReader};
+use crate::reader::{At, CResult, ConvertError, Described, SliceReader};
 use crate::slice::SliceType;
 use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
 use std::io::Read;

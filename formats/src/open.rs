@@ -7,7 +7,7 @@ use crate::convert::{self, Plan};
 use crate::datafile::Encoding;
 use crate::error::Error;
 use crate::raw::{RawFileReader, RawSpec};
-use crate::reader::{At, CResult, ConvertError, SliceReader};
+use crate::reader::{At, CResult, ConvertError, Described, SliceReader};
 use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
 use crate::tiff::ChannelSel;
 use crate::{thesis, vvol};

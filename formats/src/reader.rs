@@ -145,6 +145,29 @@ pub trait SliceReader: Send + Sync {
     }
 }
 
+/// A reader of samples a header describes (raw data at an offset, a
+/// stream): what the header states beyond the samples (spacing, geometry,
+/// NIfTI codes) is set on it once opened.
+pub trait Described: Sized {
+    /// The description to amend.
+    fn info_mut(&mut self) -> &mut InputInfo;
+
+    /// Set the spacing and geometry the header recorded.
+    fn with_geometry(mut self, spacing: Option<[f32; 3]>, geometry: Geometry) -> Self {
+        let info = self.info_mut();
+        info.spacing = spacing;
+        info.geometry = geometry;
+        self
+    }
+
+    /// Carry a NIfTI input's qform and sform codes (see
+    /// [`InputInfo::nifti_codes`]).
+    fn with_nifti_codes(mut self, codes: Option<NiftiCodes>) -> Self {
+        self.info_mut().nifti_codes = codes;
+        self
+    }
+}
+
 /// Slices of one type as a [`SliceReader`] (tests and small volumes).
 pub struct MemoryReader {
     info: InputInfo,

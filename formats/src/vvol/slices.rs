@@ -3,7 +3,7 @@
 
 use super::read::Stored;
 use crate::error::Error;
-use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
+use crate::reader::{Access, At, CResult, ConvertError, Described, InputInfo, SliceReader};
 use crate::slice::SliceData;
 use crate::stream::{Counted, SampleLayout, StreamEnd, StreamReader};
 use std::io::Read;
