@@ -26,7 +26,7 @@
 //!   `--smooth`, ...), resolved into the stages [`convert`] runs through
 //!   the `volprep` kernels.
 //! - [`output_kind`]: which native format an output path's extension
-//!   names; [`fingerprint`]: a volume file's fingerprint, for sidecar
+//!   names; [`fingerprint`](mod@fingerprint): a volume file's fingerprint, for sidecar
 //!   files that must notice when it is replaced.
 //!
 //! Below them all:
