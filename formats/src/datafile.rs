@@ -4,7 +4,7 @@
 
 use crate::error::Error;
 use crate::raw::RawFileReader;
-use crate::reader::{At, CResult, ConvertError, SliceReader};
+use crate::reader::{At, CResult, ConvertError, Described, SliceReader};
 use crate::slice::SliceType;
 use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
 use std::io::Read;
@@ -29,6 +29,34 @@ pub enum DataStart {
     At(u64),
     /// At the end of the data file: the last `size` bytes (raw only).
     AtEnd,
+}
+
+/// What a NRRD or MetaImage header says of its samples: their layout and
+/// their place in space, the part of a [`DataSpec`] both formats state
+/// alike.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeaderSamples {
+    /// Voxels per axis.
+    pub dims: Dims,
+    /// Sample type.
+    pub sample_type: SliceType,
+    /// Byte order of the samples.
+    pub big_endian: bool,
+    /// Voxel spacing, when given.
+    pub spacing: Option<[f32; 3]>,
+    /// Origin and axis directions (LPS).
+    pub geometry: Geometry,
+}
+
+/// The file a header names for its detached samples: `name` itself when
+/// absolute, else `name` beside the header at `header`.
+pub fn detached_file(header: &Path, name: &str) -> PathBuf {
+    let p = PathBuf::from(name);
+    if p.is_absolute() {
+        p
+    } else {
+        header.parent().unwrap_or(Path::new("")).join(p)
+    }
 }
 
 /// What a NRRD, MetaImage or NIfTI header says about its samples.
@@ -61,6 +89,42 @@ pub struct DataSpec {
     /// NIfTI: the qform and sform codes to keep (see
     /// [`crate::reader::InputInfo::nifti_codes`]).
     pub nifti_codes: Option<crate::reader::NiftiCodes>,
+}
+
+impl DataSpec {
+    /// The samples of a NRRD or MetaImage header: `samples` in
+    /// `data_file` from `start`, encoded as `encoding`, with nothing to
+    /// skip after decoding, and no rescale or NIfTI codes (those formats
+    /// state neither); `format` names the input in reports.
+    pub fn unscaled(
+        samples: HeaderSamples,
+        data_file: PathBuf,
+        start: DataStart,
+        encoding: Encoding,
+        format: String,
+    ) -> DataSpec {
+        let HeaderSamples {
+            dims,
+            sample_type,
+            big_endian,
+            spacing,
+            geometry,
+        } = samples;
+        DataSpec {
+            dims,
+            sample_type,
+            big_endian,
+            spacing,
+            geometry,
+            rescale: None,
+            data_file,
+            start,
+            encoding,
+            skip_after_decode: 0,
+            format,
+            nifti_codes: None,
+        }
+    }
 }
 
 /// The samples a header describes, memory-mapped in place when they can

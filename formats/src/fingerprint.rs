@@ -30,8 +30,8 @@
 //! their inputs. It is not a cryptographic hash: it detects accidents, not
 //! forgeries.
 
-use crate::detect::FileKind;
 use crate::error::{truncated, Error, Result};
+use crate::output_kind::FileKind;
 use crate::{thesis, vvol};
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};

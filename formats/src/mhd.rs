@@ -13,7 +13,7 @@
 //!
 //! [`write_header`] writes the header volkit's MetaImage output uses.
 
-use crate::datafile::{DataSpec, DataStart, Encoding};
+use crate::datafile::{detached_file, DataSpec, DataStart, Encoding, HeaderSamples};
 use crate::error::{Error, Result};
 use crate::slice::SliceType;
 use nom::bytes::complete::{tag, take_till1};
@@ -21,7 +21,7 @@ use nom::character::complete::space0;
 use nom::combinator::rest;
 use nom::{IResult, Parser};
 use std::io::BufRead;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use volcore::text::excerpt;
 use volcore::Geometry;
 use volcore::{Dims, SampleType};
@@ -74,17 +74,9 @@ pub fn write_header(
 #[derive(Clone, Debug, PartialEq)]
 pub struct MhdHeader {
     /// Voxels per axis.
-    pub dims: Dims,
-    /// Sample type.
-    pub sample_type: SliceType,
-    /// Byte order.
-    pub big_endian: bool,
+    pub samples: HeaderSamples,
     /// zlib-compressed data.
     pub compressed: bool,
-    /// Voxel spacing.
-    pub spacing: Option<[f32; 3]>,
-    /// Origin and directions (LPS).
-    pub geometry: Geometry,
     /// `ElementDataFile` (`LOCAL` for data after the header).
     pub data_file: String,
     /// `HeaderSize` (-1: data at the end of the file).
@@ -269,12 +261,14 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
     }
     Ok((
         MhdHeader {
-            dims,
-            sample_type,
-            big_endian: msb,
+            samples: HeaderSamples {
+                dims,
+                sample_type,
+                big_endian: msb,
+                spacing,
+                geometry,
+            },
             compressed,
-            spacing,
-            geometry,
             data_file,
             header_size,
         },
@@ -317,41 +311,28 @@ pub fn open(path: &Path) -> Result<DataSpec> {
     let (data_file, base) = if local {
         (path.to_path_buf(), header_len)
     } else {
-        let p = PathBuf::from(&h.data_file);
-        let p = if p.is_absolute() {
-            p
-        } else {
-            path.parent().unwrap_or(Path::new("")).join(p)
-        };
-        (p, 0)
+        (detached_file(path, &h.data_file), 0)
     };
     let start = if h.header_size == -1 {
         DataStart::AtEnd
     } else {
         DataStart::At(base + h.header_size as u64)
     };
-    Ok(DataSpec {
-        nifti_codes: None,
-        dims: h.dims,
-        sample_type: h.sample_type,
-        big_endian: h.big_endian,
-        spacing: h.spacing,
-        geometry: h.geometry,
-        rescale: None,
+    Ok(DataSpec::unscaled(
+        h.samples,
         data_file,
         start,
-        encoding: if h.compressed {
+        if h.compressed {
             Encoding::Zlib
         } else {
             Encoding::Raw
         },
-        skip_after_decode: 0,
-        format: format!(
+        format!(
             "metaimage ({}{})",
             if local { "mha" } else { "mhd" },
             if h.compressed { ", zlib" } else { "" }
         ),
-    })
+    ))
 }
 
 trait TakeLine {
@@ -374,15 +355,15 @@ mod tests {
         let text = "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\nCompressedData = False\nTransformMatrix = 1 0 0 0 1 0 0 0 1\nElementSpacing = 0.5 0.5 1.25\nDimSize = 10 20 30\nElementType = MET_SHORT\nElementDataFile = scan.raw\n";
         let (h, len) = parse(text).unwrap();
         assert_eq!(len, text.len() as u64);
-        assert_eq!(h.dims, Dims::new(10, 20, 30).unwrap());
-        assert_eq!(h.sample_type, SliceType::I16);
-        assert_eq!(h.spacing, Some([0.5, 0.5, 1.25]));
-        assert!(h.geometry.is_identity());
+        assert_eq!(h.samples.dims, Dims::new(10, 20, 30).unwrap());
+        assert_eq!(h.samples.sample_type, SliceType::I16);
+        assert_eq!(h.samples.spacing, Some([0.5, 0.5, 1.25]));
+        assert!(h.samples.geometry.is_identity());
         assert_eq!(h.data_file, "scan.raw");
         let mha = "NDims=2\nDimSize=4 4\nElementType=MET_UCHAR\nCompressedData=True\nElementDataFile=LOCAL\n\x00\x01binary";
         let (h, len) = parse(mha).unwrap();
         assert!(h.compressed);
-        assert_eq!(h.dims.z, 1);
+        assert_eq!(h.samples.dims.z, 1);
         assert_eq!(len, mha.find('\x00').unwrap() as u64);
     }
 
@@ -414,14 +395,14 @@ mod tests {
             "x.zraw",
         );
         let (h, _) = parse(&text).unwrap();
-        assert_eq!(h.geometry, g);
-        assert_eq!(h.spacing, Some([0.5, 0.75, 2.0]));
+        assert_eq!(h.samples.geometry, g);
+        assert_eq!(h.samples.spacing, Some([0.5, 0.75, 2.0]));
         assert!(h.compressed);
         let (h, _) = parse(
             "NDims = 3\nDimSize = 2 2 2\nElementType = MET_DOUBLE\nElementDataFile = a.raw\n",
         )
         .unwrap();
-        assert_eq!(h.sample_type, SliceType::F64);
+        assert_eq!(h.samples.sample_type, SliceType::F64);
     }
 
     #[test]

@@ -12,14 +12,14 @@
 //!
 //! [`write_header`] writes the header volkit's NRRD output uses.
 
-use crate::datafile::{DataSpec, DataStart, Encoding};
+use crate::datafile::{detached_file, DataSpec, DataStart, Encoding, HeaderSamples};
 use crate::error::{Error, Result};
 use crate::slice::SliceType;
 use nom::bytes::complete::{tag, take_until};
 use nom::combinator::rest;
 use nom::{IResult, Parser};
 use std::io::{BufRead, Read};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use volcore::text::excerpt;
 use volcore::Dims;
 use volcore::{Geometry, LengthUnit};
@@ -28,18 +28,9 @@ use volcore::{Geometry, LengthUnit};
 #[derive(Clone, Debug, PartialEq)]
 pub struct NrrdHeader {
     /// Voxels per axis (a 2D image has z = 1).
-    pub dims: Dims,
-    /// Sample type.
-    pub sample_type: SliceType,
-    /// Byte order (little-endian when absent).
-    pub big_endian: bool,
+    pub samples: HeaderSamples,
     /// Raw or gzip.
     pub encoding: Encoding,
-    /// Voxel spacing from `spacings` or `space directions`.
-    pub spacing: Option<[f32; 3]>,
-    /// Origin and directions (LPS) from `space origin` and `space
-    /// directions`.
-    pub geometry: Geometry,
     /// Detached data file, as written.
     pub data_file: Option<String>,
     /// `byte skip` (-1: raw data at the end of the file).
@@ -342,12 +333,14 @@ pub fn parse(text: &str) -> Result<NrrdHeader> {
         ));
     }
     Ok(NrrdHeader {
-        dims,
-        sample_type,
-        big_endian,
+        samples: HeaderSamples {
+            dims,
+            sample_type,
+            big_endian,
+            spacing,
+            geometry,
+        },
         encoding,
-        spacing,
-        geometry,
         data_file,
         byte_skip,
         line_skip,
@@ -522,15 +515,7 @@ pub fn open(path: &Path) -> Result<DataSpec> {
 /// long) are.
 pub fn spec_for(path: &Path, h: &NrrdHeader, header_len: u64) -> Result<DataSpec> {
     let (data_file, base, detached) = match &h.data_file {
-        Some(name) => {
-            let p = PathBuf::from(name);
-            let p = if p.is_absolute() {
-                p
-            } else {
-                path.parent().unwrap_or(Path::new("")).join(p)
-            };
-            (p, 0, true)
-        }
+        Some(name) => (detached_file(path, name), 0, true),
         None => (path.to_path_buf(), header_len, false),
     };
     let start = skip_lines(&data_file, base, h.line_skip)?;
@@ -544,21 +529,17 @@ pub fn spec_for(path: &Path, h: &NrrdHeader, header_len: u64) -> Result<DataSpec
         _ => "gzip",
     };
     Ok(DataSpec {
-        nifti_codes: None,
-        dims: h.dims,
-        sample_type: h.sample_type,
-        big_endian: h.big_endian,
-        spacing: h.spacing,
-        geometry: h.geometry,
-        rescale: None,
-        data_file,
-        start,
-        encoding: h.encoding,
         skip_after_decode: skip_after,
-        format: format!(
-            "nrrd ({}, {enc})",
-            if detached { "detached" } else { "attached" }
-        ),
+        ..DataSpec::unscaled(
+            h.samples,
+            data_file,
+            start,
+            h.encoding,
+            format!(
+                "nrrd ({}, {enc})",
+                if detached { "detached" } else { "attached" }
+            ),
+        )
     })
 }
 
@@ -598,35 +579,35 @@ mod tests {
     fn parses_a_typical_header() {
         let text = "NRRD0004\n# Complete NRRD file format specification at:\ntype: short\ndimension: 3\nspace: left-posterior-superior\nsizes: 64 32 16\nspace directions: (0.5,0,0) (0,0.5,0) (0,0,2)\nkinds: domain domain domain\nendian: big\nencoding: gzip\nspace origin: (0,0,0)\nmy key:=a: b\n\n";
         let h = parse(text).unwrap();
-        assert_eq!(h.dims, Dims::new(64, 32, 16).unwrap());
-        assert_eq!(h.sample_type, SliceType::I16);
-        assert!(h.big_endian);
+        assert_eq!(h.samples.dims, Dims::new(64, 32, 16).unwrap());
+        assert_eq!(h.samples.sample_type, SliceType::I16);
+        assert!(h.samples.big_endian);
         assert_eq!(h.encoding, Encoding::Gzip);
-        assert_eq!(h.spacing, Some([0.5, 0.5, 2.0]));
+        assert_eq!(h.samples.spacing, Some([0.5, 0.5, 2.0]));
         assert_eq!(h.data_file, None);
-        assert!(h.geometry.is_identity());
+        assert!(h.samples.geometry.is_identity());
     }
 
     #[test]
     fn geometry_signs_and_origin() {
         let text = "NRRD0004\ntype: int\ndimension: 3\nspace: right-anterior-superior\nsizes: 4 4 4\nspace directions: (-0.5,0,0) (0,-0.5,0) (0,0,2)\nendian: little\nencoding: raw\nspace origin: (10,20,30)\n";
         let h = parse(text).unwrap();
-        assert_eq!(h.sample_type, SliceType::I32);
-        assert_eq!(h.spacing, Some([0.5, 0.5, 2.0]));
+        assert_eq!(h.samples.sample_type, SliceType::I32);
+        assert_eq!(h.samples.spacing, Some([0.5, 0.5, 2.0]));
         // RAS (-x, -y) is LPS (+x, +y); the origin flips to (-10, -20, 30).
-        assert_eq!(h.geometry.origin, [-10.0, -20.0, 30.0]);
-        assert_eq!(h.geometry.axis(0), [1.0, 0.0, 0.0]);
+        assert_eq!(h.samples.geometry.origin, [-10.0, -20.0, 30.0]);
+        assert_eq!(h.samples.geometry.axis(0), [1.0, 0.0, 0.0]);
         let out = NrrdOut {
             dims: Dims::new(4, 4, 4).unwrap(),
             sample_type: volcore::SampleType::I16,
             spacing: [0.5, 0.5, 2.0],
-            geometry: h.geometry,
+            geometry: h.samples.geometry,
             gzip: true,
             data_file: Some("x.raw.gz".into()),
         };
         let back = parse(&write_header(&out)).unwrap();
-        assert_eq!(back.geometry, h.geometry);
-        assert_eq!(back.spacing, h.spacing);
+        assert_eq!(back.samples.geometry, h.samples.geometry);
+        assert_eq!(back.samples.spacing, h.samples.spacing);
         assert_eq!(back.data_file.as_deref(), Some("x.raw.gz"));
         for t in ["int8", "uint32", "double"] {
             let text = format!("NRRD0004\ntype: {t}\nsizes: 2 2 2\nendian: big\nencoding: raw\n");
@@ -638,8 +619,8 @@ mod tests {
     fn detached_and_spacings() {
         let text = "NRRD0005\ntype: unsigned char\nsizes: 4 4\nspacings: 0.25 nan\nencoding: raw\ndata file: ./vol.raw\nbyte skip: -1\n";
         let h = parse(text).unwrap();
-        assert_eq!(h.dims, Dims::new(4, 4, 1).unwrap());
-        assert_eq!(h.spacing, Some([0.25, 1.0, 1.0]));
+        assert_eq!(h.samples.dims, Dims::new(4, 4, 1).unwrap());
+        assert_eq!(h.samples.spacing, Some([0.25, 1.0, 1.0]));
         assert_eq!(h.data_file.as_deref(), Some("./vol.raw"));
         assert_eq!(h.byte_skip, -1);
     }

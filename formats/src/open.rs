@@ -7,7 +7,7 @@ use crate::convert::{self, Plan};
 use crate::datafile::Encoding;
 use crate::error::Error;
 use crate::raw::{RawFileReader, RawSpec};
-use crate::reader::{At, CResult, ConvertError, SliceReader};
+use crate::reader::{At, CResult, ConvertError, Described, SliceReader};
 use crate::stream::{skip_bytes, Counted, SampleLayout, StreamEnd, StreamReader};
 use crate::tiff::ChannelSel;
 use crate::{thesis, vvol};
@@ -377,14 +377,14 @@ fn open_stdin(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> 
                 data,
                 counter,
                 SampleLayout {
-                    dims: h.dims,
-                    sample_type: h.sample_type,
-                    big_endian: h.big_endian,
+                    dims: h.samples.dims,
+                    sample_type: h.samples.sample_type,
+                    big_endian: h.samples.big_endian,
                 },
                 end,
                 "nrrd stream",
             )
-            .with_geometry(h.spacing, h.geometry),
+            .with_geometry(h.samples.spacing, h.samples.geometry),
         ));
     }
     if !opts.raw.is_given() {

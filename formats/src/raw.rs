@@ -10,7 +10,7 @@
 
 use crate::error::{Error, Result};
 use crate::pipeline::write_rows;
-use crate::reader::{Access, At, CResult, ConvertError, InputInfo, NiftiCodes, SliceReader};
+use crate::reader::{Access, At, CResult, ConvertError, Described, InputInfo, SliceReader};
 use crate::slice::{SliceData, SliceType};
 use memmap2::Mmap;
 use std::fs::File;
@@ -375,24 +375,16 @@ impl RawFileReader {
         })
     }
 
-    /// Set the spacing and geometry the header recorded.
-    pub fn with_geometry(mut self, spacing: Option<[f32; 3]>, geometry: Geometry) -> Self {
-        self.info.spacing = spacing;
-        self.info.geometry = geometry;
-        self
-    }
-
-    /// Carry a NIfTI input's qform and sform codes (see
-    /// [`InputInfo::nifti_codes`]).
-    pub fn with_nifti_codes(mut self, codes: Option<NiftiCodes>) -> Self {
-        self.info.nifti_codes = codes;
-        self
-    }
-
     /// Name the input `path` in reports (a header naming this data file).
     pub fn named(mut self, path: &Path) -> Self {
         self.info.path = path.to_path_buf();
         self
+    }
+}
+
+impl Described for RawFileReader {
+    fn info_mut(&mut self) -> &mut InputInfo {
+        &mut self.info
     }
 }
 
@@ -402,9 +394,6 @@ impl SliceReader for RawFileReader {
     }
     fn access(&self) -> Access {
         Access::Random
-    }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        self.read_slice_into(z, None)
     }
     fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         let d = self.info.dims;

@@ -120,13 +120,14 @@ pub trait SliceReader: Send + Sync {
     fn info(&self) -> &InputInfo;
     /// Random or sequential access.
     fn access(&self) -> Access;
-    /// Slice `z`, x fastest. Sequential readers need increasing `z`.
-    fn read_slice(&self, z: u64) -> CResult<SliceData>;
-    /// Like [`SliceReader::read_slice`], reusing the allocation of `reuse`
-    /// where the reader can.
-    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
-        let _ = reuse;
-        self.read_slice(z)
+    /// Slice `z`, x fastest, reusing the allocation of `reuse` where the
+    /// reader can (readers that cannot drop it). Sequential readers need
+    /// increasing `z`.
+    fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData>;
+    /// Slice `z` in a new allocation: [`SliceReader::read_slice_into`]
+    /// with nothing to reuse.
+    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+        self.read_slice_into(z, None)
     }
     /// Input bytes consumed so far (file sizes for files, bytes read for
     /// streams).
@@ -141,6 +142,29 @@ pub trait SliceReader: Send + Sync {
     /// one line each.
     fn notes(&self) -> Vec<String> {
         Vec::new()
+    }
+}
+
+/// A reader of samples a header describes (raw data at an offset, a
+/// stream): what the header states beyond the samples (spacing, geometry,
+/// NIfTI codes) is set on it once opened.
+pub trait Described: Sized {
+    /// The description to amend.
+    fn info_mut(&mut self) -> &mut InputInfo;
+
+    /// Set the spacing and geometry the header recorded.
+    fn with_geometry(mut self, spacing: Option<[f32; 3]>, geometry: Geometry) -> Self {
+        let info = self.info_mut();
+        info.spacing = spacing;
+        info.geometry = geometry;
+        self
+    }
+
+    /// Carry a NIfTI input's qform and sform codes (see
+    /// [`InputInfo::nifti_codes`]).
+    fn with_nifti_codes(mut self, codes: Option<NiftiCodes>) -> Self {
+        self.info_mut().nifti_codes = codes;
+        self
     }
 }
 
@@ -216,7 +240,7 @@ impl SliceReader for MemoryReader {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
         Ok(self.slices[z as usize].clone())
     }
     fn bytes_in(&self) -> u64 {

@@ -78,7 +78,7 @@ impl SliceReader for Rescaled {
     fn access(&self) -> Access {
         self.inner.access()
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
         Ok(self.map.apply(&self.inner.read_slice(z)?))
     }
     fn bytes_in(&self) -> u64 {

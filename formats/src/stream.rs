@@ -2,7 +2,7 @@
 //! decompressor), slice by slice with bounded memory.
 
 use crate::error::Error;
-use crate::reader::{Access, At, CResult, ConvertError, InputInfo, NiftiCodes, SliceReader};
+use crate::reader::{Access, At, CResult, ConvertError, Described, InputInfo, SliceReader};
 use crate::slice::{SliceData, SliceType};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -115,20 +115,6 @@ impl StreamReader {
         }
     }
 
-    /// Set the spacing and geometry the header recorded.
-    pub fn with_geometry(mut self, spacing: Option<[f32; 3]>, geometry: Geometry) -> Self {
-        self.info.spacing = spacing;
-        self.info.geometry = geometry;
-        self
-    }
-
-    /// Carry a NIfTI input's qform and sform codes (see
-    /// [`InputInfo::nifti_codes`]).
-    pub fn with_nifti_codes(mut self, codes: Option<NiftiCodes>) -> Self {
-        self.info.nifti_codes = codes;
-        self
-    }
-
     fn slice_bytes(&self) -> usize {
         (self.info.dims.slice_len() * self.info.sample_type.size() as u64) as usize
     }
@@ -158,15 +144,18 @@ fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> std::io::Result<()> {
     r.read_exact(buf)
 }
 
+impl Described for StreamReader {
+    fn info_mut(&mut self) -> &mut InputInfo {
+        &mut self.info
+    }
+}
+
 impl SliceReader for StreamReader {
     fn info(&self) -> &InputInfo {
         &self.info
     }
     fn access(&self) -> Access {
         Access::Sequential
-    }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        self.read_slice_into(z, None)
     }
     fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         let mut st = self

@@ -771,3 +771,27 @@ fn nifti_is_mapped_when_its_samples_can_be_used_as_stored() {
         .unwrap();
     assert_eq!(e, "-: standard output is not available here");
 }
+
+#[test]
+fn module_guide_lists_every_module() {
+    // lib.rs's guide is where a reader starts: a module missing from it
+    // is a module nobody finds.
+    let lib = include_str!("lib.rs");
+    let guide: String = lib
+        .lines()
+        .filter_map(|l| l.strip_prefix("//!"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    for line in lib.lines() {
+        let Some(name) = line
+            .strip_prefix("pub mod ")
+            .and_then(|l| l.strip_suffix(';'))
+        else {
+            continue;
+        };
+        assert!(
+            guide.contains(&format!("[`{name}`]")),
+            "lib.rs's module guide does not name `{name}`"
+        );
+    }
+}

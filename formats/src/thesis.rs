@@ -360,7 +360,7 @@ impl SliceReader for ThesisReader {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
         use volcore::RegionSource;
         let d = self.info.dims;
         let mut v = vec![0u8; d.slice_len() as usize];

@@ -54,9 +54,6 @@ impl SliceReader for Spooled {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        self.read_slice_into(z, None)
-    }
     fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         let t = self.info.sample_type;
         let n = self.info.dims.slice_len();

@@ -673,7 +673,7 @@ impl SliceReader for ZarrReader {
         // One chunk layer is decoded once and served slice by slice.
         Access::Sequential
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
         let mut cache = self
             .cache
             .lock()

@@ -26,11 +26,14 @@
 //! plain TIFF states none (its resolution unit is for printing).
 
 pub mod axes;
+mod ifd_check;
+mod imagej_raw;
 mod read;
-mod stack;
+mod slice_files;
 
-pub use read::{imagej_raw, open_files, stacks, ImageJRaw, PageInfo, TiffStackReader};
-pub use stack::{glob_match, list_dir, list_file, list_glob, natural_cmp};
+pub use imagej_raw::{imagej_raw, ImageJRaw};
+pub use read::{open_files, stacks, PageInfo, TiffStackReader};
+pub use slice_files::{glob_match, list_dir, list_file, list_glob, natural_cmp};
 
 use ::tiff::encoder::colortype;
 use ::tiff::encoder::{Rational, TiffEncoder, TiffKind};

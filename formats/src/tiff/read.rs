@@ -1,6 +1,7 @@
 //! Reading TIFF pages as z slices.
 
 use super::axes::imagej_unit;
+use super::ifd_check::check_directories;
 use super::ChannelSel;
 use crate::error::Error;
 use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
@@ -13,7 +14,7 @@ use std::fs::File;
 use std::io::{BufReader, Cursor, Read, Seek};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use volcore::{Dims, LengthUnit};
+use volcore::Dims;
 
 /// What one page holds, as far as a stack must agree on it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -67,7 +68,7 @@ impl PageInfo {
 }
 
 /// Turn a decoder error into one line, naming truncation plainly.
-fn tiff_err(e: TiffError) -> Error {
+pub(super) fn tiff_err(e: TiffError) -> Error {
     match e {
         TiffError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
             Error::invalid("file is truncated (it ends before the image data does)")
@@ -137,7 +138,7 @@ impl PageInfo {
     }
 }
 
-fn page_info<R: Read + Seek>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
+pub(super) fn page_info<R: Read + Seek>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
     let (width, height) = d.dimensions().map_err(tiff_err)?;
     let tag = |d: &mut Dec<R>, t: Tag, default: u16| -> Result<u16, Error> {
         Ok(d.find_tag_unsigned::<u16>(t)
@@ -179,7 +180,7 @@ fn page_info<R: Read + Seek>(d: &mut Dec<R>) -> Result<PageInfo, Error> {
 /// Spacing from the resolution tags and an ImageJ description (the
 /// page's own, else `z_first`: the `spacing=` of the file's first page,
 /// which is the only one ImageJ describes).
-fn spacing_of<R: Read + Seek>(d: &mut Dec<R>, z_first: Option<f32>) -> Option<[f32; 3]> {
+pub(super) fn spacing_of<R: Read + Seek>(d: &mut Dec<R>, z_first: Option<f32>) -> Option<[f32; 3]> {
     let res = |d: &mut Dec<R>, t: Tag| -> Option<f32> {
         match d.find_tag(t).ok()?? {
             ::tiff::decoder::ifd::Value::Rational(n, den) if n > 0 && den > 0 => {
@@ -413,7 +414,7 @@ pub struct TiffStackReader {
 /// A decoder of the file at `path`, with limits from its length and, once
 /// known, the stack's page size; its directories checked first
 /// ([`check_directories`]).
-fn open_file(path: &Path, page_bytes: Option<u64>) -> CResult<FileDec> {
+pub(super) fn open_file(path: &Path, page_bytes: Option<u64>) -> CResult<FileDec> {
     let mut f = File::open(path).at(path)?;
     let len = f.metadata().at(path)?.len();
     // Checked unbuffered: a seek would empty a 256 KiB buffer per directory.
@@ -452,119 +453,6 @@ fn new_decoder<R: Read + Seek>(
     let limits = limits(file_len, page_bytes);
     Ok(Decoder::new(r).map_err(tiff_err)?.with_limits(limits))
 }
-
-/// Bytes per value of TIFF field type `t`; `None` for a type the decoder
-/// does not know (it skips those entries).
-fn type_bytes(t: u16) -> Option<u64> {
-    match t {
-        1 | 2 | 6 | 7 => Some(1),
-        3 | 8 => Some(2),
-        4 | 9 | 11 | 13 => Some(4),
-        5 | 10 | 12 | 16..=18 => Some(8),
-        _ => None,
-    }
-}
-
-/// Walk the directory chain of the TIFF file in `r` (`file_len` bytes) and
-/// refuse an entry whose values take more bytes than the whole file: no
-/// file can hold them, so the directory is damaged. Checked before the
-/// decoder sees the file because `tiff` 0.11 answers an ASCII entry past
-/// its limits with a `dbg!` line on stderr before its error; every entry
-/// it could reach is within the file here, hence within its limits
-/// (see [`limits`]). Structural damage (a directory outside the file, a
-/// cycle) stops the walk and is left to the decoder to report.
-fn check_directories<R: Read + Seek>(r: &mut R, file_len: u64) -> Result<(), Error> {
-    use std::io::SeekFrom;
-    let mut head = [0u8; 16];
-    r.rewind()?;
-    if file_len < 16 || r.read_exact(&mut head).is_err() {
-        return Ok(());
-    }
-    let big_endian = match &head[..2] {
-        b"II" => false,
-        b"MM" => true,
-        _ => return Ok(()),
-    };
-    let u16_at = |b: &[u8], o: usize| {
-        let v = [b[o], b[o + 1]];
-        if big_endian {
-            u16::from_be_bytes(v)
-        } else {
-            u16::from_le_bytes(v)
-        }
-    };
-    let uint_at = |b: &[u8], o: usize, n: usize| {
-        let mut v = [0u8; 8];
-        if big_endian {
-            v[8 - n..].copy_from_slice(&b[o..o + n]);
-            u64::from_be_bytes(v)
-        } else {
-            v[..n].copy_from_slice(&b[o..o + n]);
-            u64::from_le_bytes(v)
-        }
-    };
-    // Classic: 2-byte entry counts, 12-byte entries, 4-byte counts and
-    // offsets; BigTIFF: 8, 20, 8.
-    let (count_len, entry_len, word, mut next) = match u16_at(&head, 2) {
-        42 => (2usize, 12usize, 4usize, uint_at(&head, 4, 4)),
-        43 => (8, 20, 8, uint_at(&head, 8, 8)),
-        _ => return Ok(()),
-    };
-    let mut seen = std::collections::HashSet::new();
-    let mut walked = 0u64;
-    let mut buf = vec![0u8; 256 * entry_len];
-    let mut page = 0u64;
-    while next != 0 && next < file_len && seen.insert(next) {
-        r.seek(SeekFrom::Start(next))?;
-        let mut c = [0u8; 8];
-        if r.read_exact(&mut c[..count_len]).is_err() {
-            return Ok(());
-        }
-        let entries = uint_at(&c, 0, count_len);
-        let dir_len = entries
-            .checked_mul(entry_len as u64)
-            .and_then(|b| b.checked_add((count_len + word) as u64));
-        match dir_len {
-            Some(b) if b <= file_len - next => walked += b,
-            _ => return Ok(()),
-        }
-        // Directories do not overlap: together they fit in the file.
-        if walked > file_len {
-            return Err(Error::invalid(
-                "the directories overlap (damaged directory?)",
-            ));
-        }
-        let mut left = entries;
-        while left > 0 {
-            let n = left.min(256) as usize;
-            let chunk = &mut buf[..n * entry_len];
-            if r.read_exact(chunk).is_err() {
-                return Ok(());
-            }
-            for e in chunk.chunks_exact(entry_len) {
-                let Some(size) = type_bytes(u16_at(e, 2)) else {
-                    continue;
-                };
-                let count = uint_at(e, 4, word);
-                if count.checked_mul(size).is_none_or(|b| b > file_len) {
-                    return Err(Error::invalid(format!(
-                        "page {page}: tag {} holds {count} values of {size} bytes, more than the whole file ({file_len} bytes; damaged directory?)",
-                        u16_at(e, 0)
-                    )));
-                }
-            }
-            left -= n as u64;
-        }
-        let mut w = [0u8; 8];
-        if r.read_exact(&mut w[..word]).is_err() {
-            return Ok(());
-        }
-        next = uint_at(&w, 0, word);
-        page += 1;
-    }
-    Ok(())
-}
-
 /// Open a stack of files (one file may be a multipage TIFF; several files
 /// each give their first full-resolution page).
 pub fn open_files(
@@ -807,9 +695,6 @@ impl SliceReader for TiffStackReader {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
-        self.read_slice_into(z, None)
-    }
     fn read_slice_into(&self, z: u64, reuse: Option<SliceData>) -> CResult<SliceData> {
         match &self.pages {
             Pages::Files(files) => {
@@ -839,92 +724,6 @@ impl SliceReader for TiffStackReader {
     fn bytes_in(&self) -> u64 {
         self.bytes_in.load(std::sync::atomic::Ordering::Relaxed)
     }
-}
-
-/// Where the samples of an ImageJ "hyperstack" file lie when ImageJ wrote
-/// only the first directory and stored all images back to back after it
-/// (what ImageJ does for stacks past 4 GiB, and what its description's
-/// `images=N` announces).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImageJRaw {
-    /// Dimensions: the first page's width and height, `images` slices.
-    pub dims: Dims,
-    /// Sample type.
-    pub sample_type: SliceType,
-    /// Byte offset of the first sample.
-    pub offset: u64,
-    /// The file's byte order.
-    pub big_endian: bool,
-    /// Spacing from the tags and description.
-    pub spacing: Option<[f32; 3]>,
-    /// The description's unit of length.
-    pub unit: LengthUnit,
-}
-
-/// Detect an ImageJ file whose images follow each other without
-/// directories of their own; `None` for every other TIFF.
-pub fn imagej_raw(path: &Path) -> CResult<Option<ImageJRaw>> {
-    let mut d = open_file(path, None)?;
-    if d.more_images() {
-        return Ok(None);
-    }
-    let desc = match d.find_tag(Tag::ImageDescription) {
-        Ok(Some(v)) => v.into_string().unwrap_or_default(),
-        _ => return Ok(None),
-    };
-    if !desc.starts_with("ImageJ") {
-        return Ok(None);
-    }
-    let images: u64 = desc
-        .lines()
-        .find_map(|l| l.trim().strip_prefix("images="))
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(1);
-    if images <= 1 {
-        return Ok(None);
-    }
-    let page = page_info(&mut d).at(path)?;
-    let compression = d
-        .find_tag_unsigned::<u16>(Tag::Compression)
-        .map_err(tiff_err)
-        .at(path)?
-        .unwrap_or(1);
-    if compression != 1 || page.channels != 1 {
-        return Err(ConvertError::new(
-            path,
-            Error::invalid(format!(
-                "ImageJ stack of {images} images with one directory must be uncompressed and single-channel"
-            )),
-        ));
-    }
-    let sample_type = page.sample_type().map_err(Error::invalid).at(path)?;
-    if page.format == 2 && page.bits == 8 {
-        return Err(ConvertError::new(
-            path,
-            Error::invalid("signed 8-bit ImageJ stacks are not supported"),
-        ));
-    }
-    let offset = match d.find_tag(Tag::StripOffsets).map_err(tiff_err).at(path)? {
-        Some(v) => v
-            .into_u64_vec()
-            .map_err(tiff_err)
-            .at(path)?
-            .first()
-            .copied()
-            .unwrap_or(0),
-        None => 0,
-    };
-    let dims = Dims::new(page.width as u64, page.height as u64, images).at(path)?;
-    let big_endian = matches!(d.byte_order(), ::tiff::tags::ByteOrder::BigEndian);
-    let spacing = spacing_of(&mut d, None);
-    Ok(Some(ImageJRaw {
-        dims,
-        sample_type,
-        offset,
-        big_endian,
-        spacing,
-        unit: imagej_unit(&desc),
-    }))
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 
 use super::read::Stored;
 use crate::error::Error;
-use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
+use crate::reader::{Access, At, CResult, ConvertError, Described, InputInfo, SliceReader};
 use crate::slice::SliceData;
 use crate::stream::{Counted, SampleLayout, StreamEnd, StreamReader};
 use std::io::Read;
@@ -117,7 +117,7 @@ impl SliceReader for VolumeReader {
     fn access(&self) -> Access {
         Access::Random
     }
-    fn read_slice(&self, z: u64) -> CResult<SliceData> {
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
         let (s, e) = match &self.volume {
             Stored::Volume(v) => (v.visit(ReadSlice(z)), v.error()),
             Stored::F64(_, TypedGrid::Sliced(g)) => (ReadSlice(z).visit(g), g.error()),

@@ -1,0 +1,336 @@
+//! DICOM series (a directory of files, a glob or a list file) read as one
+//! volume, through dicom-rs (`dicom-object` for the data sets,
+//! `dicom-pixeldata` for the pixel data and its codecs: native, RLE,
+//! JPEG, deflate).
+//!
+//! - Files that hold no image are skipped (and counted): a `DICOMDIR`, and
+//!   objects without Rows and Columns whose SOP class is no image storage
+//!   class (structured reports, presentation states, RT structure sets,
+//!   key object selections). Only an input left without images is refused.
+//! - Files are grouped by SeriesInstanceUID ([`Scan`]); with several
+//!   series `--series` picks one by its SeriesNumber, its whole UID or a
+//!   unique prefix of it, and without it the error lists them.
+//! - Slices are sorted by ImagePositionPatient projected on the slice
+//!   normal (the cross product of the ImageOrientationPatient rows), not by
+//!   file name or InstanceNumber.
+//! - Spacing: PixelSpacing (rows, then columns) for y and x; z from the
+//!   measured positions. Gaps that differ from the median by more than 1%
+//!   (or 0.01 mm) are refused: a whole multiple of the spacing is reported
+//!   as missing slices, anything else as uneven spacing. Positions that do
+//!   not follow the normal (gantry tilt), mixed sizes or orientations, and
+//!   two slices at one position are refused too.
+//! - RescaleSlope/RescaleIntercept are applied per slice: CT pixels become
+//!   Hounsfield units (integers, so `i16` when they fit, else `f32`).
+//! - Geometry: origin at the first slice's ImagePositionPatient, axes
+//!   along the row, column and normal directions (DICOM is LPS, like volkit).
+//!
+//! The reader is here; its jobs are in `guard` (refusing files whose
+//! element lengths would make dicom-rs allocate more than the file
+//! holds), `series` (reading each file's header, grouping the files by
+//! series and picking one) and `pixels` (decoding a slice's pixel data,
+//! RLE included).
+
+mod guard;
+mod pixels;
+mod series;
+
+pub use series::{Scan, SeriesInfo, Skipped};
+
+use crate::error::Error;
+use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
+use crate::slice::SliceData;
+use pixels::{stored_type, widest};
+use series::{skipped_notes, SliceHeader};
+use std::path::{Path, PathBuf};
+use volcore::{Dims, Geometry};
+
+/// Relative tolerance of slice gaps (and at least this many mm).
+const GAP_TOLERANCE: f64 = 0.01;
+const GAP_TOLERANCE_MM: f64 = 0.01;
+
+/// Whether bytes start like a DICOM Part 10 file (`DICM` after the
+/// 128-byte preamble).
+pub fn sniff(b: &[u8]) -> bool {
+    b.len() >= 132 && &b[128..132] == b"DICM"
+}
+
+/// Whether the file at `path` is a DICOM Part 10 file.
+pub fn is_dicom_file(path: &Path) -> bool {
+    use std::io::Read;
+    let mut b = [0u8; 132];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut b))
+        .map(|_| sniff(&b))
+        .unwrap_or(false)
+}
+
+fn bad(path: &Path, msg: impl Into<String>) -> ConvertError {
+    ConvertError::new(path, Error::invalid(msg.into()))
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// The files of a DICOM input: a directory (every regular, non-hidden
+/// file that is DICOM), a glob or a list file.
+pub fn list_files(input: &Path, files: Option<Vec<PathBuf>>) -> CResult<Vec<PathBuf>> {
+    let files = match files {
+        Some(f) => f,
+        None => {
+            let mut v = Vec::new();
+            for e in std::fs::read_dir(input).at(input)? {
+                let e = e.at(input)?;
+                let hidden = e.file_name().to_string_lossy().starts_with('.');
+                if !hidden && e.path().is_file() && is_dicom_file(&e.path()) {
+                    v.push(e.path());
+                }
+            }
+            v
+        }
+    };
+    if files.is_empty() {
+        return Err(bad(input, "holds no DICOM files"));
+    }
+    Ok(files)
+}
+
+/// A DICOM series, read slice by slice (any slice from any thread).
+pub struct DicomReader {
+    info: InputInfo,
+    slices: Vec<SliceHeader>,
+    bytes: u64,
+    skipped: Vec<Skipped>,
+}
+
+/// Open the series in `files` (from `input`): the one `series` names
+/// (see [`Scan`]), or the only one.
+pub fn open(input: &Path, files: Vec<PathBuf>, series: Option<&str>) -> CResult<DicomReader> {
+    Scan::new(input, &files)?.open(series)
+}
+
+impl DicomReader {
+    fn new(input: &Path, mut slices: Vec<SliceHeader>) -> CResult<DicomReader> {
+        let first = slices[0].clone();
+        for s in &slices {
+            if (s.rows, s.cols) != (first.rows, first.cols) {
+                return Err(bad(
+                    &s.path,
+                    format!(
+                        "image is {}x{} but {} is {}x{}: mixed sizes in one series",
+                        s.cols,
+                        s.rows,
+                        first.path.display(),
+                        first.cols,
+                        first.rows
+                    ),
+                ));
+            }
+            for (differs, what) in [
+                (
+                    differ(&s.orientation, &first.orientation),
+                    "ImageOrientationPatient",
+                ),
+                (
+                    differ(&s.pixel_spacing, &first.pixel_spacing),
+                    "PixelSpacing",
+                ),
+            ] {
+                if differs {
+                    return Err(bad(
+                        &s.path,
+                        format!("{what} differs from the rest of the series"),
+                    ));
+                }
+            }
+            if (s.bits_allocated, s.signed) != (first.bits_allocated, first.signed) {
+                return Err(bad(
+                    &s.path,
+                    "pixel type differs from the rest of the series",
+                ));
+            }
+            if s.frames != 1 {
+                return Err(bad(
+                    &s.path,
+                    format!("multi-frame DICOM image ({} frames): volkit reads series of single-frame images", s.frames),
+                ));
+            }
+        }
+        let o = first.orientation;
+        let row = [o[0], o[1], o[2]];
+        let col = [o[3], o[4], o[5]];
+        let normal = cross(row, col);
+        let geometry_axes = |n: [f64; 3]| [row, col, n];
+        let nn = dot(normal, normal).sqrt();
+        if nn < 1e-6 {
+            return Err(bad(
+                &first.path,
+                "ImageOrientationPatient rows are parallel",
+            ));
+        }
+        let normal = normal.map(|v| v / nn);
+        slices.sort_by(|a, b| dot(a.position, normal).total_cmp(&dot(b.position, normal)));
+        let along: Vec<f64> = slices.iter().map(|s| dot(s.position, normal)).collect();
+        let spacing_z = check_gaps(input, &slices, &along)?;
+        if slices.len() > 1 {
+            // Gantry tilt: the slices' origins leave the normal.
+            let span = sub3(slices[slices.len() - 1].position, slices[0].position);
+            let d = dot(span, normal);
+            let lateral = sub3(span, normal.map(|v| v * d));
+            let off = dot(lateral, lateral).sqrt();
+            if off > (0.01 * d.abs()).max(0.01) {
+                return Err(bad(
+                    input,
+                    format!(
+                        "slice positions drift {off:.3} mm sideways over {:.3} mm (gantry tilt): volkit reads series whose slices stack along their normal; resample the series first",
+                        d.abs()
+                    ),
+                ));
+            }
+        }
+        let geometry = Geometry::from_axes(slices[0].position, geometry_axes(normal))
+            .map_err(|e| bad(&first.path, format!("DICOM geometry: {e}")))?
+            // DICOM states every position and spacing in millimetres.
+            .with_unit(volcore::LengthUnit::Millimeter);
+        let stored = stored_type(first.bits_allocated, first.signed);
+        let out = slices
+            .iter()
+            .map(|s| {
+                if s.rescale.is_identity() {
+                    stored
+                } else {
+                    s.rescale.output_type(stored)
+                }
+            })
+            .fold(stored, widest);
+        let dims =
+            Dims::new(first.cols as u64, first.rows as u64, slices.len() as u64).at(input)?;
+        let bytes = slices
+            .iter()
+            .map(|s| std::fs::metadata(&s.path).map(|m| m.len()).unwrap_or(0))
+            .sum();
+        Ok(DicomReader {
+            skipped: Vec::new(),
+            info: InputInfo {
+                nifti_codes: None,
+                path: input.to_path_buf(),
+                dims,
+                sample_type: out,
+                spacing: Some([
+                    first.pixel_spacing[1] as f32,
+                    first.pixel_spacing[0] as f32,
+                    spacing_z as f32,
+                ]),
+                geometry,
+                format: format!(
+                    "dicom series ({}{} images)",
+                    if first.modality.is_empty() {
+                        String::new()
+                    } else {
+                        format!("{}, ", first.modality)
+                    },
+                    slices.len()
+                ),
+            },
+            slices,
+            bytes,
+        })
+    }
+}
+
+/// Whether two slices' values of one attribute differ by more than
+/// rounding in their text.
+fn differ(a: &[f64], b: &[f64]) -> bool {
+    a.iter().zip(b).any(|(a, b)| (a - b).abs() > 1e-4)
+}
+
+/// The slice spacing of sorted positions `along` the normal, or an error
+/// naming the first bad gap.
+fn check_gaps(input: &Path, slices: &[SliceHeader], along: &[f64]) -> CResult<f64> {
+    if along.len() < 2 {
+        return Ok(1.0);
+    }
+    let gaps: Vec<f64> = along.windows(2).map(|w| w[1] - w[0]).collect();
+    let mut sorted = gaps.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    for (k, &g) in gaps.iter().enumerate() {
+        let (a, b) = (&slices[k], &slices[k + 1]);
+        if g <= GAP_TOLERANCE_MM {
+            return Err(bad(
+                input,
+                format!(
+                    "{} and {} lie at the same position ({:.3} mm along the normal)",
+                    a.path.display(),
+                    b.path.display(),
+                    along[k]
+                ),
+            ));
+        }
+        let tol = (median * GAP_TOLERANCE).max(GAP_TOLERANCE_MM);
+        if (g - median).abs() > tol {
+            let ratio = g / median;
+            let whole = ratio.round();
+            if whole >= 2.0 && (g - whole * median).abs() <= tol * whole {
+                return Err(bad(
+                    input,
+                    format!(
+                        "{} slice{} missing between {:.3} mm and {:.3} mm along the normal (gap {:.3} mm, spacing {:.3} mm; after {})",
+                        whole as u64 - 1,
+                        if whole as u64 == 2 { " is" } else { "s are" },
+                        along[k],
+                        along[k + 1],
+                        g,
+                        median,
+                        a.path.display()
+                    ),
+                ));
+            }
+            return Err(bad(
+                input,
+                format!(
+                    "uneven slice spacing: gap of {g:.3} mm between {} and {} where the series spaces slices {median:.3} mm apart",
+                    a.path.display(),
+                    b.path.display()
+                ),
+            ));
+        }
+    }
+    Ok(median)
+}
+
+impl SliceReader for DicomReader {
+    fn info(&self) -> &InputInfo {
+        &self.info
+    }
+    fn access(&self) -> Access {
+        Access::Random
+    }
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
+        let s = self.slices.get(z as usize).ok_or_else(|| {
+            bad(
+                &self.info.path,
+                format!("slice {z} out of range (internal error)"),
+            )
+        })?;
+        pixels::decode(s, self.info.sample_type)
+    }
+    fn bytes_in(&self) -> u64 {
+        self.bytes
+    }
+    fn notes(&self) -> Vec<String> {
+        skipped_notes(&self.info.path, &self.skipped)
+    }
+}

@@ -1,0 +1,218 @@
+//! Pixel decoding: one slice's pixel data decoded (RLE Lossless here,
+//! every other transfer syntax through `dicom-pixeldata`), masked to its
+//! stored bits, rescaled and widened to the series' sample type.
+
+use super::bad;
+use super::series::SliceHeader;
+use crate::reader::CResult;
+use crate::slice::{SliceData, SliceType};
+use dicom_dictionary_std::tags;
+use dicom_pixeldata::PixelDecoder;
+
+pub(super) fn stored_type(bits: u16, signed: bool) -> SliceType {
+    match (bits, signed) {
+        (8, false) => SliceType::U8,
+        (8, true) => SliceType::I8,
+        (16, false) => SliceType::U16,
+        (16, true) => SliceType::I16,
+        (_, false) => SliceType::U32,
+        (_, true) => SliceType::I32,
+    }
+}
+
+/// The type that holds both (for slices rescaled differently).
+pub(super) fn widest(a: SliceType, b: SliceType) -> SliceType {
+    if a == b {
+        a
+    } else if a.is_integer() && b.is_integer() {
+        SliceType::I32
+    } else {
+        SliceType::F64
+    }
+}
+
+/// Slice `s` decoded, as samples of type `out` (the series' type).
+pub(super) fn decode(s: &SliceHeader, out: SliceType) -> CResult<SliceData> {
+    let obj = dicom_object::open_file(&s.path)
+        .map_err(|e| bad(&s.path, format!("not a readable DICOM file: {e}")))?;
+    let t = stored_type(s.bits_allocated, s.signed);
+    let n = s.rows as usize * s.cols as usize;
+    let rle;
+    let px;
+    let bytes: &[u8] = if obj.meta().transfer_syntax().trim_end_matches('\0') == RLE_LOSSLESS {
+        // Decoded here: dicom-rs's RLE decoder panics on damaged
+        // segment tables and short segments.
+        let frame = obj
+            .element(tags::PIXEL_DATA)
+            .ok()
+            .and_then(|e| e.value().fragments())
+            .and_then(|f| f.first())
+            .ok_or_else(|| bad(&s.path, "RLE pixel data without fragments"))?;
+        rle = decode_rle(frame, n, t.size())
+            .map_err(|e| bad(&s.path, format!("cannot decode the RLE pixel data: {e}")))?;
+        &rle
+    } else {
+        px = obj
+            .decode_pixel_data()
+            .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?;
+        px.frame_data(0)
+            .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?
+    };
+    if bytes.len() < n * t.size() {
+        return Err(bad(
+            &s.path,
+            format!(
+                "pixel data holds {} bytes, {}x{} {}-bit pixels need {}",
+                bytes.len(),
+                s.cols,
+                s.rows,
+                s.bits_allocated,
+                n * t.size()
+            ),
+        ));
+    }
+    let mut d = SliceData::from_bytes(t, &bytes[..n * t.size()], false);
+    mask_bits(&mut d, s.bits_stored);
+    let d = if s.rescale.is_identity() {
+        d
+    } else {
+        s.rescale.apply(&d)
+    };
+    Ok(to_type(d, out))
+}
+
+/// The RLE Lossless transfer syntax.
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+
+/// Decode one RLE Lossless frame of `pixels` grey samples of `size` bytes
+/// into little-endian samples (DICOM PS3.5 annex G): a 64-byte header of
+/// the segment count and up to 15 offsets, then one PackBits segment per
+/// byte of a sample, the most significant first. Every offset and run is
+/// checked against the frame.
+fn decode_rle(frame: &[u8], pixels: usize, size: usize) -> Result<Vec<u8>, String> {
+    let word = |i: usize| -> u32 {
+        frame
+            .get(4 * i..4 * i + 4)
+            .map_or(0, |b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    };
+    if frame.len() < 64 {
+        return Err(format!(
+            "a frame of {} bytes has no RLE header",
+            frame.len()
+        ));
+    }
+    let segments = word(0) as usize;
+    if segments != size {
+        return Err(format!(
+            "{segments} segments for {}-bit samples (expected {size})",
+            size * 8
+        ));
+    }
+    let mut out = vec![0u8; pixels * size];
+    for seg in 0..segments {
+        let start = word(1 + seg) as usize;
+        let end = if seg + 1 < segments {
+            word(2 + seg) as usize
+        } else {
+            frame.len()
+        };
+        if start < 64 || start > end || end > frame.len() {
+            return Err(format!(
+                "segment {seg} at bytes {start}..{end} lies outside the {}-byte frame",
+                frame.len()
+            ));
+        }
+        // Segment 0 holds the most significant bytes.
+        let byte = size - 1 - seg;
+        let mut data = &frame[start..end];
+        let mut p = 0usize;
+        while p < pixels {
+            let Some((&h, rest)) = data.split_first() else {
+                return Err(format!("segment {seg} ends after {p} of {pixels} samples"));
+            };
+            data = rest;
+            let h = h as i8;
+            if h >= 0 {
+                let n = h as usize + 1;
+                let lit = data
+                    .get(..n)
+                    .ok_or_else(|| format!("segment {seg} ends inside a literal run"))?;
+                for &b in lit.iter().take(pixels - p) {
+                    out[p * size + byte] = b;
+                    p += 1;
+                }
+                data = &data[n..];
+            } else if h != -128 {
+                let n = 1 - h as isize;
+                let (&b, rest) = data
+                    .split_first()
+                    .ok_or_else(|| format!("segment {seg} ends inside a repeat run"))?;
+                data = rest;
+                for _ in 0..(n as usize).min(pixels - p) {
+                    out[p * size + byte] = b;
+                    p += 1;
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Keep the BitsStored low bits (sign-extended for signed pixels).
+fn mask_bits(d: &mut SliceData, bits: u16) {
+    macro_rules! unsigned {
+        ($v:expr, $w:expr) => {
+            if (bits as u32) < $w {
+                let m = (1u64 << bits) - 1;
+                $v.iter_mut().for_each(|x| *x = (*x as u64 & m) as _);
+            }
+        };
+    }
+    macro_rules! signed {
+        ($v:expr, $t:ty, $w:expr) => {
+            if (bits as u32) < $w {
+                let sh = $w - bits as u32;
+                $v.iter_mut().for_each(|x| *x = ((*x << sh) as $t) >> sh);
+            }
+        };
+    }
+    match d {
+        SliceData::U8(v) => unsigned!(v, 8),
+        SliceData::U16(v) => unsigned!(v, 16),
+        SliceData::U32(v) => unsigned!(v, 32),
+        SliceData::I8(v) => signed!(v, i8, 8),
+        SliceData::I16(v) => signed!(v, i16, 16),
+        SliceData::I32(v) => signed!(v, i32, 32),
+        _ => {}
+    }
+}
+
+/// `d` as type `t` (same values; `t` is at least as wide).
+fn to_type(d: SliceData, t: SliceType) -> SliceData {
+    if d.sample_type() == t {
+        return d;
+    }
+    let n = d.len();
+    match t {
+        SliceType::I32 => SliceData::I32((0..n).map(|i| d.value(i) as i32).collect()),
+        _ => SliceData::F64((0..n).map(|i| d.value(i)).collect()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn types_widen_to_hold_every_slice() {
+        assert_eq!(widest(SliceType::I32, SliceType::U16), SliceType::I32);
+        assert_eq!(widest(SliceType::I32, SliceType::F64), SliceType::F64);
+        assert_eq!(widest(SliceType::I16, SliceType::I16), SliceType::I16);
+        let mut d = SliceData::I16(vec![0x0fff, 0x0800, 0x07ff]);
+        mask_bits(&mut d, 12);
+        assert_eq!(d, SliceData::I16(vec![-1, -2048, 2047]));
+        let mut d = SliceData::U16(vec![0xf0ff]);
+        mask_bits(&mut d, 12);
+        assert_eq!(d, SliceData::U16(vec![0x00ff]));
+    }
+}
