@@ -97,6 +97,35 @@ pub fn write_png_svg(png: &Path, svg: &Path, size: (u32, u32), chart: &impl Char
         .with_context(|| format!("{}: cannot draw", svg.display()))
 }
 
+/// Rows and columns of a grid of `n` panels, at most three a row.
+fn grid(n: usize) -> (usize, usize) {
+    let cols = n.clamp(1, 3);
+    (n.div_ceil(cols).max(1), cols)
+}
+
+/// The pixel size of a grid of `n` panels of `panel` pixels each, under
+/// a title 60 pixels high.
+pub fn grid_size(n: usize, (w, h): (u32, u32)) -> (u32, u32) {
+    let (rows, cols) = grid(n);
+    (cols as u32 * w, 60 + rows as u32 * h)
+}
+
+/// `root` under `title`, split into a grid of `n` panels (see
+/// [`grid_size`]), row by row.
+pub fn titled_grid<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    n: usize,
+) -> Result<Vec<DrawingArea<DB, Shift>>>
+where
+    DB::ErrorType: 'static,
+{
+    let body = root
+        .titled(title, ("sans-serif", 22))
+        .map_err(drawing_error)?;
+    Ok(body.split_evenly(grid(n)))
+}
+
 /// A plotters drawing error as an `anyhow` error.
 pub fn drawing_error<E: std::error::Error + Send + Sync>(
     e: DrawingAreaErrorKind<E>,

@@ -36,7 +36,9 @@
 
 use crate::drive::{exe, path_arg, strs, tool, Ctx};
 use crate::files::write_via_temp;
-use crate::plot::{drawing_error, legend, seconds, write_png_svg, Chart, COLOURS};
+use crate::plot::{
+    drawing_error, grid_size, legend, seconds, titled_grid, write_png_svg, Chart, COLOURS,
+};
 use anyhow::{anyhow, bail, Context, Result};
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -871,9 +873,7 @@ const TOOLS: [&str; 3] = ["volkit", "SimpleITK", "unu"];
 fn plot(out: &Path, rows: &[Row], smoke: bool) -> Result<()> {
     let png = out.join("resample.png");
     let svg = out.join("resample.svg");
-    let panels = cases_of(rows).len() as u32;
-    let cols = panels.clamp(1, 3);
-    let size = (cols * 430, 60 + panels.div_ceil(cols).max(1) * 360);
+    let size = grid_size(cases_of(rows).len(), (430, 360));
     write_png_svg(&png, &svg, size, &ResampleChart { rows, smoke })
 }
 
@@ -915,13 +915,8 @@ impl Chart for ResampleChart<'_> {
         } else {
             "Resampling and smoothing: PSNR against the exact function, by time".to_string()
         };
-        let body = root
-            .titled(&title, ("sans-serif", 22))
-            .map_err(drawing_error)?;
         let cases = cases_of(rows);
-        let cols = cases.len().clamp(1, 3);
-        let panel_rows = cases.len().div_ceil(cols).max(1);
-        let areas = body.split_evenly((panel_rows, cols));
+        let areas = titled_grid(&root, &title, cases.len())?;
         for (case, area) in cases.iter().zip(areas.iter()) {
             let pts: Vec<&Row> = rows
                 .iter()

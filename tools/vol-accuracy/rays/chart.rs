@@ -3,7 +3,7 @@
 
 use super::measure::Row;
 use super::setup::{BASE_ERT, BASE_STEP};
-use crate::plot::{drawing_error, seconds, write_png_svg, Chart, COLOURS};
+use crate::plot::{drawing_error, grid_size, seconds, titled_grid, write_png_svg, Chart, COLOURS};
 use anyhow::{bail, Result};
 use plotters::prelude::*;
 use std::path::Path;
@@ -34,9 +34,7 @@ pub fn plot(out: &Path, scene: &str, rows: &[Row], smoke: bool) -> Result<()> {
     let png = out.join(format!("accuracy-{scene}.png"));
     let svg = out.join(format!("accuracy-{scene}.svg"));
     let knobs = knobs_of(rows);
-    let cols = knobs.len().clamp(1, 3) as u32;
-    let panel_rows = (knobs.len() as u32).div_ceil(cols).max(1);
-    let size = (cols * 400, 60 + panel_rows * 330);
+    let size = grid_size(knobs.len(), (400, 330));
     write_png_svg(&png, &svg, size, &RayChart { scene, rows, smoke })
 }
 
@@ -96,13 +94,8 @@ impl Chart for RayChart<'_> {
                 reference.map_or(String::new(), |r| format!(" {}", r.value))
             )
         };
-        let body = root
-            .titled(&title, ("sans-serif", 22))
-            .map_err(drawing_error)?;
         let knobs = knobs_of(rows);
-        let cols = knobs.len().clamp(1, 3);
-        let panel_rows = knobs.len().div_ceil(cols).max(1);
-        let panels = body.split_evenly((panel_rows, cols));
+        let panels = titled_grid(&root, &title, knobs.len())?;
         for ((i, knob), area) in knobs.iter().enumerate().zip(panels.iter()) {
             let colour = COLOURS[i % COLOURS.len()];
             let mut chart = ChartBuilder::on(area)
