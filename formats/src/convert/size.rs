@@ -74,3 +74,16 @@ pub fn output_size(
         bytes,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_window_needs_an_output_type() {
+        let w: Window = "0:1".parse().unwrap();
+        assert_eq!(check_window(Some(&w), None), Err(WINDOW_NEEDS_TYPE));
+        assert_eq!(check_window(Some(&w), Some(SampleType::U8)), Ok(()));
+        assert_eq!(check_window(None, None), Ok(()));
+    }
+}
