@@ -161,17 +161,6 @@ pub fn parse_type(s: &str) -> std::result::Result<SliceType, String> {
     })
 }
 
-/// The Open SciVis name of a type (`uint8`, `int16`, `float32`).
-pub fn type_name(t: SampleType) -> &'static str {
-    match t {
-        SampleType::U8 => "uint8",
-        SampleType::U16 => "uint16",
-        SampleType::I16 => "int16",
-        SampleType::F32 => "float32",
-        SampleType::F64 => "float64",
-    }
-}
-
 /// Dimensions and type from a name like `bonsai_256x256x256_uint8.raw`.
 pub fn parse_name(path: &Path) -> Option<(Dims, SliceType)> {
     let stem = path.file_stem()?.to_str()?;

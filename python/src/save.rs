@@ -147,11 +147,7 @@ pub fn save<'py>(
             .map(|w| w.parse())
             .transpose()
             .map_err(|e: String| bad("window", e))?;
-        if window.is_some() && sample_type.is_none() {
-            return Err(errors::value(
-                "--window needs --type (the output sample type)",
-            ));
-        }
+        convert::check_window(window.as_ref(), sample_type).map_err(errors::value)?;
         let plan = Plan {
             sample_type,
             window,

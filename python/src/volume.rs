@@ -52,17 +52,6 @@ fn rev3<T: Copy>(v: [T; 3]) -> [T; 3] {
     [v[2], v[1], v[0]]
 }
 
-/// The numpy dtype name of a sample type.
-pub fn dtype_name(t: SampleType) -> &'static str {
-    match t {
-        SampleType::U8 => "uint8",
-        SampleType::U16 => "uint16",
-        SampleType::I16 => "int16",
-        SampleType::F32 => "float32",
-        SampleType::F64 => "float64",
-    }
-}
-
 #[pymethods]
 impl PyVolume {
     /// Voxels per axis, (z, y, x).
@@ -76,7 +65,7 @@ impl PyVolume {
     #[getter]
     fn dtype<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let np = py.import("numpy")?;
-        np.call_method1("dtype", (dtype_name(self.vol.meta.sample_type),))
+        np.call_method1("dtype", (self.vol.meta.sample_type.long_name(),))
     }
 
     /// World distance between neighbouring voxels, (z, y, x).
@@ -178,7 +167,7 @@ impl PyVolume {
         let s = self.spacing();
         format!(
             "Volume(shape=({z}, {y}, {x}), dtype={}, spacing=({}, {}, {}), layout={}, path={})",
-            dtype_name(self.vol.meta.sample_type),
+            self.vol.meta.sample_type.long_name(),
             s.0,
             s.1,
             s.2,

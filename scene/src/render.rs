@@ -122,9 +122,7 @@ fn cast(options: &Options, source: &Source, plan: &Plan, cancel: &Cancel) -> Res
     let vol = &source.volume;
     let mut settings = plan.settings.clone();
     settings.cancel = cancel.clone();
-    let mut runs = Vec::new();
-    let mut frame = None;
-    for _ in 0..options.repeat.max(1) {
+    let (frame, Repeated { runs, median_s }) = repeat(options.repeat, || {
         let f = render_tf(
             vol,
             source.index.as_ref(),
@@ -133,17 +131,13 @@ fn cast(options: &Options, source: &Source, plan: &Plan, cancel: &Cancel) -> Res
             &settings,
         )
         .map_err(|e| Error::from_render(e).context(&name))?;
-        runs.push(f.stats.render_s);
-        frame = Some(f);
-    }
-    let Some(frame) = frame else {
-        return Err(Error::new(ErrorKind::Render, "nothing rendered"));
-    };
+        let s = f.stats.render_s;
+        Ok((f, s))
+    })?;
     if let Some(e) = vol.error() {
         return Err(Error::file(format!("{name}: {e}")));
     }
-    runs.sort_by(f64::total_cmp);
-    let render_s = runs[runs.len() / 2];
+    let render_s = median_s;
     Ok(Rendered {
         image: Image::Frame(frame),
         times: Times {
@@ -153,6 +147,34 @@ fn cast(options: &Options, source: &Source, plan: &Plan, cancel: &Cancel) -> Res
             runs,
         },
     })
+}
+
+/// The times of a frame rendered `--repeat` times.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Repeated {
+    /// Each run's time, seconds, sorted.
+    pub runs: Vec<f64>,
+    /// Their median (the upper one of an even count).
+    pub median_s: f64,
+}
+
+/// Run `frame` `times` times (at least once), each returning its result
+/// and its time in seconds: the last result, and the runs' times with
+/// their median (`--repeat`). The first error ends the runs.
+pub fn repeat<T, E>(
+    times: u32,
+    mut frame: impl FnMut() -> std::result::Result<(T, f64), E>,
+) -> std::result::Result<(T, Repeated), E> {
+    let (mut last, s) = frame()?;
+    let mut runs = vec![s];
+    for _ in 1..times.max(1) {
+        let (f, s) = frame()?;
+        runs.push(s);
+        last = f;
+    }
+    runs.sort_by(f64::total_cmp);
+    let median_s = runs[runs.len() / 2];
+    Ok((last, Repeated { runs, median_s }))
 }
 
 /// The path tracer: passes until the budget is spent, from `prior` or

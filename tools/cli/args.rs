@@ -1,6 +1,6 @@
 //! Parsers for the argument forms the tools share.
 
-use volcore::{LengthUnit, SampleType};
+use volcore::{LengthUnit, SampleType, Shard};
 
 /// Parse `X,Y,Z` (also `XxYxZ`) into three positive integers.
 pub fn dims3(s: &str) -> Result<[u64; 3], String> {
@@ -17,8 +17,13 @@ pub fn dims3(s: &str) -> Result<[u64; 3], String> {
     }
 }
 
-/// Parse a sample type name (`u8`, `u16`, `i16`, `f32`).
+/// Parse a sample type name (`u8`, `u16`, `i16`, `f32`, `f64`).
 pub fn sample_type(s: &str) -> Result<SampleType, String> {
+    s.parse()
+}
+
+/// Parse `--shard K/N`: shard K (from 0) of N.
+pub fn shard(s: &str) -> Result<Shard, String> {
     s.parse()
 }
 

@@ -6,6 +6,8 @@ pub mod json;
 pub mod progress;
 pub mod run;
 pub mod select;
+pub mod stdout;
 
 pub use run::{is_usage, parse, run, usage};
 pub use select::{RawSpec, Selection};
+pub use stdout::stdout_file;

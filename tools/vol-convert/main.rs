@@ -119,7 +119,7 @@ struct Cli {
     /// OME-Zarr output (-o NAME.ome.zarr) every shard writes its chunk
     /// layers straight into the store, and the last to finish writes the
     /// metadata: no merge.
-    #[arg(long, value_name = "K/N", value_parser = shard_arg)]
+    #[arg(long, value_name = "K/N", value_parser = args::shard)]
     shard: Option<Shard>,
     /// Assemble the N part files of a sharded conversion (any order) into
     /// one .vvol (-o OUT.vvol): byte for byte what the unsharded conversion
@@ -243,10 +243,6 @@ fn main() -> ExitCode {
     })
 }
 
-fn shard_arg(s: &str) -> Result<Shard, String> {
-    s.parse()
-}
-
 /// `--merge`: assemble part files into one `.vvol`.
 fn merge_cmd(cli: &Cli) -> Result<()> {
     let start = Instant::now();
@@ -321,13 +317,6 @@ fn usage_at(path: &Path, msg: impl std::fmt::Display) -> anyhow::Error {
     usage(format!("{}: {msg}", path.display()))
 }
 
-/// Standard output as an unbuffered file (a duplicate of descriptor 1).
-fn stdout_file() -> Result<std::fs::File> {
-    use std::os::fd::AsFd;
-    let fd = std::io::stdout().as_fd().try_clone_to_owned()?;
-    Ok(std::fs::File::from(fd))
-}
-
 /// A value among `names` (listed in the help and in clap's error),
 /// parsed by its type's `FromStr` (the rules the Python package follows).
 fn one_of<T>(names: [&'static str; 2]) -> impl clap::builder::TypedValueParser<Value = T>
@@ -344,21 +333,25 @@ fn compress_arg(s: &str) -> Result<CompressArg, String> {
 
 /// The output target `-o` and the output options name (usage errors when
 /// they do not go together): the rules live with the writers.
-fn target(cli: &Cli) -> Result<Target> {
-    let opts = OutputOptions {
+fn target(cli: &Cli, opts: &OutputOptions) -> Result<Target> {
+    let stdout: Option<Box<dyn std::io::Write + Send>> = if cli.output.as_os_str() == "-" {
+        Some(Box::new(volkit_cli::stdout_file()?))
+    } else {
+        None
+    };
+    Target::for_output(&cli.output, opts, stdout).map_err(usage)
+}
+
+/// The output options the flags name.
+fn output_options(cli: &Cli) -> OutputOptions {
+    OutputOptions {
         layout: cli.layout,
         compress: cli.compress,
         pyramid: cli.pyramid,
         downsample: cli.downsample,
         ngff: cli.ngff,
         shard: cli.shard,
-    };
-    let stdout: Option<Box<dyn std::io::Write + Send>> = if cli.output.as_os_str() == "-" {
-        Some(Box::new(stdout_file()?))
-    } else {
-        None
-    };
-    Target::for_output(&cli.output, &opts, stdout).map_err(usage)
+    }
 }
 
 fn convert_cmd(cli: &Cli) -> Result<()> {
@@ -370,11 +363,10 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         Some(w) => Some(w.parse().map_err(|e| at(input, format!("--window {e}")))?),
         None => None,
     };
-    if window.is_some() && cli.sample_type.is_none() {
-        return Err(at(input, "--window needs --type (the output sample type)"));
-    }
+    convert::check_window(window.as_ref(), cli.sample_type).map_err(|e| at(input, e))?;
     // Check the output first: a bad output name should not cost a scan.
-    let target = target(cli)?;
+    let out_opts = output_options(cli);
+    let target = target(cli, &out_opts)?;
     target.preflight().map_err(anyhow::Error::new)?;
     let mut opts = volkit_cli::select::read_options(&cli.input_sel)?;
     if cli.luma {
@@ -406,33 +398,11 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         temp_dir: None,
         prep,
     };
-    // The grid and type the output will have (crop, units, stages).
-    let (out_grid, out_type) =
-        convert::output_grid(&info, &plan, &target).map_err(anyhow::Error::new)?;
-    let out_dims = out_grid.dims;
-    let out_type = out_type.unwrap_or(SampleType::F32);
-    if volformats::omezarr::is_zarr(&cli.output) {
-        // Before any sample is read: the pyramid must fit the output dims.
-        volformats::omezarr::check_levels(out_dims, cli.pyramid).map_err(|e| at(&cli.output, e))?;
-    }
-    let mut total = out_dims.count().saturating_mul(out_type.size() as u64);
-    if let Some(shard) = cli.shard {
-        // The shard's share of the units (slices, brick layers, or chunk
-        // layers of an OME-Zarr pyramid's coarsest level).
-        let (mine, units) = if volformats::omezarr::is_zarr(&cli.output) {
-            let zs = volformats::omezarr::shard_slices(out_dims, cli.pyramid, shard)
-                .map_err(|e| at(&cli.output, e))?;
-            (zs.end - zs.start, out_dims.z)
-        } else {
-            let units = match cli.layout {
-                LayoutArg::Sliced => out_dims.z,
-                LayoutArg::Bricked(b) => out_dims.z.div_ceil(u64::from(b.max(1))),
-            };
-            let r = shard.units(units);
-            (r.end - r.start, units)
-        };
-        total = (u128::from(total) * u128::from(mine) / u128::from(units.max(1))) as u64;
-    }
+    // The grid, type and bytes the output will have (crop, units,
+    // stages, the shard's share); checks an OME-Zarr pyramid fits.
+    let total = convert::output_size(&info, &plan, &target, &cli.output, &out_opts)
+        .map_err(anyhow::Error::new)?
+        .bytes;
     // The samples alone must fit where the output goes (bricks add their
     // aprons; compressed bricks may take less, so they are not checked).
     if cli.output.as_os_str() != "-" && matches!(cli.compress, CompressArg::Vvol(Compression::None))
@@ -539,6 +509,6 @@ fn raw_note(cli: &Cli, report: &convert::Report) {
         d.x,
         d.y,
         d.z,
-        volformats::raw::type_name(t)
+        t.long_name()
     );
 }

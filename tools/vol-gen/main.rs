@@ -110,7 +110,7 @@ fn check_output(cli: &Cli, dims: Dims) -> Result<()> {
                 dims.x,
                 dims.y,
                 dims.z,
-                volformats::raw::type_name(cli.sample_type())
+                cli.sample_type().long_name()
             );
             match volformats::raw::parse_name(out) {
                 Some((d, t)) if d == dims && t == cli.sample_type() => Ok(()),
@@ -206,13 +206,6 @@ fn write_vvol_file<T: Sample>(
     Ok(w.finish()?)
 }
 
-/// Standard output as an unbuffered file (a duplicate of descriptor 1).
-fn stdout_file() -> Result<std::fs::File> {
-    use std::os::fd::AsFd;
-    let fd = std::io::stdout().as_fd().try_clone_to_owned()?;
-    Ok(std::fs::File::from(fd))
-}
-
 struct Written {
     bytes: u64,
     min: Option<f64>,
@@ -261,7 +254,7 @@ fn write_as<T: Sample>(cli: &Cli, dims: Dims, scene: &dyn Scene) -> Result<Writt
     if to_stdout {
         // Write to the descriptor directly: Rust's stdout is line-buffered
         // and would scan every binary chunk for newlines.
-        let mut out = stdout_file()?;
+        let mut out = volkit_cli::stdout_file()?;
         let s = vvol::write(&src, meta, Sink::Stream(&mut out), &progress)?;
         out.flush()?;
         bar.finish_and_clear();

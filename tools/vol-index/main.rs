@@ -60,7 +60,7 @@ struct Cli {
     /// bricks or slices those cover. Run the N shards anywhere, then
     /// --merge the parts. f32 volumes need their value range recorded (a
     /// .vvol has it).
-    #[arg(long, value_name = "K/N", value_parser = shard_arg, conflicts_with = "check")]
+    #[arg(long, value_name = "K/N", value_parser = volkit_cli::args::shard, conflicts_with = "check")]
     shard: Option<Shard>,
     /// Join the N part files of a sharded build (any order) into one index
     /// (-o OUT.vidx): bit for bit the unsharded build's.
@@ -68,10 +68,6 @@ struct Cli {
     merge: Vec<PathBuf>,
     #[command(flatten, next_help_heading = "Input")]
     input_sel: Selection,
-}
-
-fn shard_arg(s: &str) -> Result<Shard, String> {
-    s.parse()
 }
 
 const EXAMPLES: &str = "Examples:

@@ -248,9 +248,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
     let share = layout.share(rank);
     let order = layout.front_to_back(&plan.camera);
 
-    let mut frames = Vec::new();
-    let mut last = None;
-    for _ in 0..cli.repeat.max(1) {
+    let repeated = volscene::render::repeat(cli.repeat, || {
         world.barrier();
         let start = Instant::now();
         let film = match &share {
@@ -278,12 +276,11 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
         let strip = agree(world, strip)?;
         let whole = gather_strips(world, &strip, how, w, h)?;
         let composite_s = c.elapsed().as_secs_f64();
-        frames.push(start.elapsed().as_secs_f64());
-        last = Some((film.stats(), whole, render_s, composite_s, traffic));
-    }
-    let Some((stats, whole, render_s, composite_s, traffic)) = last else {
-        bail!("nothing rendered")
-    };
+        let frame_s = start.elapsed().as_secs_f64();
+        let figures = (film.stats(), whole, render_s, composite_s, traffic);
+        Ok::<_, anyhow::Error>((figures, frame_s))
+    })?;
+    let ((stats, whole, render_s, composite_s, traffic), frames) = repeated;
     let mine = RankFigures {
         stats,
         render_s,
@@ -303,8 +300,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
     };
     // The frame's time is the wall time from the common start to the
     // composited image on rank 0 (the median over --repeat).
-    frames.sort_by(f64::total_cmp);
-    let frame_s = frames[frames.len() / 2];
+    let frame_s = frames.median_s;
     let mut total = FrameStats::default();
     for r in &all {
         total.rays += r.stats.rays;
@@ -322,7 +318,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
             load_s,
             index_s,
             render_s: frame_s,
-            runs: frames,
+            runs: frames.runs,
         },
     };
     rendered.write_files(cli, Some(output))?;

@@ -51,6 +51,18 @@ impl SampleType {
         }
     }
 
+    /// The long name (`uint8`, `uint16`, `int16`, `float32`, `float64`):
+    /// numpy's dtype name, and the type in Open SciVis raw file names.
+    pub fn long_name(self) -> &'static str {
+        match self {
+            SampleType::U8 => "uint8",
+            SampleType::U16 => "uint16",
+            SampleType::I16 => "int16",
+            SampleType::F32 => "float32",
+            SampleType::F64 => "float64",
+        }
+    }
+
     /// Numeric code stored in file headers.
     pub fn code(self) -> u8 {
         match self {

@@ -12,6 +12,7 @@
 //! place only when complete, so a failed conversion leaves nothing behind.
 
 pub mod choose;
+pub mod size;
 pub mod spool;
 pub mod stages;
 pub mod units;
@@ -21,6 +22,7 @@ mod writers;
 pub use crate::reader::{Access, At, CResult, ConvertError, InputInfo, NiftiCodes, SliceReader};
 pub use crate::slice::{SliceData, SliceSample, SliceType};
 pub use choose::{CompressArg, LayoutArg, OutputOptions};
+pub use size::{check_window, output_size, OutputSize};
 pub use stages::{MaskInput, Preprocess, ResampleTo, Resampling};
 pub use window::{fit_type, Histogram, Mapper, ValueMap, Window};
 pub use writers::{MemorySlot, Target};

@@ -34,7 +34,11 @@
 //! runs pass 30 s stops repeating), on all cores.
 //! Peers that are missing are skipped with a note.
 
-use super::{draw_png, exe, path_arg, seconds, strs, tool, Ctx, COLOURS};
+use crate::drive::{exe, path_arg, strs, tool, Ctx};
+use crate::files::write_via_temp;
+use crate::plot::{
+    drawing_error, grid_size, legend, seconds, titled_grid, write_png_svg, Chart, COLOURS,
+};
 use anyhow::{anyhow, bail, Context, Result};
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -227,7 +231,8 @@ fn sizes(quick: bool) -> (u64, [u64; 3]) {
 
 /// Run the study; writes `resample.csv`, `resample.md` and, with a font,
 /// `resample.png` and `.svg`.
-pub fn run(ctx: &Ctx, quick: bool, font: bool, peers: &Peers) -> Result<Vec<PathBuf>> {
+pub fn run(ctx: &Ctx, font: bool, peers: &Peers) -> Result<Vec<PathBuf>> {
+    let quick = ctx.quick;
     check_volkit(ctx)?;
     for (name, p) in [
         ("SimpleITK", peers.python.as_ref().map(|_| ())),
@@ -274,8 +279,8 @@ pub fn run(ctx: &Ctx, quick: bool, font: bool, peers: &Peers) -> Result<Vec<Path
     }
     let csv = ctx.out.join("resample.csv");
     let md = ctx.out.join("resample.md");
-    write_text(&csv, &csv_text(&rows))?;
-    write_text(&md, &summary(&rows))?;
+    write_via_temp(&csv, "partial", &csv_text(&rows))?;
+    write_via_temp(&md, "partial", &summary(&rows))?;
     if font {
         plot(&ctx.out, &rows, quick)?;
     }
@@ -860,13 +865,6 @@ fn summary(rows: &[Row]) -> String {
     s
 }
 
-/// Write `text` under a temporary name, then rename.
-fn write_text(path: &Path, text: &str) -> Result<()> {
-    let tmp = path.with_extension("partial");
-    std::fs::write(&tmp, text).with_context(|| format!("{}: cannot write", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot write", path.display()))
-}
-
 /// The tools in plot order (one colour each).
 const TOOLS: [&str; 3] = ["volkit", "SimpleITK", "unu"];
 
@@ -875,15 +873,14 @@ const TOOLS: [&str; 3] = ["volkit", "SimpleITK", "unu"];
 fn plot(out: &Path, rows: &[Row], smoke: bool) -> Result<()> {
     let png = out.join("resample.png");
     let svg = out.join("resample.svg");
-    let panels = cases_of(rows).len() as u32;
-    let cols = panels.clamp(1, 3);
-    let size = (cols * 430, 60 + panels.div_ceil(cols).max(1) * 360);
-    draw_png(&png, size, |root| draw(root, rows, smoke))?;
-    {
-        let root = SVGBackend::new(&svg, size).into_drawing_area();
-        draw(root, rows, smoke).with_context(|| format!("{}: cannot draw", svg.display()))?;
-    }
-    Ok(())
+    let size = grid_size(cases_of(rows).len(), (430, 360));
+    write_png_svg(&png, &svg, size, &ResampleChart { rows, smoke })
+}
+
+/// The study's plot: its rows, and whether a quick run made it.
+struct ResampleChart<'a> {
+    rows: &'a [Row],
+    smoke: bool,
 }
 
 /// The cases in study order.
@@ -906,118 +903,106 @@ fn y_of(r: &Row) -> f64 {
 }
 
 /// The chart on any backend.
-fn draw<DB: DrawingBackend>(
-    root: DrawingArea<DB, plotters::coord::Shift>,
-    rows: &[Row],
-    smoke: bool,
-) -> Result<()>
-where
-    DB::ErrorType: 'static,
-{
-    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("{e}");
-    root.fill(&WHITE).map_err(err)?;
-    let title = if smoke {
-        "resample: SMOKE TEST (quick run: tiny sizes, one run each; not a result)".to_string()
-    } else {
-        "Resampling and smoothing: PSNR against the exact function, by time".to_string()
-    };
-    let body = root.titled(&title, ("sans-serif", 22)).map_err(err)?;
-    let cases = cases_of(rows);
-    let cols = cases.len().clamp(1, 3);
-    let panel_rows = cases.len().div_ceil(cols).max(1);
-    let areas = body.split_evenly((panel_rows, cols));
-    for (case, area) in cases.iter().zip(areas.iter()) {
-        let pts: Vec<&Row> = rows
-            .iter()
-            .filter(|r| &r.case == case && y_of(r).is_finite())
-            .collect();
-        if pts.is_empty() {
-            continue;
-        }
-        let (mut t0, mut t1, mut p0, mut p1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for r in &pts {
-            t0 = t0.min(r.min_s);
-            t1 = t1.max(r.max_s);
-            p0 = p0.min(y_of(r));
-            p1 = p1.max(y_of(r));
-        }
-        let (t0, t1) = ((t0 * 0.7).max(1e-6), (t1 * 1.6).max(t0 * 2.0));
-        let (p0, p1) = ((p0 - 3.0).floor(), (p1 + 4.0).ceil());
-        let mut chart = ChartBuilder::on(area)
-            .caption(case, ("sans-serif", 17))
-            .margin(10)
-            .x_label_area_size(38)
-            .y_label_area_size(48)
-            .build_cartesian_2d((t0..t1).log_scale(), p0..p1)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("median time (s, log)")
-            .y_desc(if pts.iter().any(|r| r.psnr_lowpass_db.is_some()) {
-                "PSNR against the low-pass (dB)"
-            } else {
-                "PSNR against the convolution (dB)"
-            })
-            .x_labels(5)
-            .y_labels(6)
-            .x_label_formatter(&|x| seconds(*x))
-            .light_line_style(WHITE.mix(0.0))
-            .draw()
-            .map_err(err)?;
-        for (t, name) in TOOLS.iter().enumerate() {
-            let colour = COLOURS[t % COLOURS.len()];
-            let mine: Vec<&&Row> = pts.iter().filter(|r| r.tool == *name).collect();
-            if mine.is_empty() {
+impl Chart for ResampleChart<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, plotters::coord::Shift>) -> Result<()>
+    where
+        DB::ErrorType: 'static,
+    {
+        let (rows, smoke) = (self.rows, self.smoke);
+        root.fill(&WHITE).map_err(drawing_error)?;
+        let title = if smoke {
+            "resample: SMOKE TEST (quick run: tiny sizes, one run each; not a result)".to_string()
+        } else {
+            "Resampling and smoothing: PSNR against the exact function, by time".to_string()
+        };
+        let cases = cases_of(rows);
+        let areas = titled_grid(&root, &title, cases.len())?;
+        for (case, area) in cases.iter().zip(areas.iter()) {
+            let pts: Vec<&Row> = rows
+                .iter()
+                .filter(|r| &r.case == case && y_of(r).is_finite())
+                .collect();
+            if pts.is_empty() {
                 continue;
             }
+            let (mut t0, mut t1, mut p0, mut p1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+            for r in &pts {
+                t0 = t0.min(r.min_s);
+                t1 = t1.max(r.max_s);
+                p0 = p0.min(y_of(r));
+                p1 = p1.max(y_of(r));
+            }
+            let (t0, t1) = ((t0 * 0.7).max(1e-6), (t1 * 1.6).max(t0 * 2.0));
+            let (p0, p1) = ((p0 - 3.0).floor(), (p1 + 4.0).ceil());
+            let mut chart = ChartBuilder::on(area)
+                .caption(case, ("sans-serif", 17))
+                .margin(10)
+                .x_label_area_size(38)
+                .y_label_area_size(48)
+                .build_cartesian_2d((t0..t1).log_scale(), p0..p1)
+                .map_err(drawing_error)?;
             chart
-                .draw_series(mine.iter().map(|r| {
-                    PathElement::new(
-                        vec![(r.min_s, y_of(r)), (r.max_s, y_of(r))],
-                        colour.stroke_width(1),
-                    )
-                }))
-                .map_err(err)?;
-            chart
-                .draw_series(mine.iter().map(|r| {
-                    let style = if r.antialias == "no" {
-                        colour.stroke_width(2)
-                    } else {
-                        colour.filled()
-                    };
-                    Circle::new((r.median_s, y_of(r)), 4, style)
-                }))
-                .map_err(err)?
-                .label(*name)
-                .legend(move |(x, y)| Circle::new((x + 8, y), 4, colour.filled()));
-            let lift = (p1 - p0) / 30.0;
-            chart
-                .draw_series(mine.iter().enumerate().map(|(j, r)| {
-                    let dy = lift * [1.2, -1.0, 2.6][j % 3];
-                    let label = if r.antialias == "no" {
-                        format!("{} (no AA)", r.kernel)
-                    } else {
-                        r.kernel.clone()
-                    };
-                    Text::new(
-                        label,
-                        (r.median_s * 1.06, y_of(r) + dy),
-                        ("sans-serif", 11).into_font().color(&colour.mix(0.9)),
-                    )
-                }))
-                .map_err(err)?;
+                .configure_mesh()
+                .x_desc("median time (s, log)")
+                .y_desc(if pts.iter().any(|r| r.psnr_lowpass_db.is_some()) {
+                    "PSNR against the low-pass (dB)"
+                } else {
+                    "PSNR against the convolution (dB)"
+                })
+                .x_labels(5)
+                .y_labels(6)
+                .x_label_formatter(&|x| seconds(*x))
+                .light_line_style(WHITE.mix(0.0))
+                .draw()
+                .map_err(drawing_error)?;
+            for (t, name) in TOOLS.iter().enumerate() {
+                let colour = COLOURS[t % COLOURS.len()];
+                let mine: Vec<&&Row> = pts.iter().filter(|r| r.tool == *name).collect();
+                if mine.is_empty() {
+                    continue;
+                }
+                chart
+                    .draw_series(mine.iter().map(|r| {
+                        PathElement::new(
+                            vec![(r.min_s, y_of(r)), (r.max_s, y_of(r))],
+                            colour.stroke_width(1),
+                        )
+                    }))
+                    .map_err(drawing_error)?;
+                chart
+                    .draw_series(mine.iter().map(|r| {
+                        let style = if r.antialias == "no" {
+                            colour.stroke_width(2)
+                        } else {
+                            colour.filled()
+                        };
+                        Circle::new((r.median_s, y_of(r)), 4, style)
+                    }))
+                    .map_err(drawing_error)?
+                    .label(*name)
+                    .legend(move |(x, y)| Circle::new((x + 8, y), 4, colour.filled()));
+                let lift = (p1 - p0) / 30.0;
+                chart
+                    .draw_series(mine.iter().enumerate().map(|(j, r)| {
+                        let dy = lift * [1.2, -1.0, 2.6][j % 3];
+                        let label = if r.antialias == "no" {
+                            format!("{} (no AA)", r.kernel)
+                        } else {
+                            r.kernel.clone()
+                        };
+                        Text::new(
+                            label,
+                            (r.median_s * 1.06, y_of(r) + dy),
+                            ("sans-serif", 11).into_font().color(&colour.mix(0.9)),
+                        )
+                    }))
+                    .map_err(drawing_error)?;
+            }
+            legend(&mut chart)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 12))
-            .draw()
-            .map_err(err)?;
+        root.present().map_err(drawing_error)?;
+        Ok(())
     }
-    root.present().map_err(err)?;
-    Ok(())
 }
 
 #[cfg(test)]

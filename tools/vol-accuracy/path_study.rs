@@ -10,7 +10,9 @@
 //! O(n^−1/2) line drawn beside the curves). Time is the sum of the passes'
 //! render seconds (the volume load and index build are not in it).
 
-use super::{draw_png, path_arg, psnr, seconds, strs, tool, Ctx, COLOURS};
+use crate::drive::{path_arg, psnr, strs, tool, Ctx};
+use crate::files::write_via_temp;
+use crate::plot::{drawing_error, legend, seconds, write_png_svg, Chart, COLOURS};
 use anyhow::{anyhow, bail, Context, Result};
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -167,7 +169,8 @@ fn render(ctx: &Ctx, vol: &Path, view: &[String], args: &[String], hdr: &Path) -
 
 /// The whole path-tracing study; writes `path.csv`, `path.md` (the
 /// summary table) and, with a font, `path-SCENE.png` and `.svg`.
-pub fn run(ctx: &Ctx, quick: bool, font: bool) -> Result<()> {
+pub fn run(ctx: &Ctx, font: bool) -> Result<()> {
+    let quick = ctx.quick;
     let z = sizes(quick);
     let mut rows = Vec::new();
     for scene in scenes(z.dims) {
@@ -250,9 +253,9 @@ pub fn run(ctx: &Ctx, quick: bool, font: bool) -> Result<()> {
         }
         rows.extend(scene_rows);
     }
-    write_text(&ctx.out.join("path.csv"), &csv(&rows))?;
+    write_via_temp(&ctx.out.join("path.csv"), "partial", &csv(&rows))?;
     let md = summary(&rows);
-    write_text(&ctx.out.join("path.md"), &md)?;
+    write_via_temp(&ctx.out.join("path.md"), "partial", &md)?;
     say!(
         "vol-accuracy: wrote {} and {}",
         ctx.out.join("path.csv").display(),
@@ -343,168 +346,156 @@ fn slope(run: &[&PathRow]) -> Option<f64> {
     (sxx > 0.0 && sxy.is_finite()).then(|| sxy / sxx)
 }
 
-/// Write `text` under a temporary name, then rename.
-fn write_text(path: &Path, text: &str) -> Result<()> {
-    let tmp = path.with_extension("partial");
-    std::fs::write(&tmp, text).with_context(|| format!("{}: cannot write", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("{}: cannot write", path.display()))
-}
-
 /// PSNR against spp and against time for one scene, as PNG and SVG.
 fn plot(out: &Path, scene: &str, rows: &[PathRow], smoke: bool) -> Result<()> {
     let png = out.join(format!("path-{scene}.png"));
     let svg = out.join(format!("path-{scene}.svg"));
-    let size = (1100, 480);
-    draw_png(&png, size, |root| draw(root, scene, rows, smoke))?;
-    {
-        let root = SVGBackend::new(&svg, size).into_drawing_area();
-        draw(root, scene, rows, smoke)
-            .with_context(|| format!("{}: cannot draw", svg.display()))?;
-    }
-    Ok(())
+    let chart = PathChart { scene, rows, smoke };
+    write_png_svg(&png, &svg, (1100, 480), &chart)
+}
+
+/// One scene's plot: its name, its rows, and whether a quick run made it.
+struct PathChart<'a> {
+    scene: &'a str,
+    rows: &'a [PathRow],
+    smoke: bool,
 }
 
 /// Both panels on any backend: one curve per (bounces, majorant), the
 /// grid solid and the global majorant dashed, and the n^−1/2 line
 /// through the first single-scattering grid point.
-fn draw<DB: DrawingBackend>(
-    root: DrawingArea<DB, plotters::coord::Shift>,
-    scene: &str,
-    rows: &[PathRow],
-    smoke: bool,
-) -> Result<()>
-where
-    DB::ErrorType: 'static,
-{
-    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow!("{e}");
-    root.fill(&WHITE).map_err(err)?;
-    let finite: Vec<&PathRow> = rows.iter().filter(|r| r.psnr_db.is_finite()).collect();
-    if finite.is_empty() {
-        bail!("no finite PSNR to plot");
-    }
-    let title = if smoke {
-        format!("path-{scene}: SMOKE TEST (quick run: tiny sizes; not a result)")
-    } else {
-        format!("Path tracing, {scene} spheres: PSNR against the reference, by samples and by time")
-    };
-    let body = root.titled(&title, ("sans-serif", 20)).map_err(err)?;
-    let (p0, p1) = finite.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
-        (a.min(r.psnr_db), b.max(r.psnr_db))
-    });
-    let (p0, p1) = ((p0 - 3.0).floor(), (p1 + 3.0).ceil());
-    let max_spp = finite.iter().map(|r| r.spp).max().unwrap_or(1) as f64;
-    let (t0, t1) = finite.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
-        (a.min(r.seconds), b.max(r.seconds))
-    });
-    let (t0, t1) = ((t0 * 0.7).max(1e-6), (t1 * 1.4).max(t0 * 2.0));
-    let panels = body.split_evenly((1, 2));
-    let curves: Vec<(u32, &str)> = vec![(1, "grid"), (1, "global"), (8, "grid"), (8, "global")];
-    for (panel, by_time) in panels.iter().zip([false, true]) {
-        let x_of = |r: &PathRow| if by_time { r.seconds } else { r.spp as f64 };
-        let (x0, x1) = if by_time {
-            (t0, t1)
+impl Chart for PathChart<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, plotters::coord::Shift>) -> Result<()>
+    where
+        DB::ErrorType: 'static,
+    {
+        let (scene, rows, smoke) = (self.scene, self.rows, self.smoke);
+        root.fill(&WHITE).map_err(drawing_error)?;
+        let finite: Vec<&PathRow> = rows.iter().filter(|r| r.psnr_db.is_finite()).collect();
+        if finite.is_empty() {
+            bail!("no finite PSNR to plot");
+        }
+        let title = if smoke {
+            format!("path-{scene}: SMOKE TEST (quick run: tiny sizes; not a result)")
         } else {
-            (0.8, max_spp * 1.25)
+            format!(
+                "Path tracing, {scene} spheres: PSNR against the reference, by samples and by time"
+            )
         };
-        let mut chart = ChartBuilder::on(panel)
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(50)
-            .build_cartesian_2d((x0..x1).log_scale(), p0..p1)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc(if by_time {
-                "render time (s, log)"
+        let body = root
+            .titled(&title, ("sans-serif", 20))
+            .map_err(drawing_error)?;
+        let (p0, p1) = finite.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
+            (a.min(r.psnr_db), b.max(r.psnr_db))
+        });
+        let (p0, p1) = ((p0 - 3.0).floor(), (p1 + 3.0).ceil());
+        let max_spp = finite.iter().map(|r| r.spp).max().unwrap_or(1) as f64;
+        let (t0, t1) = finite.iter().fold((f64::MAX, f64::MIN), |(a, b), r| {
+            (a.min(r.seconds), b.max(r.seconds))
+        });
+        let (t0, t1) = ((t0 * 0.7).max(1e-6), (t1 * 1.4).max(t0 * 2.0));
+        let panels = body.split_evenly((1, 2));
+        let curves: Vec<(u32, &str)> = vec![(1, "grid"), (1, "global"), (8, "grid"), (8, "global")];
+        for (panel, by_time) in panels.iter().zip([false, true]) {
+            let x_of = |r: &PathRow| if by_time { r.seconds } else { r.spp as f64 };
+            let (x0, x1) = if by_time {
+                (t0, t1)
             } else {
-                "samples per pixel (log)"
-            })
-            .y_desc("PSNR (dB)")
-            .x_labels(6)
-            .y_labels(8)
-            .x_label_formatter(&|x| {
-                if by_time {
-                    seconds(*x)
+                (0.8, max_spp * 1.25)
+            };
+            let mut chart = ChartBuilder::on(panel)
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                .build_cartesian_2d((x0..x1).log_scale(), p0..p1)
+                .map_err(drawing_error)?;
+            chart
+                .configure_mesh()
+                .x_desc(if by_time {
+                    "render time (s, log)"
                 } else {
-                    format!("{x:.0}")
+                    "samples per pixel (log)"
+                })
+                .y_desc("PSNR (dB)")
+                .x_labels(6)
+                .y_labels(8)
+                .x_label_formatter(&|x| {
+                    if by_time {
+                        seconds(*x)
+                    } else {
+                        format!("{x:.0}")
+                    }
+                })
+                .light_line_style(WHITE.mix(0.0))
+                .draw()
+                .map_err(drawing_error)?;
+            for (i, (bounces, majorant)) in curves.iter().enumerate() {
+                let colour = COLOURS[(i / 2) % COLOURS.len()];
+                let pts: Vec<(f64, f64)> = finite
+                    .iter()
+                    .filter(|r| r.bounces == *bounces && r.majorant == *majorant)
+                    .map(|r| (x_of(r), r.psnr_db))
+                    .collect();
+                if pts.is_empty() {
+                    continue;
                 }
-            })
-            .light_line_style(WHITE.mix(0.0))
-            .draw()
-            .map_err(err)?;
-        for (i, (bounces, majorant)) in curves.iter().enumerate() {
-            let colour = COLOURS[(i / 2) % COLOURS.len()];
-            let pts: Vec<(f64, f64)> = finite
-                .iter()
-                .filter(|r| r.bounces == *bounces && r.majorant == *majorant)
-                .map(|r| (x_of(r), r.psnr_db))
-                .collect();
-            if pts.is_empty() {
-                continue;
+                let label = format!("D = {bounces}, {majorant} majorant");
+                let style = colour.stroke_width(2);
+                if *majorant == "grid" {
+                    chart
+                        .draw_series(LineSeries::new(pts.clone(), style))
+                        .map_err(drawing_error)?
+                        .label(label)
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
+                } else {
+                    chart
+                        .draw_series(DashedLineSeries::new(pts.clone(), 6, 4, style))
+                        .map_err(drawing_error)?
+                        .label(label)
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 8, y)], style));
+                }
+                chart
+                    .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
+                    .map_err(drawing_error)?;
             }
-            let label = format!("D = {bounces}, {majorant} majorant");
-            let style = colour.stroke_width(2);
-            if *majorant == "grid" {
+            // The O(n^-1/2) line: +10 dB per decade of samples (or of time,
+            // which grows with them), through the first D = 1 grid point.
+            if let Some(r) = finite
+                .iter()
+                .find(|r| r.bounces == 1 && r.majorant == "grid")
+            {
+                let (xa, ya) = (x_of(r), r.psnr_db);
+                let xb = x1;
+                let line = vec![(xa, ya), (xb, ya + 10.0 * (xb / xa).log10())];
                 chart
-                    .draw_series(LineSeries::new(pts.clone(), style))
-                    .map_err(err)?
-                    .label(label)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
-            } else {
-                chart
-                    .draw_series(DashedLineSeries::new(pts.clone(), 6, 4, style))
-                    .map_err(err)?
-                    .label(label)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 8, y)], style));
+                    .draw_series(std::iter::once(PathElement::new(
+                        line,
+                        BLACK.mix(0.5).stroke_width(1),
+                    )))
+                    .map_err(drawing_error)?
+                    .label("error ∝ n^-1/2 (10 dB per decade)")
+                    .legend(|(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.5).stroke_width(1))
+                    });
             }
             chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 3, colour.filled())))
-                .map_err(err)?;
-        }
-        // The O(n^-1/2) line: +10 dB per decade of samples (or of time,
-        // which grows with them), through the first D = 1 grid point.
-        if let Some(r) = finite
-            .iter()
-            .find(|r| r.bounces == 1 && r.majorant == "grid")
-        {
-            let (xa, ya) = (x_of(r), r.psnr_db);
-            let xb = x1;
-            let line = vec![(xa, ya), (xb, ya + 10.0 * (xb / xa).log10())];
+                .draw_series(std::iter::once(Text::new(
+                    format!("recognisable: {RECOGNISABLE_DB:.0} dB"),
+                    (x0 * 1.1, RECOGNISABLE_DB + 0.4),
+                    ("sans-serif", 12).into_font().color(&BLACK.mix(0.6)),
+                )))
+                .map_err(drawing_error)?;
             chart
                 .draw_series(std::iter::once(PathElement::new(
-                    line,
-                    BLACK.mix(0.5).stroke_width(1),
+                    vec![(x0, RECOGNISABLE_DB), (x1, RECOGNISABLE_DB)],
+                    BLACK.mix(0.25).stroke_width(1),
                 )))
-                .map_err(err)?
-                .label("error ∝ n^-1/2 (10 dB per decade)")
-                .legend(|(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], BLACK.mix(0.5).stroke_width(1))
-                });
+                .map_err(drawing_error)?;
+            legend(&mut chart)?;
         }
-        chart
-            .draw_series(std::iter::once(Text::new(
-                format!("recognisable: {RECOGNISABLE_DB:.0} dB"),
-                (x0 * 1.1, RECOGNISABLE_DB + 0.4),
-                ("sans-serif", 12).into_font().color(&BLACK.mix(0.6)),
-            )))
-            .map_err(err)?;
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                vec![(x0, RECOGNISABLE_DB), (x1, RECOGNISABLE_DB)],
-                BLACK.mix(0.25).stroke_width(1),
-            )))
-            .map_err(err)?;
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 12))
-            .draw()
-            .map_err(err)?;
+        root.present().map_err(drawing_error)?;
+        Ok(())
     }
-    root.present().map_err(err)?;
-    Ok(())
 }
 
 #[cfg(test)]
