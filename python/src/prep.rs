@@ -6,7 +6,6 @@
 
 use crate::errors;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
 use volformats::PrepFlags;
 
 /// The preprocessing flags as a clap command.

@@ -11,7 +11,7 @@ use pyo3::types::PyDict;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use volcore::volume::TypedGrid;
-use volcore::{Compression, Dims, Geometry, Sample, SampleType, VolumeData, VoxelSource};
+use volcore::{Compression, Dims, Geometry, Sample, VolumeData, VoxelSource};
 use volformats::raw::RawSpec;
 use volformats::tiff::ChannelSel;
 use volformats::ReadOptions;
