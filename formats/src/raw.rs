@@ -24,7 +24,8 @@ use volcore::{
 
 /// Byte order of raw samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum, serde::Serialize))]
+#[cfg_attr(feature = "clap", serde(rename_all = "lowercase"))]
 pub enum Endian {
     /// Least significant byte first (what volkit writes).
     #[default]
@@ -35,15 +36,26 @@ pub enum Endian {
 
 /// How to read a headerless raw file: every field may be left out and
 /// taken from an Open SciVis name (`NAME_XxYxZ_TYPE.raw`).
+///
+/// With the `clap` feature it serialises (as flags' ids to the texts they
+/// parse) for vol-render's printed scene.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[cfg_attr(feature = "clap", derive(clap::Args))]
+#[cfg_attr(feature = "clap", derive(clap::Args, serde::Serialize))]
 pub struct RawSpec {
     /// Raw input: dimensions X,Y,Z (otherwise from NAME_XxYxZ_TYPE.raw).
     #[cfg_attr(feature = "clap", arg(id = "raw_dims", long = "raw-dims", value_name = "X,Y,Z", value_parser = parse_dims))]
+    #[cfg_attr(
+        feature = "clap",
+        serde(rename = "raw_dims", serialize_with = "as_text")
+    )]
     pub dims: Option<Dims>,
     /// Raw input: sample type u8, i8, u16, i16, u32, i32, f32, f64
     /// (otherwise from the name).
     #[cfg_attr(feature = "clap", arg(id = "raw_type", long = "raw-type", value_name = "TYPE", value_parser = parse_type))]
+    #[cfg_attr(
+        feature = "clap",
+        serde(rename = "raw_type", serialize_with = "as_text")
+    )]
     pub sample_type: Option<SliceType>,
     /// Raw input: byte order.
     #[cfg_attr(
@@ -55,6 +67,7 @@ pub struct RawSpec {
             default_value = "little"
         )
     )]
+    #[cfg_attr(feature = "clap", serde(rename = "raw_endian"))]
     pub endian: Endian,
     /// Raw input: bytes to skip before the samples.
     #[cfg_attr(
@@ -66,7 +79,20 @@ pub struct RawSpec {
             default_value_t = 0
         )
     )]
+    #[cfg_attr(feature = "clap", serde(rename = "raw_skip"))]
     pub skip: u64,
+}
+
+/// A value as the text its flag parses (`64x64x32`, `u16`).
+#[cfg(feature = "clap")]
+fn as_text<T: std::fmt::Display, S: serde::Serializer>(
+    v: &Option<T>,
+    s: S,
+) -> std::result::Result<S::Ok, S::Error> {
+    match v {
+        Some(v) => s.serialize_some(&v.to_string()),
+        None => s.serialize_none(),
+    }
 }
 
 /// A raw file's description with everything known.

@@ -8,12 +8,14 @@ use crate::open::ReadOptions;
 use crate::raw::RawSpec;
 use crate::tiff::ChannelSel;
 
-/// The input-selection flags.
+/// The input-selection flags (with the `clap` feature they serialise,
+/// under the flags' ids, for vol-render's printed scene).
 #[derive(Clone, Debug, Default, PartialEq)]
-#[cfg_attr(feature = "clap", derive(clap::Args))]
+#[cfg_attr(feature = "clap", derive(clap::Args, serde::Serialize))]
 pub struct Selection {
     /// How to read a headerless raw volume.
     #[cfg_attr(feature = "clap", command(flatten))]
+    #[cfg_attr(feature = "clap", serde(flatten))]
     pub raw: RawSpec,
     /// DICOM folder with several series: the series to read, by series
     /// number, SeriesInstanceUID, or a unique prefix of it.
@@ -39,6 +41,7 @@ pub struct Selection {
             allow_hyphen_values = true
         )
     )]
+    #[cfg_attr(feature = "clap", serde(skip))]
     pub old_time: Option<String>,
 }
 

@@ -4,10 +4,10 @@
 
 use clap::ValueEnum;
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 /// `--mode`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ModeArg {
     /// Emission-absorption through the transfer function.
@@ -28,7 +28,7 @@ pub enum ModeArg {
 }
 
 /// `--interp`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum InterpArg {
     /// The nearest voxel.
@@ -38,7 +38,7 @@ pub enum InterpArg {
 }
 
 /// `--shading`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum ShadingArg {
     /// Classified colour as is.
@@ -48,7 +48,7 @@ pub enum ShadingArg {
 }
 
 /// `--gradient`.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum GradientArg {
     /// Central differences.
@@ -66,8 +66,18 @@ pub enum UpArg {
     Patient,
 }
 
+/// As `--up` reads it back: `[x, y, z]` or `"patient"`.
+impl Serialize for UpArg {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            UpArg::Vector(v) => v.serialize(s),
+            UpArg::Patient => s.serialize_str("patient"),
+        }
+    }
+}
+
 /// `--tonemap`: how linear radiance becomes the PNG's display values.
-#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum TonemapArg {
     /// Clamp to [0, 1].

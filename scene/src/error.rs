@@ -158,3 +158,21 @@ impl<T, E: std::error::Error> Kind<T> for std::result::Result<T, E> {
         self.map_err(|e| Error::new(kind, format!("{what}: {}", chain(&e))))
     }
 }
+
+/// clap's error as a usage error of one line (see [`clap_message`]).
+pub(crate) fn clap_error(e: clap::Error) -> Error {
+    Error::usage(clap_message(&e))
+}
+
+/// clap's error message on one line: the text up to its usage block,
+/// without the `error: ` in front; every tool prints its usage errors so.
+pub fn clap_message(e: &clap::Error) -> String {
+    let text = e.to_string();
+    let lines: Vec<&str> = text
+        .lines()
+        .take_while(|l| !l.trim().is_empty())
+        .map(str::trim)
+        .collect();
+    let msg = lines.join(" ");
+    msg.trim_start_matches("error: ").to_string()
+}

@@ -1,338 +1,71 @@
-//! Scene files: everything one render needs, in TOML, with the same keys
-//! as vol-render's command-line options (`look-at = [0, 0, 0]` is
-//! `--look-at 0,0,0`), plus `[[lights]]` and `ambient`. This module reads,
-//! checks and writes the file; [`crate::merge`] fills the options from it.
+//! Scene files: everything one render needs, in TOML. Their keys are
+//! vol-render's flags by their long names (`look-at = [0, 0, 0]` is
+//! `--look-at 0,0,0`, `volume` the positional argument), each value read
+//! through clap as the flag's text would be ([`crate::pairs`] turns a
+//! value into that text), so the options have one definition
+//! ([`crate::options`]): a new flag is a key, with the flag's parser,
+//! default and checks. What no flag says is all a [`Scene`] keeps apart:
+//! `[[lights]]` and `tf-text`.
+//!
+//! This module reads, checks and writes the file; [`crate::merge`] puts
+//! it under the options given.
 
-pub use crate::choices::{GradientArg, InterpArg, ModeArg, ShadingArg, TonemapArg, UpArg};
 use crate::error::{Error, Result};
-use glam::Vec3;
+use crate::lights::LightSpec;
+use crate::options::Options;
+use crate::pairs;
+use clap::error::ErrorKind as ClapKind;
+use clap::{Arg, Command, CommandFactory};
+use serde::ser::SerializeMap;
 use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
-use volrender::Light;
+use serde_json::Value;
+use std::path::Path;
 
-/// A scene file as written: every key optional (the command line and the
-/// defaults fill the rest).
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case", deny_unknown_fields)]
+/// The keys no flag says: read as tables and text, not through clap
+/// (the ids of [`pairs::SCENE_ONLY`] as keys).
+const SCENE_ONLY_KEYS: [&str; 2] = ["lights", "tf-text"];
+
+/// Options a scene file may not hold (by id): a scene inside a scene,
+/// and printing one.
+const NOT_KEYS: [&str; 2] = ["scene", "print_scene"];
+
+/// A scene: option values under the flags' long names, and what no flag
+/// says.
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Scene {
-    /// The volume.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub volume: Option<PathBuf>,
-    /// A .vidx index for the volume.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub index: Option<PathBuf>,
-    /// DICOM: the series to read (number, UID or a unique UID prefix).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub series: Option<String>,
-    /// Multichannel input: the channel to read.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub channel: Option<u16>,
-    /// Input with a time axis: the time point to read.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub time_point: Option<u64>,
-    /// What each ray computes.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub mode: Option<ModeArg>,
-    /// Transfer function: a preset or a file.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub tf: Option<String>,
-    /// Transfer function text written in the scene (instead of `tf`).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// The options in the file's order, each under its flag's long name
+    /// (`look-at`; the positional `volume`), its value as written (in
+    /// JSON's data model: TOML and JSON scenes hold the same values).
+    pub options: Vec<(String, Value)>,
+    /// Transfer-function text written in the scene (instead of `tf`).
     pub tf_text: Option<String>,
-    /// Iso value (`mode = "iso"`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub iso: Option<f32>,
-    /// Image width and height.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub size: Option<[u32; 2]>,
-    /// Camera position.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub eye: Option<[f32; 3]>,
-    /// Point the camera looks at.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub look_at: Option<[f32; 3]>,
-    /// Up vector, or `"patient"`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub up: Option<Up>,
-    /// Orbit camera: azimuth, elevation (degrees), distance.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orbit: Option<[f32; 3]>,
-    /// Vertical field of view, degrees.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub fov: Option<f32>,
-    /// Orthographic image height (0: fit the volume).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub ortho: Option<f32>,
-    /// Distance between samples, world units.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub step: Option<f32>,
-    /// Early ray termination threshold.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub ert: Option<f32>,
-    /// Early ray termination off.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub no_ert: Option<bool>,
-    /// Empty-space skipping off.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub no_ess: Option<bool>,
-    /// Reconstruction between voxels.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub interp: Option<InterpArg>,
-    /// Shading (DVR).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub shading: Option<ShadingArg>,
-    /// Gradient method.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub gradient: Option<GradientArg>,
-    /// Ambient light: a grey level or linear r, g, b.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub ambient: Option<Colour>,
     /// The lights (none given: a headlight).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub lights: Option<Vec<LightSpec>>,
-    /// Shadows: `ray`, `grid` or `grid:DIV`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub shadows: Option<String>,
-    /// Distance between shadow samples, world units.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub shadow_step: Option<f32>,
-    /// Ambient occlusion by sampled directions: `N` or `N:R`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub ao: Option<String>,
-    /// Ambient occlusion from a precomputed field: `K` or `K:R`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub ao_field: Option<String>,
-    /// Voxels between the AO field's points.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub ao_field_cell: Option<u32>,
-    /// Background colour r, g, b (0-255).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub background: Option<[f32; 3]>,
-    /// RGBA output with coverage alpha.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub alpha: Option<bool>,
-    /// Output PNG.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub output: Option<PathBuf>,
-    /// Linear float image (.pfm).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub hdr: Option<PathBuf>,
-    /// Samples-per-pixel heat map (.png).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub heatmap: Option<PathBuf>,
-    /// Path tracing: samples per pixel.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub spp: Option<u64>,
-    /// Path tracing: a time budget, seconds.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub seconds: Option<f64>,
-    /// The old key for `seconds` (and `time-point`): refused, naming both.
-    #[serde(skip_serializing)]
-    pub time: Option<toml::Value>,
-    /// Path tracing: stop at this relative standard error.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub until_error: Option<f64>,
-    /// Path tracing: scattering events per path.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub bounces: Option<u32>,
-    /// Path tracing: Henyey-Greenstein asymmetry.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub g: Option<f32>,
-    /// Path tracing: hybrid scattering, `off` or a gradient scale.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub hybrid: Option<String>,
-    /// Path tracing: extinction per world unit at normalised value 1.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub density_scale: Option<f32>,
-    /// Path tracing: albedo of the density medium.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub albedo: Option<Colour>,
-    /// Path tracing: suns, `dx,dy,dz[:E]` each.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub sun: Option<Vec<String>>,
-    /// Path tracing: constant environment radiance.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub env: Option<Colour>,
-    /// Path tracing: an equirectangular environment map (.pfm or .exr).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub env_map: Option<PathBuf>,
-    /// Path tracing: `grid` or `global`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub majorant: Option<String>,
-    /// Path tracing: the sampler's seed.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub seed: Option<u64>,
-    /// Path tracing: exposure of the PNG.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub exposure: Option<f32>,
-    /// Path tracing: the PNG's tone map.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub tonemap: Option<TonemapArg>,
 }
 
-/// `up`: a vector or a name (`"patient"`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum Up {
-    /// This vector.
-    Vector([f32; 3]),
-    /// `"patient"`: the data's superior direction.
-    Named(String),
+/// The keys no flag says, read with serde where the TOML parser still
+/// knows lines (the other keys are ignored here).
+#[derive(Deserialize)]
+struct SceneOnly {
+    #[serde(default)]
+    lights: Option<Vec<LightSpec>>,
+    #[serde(default, rename = "tf-text")]
+    tf_text: Option<String>,
 }
 
-impl Up {
-    /// As the command line's `--up`.
-    pub fn arg(&self) -> std::result::Result<UpArg, String> {
-        match self {
-            Up::Vector(v) => {
-                let v = Vec3::from(*v);
-                if v.is_finite() && v != Vec3::ZERO {
-                    Ok(UpArg::Vector(v))
-                } else {
-                    Err("key `up`: must be a finite, non-zero vector or \"patient\"".into())
-                }
-            }
-            Up::Named(n) if n == "patient" => Ok(UpArg::Patient),
-            Up::Named(_) => Err("key `up`: must be x, y, z or \"patient\"".into()),
-        }
-    }
-
-    /// The scene-file form of `--up`.
-    pub fn of(up: UpArg) -> Up {
-        match up {
-            UpArg::Vector(v) => Up::Vector(v.to_array()),
-            UpArg::Patient => Up::Named("patient".into()),
-        }
-    }
+/// The option `key` names: the argument whose long flag it is, or the
+/// positional argument with that id (`volume`).
+pub fn arg_of<'c>(cmd: &'c Command, key: &str) -> Option<&'c Arg> {
+    cmd.get_arguments().find(|a| match a.get_long() {
+        Some(long) => long == key,
+        None => a.get_id().as_str() == key,
+    })
 }
 
-/// A colour: one grey level, or linear r, g, b.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum Colour {
-    /// The same level in every channel.
-    Grey(f32),
-    /// Linear r, g, b.
-    Rgb([f32; 3]),
-}
-
-impl Colour {
-    /// As linear RGB.
-    pub fn rgb(self) -> Vec3 {
-        match self {
-            Colour::Grey(g) => Vec3::splat(g),
-            Colour::Rgb(c) => Vec3::from(c),
-        }
-    }
-}
-
-/// One light of a scene file.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum LightSpec {
-    /// Light from the eye, along each ray.
-    Headlight {
-        /// Linear RGB (default white).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        colour: Option<Colour>,
-        /// Scales the colour (default 1).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        intensity: Option<f32>,
-    },
-    /// Parallel light travelling along `direction`.
-    Directional {
-        /// The direction the light travels (from the light into the scene).
-        direction: [f32; 3],
-        /// Linear RGB (default white).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        colour: Option<Colour>,
-        /// Scales the colour (default 1).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        intensity: Option<f32>,
-    },
-    /// Light from a point, falling off with the square of the distance.
-    Point {
-        /// Where the light is, world units.
-        position: [f32; 3],
-        /// Linear RGB (default white).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        colour: Option<Colour>,
-        /// Scales the colour: the radiance at distance 1 (default 1).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        intensity: Option<f32>,
-    },
-}
-
-impl LightSpec {
-    /// The light, or what is wrong with it.
-    pub fn light(&self) -> std::result::Result<Light, String> {
-        let radiance = |colour: &Option<Colour>, intensity: &Option<f32>| {
-            let c = colour.map_or(Vec3::ONE, Colour::rgb);
-            let i = intensity.unwrap_or(1.0);
-            if !(c.is_finite() && c.min_element() >= 0.0) {
-                return Err("colour must be finite and not negative".to_string());
-            }
-            if !(i.is_finite() && i >= 0.0) {
-                return Err("intensity must be finite and not negative".to_string());
-            }
-            Ok(c * i)
-        };
-        match self {
-            LightSpec::Headlight { colour, intensity } => Ok(Light::Headlight {
-                radiance: radiance(colour, intensity)?,
-            }),
-            LightSpec::Directional {
-                direction,
-                colour,
-                intensity,
-            } => {
-                let towards = volrender::ray::unit(-Vec3::from(*direction))
-                    .ok_or("direction must be a finite, non-zero vector")?;
-                Ok(Light::Directional {
-                    towards,
-                    radiance: radiance(colour, intensity)?,
-                })
-            }
-            LightSpec::Point {
-                position,
-                colour,
-                intensity,
-            } => {
-                let position = Vec3::from(*position);
-                if !position.is_finite() {
-                    return Err("position must be finite".to_string());
-                }
-                Ok(Light::Point {
-                    position,
-                    intensity: radiance(colour, intensity)?,
-                })
-            }
-        }
-    }
-
-    /// The scene-file form of `light`.
-    pub fn of(light: &Light) -> LightSpec {
-        let rgb = |c: Vec3| Some(Colour::Rgb(c.to_array()));
-        match *light {
-            Light::Headlight { radiance } => LightSpec::Headlight {
-                colour: rgb(radiance),
-                intensity: None,
-            },
-            Light::Directional { towards, radiance } => LightSpec::Directional {
-                direction: (-towards).to_array(),
-                colour: rgb(radiance),
-                intensity: None,
-            },
-            Light::Point {
-                position,
-                intensity,
-            } => LightSpec::Point {
-                position: position.to_array(),
-                colour: rgb(intensity),
-                intensity: None,
-            },
-        }
-    }
+/// The key of the option `arg` (its long flag; a positional's id).
+pub fn key_of(arg: &Arg) -> String {
+    arg.get_long()
+        .map_or_else(|| arg.get_id().as_str().to_string(), str::to_string)
 }
 
 impl Scene {
@@ -351,93 +84,137 @@ impl Scene {
 
     /// Parse scene text; an error says where (line and key) and what.
     pub fn parse(text: &str) -> std::result::Result<Scene, String> {
-        let scene: Scene = toml::from_str(text).map_err(|e| describe(text, &e))?;
-        scene.check()?;
-        Ok(scene)
-    }
-
-    /// Read and check a scene from JSON, with the file's keys (a viewer's
-    /// state, Python's keywords); an error says which key and what.
-    pub fn from_json(value: serde_json::Value) -> std::result::Result<Scene, String> {
-        let scene: Scene = serde_json::from_value(value).map_err(|e| {
-            let what = e.to_string();
-            match what.split_once(", expected one of") {
-                Some((head, _)) => head.replace("unknown field", "unknown key"),
-                None => what,
+        let table: toml::Table = toml::from_str(text).map_err(|e| describe(text, &e))?;
+        let only: SceneOnly = toml::from_str(text).map_err(|e| describe(text, &e))?;
+        let mut entries: Vec<(usize, String, Value)> = Vec::new();
+        for (key, value) in table {
+            if SCENE_ONLY_KEYS.contains(&key.as_str()) {
+                continue;
             }
+            let line = key_line(text, &key);
+            let at = |what: String| match line {
+                Some(n) => format!("line {n}, key `{}`: {what}", shown(&key)),
+                None => format!("key `{}`: {what}", shown(&key)),
+            };
+            let value = json_of(&value).map_err(at)?;
+            entries.push((line.unwrap_or(usize::MAX), key, value));
+        }
+        // The file's order (the table's is by name).
+        entries.sort_by_key(|(line, _, _)| *line);
+        let scene = Scene {
+            options: entries.into_iter().map(|(_, k, v)| (k, v)).collect(),
+            tf_text: only.tf_text,
+            lights: only.lights,
+        };
+        scene.check().map_err(|(key, what)| match key {
+            Some(key) => match key_line(text, &key) {
+                Some(n) => format!("line {n}, key `{}`: {what}", shown(&key)),
+                None => format!("key `{}`: {what}", shown(&key)),
+            },
+            None => what,
         })?;
-        scene.check()?;
         Ok(scene)
     }
 
-    /// Checks serde cannot make: lights that are lights, finite numbers.
-    fn check(&self) -> std::result::Result<(), String> {
+    /// The value given for the option with this key (`look-at`).
+    pub fn get(&self, key: &str) -> Option<&Value> {
+        self.options.iter().find(|(k, _)| k == key).map(|(_, v)| v)
+    }
+
+    /// Check every key and value as the command line checks its flag,
+    /// the lights, and the keys that exclude each other; an error is
+    /// the key at fault, when there is one, and what is wrong.
+    pub fn check(&self) -> std::result::Result<(), (Option<String>, String)> {
+        let cmd = Options::command();
+        for (key, value) in &self.options {
+            let fail = |what: String| (Some(key.clone()), what);
+            if key == "time" {
+                return Err(fail("key `time` is gone: use `seconds` for the path-tracing time budget (vol-render --seconds); the volume's time point is vol-render's --time-point".into()));
+            }
+            let arg = match arg_of(&cmd, key) {
+                Some(a) if !a.is_hide_set() && !NOT_KEYS.contains(&a.get_id().as_str()) => a,
+                _ => return Err(fail(format!("unknown key `{}`", shown(key)))),
+            };
+            check_value(&cmd, arg, value).map_err(fail)?;
+        }
         if let Some(lights) = &self.lights {
             for (i, l) in lights.iter().enumerate() {
-                l.light().map_err(|e| format!("lights[{i}]: {e}"))?;
+                l.light().map_err(|e| (None, format!("lights[{i}]: {e}")))?;
             }
         }
-        if let Some(a) = self.ambient {
-            let c = a.rgb();
-            if !(c.is_finite() && c.min_element() >= 0.0) {
-                return Err("key `ambient`: must be finite and not negative".into());
-            }
+        if self.tf_text.is_some() && self.get("tf").is_some() {
+            return Err((None, "give `tf` or `tf-text`, not both".into()));
         }
-        if let Some(up) = &self.up {
-            up.arg()?;
-        }
-        let vectors = [
-            ("eye", self.eye),
-            ("look-at", self.look_at),
-            ("orbit", self.orbit),
-            ("background", self.background),
-        ];
-        for (key, v) in vectors {
-            if v.is_some_and(|v| !Vec3::from(v).is_finite()) {
-                return Err(format!("key `{key}`: must be three finite numbers"));
-            }
-        }
-        // Ranges are the command line's to check; NaN and infinities are
-        // never a setting (and would not survive a printed scene).
-        let scalars = [
-            ("iso", self.iso),
-            ("fov", self.fov),
-            ("ortho", self.ortho),
-            ("step", self.step),
-            ("ert", self.ert),
-            ("shadow-step", self.shadow_step),
-            ("g", self.g),
-            ("density-scale", self.density_scale),
-            ("exposure", self.exposure),
-        ];
-        for (key, v) in scalars {
-            if v.is_some_and(|v| !v.is_finite()) {
-                return Err(format!("key `{key}`: must be a finite number"));
-            }
-        }
-        if self.time.is_some() {
-            return Err("key `time` is gone: use `seconds` for the path-tracing time budget (vol-render --seconds); the volume's time point is vol-render's --time-point".into());
-        }
-        for (key, v) in [("seconds", self.seconds), ("until-error", self.until_error)] {
-            if v.is_some_and(|v| !v.is_finite()) {
-                return Err(format!("key `{key}`: must be a finite number"));
-            }
-        }
-        for (key, c) in [("albedo", self.albedo), ("env", self.env)] {
-            if c.is_some_and(|c| !c.rgb().is_finite()) {
-                return Err(format!("key `{key}`: must be finite"));
-            }
-        }
-        if self.tf.is_some() && self.tf_text.is_some() {
-            return Err("give `tf` or `tf-text`, not both".into());
-        }
-        if let Some([w, h]) = self.size {
-            if !(1..=32768).contains(&w) || !(1..=32768).contains(&h) {
-                return Err("key `size`: width and height must be 1..=32768".into());
-            }
+        if self.lights.is_some() && self.get("light").is_some() {
+            return Err((None, "give `light` or `lights`, not both".into()));
         }
         Ok(())
     }
+}
+
+/// Check one option's value as clap checks its flag's: the value alone
+/// on a command line, with the errors that need other options (what it
+/// requires or conflicts with) left to the whole scene's parse.
+fn check_value(cmd: &Command, arg: &Arg, value: &Value) -> std::result::Result<(), String> {
+    let key = key_of(arg);
+    let (args, _) = pairs::command_args(cmd, [(key.as_str(), value.clone())])
+        .map_err(|e| e.message().to_string())?;
+    let argv = std::iter::once("vol-render".to_string()).chain(args);
+    match cmd.clone().try_get_matches_from(argv) {
+        Ok(_) => Ok(()),
+        Err(e)
+            if matches!(
+                e.kind(),
+                ClapKind::MissingRequiredArgument | ClapKind::ArgumentConflict
+            ) =>
+        {
+            Ok(())
+        }
+        Err(e) => Err(crate::error::clap_message(&e)),
+    }
+}
+
+/// A TOML value in JSON's data model; NaN, infinities and dates are
+/// refused (no flag takes them, and a printed scene could not hold them).
+pub fn json_of(v: &toml::Value) -> std::result::Result<Value, String> {
+    Ok(match v {
+        toml::Value::String(s) => Value::String(s.clone()),
+        toml::Value::Integer(i) => Value::from(*i),
+        toml::Value::Float(f) => match serde_json::Number::from_f64(*f) {
+            Some(n) => Value::Number(n),
+            None => return Err("must be a finite number".into()),
+        },
+        toml::Value::Boolean(b) => Value::Bool(*b),
+        toml::Value::Array(items) => Value::Array(
+            items
+                .iter()
+                .map(json_of)
+                .collect::<std::result::Result<_, _>>()?,
+        ),
+        toml::Value::Table(t) => Value::Object(
+            t.iter()
+                .map(|(k, v)| Ok((k.clone(), json_of(v)?)))
+                .collect::<std::result::Result<_, String>>()?,
+        ),
+        toml::Value::Datetime(_) => return Err("a date is no option's value".into()),
+    })
+}
+
+/// The line (from 1) where `key` is set at the top of `text`.
+fn key_line(text: &str, key: &str) -> Option<usize> {
+    text.lines()
+        .position(|l| {
+            l.split_once('=').is_some_and(|(k, _)| {
+                let k = k.trim();
+                k == key || k.trim_matches('"') == key || k.trim_matches('\'') == key
+            })
+        })
+        .map(|i| i + 1)
+}
+
+/// A key as an error shows it: escaped and clipped.
+fn shown(key: &str) -> String {
+    volcore::text::clip(&volcore::text::escape(key), 40)
 }
 
 /// A TOML or type error as `line N, key `k`: what` (the key as written on
@@ -458,8 +235,7 @@ fn describe(text: &str, e: &toml::de::Error) -> String {
     let line = text.lines().nth(line_no - 1).unwrap_or("");
     match line.split_once('=') {
         Some((key, _)) if !key.trim().is_empty() && !key.trim_start().starts_with('[') => {
-            let key = volcore::text::clip(&volcore::text::escape(key.trim()), 40);
-            format!("line {line_no}, key `{key}`: {what}")
+            format!("line {line_no}, key `{}`: {what}", shown(key.trim()))
         }
         // Errors inside a light point at its table (serde reads tagged
         // tables whole).
@@ -471,6 +247,25 @@ fn describe(text: &str, e: &toml::de::Error) -> String {
     }
 }
 
+/// A scene is a map: the options in order, then `tf-text` and the lights
+/// (TOML writes tables last).
+impl Serialize for Scene {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        let extra = usize::from(self.tf_text.is_some()) + usize::from(self.lights.is_some());
+        let mut map = s.serialize_map(Some(self.options.len() + extra))?;
+        for (k, v) in &self.options {
+            map.serialize_entry(k, v)?;
+        }
+        if let Some(t) = &self.tf_text {
+            map.serialize_entry("tf-text", t)?;
+        }
+        if let Some(l) = &self.lights {
+            map.serialize_entry("lights", l)?;
+        }
+        map.end()
+    }
+}
+
 /// The scene as TOML text.
 pub fn to_toml(scene: &Scene) -> Result<String> {
     toml::to_string(scene).map_err(|e| Error::option(e.to_string()))
@@ -479,6 +274,10 @@ pub fn to_toml(scene: &Scene) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lights::Colour;
+    use glam::Vec3;
+    use serde_json::json;
+    use volrender::Light;
 
     #[test]
     fn keys_and_lights_parse() {
@@ -500,8 +299,10 @@ position = [10, 10, 10]
 "#,
         )
         .unwrap();
-        assert_eq!(s.size, Some([64, 32]));
-        assert_eq!(s.look_at, Some([1.0, 2.0, 3.0]));
+        assert_eq!(s.get("size"), Some(&json!([64, 32])));
+        assert_eq!(s.get("look-at"), Some(&json!([1, 2, 3])));
+        let keys: Vec<&str> = s.options.iter().map(|(k, _)| k.as_str()).collect();
+        assert_eq!(keys, ["volume", "mode", "size", "look-at", "ambient"]);
         let lights = s.lights.unwrap();
         assert_eq!(lights.len(), 2);
         match lights[0].light().unwrap() {
@@ -518,11 +319,22 @@ position = [10, 10, 10]
     #[test]
     fn errors_name_the_line_and_the_key() {
         let e = Scene::parse("mode = \"dvr\"\nfov = \"wide\"\n").unwrap_err();
-        assert!(e.starts_with("line 2, key `fov`: invalid type"), "{e}");
+        assert!(
+            e.starts_with("line 2, key `fov`: invalid value 'wide' for '--fov"),
+            "{e}"
+        );
         let e = Scene::parse("mode = \"dvr\"\n\nfovv = 3\n").unwrap_err();
         assert_eq!(e, "line 3, key `fovv`: unknown key `fovv`");
+        // Keys are the flags' names, not the fields'.
+        let e = Scene::parse("look_at = [0, 0, 0]\n").unwrap_err();
+        assert_eq!(e, "line 1, key `look_at`: unknown key `look_at`");
+        let e = Scene::parse("scene = \"other.toml\"\n").unwrap_err();
+        assert_eq!(e, "line 1, key `scene`: unknown key `scene`");
         let e = Scene::parse("mode = \"sideways\"\n").unwrap_err();
-        assert!(e.starts_with("line 1, key `mode`: unknown variant"), "{e}");
+        assert!(
+            e.starts_with("line 1, key `mode`: invalid value 'sideways'"),
+            "{e}"
+        );
         let e = Scene::parse("[[lights]]\ntype = \"point\"\nposition = [0, 0]\n").unwrap_err();
         assert_eq!(
             e,
@@ -536,44 +348,66 @@ position = [10, 10, 10]
         let e = Scene::parse("[[lights]]\ntype = \"headlight\"\nbrightness = 2\n").unwrap_err();
         assert!(e.contains("brightness"), "{e}");
         let e = Scene::parse("size = [0, 10]\n").unwrap_err();
-        assert!(e.contains("size"), "{e}");
+        assert!(
+            e.starts_with("line 1, key `size`: invalid value '0,10'"),
+            "{e}"
+        );
         let e = Scene::parse("fov = nan\n").unwrap_err();
-        assert_eq!(e, "key `fov`: must be a finite number");
+        assert_eq!(e, "line 1, key `fov`: must be a finite number");
         let e = Scene::parse("step = -inf\n").unwrap_err();
-        assert_eq!(e, "key `step`: must be a finite number");
+        assert_eq!(e, "line 1, key `step`: must be a finite number");
         let e = Scene::parse("eye = [1, 2,\n").unwrap_err();
         assert!(e.starts_with("line "), "{e}");
+        let e = Scene::parse("tf = \"ct\"\ntf-text = \"domain 0 1\"\n").unwrap_err();
+        assert_eq!(e, "give `tf` or `tf-text`, not both");
+        let e = Scene::parse("time = 3\n").unwrap_err();
+        assert!(e.contains("`seconds`"), "{e}");
     }
 
     #[test]
     fn a_printed_scene_reads_back_the_same() {
         let s = Scene {
-            volume: Some("/data/a.vvol".into()),
-            mode: Some(ModeArg::Iso),
-            iso: Some(0.1),
-            size: Some([7, 9]),
-            orbit: Some([30.0, 20.0, 1.0e-3]),
-            ambient: Some(Colour::Rgb([0.25, 0.25, 0.25])),
+            options: vec![
+                ("volume".into(), json!("/data/a.vvol")),
+                ("mode".into(), json!("iso")),
+                ("iso".into(), json!(0.1)),
+                ("size".into(), json!([7, 9])),
+                ("orbit".into(), json!([30.0, 20.0, 1.0e-3])),
+                ("ambient".into(), json!([0.25, 0.25, 0.25])),
+                ("sun".into(), json!(["-1,-1.2,0.4:4"])),
+                ("no-ert".into(), json!(true)),
+            ],
             lights: Some(vec![
                 LightSpec::of(&Light::HEADLIGHT),
                 LightSpec::of(&Light::Point {
                     position: Vec3::new(1.0, 2.0, 3.0),
                     intensity: Vec3::splat(1.0e6),
                 }),
+                LightSpec::Headlight {
+                    colour: Some(Colour::Grey(0.5)),
+                    intensity: None,
+                },
             ]),
             tf_text: Some("domain 0 1\npoint 0 0 0 0 0\n".into()),
-            spp: Some(64),
-            bounces: Some(8),
-            g: Some(-0.5),
-            density_scale: Some(0.1),
-            albedo: Some(Colour::Grey(0.8)),
-            sun: Some(vec!["-1,-1.2,0.4:4".into()]),
-            env: Some(Colour::Rgb([0.1, 0.2, 0.3])),
-            majorant: Some("global".into()),
-            tonemap: Some(TonemapArg::Aces),
-            ..Default::default()
         };
         let text = to_toml(&s).unwrap();
         assert_eq!(Scene::parse(&text).unwrap(), s, "{text}");
+    }
+
+    /// Every option but the few that make no sense in a file is a key,
+    /// under its flag's name, and the field's name is the flag's (so the
+    /// printed scene, serialised by field, writes the flags' names).
+    #[test]
+    fn every_option_is_a_key_under_its_flags_name() {
+        let cmd = Options::command();
+        for arg in cmd.get_arguments().filter(|a| !a.is_hide_set()) {
+            let id = arg.get_id().as_str();
+            if let Some(long) = arg.get_long() {
+                assert_eq!(long.replace('-', "_"), id, "--{long}");
+            }
+            let key = key_of(arg);
+            let found = arg_of(&cmd, &key).map(|a| a.get_id().as_str());
+            assert_eq!(found, Some(id), "{key}");
+        }
     }
 }

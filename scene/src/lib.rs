@@ -28,6 +28,7 @@ pub mod effective;
 pub mod error;
 pub mod file;
 pub mod image;
+pub mod lights;
 pub mod merge;
 pub mod options;
 pub mod pairs;

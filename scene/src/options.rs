@@ -6,14 +6,20 @@
 //!
 //! The struct's own doc comment is vol-render's `--help` text, word for
 //! word: say more about it here, not there.
+//!
+//! It is the only list of the options: a scene file's keys are the flags'
+//! names, read through clap as the flags are ([`crate::file`]), and the
+//! printed scene serialises the struct under the same names
+//! ([`crate::effective`]).
 
 pub use crate::choices::{GradientArg, InterpArg, ModeArg, ShadingArg, TonemapArg, UpArg};
-use crate::file::LightSpec;
+use crate::lights::LightSpec;
 use crate::parse::{
     parse_ao, parse_colour, parse_shadows, parse_size, parse_sun_arg, parse_up, parse_vec3,
 };
 use clap::Parser;
 use glam::Vec3;
+use serde::Serialize;
 use std::path::PathBuf;
 
 /// Render a volume to an image with a tiled, parallel CPU ray caster.
@@ -22,7 +28,7 @@ use std::path::PathBuf;
 /// volume's box is [0, (dims − 1)·spacing]. The image is the same, bit for
 /// bit, whatever the thread count, tile size, storage layout, and whether
 /// empty-space skipping is on.
-#[derive(Parser, Clone, Debug)]
+#[derive(Parser, Clone, Debug, Serialize)]
 #[command(name = "vol-render", version, after_help = EXAMPLES)]
 pub struct Options {
     /// The volume (any format vol-convert reads; or `volume` in --scene).
@@ -30,6 +36,7 @@ pub struct Options {
     /// What to read from the volume's file: raw layout, DICOM series,
     /// channel, time point (the same flags as every tool's).
     #[command(flatten, next_help_heading = "Input")]
+    #[serde(flatten)]
     pub input: volformats::Selection,
     /// Output PNG (8-bit sRGB; or `output` in --scene).
     #[arg(short, long)]
@@ -156,23 +163,22 @@ pub struct Options {
     /// Voxels between the AO field's points, 1-64 (default 8): halving it
     /// resolves thinner structures for eight times the field's memory and
     /// precomputation.
-    #[arg(long, value_name = "VOXELS", requires = "ao_field",
+    #[arg(long, value_name = "VOXELS", requires = "ao_field", conflicts_with = "ao",
           value_parser = clap::value_parser!(u32).range(1..=volrender::effects::ao::MAX_AO_FIELD_CELL as i64))]
     pub ao_field_cell: Option<u32>,
     /// The scene file's lights (set by --scene; `None`: a headlight).
     #[arg(skip)]
+    #[serde(skip)]
     pub lights: Option<Vec<LightSpec>>,
     /// The scene file's transfer function text (set by --scene).
     #[arg(skip)]
+    #[serde(skip)]
     pub tf_text: Option<String>,
-    /// Background colour r,g,b (0-255). In path mode it replaces the
-    /// environment where camera rays leave the volume unscattered.
-    #[arg(long, value_parser = parse_vec3, default_value = "0,0,0")]
-    pub background: Vec3,
-    /// Whether the background was given (on the command line or in the
-    /// scene file).
-    #[arg(skip)]
-    pub background_given: bool,
+    /// Background colour r,g,b (0-255; default black). In path mode it
+    /// replaces the environment where camera rays leave the volume
+    /// unscattered.
+    #[arg(long, value_parser = parse_vec3)]
+    pub background: Option<Vec3>,
     /// Write an RGBA PNG with coverage alpha instead of compositing onto the background.
     #[arg(long)]
     pub alpha: bool,
@@ -202,18 +208,18 @@ pub struct Options {
     pub heatmap: Option<PathBuf>,
     /// Path tracing: samples per pixel to add (default 64 unless --seconds
     /// or --until-error decides; with them, the most to add).
-    #[arg(long, help_heading = "Path tracing (--mode path)")]
+    #[arg(long, help_heading = PATH_HEADING)]
     pub spp: Option<u64>,
     /// Path tracing: render whole passes until this many seconds are spent.
-    #[arg(long, value_name = "S", help_heading = "Path tracing (--mode path)")]
+    #[arg(long, value_name = "S", help_heading = PATH_HEADING)]
     pub seconds: Option<f64>,
     /// Path tracing: stop once the relative standard error of the image
     /// (the root mean square standard error of lit pixels' mean luminance
     /// over their mean) falls below E.
-    #[arg(long, value_name = "E", help_heading = "Path tracing (--mode path)")]
+    #[arg(long, value_name = "E", help_heading = PATH_HEADING)]
     pub until_error: Option<f64>,
     /// Path tracing: scattering events per path (1 = single scattering).
-    #[arg(long, default_value_t = 8, help_heading = "Path tracing (--mode path)")]
+    #[arg(long, default_value_t = 8, help_heading = PATH_HEADING)]
     pub bounces: u32,
     /// Path tracing: Henyey-Greenstein asymmetry in [-1, 1] (0 isotropic,
     /// > 0 forward).
@@ -221,7 +227,7 @@ pub struct Options {
         long,
         default_value_t = 0.0,
         allow_hyphen_values = true,
-        help_heading = "Path tracing (--mode path)"
+        help_heading = PATH_HEADING
     )]
     pub g: f32,
     /// Path tracing: hybrid scattering (Kroes et al. 2012): where the
@@ -234,7 +240,7 @@ pub struct Options {
         long,
         value_name = "off|SCALE",
         allow_hyphen_values = true,
-        help_heading = "Path tracing (--mode path)"
+        help_heading = PATH_HEADING
     )]
     pub hybrid: Option<String>,
     /// Path tracing: extinction per world unit = S x the normalised value
@@ -245,37 +251,37 @@ pub struct Options {
     /// unit (opacity 1, infinite or huge values act as that: opaque); the
     /// --json counters `capped` and `truncated` say when a frame met the
     /// cap or the limit of 1e8 collisions per tracking call.
-    #[arg(long, value_name = "S", help_heading = "Path tracing (--mode path)")]
+    #[arg(long, value_name = "S", help_heading = PATH_HEADING)]
     pub density_scale: Option<f32>,
     /// Path tracing: the density medium's albedo, a grey level or linear
     /// r,g,b in [0, 1] (default 0.8; 0 = absorption only).
-    #[arg(long, value_parser = parse_colour, help_heading = "Path tracing (--mode path)")]
+    #[arg(long, value_parser = parse_colour, help_heading = PATH_HEADING)]
     pub albedo: Option<Vec3>,
     /// Path tracing: a directional light travelling along dx,dy,dz with
     /// irradiance E (grey; default 3); repeatable. Values starting with '-'
     /// need the '=' form: --sun=-1,-1.2,0.4:4.
     #[arg(long, value_name = "DX,DY,DZ[:E]", value_parser = parse_sun_arg,
-          allow_hyphen_values = true, help_heading = "Path tracing (--mode path)")]
+          allow_hyphen_values = true, help_heading = PATH_HEADING)]
     pub sun: Vec<String>,
     /// Path tracing: constant environment radiance, grey or linear r,g,b
     /// (default 1 when there is no sun or point light, else 0). It is seen
     /// behind the volume unless --background is given.
-    #[arg(long, value_parser = parse_colour, help_heading = "Path tracing (--mode path)")]
+    #[arg(long, value_parser = parse_colour, help_heading = PATH_HEADING)]
     pub env: Option<Vec3>,
     /// Path tracing: an environment map instead of --env: an
     /// equirectangular linear image (.pfm or .exr), row 0 at the zenith
     /// (+y), the left edge toward +x, then +z a quarter across. Sampled in
     /// proportion to its luminance at every scattering event, weighted
     /// against the phase function (multiple importance sampling).
-    #[arg(long, value_name = "FILE", help_heading = "Path tracing (--mode path)")]
+    #[arg(long, value_name = "FILE", help_heading = PATH_HEADING)]
     pub env_map: Option<PathBuf>,
     /// Path tracing: majorants for delta and ratio tracking: `grid` (per
     /// macrocell of the index) or `global` (one for the volume).
     #[arg(long, default_value = "grid", value_parser = ["grid", "global"],
-          help_heading = "Path tracing (--mode path)")]
+          help_heading = PATH_HEADING)]
     pub majorant: String,
     /// Path tracing: the sampler's seed.
-    #[arg(long, default_value_t = 0, help_heading = "Path tracing (--mode path)")]
+    #[arg(long, default_value_t = 0, help_heading = PATH_HEADING)]
     pub seed: u64,
     /// Path tracing: keep the per-pixel sums in this state file and
     /// continue from it when it exists (64 samples, then 64 more, equal
@@ -283,14 +289,14 @@ pub struct Options {
     #[arg(
         long,
         value_name = "STATE",
-        help_heading = "Path tracing (--mode path)"
+        help_heading = PATH_HEADING
     )]
     pub accumulate: Option<PathBuf>,
     /// Path tracing: scale radiance by this before the PNG's tone map.
     #[arg(
         long,
         default_value_t = 1.0,
-        help_heading = "Path tracing (--mode path)"
+        help_heading = PATH_HEADING
     )]
     pub exposure: f32,
     /// Path tracing: tone map of the PNG (the --hdr file stays linear).
@@ -298,7 +304,7 @@ pub struct Options {
         long,
         value_enum,
         default_value = "clamp",
-        help_heading = "Path tracing (--mode path)"
+        help_heading = PATH_HEADING
     )]
     pub tonemap: TonemapArg,
     /// Path tracing: write a heat map of each pixel's standard error
@@ -306,7 +312,7 @@ pub struct Options {
     #[arg(
         long,
         value_name = "OUT.png",
-        help_heading = "Path tracing (--mode path)"
+        help_heading = PATH_HEADING
     )]
     pub variance: Option<PathBuf>,
     /// Print one JSON object with the figures.
@@ -315,6 +321,39 @@ pub struct Options {
     /// No progress messages.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+/// The help heading of the path tracer's options: outside `--mode path`
+/// they are refused, and not printed in a scene.
+pub const PATH_HEADING: &str = "Path tracing (--mode path)";
+
+/// The options (by id) a printed scene leaves out: how to run, not what
+/// to render (`threads`, `json`), files of the run itself (`scene`), and
+/// the two that are printed in another form (`light` as `lights`,
+/// `ortho_height` as `ortho`).
+pub const NOT_PRINTED: [&str; 14] = [
+    "scene",
+    "print_scene",
+    "light",
+    "ortho_height",
+    "tile",
+    "cell",
+    "threads",
+    "in_memory",
+    "repeat",
+    "variance",
+    "accumulate",
+    "json",
+    "quiet",
+    "old_time",
+];
+
+impl Options {
+    /// Every option at its default (no volume).
+    pub fn defaults() -> Options {
+        // Parsing no arguments cannot fail: no option is required.
+        Options::try_parse_from(["vol-render"]).unwrap_or_else(|e| unreachable!("{e}"))
+    }
 }
 
 /// The examples and file formats after the options in `--help`.

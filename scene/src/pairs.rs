@@ -8,10 +8,12 @@
 //! Two scene-file keys have no flag: `lights` (a list of tables, as in
 //! the file) and `tf-text`; they are read as the scene file reads them.
 
+use crate::error::clap_error;
 use crate::error::{Error, Result};
 use crate::file::Scene;
+use crate::lights::LightSpec;
 use crate::options::Options;
-use crate::request::{clap_error, Request};
+use crate::request::Request;
 use clap::{ArgAction, Command, CommandFactory, FromArgMatches};
 use serde_json::Value;
 use std::collections::BTreeSet;
@@ -62,8 +64,24 @@ where
     let (args, given) = command_args(&Options::command(), flagged)?;
     out.args = args;
     out.given.extend(given);
-    if !scene_only.is_empty() {
-        out.scene_only = Scene::from_json(Value::Object(scene_only)).map_err(Error::usage)?;
+    if let Some(text) = scene_only.remove("tf-text") {
+        match text {
+            Value::String(t) => out.scene_only.tf_text = Some(t),
+            _ => return Err(Error::usage("option `tf-text`: expected a text")),
+        }
+    }
+    if let Some(lights) = scene_only.remove("lights") {
+        let lights: Vec<LightSpec> = serde_json::from_value(lights).map_err(|e| {
+            Error::usage(format!(
+                "option `lights`: {}",
+                volcore::text::clip(&volcore::text::escape(&e.to_string()), 160)
+            ))
+        })?;
+        for (i, l) in lights.iter().enumerate() {
+            l.light()
+                .map_err(|e| Error::usage(format!("lights[{i}]: {e}")))?;
+        }
+        out.scene_only.lights = Some(lights);
     }
     Ok(out)
 }
@@ -185,7 +203,9 @@ impl Request {
         }
         options.lights = p.scene_only.lights;
         options.tf_text = p.scene_only.tf_text;
-        Ok(Request::new(options, p.given))
+        let mut request = Request::from_matches(options, &matches);
+        request.mark_given(p.given);
+        Ok(request)
     }
 }
 

@@ -177,12 +177,9 @@ pub fn settings(
             env,
             env_map,
         },
-        background: cli.background_given.then(|| {
-            (cli.background / 255.0)
-                .to_array()
-                .map(srgb_to_linear)
-                .into()
-        }),
+        background: cli
+            .background
+            .map(|b| (b / 255.0).to_array().map(srgb_to_linear).into()),
         seed: cli.seed,
     };
     Ok((settings, budget))

@@ -59,10 +59,11 @@ impl Plan {
             _ => None,
         };
         let (camera, look_at, orbit) = camera(cli, vol)?;
-        let mut settings = settings(cli, vol, index)?;
-        if cli.step.is_none() {
-            settings.step = default_step(cli, vol, &mut notes);
-        }
+        let step = match cli.step {
+            Some(step) => step,
+            None => default_step(cli, vol, &mut notes),
+        };
+        let settings = settings(cli, vol, index, step)?;
         let path = match cli.mode {
             ModeArg::Path => Some(crate::path::settings(
                 cli,
@@ -109,7 +110,7 @@ impl Plan {
             spp: path.as_ref().and_then(|(_, b)| b.spp),
             env: path.as_ref().map(|(p, _)| p.lights.env),
         };
-        let scene = effective(cli, &resolved);
+        let scene = effective(cli, &resolved)?;
         Ok(Plan {
             camera,
             settings,
@@ -173,6 +174,11 @@ fn transfer_function(
     parse_any(&text)
         .kind_ctx(ErrorKind::File, &cli.tf)
         .map_err(Error::named)
+}
+
+/// Whether `--tf` names a preset (`auto:P` included) rather than a file.
+pub fn is_preset(name: &str) -> bool {
+    PRESETS.contains(&name) || name.starts_with("auto:")
 }
 
 /// The tail percentile of `--tf auto` or `auto:P`; `None` for other names.
@@ -278,10 +284,10 @@ fn camera(cli: &Options, vol: &Volume) -> Result<(Camera, Vec3, Option<Vec3>)> {
 /// The step when none is given: half the smallest voxel spacing, unless
 /// the frame's checks would refuse it for this volume: more samples per
 /// ray across its diagonal than the limit, or finer than f32 positions
-/// resolve across it. Then the finest step they
-/// accept, with a note saying so (in the ray caster's modes: the path
-/// tracer takes no step). So the defaults are always feasible; a step or
-/// the user gives may still be refused.
+/// resolve across it. Then the finest step they accept, with a note
+/// saying so (in the ray caster's modes: the path tracer takes no step).
+/// So the default is always feasible; a step the user gives may still be
+/// refused.
 fn default_step(cli: &Options, vol: &Volume, notes: &mut Vec<String>) -> f32 {
     let half = 0.5 * vol.meta.min_spacing();
     let Some(finest) = volrender::frame::check::finest_step(vol) else {
@@ -327,9 +333,14 @@ fn default_iso(vol: &Volume, index: Option<&MinMaxIndex>) -> Result<f32> {
     }
 }
 
-/// The ray caster's settings (in path mode, its defaults: the path
-/// tracer reads [`crate::path::settings`]).
-fn settings(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<RenderSettings> {
+/// The ray caster's settings with this `step` (in path mode, its
+/// defaults: the path tracer reads [`crate::path::settings`]).
+fn settings(
+    cli: &Options,
+    vol: &Volume,
+    index: Option<&MinMaxIndex>,
+    step: f32,
+) -> Result<RenderSettings> {
     let mode = match cli.mode {
         ModeArg::Dvr => Mode::Dvr,
         ModeArg::Mip => Mode::Mip,
@@ -387,18 +398,10 @@ fn settings(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<
             })
             .map_err(|e| Error::usage(format!("{flag} {e}")))
     };
-    if cli.ao_field_cell.is_some() && cli.ao_field.is_none() {
-        return Err(Error::usage(
-            "--ao-field-cell (ao-field-cell) needs --ao-field (ao-field)",
-        ));
-    }
+    // clap refuses --ao with --ao-field, and --ao-field-cell without
+    // --ao-field, wherever the options come from.
     let ao = match (&cli.ao, &cli.ao_field) {
-        (Some(_), Some(_)) => {
-            return Err(Error::option(
-                "--ao and --ao-field are two ways to the same effect: give one",
-            ))
-        }
-        (Some(s), None) => Some(ao_of("--ao", s, |n| volrender::AoMethod::Rays { n })?),
+        (Some(s), _) => Some(ao_of("--ao", s, |n| volrender::AoMethod::Rays { n })?),
         (None, Some(s)) => {
             let mut ao = ao_of("--ao-field", s, |k| volrender::AoMethod::Field {
                 k,
@@ -416,8 +419,7 @@ fn settings(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<
     let defaults = Lighting::default();
     Ok(RenderSettings {
         mode,
-        // Without --step, the plan's default_step.
-        step: cli.step.unwrap_or(0.5 * vol.meta.min_spacing()),
+        step,
         interp: match cli.interp {
             InterpArg::Nearest => Interp::Nearest,
             InterpArg::Trilinear => Interp::Trilinear,
@@ -436,7 +438,7 @@ fn settings(cli: &Options, vol: &Volume, index: Option<&MinMaxIndex>) -> Result<
         ert: (!cli.no_ert).then_some(cli.ert),
         ess: !cli.no_ess,
         tile: cli.tile,
-        background: (cli.background / 255.0).to_array(),
+        background: (cli.background.unwrap_or(Vec3::ZERO) / 255.0).to_array(),
         shadows,
         ao,
         ..Default::default()

@@ -1,41 +1,66 @@
 //! One render as asked: the options, which of them were given (on the
-//! command line, or as name/value pairs), and the scene file under them.
-//! Options given win over the scene file; the scene file wins over the
-//! defaults.
+//! command line, or as name/value pairs), the arguments that gave them,
+//! and the scene file under them. Options given win over the scene file;
+//! the scene file wins over the defaults.
 
-use crate::error::{Error, Result};
+use crate::error::{clap_error, Error, Result};
 use crate::file::Scene;
 use crate::options::Options;
 use clap::parser::ValueSource;
-use clap::{ArgMatches, CommandFactory, FromArgMatches};
+use clap::{ArgAction, ArgMatches, CommandFactory, FromArgMatches};
 use std::collections::BTreeSet;
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 
-/// The options of one render and the ids (field names, `look_at`) of
-/// those that were given, so a scene file fills only the rest.
+pub use crate::error::clap_message;
+
+/// The options of one render, the ids (field names, `look_at`) of those
+/// that were given, and the arguments that said them, so a scene file
+/// can go under them through the same parse.
 #[derive(Clone, Debug)]
 pub struct Request {
     options: Options,
     given: BTreeSet<String>,
+    /// The given options as flags (`--look-at=0,0,0`).
+    flags: Vec<OsString>,
+    /// The given positional argument (the volume).
+    positional: Vec<OsString>,
 }
 
 impl Request {
-    /// `options` of which those with the ids in `given` were given.
-    pub fn new(mut options: Options, given: BTreeSet<String>) -> Request {
-        options.background_given = given.contains("background");
-        Request { options, given }
-    }
-
-    /// The options clap parsed from a command line, and its matches (the
-    /// options given there are those whose value came from it).
+    /// The options clap parsed from a command line (or from pairs), and
+    /// its matches: the options given are those whose value came from
+    /// the arguments.
     pub fn from_matches(options: Options, matches: &ArgMatches) -> Request {
-        let given = Options::command()
-            .get_arguments()
-            .map(|a| a.get_id().as_str().to_string())
-            .filter(|id| matches.value_source(id) == Some(ValueSource::CommandLine))
-            .collect();
-        Request::new(options, given)
+        let mut request = Request {
+            options,
+            given: BTreeSet::new(),
+            flags: Vec::new(),
+            positional: Vec::new(),
+        };
+        for arg in Options::command().get_arguments() {
+            let id = arg.get_id().as_str();
+            if matches.value_source(id) != Some(ValueSource::CommandLine) {
+                continue;
+            }
+            request.given.insert(id.to_string());
+            let raw: Vec<OsString> = matches
+                .get_raw(id)
+                .map(|v| v.map(OsString::from).collect())
+                .unwrap_or_default();
+            match arg.get_long() {
+                None => request.positional.extend(raw),
+                Some(long) => match arg.get_action() {
+                    ArgAction::SetTrue => request.flags.push(format!("--{long}").into()),
+                    _ => request.flags.extend(raw.into_iter().map(|v| {
+                        let mut flag = OsString::from(format!("--{long}="));
+                        flag.push(v);
+                        flag
+                    })),
+                },
+            }
+        }
+        request
     }
 
     /// Parse vol-render's arguments (without the program's name), as the
@@ -75,6 +100,12 @@ impl Request {
         self.given.contains(id)
     }
 
+    /// Mark the options with these ids given (pairs that no flag says:
+    /// `lights`, `tf_text`).
+    pub(crate) fn mark_given(&mut self, ids: impl IntoIterator<Item = String>) {
+        self.given.extend(ids);
+    }
+
     /// Fill every option not given from the `--scene` file, when there is
     /// one (relative paths in it are taken from its folder).
     pub fn with_scene_file(self) -> Result<Request> {
@@ -82,16 +113,50 @@ impl Request {
             return Ok(self);
         };
         let file = Scene::read(&path)?;
-        let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-        Ok(self.with_scene(file, &dir))
+        self.with_scene(file, &path)
     }
 
-    /// Fill every option not given from `scene` (relative paths in it
-    /// taken from `dir`).
-    pub fn with_scene(mut self, scene: Scene, dir: &Path) -> Request {
-        let given = &self.given;
-        crate::merge::apply(scene, dir, &mut self.options, |id| given.contains(id));
-        self
+    /// Fill every option not given from `scene`, read from the file at
+    /// `path` (relative paths in it are taken from its folder): the
+    /// file's options become the flags that say them, in front of the
+    /// given ones, and clap parses them all, so the file's values are
+    /// parsed, defaulted and checked (requirements and conflicts
+    /// included) as the flags are. An error names the file.
+    pub fn with_scene(mut self, scene: Scene, path: &Path) -> Result<Request> {
+        let name = volcore::text::escape(&path.display().to_string());
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let under = crate::merge::under(&scene, dir, &self.given)
+            .map_err(|e| Error::usage(format!("{name}: {}", e.message())))?;
+        let mut flags: Vec<OsString> = under.flags.into_iter().map(OsString::from).collect();
+        flags.append(&mut self.flags);
+        if self.positional.is_empty() {
+            self.positional = under.positional.into_iter().map(OsString::from).collect();
+        }
+        let argv = std::iter::once(OsString::from("vol-render"))
+            .chain(flags.iter().cloned())
+            .chain((!self.positional.is_empty()).then(|| OsString::from("--")))
+            .chain(self.positional.iter().cloned());
+        let parsed = Options::command()
+            .try_get_matches_from(argv)
+            .and_then(|m| Options::from_arg_matches(&m))
+            .map_err(|e| Error::usage(format!("{name}: {}", clap_message(&e))))?;
+        let mut options = parsed;
+        // What no flag says: the given one's, else the file's (a given
+        // `--tf` or `--light` stands in place of the file's text or
+        // lights).
+        let tf_given = self.is_given("tf") || self.is_given("tf_text");
+        options.tf_text = match tf_given {
+            true => self.options.tf_text.take(),
+            false => scene.tf_text,
+        };
+        let lights_given = self.is_given("light") || self.is_given("lights");
+        options.lights = match lights_given {
+            true => self.options.lights.take(),
+            false => scene.lights,
+        };
+        self.options = options;
+        self.flags = flags;
+        Ok(self)
     }
 
     /// The volume's path, or the error that there is none (naming the
@@ -105,22 +170,4 @@ impl Request {
             None => Error::usage("no volume: give its path, or `volume` in the --scene file"),
         })
     }
-}
-
-/// clap's error as a usage error of one line (see [`clap_message`]).
-pub(crate) fn clap_error(e: clap::Error) -> Error {
-    Error::usage(clap_message(&e))
-}
-
-/// clap's error message on one line: the text up to its usage block,
-/// without the `error: ` in front; every tool prints its usage errors so.
-pub fn clap_message(e: &clap::Error) -> String {
-    let text = e.to_string();
-    let lines: Vec<&str> = text
-        .lines()
-        .take_while(|l| !l.trim().is_empty())
-        .map(str::trim)
-        .collect();
-    let msg = lines.join(" ");
-    msg.trim_start_matches("error: ").to_string()
 }

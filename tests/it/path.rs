@@ -244,7 +244,7 @@ fn scene_files_hold_the_path_keys() {
             .arg(&scene)
             .arg("-o")
             .arg(d.join("t.png")),
-        "majorant `fine`",
+        "key `majorant`: invalid value 'fine'",
     );
 }
 

@@ -225,7 +225,7 @@ fn bad_scenes_fail_in_one_line_naming_file_line_and_key() {
     );
     case(
         "fov = \"wide\"\n",
-        "bad.toml: line 1, key `fov`: invalid type",
+        "bad.toml: line 1, key `fov`: invalid value 'wide' for '--fov",
     );
     case(
         "[[lights]]\ntype = \"spot\"\n",

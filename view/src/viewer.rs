@@ -16,8 +16,8 @@ pub struct Viewer {
     pub source: Source,
     /// The volume's path, as given.
     pub volume: PathBuf,
-    /// The startup `--scene` file, its contents and its folder.
-    scene: Option<(PathBuf, Scene, PathBuf)>,
+    /// The startup `--scene` file and its contents.
+    scene: Option<(PathBuf, Scene)>,
     /// The startup options (scene file merged).
     pub startup: Options,
     /// Held while a frame renders: one frame at a time, whoever asks.
@@ -41,11 +41,7 @@ impl Viewer {
         let volume = request.volume()?;
         let startup = without_outputs(request.into_options());
         let scene = match scene {
-            Some(path) => {
-                let file = Scene::read(path)?;
-                let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-                Some((path.to_path_buf(), file, dir))
-            }
+            Some(path) => Some((path.to_path_buf(), Scene::read(path)?)),
             None => None,
         };
         let source = Source::open(&startup, &volume)?;
@@ -67,12 +63,12 @@ impl Viewer {
     pub fn options(&self, pairs: &Map<String, Value>) -> Result<Options, Error> {
         check_pairs(pairs)?;
         let mut request = Request::from_pairs(pairs.iter().map(|(k, v)| (k.as_str(), v.clone())))?;
-        if let Some((_, scene, dir)) = &self.scene {
-            request = request.with_scene(scene.clone(), dir);
+        if let Some((path, scene)) = &self.scene {
+            request = request.with_scene(scene.clone(), path)?;
         }
         let mut options = without_outputs(request.into_options());
         options.volume = Some(self.volume.clone());
-        options.scene = self.scene.as_ref().map(|(p, _, _)| p.clone());
+        options.scene = self.scene.as_ref().map(|(p, _)| p.clone());
         Ok(options)
     }
 
@@ -119,7 +115,7 @@ impl Viewer {
         {
             words.extend(["--scene".into(), "view.toml".into()]);
         } else {
-            if let Some((p, _, _)) = &self.scene {
+            if let Some((p, _)) = &self.scene {
                 words.extend(["--scene".into(), quote(&p.display().to_string())]);
             }
             words.push(quote(&self.volume.display().to_string()));
@@ -161,7 +157,7 @@ fn check_pairs(pairs: &Map<String, Value>) -> Result<(), Error> {
         }
         // `tf` names a preset or a file: only presets from the page.
         if let ("tf", Value::String(tf)) = (id.as_str(), value) {
-            if !is_preset(tf) {
+            if !volscene::plan::is_preset(tf) {
                 return Err(Error::usage(format!(
                     "option `tf`: `{}` is not a preset ({}); the page gives presets or tf-text, files go in the --scene file",
                     volcore::text::clip(&volcore::text::escape(tf), 40),
@@ -171,11 +167,6 @@ fn check_pairs(pairs: &Map<String, Value>) -> Result<(), Error> {
         }
     }
     Ok(())
-}
-
-/// Whether `name` is a transfer function preset (`auto:P` included).
-pub fn is_preset(name: &str) -> bool {
-    volrender::tf::PRESETS.contains(&name) || name.starts_with("auto:")
 }
 
 /// A word as a POSIX shell reads it back: as is when it is plain, else
