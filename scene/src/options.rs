@@ -33,11 +33,6 @@ use std::path::PathBuf;
 pub struct Options {
     /// The volume (any format vol-convert reads; or `volume` in --scene).
     pub volume: Option<PathBuf>,
-    /// What to read from the volume's file: raw layout, DICOM series,
-    /// channel, time point (the same flags as every tool's).
-    #[command(flatten, next_help_heading = "Input")]
-    #[serde(flatten)]
-    pub input: volformats::Selection,
     /// Output PNG (8-bit sRGB; or `output` in --scene).
     #[arg(short, long)]
     pub output: Option<PathBuf>,
@@ -321,6 +316,12 @@ pub struct Options {
     /// No progress messages.
     #[arg(short, long)]
     pub quiet: bool,
+    /// What to read from the volume's file: raw layout, DICOM series,
+    /// channel, time point (the same flags as every tool's). Last: its
+    /// heading holds for every option after it.
+    #[command(flatten, next_help_heading = "Input")]
+    #[serde(flatten)]
+    pub input: volformats::Selection,
 }
 
 /// The help heading of the path tracer's options: outside `--mode path`
