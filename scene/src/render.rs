@@ -13,10 +13,6 @@ use volrender::film::PathFilm;
 use volrender::path::{PathCounters, PathTracer};
 use volrender::{render_tf, Cancel, Frame};
 
-/// Bytes a path-traced frame needs per pixel (f64 sums, the mean image
-/// and its encodings), for the memory check.
-const BYTES_PER_PIXEL: u64 = 32 + 12 + 12 + 8;
-
 /// What a render made: the image and the seconds it took.
 pub struct Rendered {
     /// The ray caster's frame, or the path tracer's accumulated passes.
@@ -194,14 +190,6 @@ fn trace(
     let name = source.name();
     let vol = &source.volume;
     let (w, h) = (plan.camera.width(), plan.camera.height());
-    let need = u64::from(w) * u64::from(h) * BYTES_PER_PIXEL;
-    if need > volrender::frame::FRAME_MEMORY_BUDGET {
-        return Err(Error::option(format!(
-            "a {w}x{h} path-traced frame needs about {:.1} GiB, more than the budget of {} GiB: ask for a smaller --size",
-            need as f64 / (1u64 << 30) as f64,
-            volrender::frame::FRAME_MEMORY_BUDGET >> 30
-        )));
-    }
     // Tracking needs the index's majorants, even under --no-ess.
     let built;
     let (index, index_s) = match source.index.as_ref() {

@@ -36,10 +36,12 @@ pub mod xray;
 pub const MAX_SAMPLES_PER_RAY: f64 = 1e7;
 
 /// Memory a frame may use for its per-pixel buffers (film, ray results,
-/// the resolved frame and its output encodings).
+/// the resolved frame and its output encodings), in either pipeline
+/// ([`check::memory`]).
 pub const FRAME_MEMORY_BUDGET: u64 = 8 << 30;
 
-/// Bytes a frame needs per pixel, all buffers together (an upper bound).
+/// Bytes a ray-cast frame needs per pixel, all buffers together (an upper
+/// bound).
 pub const FRAME_BYTES_PER_PIXEL: u64 = 160;
 
 /// The volume's recorded value range in f32 (0..0 when it has none).

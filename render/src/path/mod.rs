@@ -48,6 +48,11 @@ use tracking::Tracker;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
 use volindex::MinMaxIndex;
 
+/// Bytes a path-traced frame needs per pixel, for the frame-memory check
+/// ([`crate::frame::check::memory`]): the film's f64 sums, the mean image
+/// and its encodings.
+pub const PATH_BYTES_PER_PIXEL: u64 = 32 + 12 + 12 + 8;
+
 /// The lights of a path-traced scene: the ray caster's light model
 /// ([`Light`], one direction convention: `towards` points from the scene
 /// to the light), less the headlight, which lights nothing a path tracer
@@ -224,13 +229,16 @@ pub struct PathTracer<'a> {
 const GRID_LEVEL: usize = 0;
 
 impl<'a> PathTracer<'a> {
-    /// Resolve the medium and build its majorant grid.
+    /// Check the frame's memory ([`PATH_BYTES_PER_PIXEL`] per pixel of the
+    /// camera's image) and the settings, resolve the medium and build its
+    /// majorant grid.
     pub fn new(
         vol: &'a Volume,
         index: &'a MinMaxIndex,
         camera: &'a Camera,
         settings: &'a PathSettings,
     ) -> Result<PathTracer<'a>, RenderError> {
+        crate::frame::check::memory(camera, PATH_BYTES_PER_PIXEL, "path-traced frame")?;
         index
             .check_volume(vol.dims(), vol.meta.sample_type)
             .map_err(|e| RenderError::Index(e.to_string()))?;

@@ -581,6 +581,30 @@ fn maps_are_checked_and_black_ones_cost_nothing() {
     assert!(acc.mean_rgb().iter().all(|&c| c == 0.0));
 }
 
+/// The path tracer's frame memory is checked by the ray caster's check,
+/// at its own bytes per pixel: the largest image is refused before any
+/// buffer is made, one that fits is not.
+#[test]
+fn frames_past_the_memory_budget_are_refused() {
+    let v = shapes(8);
+    let ix = index(&v);
+    let s = settings(1.0, 0.5, env(1.0));
+    let e = PathTracer::new(&v, &ix, &outside(8.0, 1 << 15), &s)
+        .err()
+        .expect("a 32768x32768 path-traced frame is past the budget");
+    let e = e.to_string();
+    assert!(
+        e.contains("path-traced frame")
+            && e.contains("budget")
+            && e.contains(&format!(
+                "{} bytes per pixel",
+                volrender::path::PATH_BYTES_PER_PIXEL
+            )),
+        "{e}"
+    );
+    assert!(PathTracer::new(&v, &ix, &outside(8.0, 4096), &s).is_ok());
+}
+
 /// Hybrid scattering: in a constant medium the gradient is zero, so no
 /// event reflects off a surface and the image keeps its expectation; in
 /// a volume of sharp spheres events do, and the surface (whose BRDF
