@@ -11,7 +11,8 @@
 //! count or the tile order.
 //!
 //! The pieces, after pbrt's split: [`camera`] and [`ray`]; [`sampler`]
-//! (hashed random numbers for Monte Carlo work); [`film`]; [`light`] and
+//! (hashed random numbers for Monte Carlo work); [`film`] (one per
+//! pipeline: the ray caster's, the path tracer's); [`light`] and
 //! [`shade`] (Blinn-Phong); [`tf`] (transfer functions as written) and
 //! [`classify`] (their per-frame tables); [`accel`] (macrocell skipping
 //! rules, DDA segments and majorants over the index); [`trace`] (what

@@ -9,12 +9,9 @@ use crate::plan::Plan;
 use crate::source::Source;
 use std::time::Instant;
 use volindex::{BuildOptions, MinMaxIndex};
-use volrender::path::{Accumulator, PathCounters, PathTracer};
+use volrender::film::PathFilm;
+use volrender::path::{PathCounters, PathTracer};
 use volrender::{render_tf, Cancel, Frame};
-
-/// Bytes a path-traced frame needs per pixel (f64 sums, the mean image
-/// and its encodings), for the memory check.
-const BYTES_PER_PIXEL: u64 = 32 + 12 + 12 + 8;
 
 /// What a render made: the image and the seconds it took.
 pub struct Rendered {
@@ -36,7 +33,7 @@ pub enum Image {
 /// continued from too) and the tracer's counters for the passes added.
 pub struct Traced {
     /// The per-pixel sums; `spp()` counts every sample in them.
-    pub acc: Accumulator,
+    pub acc: PathFilm,
     /// The counters of the passes this render added.
     pub counters: PathCounters,
     /// Samples per pixel this render added.
@@ -82,7 +79,7 @@ pub fn render(
     render_from(options, source, plan, cancel, None, progress)
 }
 
-/// [`render`], path-traced passes added to `prior` (the accumulator of
+/// [`render`], path-traced passes added to `prior` (the film of
 /// an earlier render of the same scene, as [`Rendered::into_passes`]
 /// gives it back) instead of starting anew: a viewer refines its frame a
 /// pass at a time, and N passes of one sample equal one of N, bit for
@@ -93,7 +90,7 @@ pub fn render_from(
     source: &Source,
     plan: &Plan,
     cancel: &Cancel,
-    prior: Option<Accumulator>,
+    prior: Option<PathFilm>,
     progress: impl FnMut(&Progress),
 ) -> Result<Rendered> {
     match (&plan.path, prior) {
@@ -106,9 +103,9 @@ pub fn render_from(
 }
 
 impl Rendered {
-    /// The path tracer's accumulator, to continue with
+    /// The path tracer's film, to continue with
     /// [`render_from`]; `None` for a ray-cast frame.
-    pub fn into_passes(self) -> Option<Accumulator> {
+    pub fn into_passes(self) -> Option<PathFilm> {
         match self.image {
             Image::Path(t) => Some(t.acc),
             Image::Frame(_) => None,
@@ -184,7 +181,7 @@ fn trace(
     source: &Source,
     plan: &Plan,
     cancel: &Cancel,
-    prior: Option<Accumulator>,
+    prior: Option<PathFilm>,
     mut progress: impl FnMut(&Progress),
 ) -> Result<Rendered> {
     let Some((settings, budget)) = &plan.path else {
@@ -193,14 +190,6 @@ fn trace(
     let name = source.name();
     let vol = &source.volume;
     let (w, h) = (plan.camera.width(), plan.camera.height());
-    let need = u64::from(w) * u64::from(h) * BYTES_PER_PIXEL;
-    if need > volrender::frame::FRAME_MEMORY_BUDGET {
-        return Err(Error::option(format!(
-            "a {w}x{h} path-traced frame needs about {:.1} GiB, more than the budget of {} GiB: ask for a smaller --size",
-            need as f64 / (1u64 << 30) as f64,
-            volrender::frame::FRAME_MEMORY_BUDGET >> 30
-        )));
-    }
     // Tracking needs the index's majorants, even under --no-ess.
     let built;
     let (index, index_s) = match source.index.as_ref() {
@@ -237,9 +226,10 @@ fn trace(
                 "{name}: the passes to continue are of another scene or image size"
             )))
         }
-        (None, Some(p)) if p.exists() => Accumulator::load(p, w, h, key)
-            .map_err(|e| Error::file(format!("{}: {e}", state(p))))?,
-        (None, _) => Accumulator::new(w, h, key),
+        (None, Some(p)) if p.exists() => {
+            PathFilm::load(p, w, h, key).map_err(|e| Error::file(format!("{}: {e}", state(p))))?
+        }
+        (None, _) => PathFilm::new(w, h, key),
     };
     let start_spp = acc.spp();
     let t = Instant::now();
@@ -279,7 +269,7 @@ fn trace(
 /// Write an `--accumulate` state: under a temporary name beside it,
 /// renamed over the previous state only when complete, so that a render
 /// that is killed or runs out of space keeps the previous state intact.
-fn save_state(acc: &Accumulator, path: &std::path::Path) -> std::io::Result<()> {
+fn save_state(acc: &PathFilm, path: &std::path::Path) -> std::io::Result<()> {
     use std::io::Write;
     let mut file = volformats::output::AtomicFile::create(path)?;
     {

@@ -85,7 +85,7 @@ impl Viewer {
         options: &Options,
         plan: &Plan,
         cancel: &Cancel,
-        prior: Option<volrender::path::Accumulator>,
+        prior: Option<volrender::film::PathFilm>,
     ) -> Result<Rendered, Error> {
         let _one_at_a_time = self.lock();
         if cancel.is_cancelled() {

@@ -15,7 +15,8 @@ use std::sync::mpsc::Sender;
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::time::Instant;
 use volcompare::{Depth, Image as CmpImage, ImageOptions};
-use volrender::path::{Accumulator, Budget, MAX_SPP};
+use volrender::film::PathFilm;
+use volrender::path::{Budget, MAX_SPP};
 use volscene::{Cancel, Error, ErrorKind, Options, Plan, Rendered};
 
 /// A render the page asked for.
@@ -99,7 +100,7 @@ struct Passes {
     /// The plan of one pass of one sample.
     plan: Plan,
     budget: Budget,
-    acc: Option<Accumulator>,
+    acc: Option<PathFilm>,
     started: Instant,
     done: bool,
 }

@@ -1,6 +1,9 @@
 //! The checks a frame's settings pass before anything is built: every
 //! value in range, and no input able to make a ray's loop or a frame's
-//! buffers grow without bound.
+//! buffers grow without bound. The frame-memory check ([`memory`]) is the
+//! one both pipelines use, the ray caster's ([`frame`]) and the path
+//! tracer's ([`crate::path::PathTracer::new`]), each with its own bytes
+//! per pixel.
 
 use super::{FRAME_BYTES_PER_PIXEL, FRAME_MEMORY_BUDGET, MAX_SAMPLES_PER_RAY};
 use crate::camera::Camera;
@@ -16,16 +19,7 @@ use volcore::Volume;
 /// the effects' settings, the termination threshold, the tile size and the
 /// iso value.
 pub fn frame(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result<(), RenderError> {
-    let (w, h) = (camera.width() as u64, camera.height() as u64);
-    let need = w * h * FRAME_BYTES_PER_PIXEL;
-    if need > FRAME_MEMORY_BUDGET {
-        return Err(RenderError::Setting(format!(
-            "a {w}x{h} frame needs about {:.1} GiB ({FRAME_BYTES_PER_PIXEL} bytes per pixel), \
-             more than the budget of {} GiB: ask for a smaller --size",
-            need as f64 / (1u64 << 30) as f64,
-            FRAME_MEMORY_BUDGET >> 30
-        )));
-    }
+    memory(camera, FRAME_BYTES_PER_PIXEL, "frame")?;
     let s = settings.step;
     step("step", s, vol)?;
     if let Some(sh) = &settings.shadows {
@@ -48,6 +42,25 @@ pub fn frame(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result
         if !v.is_finite() {
             return Err(RenderError::Setting("iso value must be finite".into()));
         }
+    }
+    Ok(())
+}
+
+/// Check that a frame through `camera` fits [`FRAME_MEMORY_BUDGET`] when
+/// its pipeline needs `bytes_per_pixel` for all its per-pixel buffers
+/// together: [`FRAME_BYTES_PER_PIXEL`] for the ray-casting modes,
+/// [`crate::path::PATH_BYTES_PER_PIXEL`] for the path tracer. `what`
+/// names the frame in the error ("frame", "path-traced frame").
+pub fn memory(camera: &Camera, bytes_per_pixel: u64, what: &str) -> Result<(), RenderError> {
+    let (w, h) = (camera.width() as u64, camera.height() as u64);
+    let need = w.saturating_mul(h).saturating_mul(bytes_per_pixel);
+    if need > FRAME_MEMORY_BUDGET {
+        return Err(RenderError::Setting(format!(
+            "a {w}x{h} {what} needs about {:.1} GiB ({bytes_per_pixel} bytes per pixel), \
+             more than the budget of {} GiB: ask for a smaller --size",
+            need as f64 / (1u64 << 30) as f64,
+            FRAME_MEMORY_BUDGET >> 30
+        )));
     }
     Ok(())
 }

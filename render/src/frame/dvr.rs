@@ -10,6 +10,7 @@
 //! termination, skipping, the lights, shadows and occlusion) is a value.
 
 use super::effects::{ao_parts, light_grids, open_skies, shadow_geometry};
+use super::FrameInputs;
 use crate::accel::{cull, FixedCells};
 use crate::classify::{Classifier, GradientBound, TfTable, TfTable2d};
 use crate::effects::{Classified, ShadowCaster};
@@ -17,11 +18,10 @@ use crate::error::RenderError;
 use crate::film::{EffectStats, Film};
 use crate::integrator::dvr::shading::{DvrCaster, Phong, Shading, Unshaded};
 use crate::integrator::Dvr;
-use crate::settings::{GradientMethod, RenderSettings};
+use crate::settings::GradientMethod;
 use crate::tf::Tf;
 use crate::tiles::Tiles;
 use crate::trace::reconstruct::{Analytic, Central, Gradient, NoGradient};
-use crate::trace::FrameGeometry;
 use glam::Vec3;
 use volcore::Volume;
 use volindex::MinMaxIndex;
@@ -130,23 +130,24 @@ impl Tables {
     }
 }
 
-/// Everything a DVR frame has before its types are chosen.
-pub struct DvrFrame<'a> {
-    /// The volume.
-    pub vol: &'a Volume,
-    /// The index to skip with, when skipping is on.
-    pub skip_index: Option<&'a MinMaxIndex>,
+/// Render a DVR frame: refused without a transfer function; its
+/// classifier tables (over the transfer function's domain, or the
+/// volume's value range when it gives none), then the frame traced with
+/// the integrator of the frame's choices.
+pub fn render_frame(inputs: &FrameInputs<'_>) -> Result<Film, RenderError> {
+    let tf = inputs
+        .tf
+        .ok_or_else(|| RenderError::Setting("DVR needs a transfer function".into()))?;
+    DvrFrame { inputs, tf }.render()
+}
+
+/// A DVR frame before its types are chosen: what every frame has, and
+/// its transfer function.
+struct DvrFrame<'a> {
+    /// The frame's volume, index, settings, sample placement and pixels.
+    inputs: &'a FrameInputs<'a>,
     /// The transfer function.
-    pub tf: &'a Tf,
-    /// Sample placement.
-    pub geom: FrameGeometry,
-    /// The volume's value range (the transfer function's domain when it
-    /// gives none).
-    pub range: (f32, f32),
-    /// The settings.
-    pub settings: &'a RenderSettings,
-    /// The frame's pixels.
-    pub tiles: Tiles<'a>,
+    tf: &'a Tf,
 }
 
 /// The parts of a DVR frame shared by every choice of types.
@@ -167,13 +168,20 @@ struct Parts<'a, K> {
 
 impl DvrFrame<'_> {
     /// Render the frame.
-    pub fn render(&self) -> Result<Film, RenderError> {
-        let s = self.settings;
+    fn render(&self) -> Result<Film, RenderError> {
+        let s = self.inputs.settings;
         // Effects apply to shaded samples only (checked before); their
         // tables are made for the shadow step.
         let effects = s.shading && (s.shadows.is_some() || s.ao.is_some());
-        let shadow_step = effects.then(|| shadow_geometry(&self.geom, s.shadows.as_ref()).step);
-        match Tables::new(self.vol, self.tf, self.range, s.step, shadow_step) {
+        let shadow_step =
+            effects.then(|| shadow_geometry(&self.inputs.geom, s.shadows.as_ref()).step);
+        match Tables::new(
+            self.inputs.vol,
+            self.tf,
+            self.inputs.range,
+            s.step,
+            shadow_step,
+        ) {
             Tables::OneD { view, shadow } => self.classified(&view, shadow.as_ref()),
             Tables::TwoD { view, shadow } => self.classified(&view, shadow.as_ref()),
         }
@@ -187,24 +195,24 @@ impl DvrFrame<'_> {
         table: &K,
         shadow: Option<&K>,
     ) -> Result<Film, RenderError> {
-        let s = self.settings;
-        let value_span = (self.range.1 - self.range.0).max(f32::MIN_POSITIVE);
+        let s = self.inputs.settings;
+        let value_span = (self.inputs.range.1 - self.inputs.range.0).max(f32::MIN_POSITIVE);
         // Compared with squared lengths; never below 0, so a zero gradient
         // is never normalised.
         let threshold2 = (s.gradient_threshold * value_span).max(0.0).powi(2);
         let gradients = GradientBound {
             method: s.gradient,
-            inv_spacing: self.geom.inv_spacing,
+            inv_spacing: self.inputs.geom.inv_spacing,
         };
-        let skip = transparent_cells(self.skip_index, table, &gradients)?;
+        let skip = transparent_cells(self.inputs.skip_index, table, &gradients)?;
         // Pixel blocks whose rays meet no cell the rule keeps are not
         // traced (their pixels are empty either way).
-        let tiles = self.tiles;
+        let tiles = self.inputs.tiles;
         let busy = skip.as_ref().and_then(|c| {
             cull::busy_blocks(
                 tiles.camera,
                 c.index(),
-                Vec3::from(self.vol.meta.spacing),
+                Vec3::from(self.inputs.vol.meta.spacing),
                 tiles.share.map(|b| b.clipped(tiles.hi)),
                 |level, cell| !c.skippable(level, cell),
             )
@@ -228,7 +236,7 @@ impl DvrFrame<'_> {
     /// Render with classifier `K`: the gradient method and shading.
     fn shaded<K: ReadGradient>(&self, parts: &Parts<'_, K>) -> Result<Film, RenderError> {
         use GradientMethod as M;
-        match (self.settings.shading, self.settings.gradient) {
+        match (self.inputs.settings.shading, self.inputs.settings.gradient) {
             // A 1D table reads no gradient: both arms are one type.
             (false, M::Central) => self.trace::<K::Of<Central>, K, _>(parts, Unshaded),
             (false, M::Analytic) => self.trace::<K::Of<Analytic>, K, _>(parts, Unshaded),
@@ -241,25 +249,33 @@ impl DvrFrame<'_> {
     /// frame's shadows and occlusion when it has them, through its
     /// occluder.
     fn lit<G: Gradient, K: ReadGradient>(&self, parts: &Parts<'_, K>) -> Result<Film, RenderError> {
-        let s = self.settings;
+        let s = self.inputs.settings;
         let Some(alpha) = parts.shadow else {
             let phong = Phong::<DvrOccluder<G, K>>::new(&s.lighting, parts.threshold2, None, None);
             return self.trace::<G, K, _>(parts, phong);
         };
-        let sgeom = shadow_geometry(&self.geom, s.shadows.as_ref());
+        let sgeom = shadow_geometry(&self.inputs.geom, s.shadows.as_ref());
         let depth = alpha.to_optical_depth();
         let occ = DvrOccluder::<G, K>::new(&depth, &sgeom);
         // Cells clear for shadow and occlusion rays.
-        let clear = transparent_cells(self.skip_index, alpha, &parts.gradients)?;
+        let clear = transparent_cells(self.inputs.skip_index, alpha, &parts.gradients)?;
         let boxes = clear.as_ref().map(|c| c.clear_boxes());
         let lights = &s.lighting.lights;
         let (grids, mut stats) = match &s.shadows {
-            Some(sh) => light_grids(self.vol, lights, sh, sgeom.step, &occ, (), boxes.as_ref())?,
+            Some(sh) => light_grids(
+                self.inputs.vol,
+                lights,
+                sh,
+                sgeom.step,
+                &occ,
+                (),
+                boxes.as_ref(),
+            )?,
             None => (Vec::new(), EffectStats::default()),
         };
         let ao = match &s.ao {
             Some(ao) => Some(ao_parts(
-                self.vol,
+                self.inputs.vol,
                 ao,
                 sgeom.step,
                 &occ,
@@ -276,7 +292,7 @@ impl DvrFrame<'_> {
             None => Vec::new(),
         };
         let hi = parts.tiles.hi;
-        let min_spacing = self.vol.meta.min_spacing();
+        let min_spacing = self.inputs.vol.meta.min_spacing();
         let ao_source = ao.as_ref().map(|a| a.source(hi, 1.0, min_spacing));
         let caster: DvrCaster<'_, _> =
             ShadowCaster::new(occ, clear.as_ref(), sgeom, hi, &grids, 0.0).with_open_skies(&skies);
@@ -294,13 +310,13 @@ impl DvrFrame<'_> {
         shading: S,
     ) -> Result<Film, RenderError> {
         let dvr = Dvr::<G, K, S>::new(
-            self.geom,
+            self.inputs.geom,
             parts.table,
             shading,
-            self.settings.ert,
+            self.inputs.settings.ert,
             parts.skip,
         );
-        parts.tiles.render(self.vol, &dvr)
+        parts.tiles.render(self.inputs.vol, &dvr)
     }
 }
 

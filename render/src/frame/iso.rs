@@ -3,20 +3,20 @@
 //! integrator of the frame's reconstruction and gradient method.
 
 use super::effects::{iso_ao, iso_grids, shadow_geometry};
+use super::FrameInputs;
 use crate::accel::IsoSides;
 use crate::classify::srgb_to_linear;
 use crate::effects::{AoSource, IsoInside, LightGrid, ShadowCaster};
 use crate::error::RenderError;
 use crate::film::{EffectStats, Film};
 use crate::integrator::Iso;
-use crate::settings::{GradientMethod, RenderSettings, ShadowMethod};
+use crate::settings::{GradientMethod, Mode, ShadowMethod};
 use crate::shade::Lighting;
 use crate::tiles::Tiles;
 use crate::trace::reconstruct::{Analytic, Central, Gradient};
 use crate::trace::FrameGeometry;
 use glam::Vec3;
 use volcore::Volume;
-use volindex::MinMaxIndex;
 
 /// What an iso frame's shadows need besides its settings.
 struct IsoShadows {
@@ -30,18 +30,25 @@ struct IsoShadows {
     grid_offset: f32,
 }
 
-/// Render an iso-surface frame of `vol` at `level`, skipping over `index`
-/// when given: the uniform cells, the shadows' grids and the occlusion
-/// are built first, then the frame traced with the integrator of the
-/// frame's reconstruction and gradient method.
-pub fn render_frame(
-    vol: &Volume,
-    index: Option<&MinMaxIndex>,
-    tiles: &Tiles<'_>,
-    geom: FrameGeometry,
-    settings: &RenderSettings,
-    level: f32,
-) -> Result<Film, RenderError> {
+/// Render an iso-surface frame at the level of its mode ([`Mode::Iso`];
+/// another mode is refused), skipping over the index when given: the
+/// uniform cells, the shadows' grids and the occlusion are built first,
+/// then the frame traced with the integrator of the frame's
+/// reconstruction and gradient method.
+pub fn render_frame(inputs: &FrameInputs<'_>) -> Result<Film, RenderError> {
+    let Mode::Iso(level) = inputs.settings.mode else {
+        return Err(RenderError::Setting(
+            "an iso-surface frame needs the iso mode and its level".into(),
+        ));
+    };
+    let FrameInputs {
+        vol,
+        skip_index: index,
+        settings,
+        geom,
+        ref tiles,
+        ..
+    } = *inputs;
     let sides = index.map(|ix| IsoSides::new(ix, level));
     let boxes = sides.as_ref().map(|c| c.clear_boxes_below());
     let sgeom = shadow_geometry(&geom, settings.shadows.as_ref());

@@ -4,19 +4,23 @@
 //! the mode's one concrete integrator chosen ([`dvr`], [`iso`], [`mip`],
 //! [`xray`]), its tiles traced in parallel into a film
 //! ([`crate::tiles`]), the film resolved into a frame.
+//!
+//! The four modes' set-ups have one shape: each is a
+//! `render_frame(&FrameInputs) -> Result<Film, RenderError>` taking what
+//! every frame has ([`FrameInputs`]) and reading its own choices (the
+//! extreme MIP keeps, X-ray's output, the iso level, DVR's transfer
+//! function) from the settings there.
 
-use crate::accel::FixedCells;
 use crate::camera::Camera;
 use crate::classify::{srgb_to_linear, GradientBound};
 use crate::distributed::ShareBox;
 use crate::error::RenderError;
 use crate::film::{Display, Film, Frame};
-use crate::integrator::xray::XrayOutput;
 use crate::settings::{Mode, RenderSettings};
 use crate::tf::{Tf, TransferFunction};
 use crate::tiles::Tiles;
 use crate::trace::FrameGeometry;
-use dvr::{DvrFrame, Tables};
+use dvr::Tables;
 use glam::Vec3;
 use std::time::Instant;
 use volcore::Volume;
@@ -36,11 +40,34 @@ pub mod xray;
 pub const MAX_SAMPLES_PER_RAY: f64 = 1e7;
 
 /// Memory a frame may use for its per-pixel buffers (film, ray results,
-/// the resolved frame and its output encodings).
+/// the resolved frame and its output encodings), in either pipeline
+/// ([`check::memory`]).
 pub const FRAME_MEMORY_BUDGET: u64 = 8 << 30;
 
-/// Bytes a frame needs per pixel, all buffers together (an upper bound).
+/// Bytes a ray-cast frame needs per pixel, all buffers together (an upper
+/// bound).
 pub const FRAME_BYTES_PER_PIXEL: u64 = 160;
+
+/// What every ray-casting mode's frame set-up starts from, after the
+/// settings are checked: one shape for all four modes, each mode's
+/// `render_frame` taking it.
+#[derive(Clone, Copy)]
+pub struct FrameInputs<'a> {
+    /// The volume.
+    pub vol: &'a Volume,
+    /// The index to skip with, when skipping is on.
+    pub skip_index: Option<&'a MinMaxIndex>,
+    /// The transfer function (DVR needs one).
+    pub tf: Option<&'a Tf>,
+    /// The frame's settings, checked; the mode among them.
+    pub settings: &'a RenderSettings,
+    /// Sample placement.
+    pub geom: FrameGeometry,
+    /// The volume's recorded value range (0..0 when it has none).
+    pub range: (f32, f32),
+    /// The frame's pixels.
+    pub tiles: Tiles<'a>,
+}
 
 /// The volume's recorded value range in f32 (0..0 when it has none).
 fn value_range(vol: &Volume) -> (f32, f32) {
@@ -141,39 +168,21 @@ pub fn render_film(
         step: settings.step,
         cancel: &settings.cancel,
     };
-    let mut film = match settings.mode {
-        Mode::Dvr => {
-            let tf =
-                tf.ok_or_else(|| RenderError::Setting("DVR needs a transfer function".into()))?;
-            let frame = DvrFrame {
-                vol,
-                skip_index,
-                tf,
-                geom,
-                range: value_range(vol),
-                settings,
-                tiles,
-            };
-            frame.render()?
-        }
-        Mode::Mip | Mode::Minip => {
-            let maximum = settings.mode == Mode::Mip;
-            let range = value_range(vol);
-            let extreme = if maximum { range.1 } else { range.0 };
-            let stop = settings.ert.is_some();
-            mip::render_frame(vol, skip_index, &tiles, geom, maximum, stop, extreme)?
-        }
-        Mode::XraySum | Mode::XrayMean => {
-            let zero = skip_index.map(FixedCells::zero);
-            let output = if settings.mode == Mode::XrayMean {
-                XrayOutput::Mean
-            } else {
-                XrayOutput::Sum
-            };
-            xray::render_frame(vol, zero.as_ref(), &tiles, geom, output)?
-        }
-        Mode::Iso(level) => iso::render_frame(vol, skip_index, &tiles, geom, settings, level)?,
+    let inputs = FrameInputs {
+        vol,
+        skip_index,
+        tf,
+        settings,
+        geom,
+        range: value_range(vol),
+        tiles,
     };
+    let mut film = match settings.mode {
+        Mode::Dvr => dvr::render_frame(&inputs),
+        Mode::Iso(_) => iso::render_frame(&inputs),
+        Mode::Mip | Mode::Minip => mip::render_frame(&inputs),
+        Mode::XraySum | Mode::XrayMean => xray::render_frame(&inputs),
+    }?;
     // The frame's time is its wall time, set-up included (classifier
     // tables, skipping flags, culling, light and occlusion grids), but for
     // the AO field, built once per transfer function and reported beside.

@@ -16,8 +16,8 @@
 //! columns, both cumulative in f64 (a 8k × 4k map keeps its smallest
 //! texels' probabilities).
 
-use super::accum::luminance;
 use crate::error::RenderError;
+use crate::film::luminance;
 use glam::Vec3;
 use std::f64::consts::PI;
 use std::fmt;

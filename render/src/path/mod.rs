@@ -7,9 +7,9 @@
 //! grid), the Henyey-Greenstein [`phase`] function, the per-sample
 //! [`estimator`] (next-event estimation toward suns and point lights,
 //! environment light where paths escape, Russian roulette), the
-//! importance-sampled [`envmap`], and the
-//! progressive [`accum`]ulator (per-pixel f64 sums, resumable from a
-//! state file).
+//! importance-sampled [`envmap`]. Passes add their samples to the path
+//! tracer's film ([`crate::film::PathFilm`]: per-pixel f64 sums,
+//! resumable from a state file).
 //!
 //! Every random number is a hash of (seed, pixel, sample index,
 //! dimension) ([`crate::sampler`]) and every pixel adds its samples in
@@ -21,7 +21,6 @@
 //! scatter runs no scattering code; one bounce runs no multiple-scattering
 //! code. The counters ([`PathCounters`]) show it.
 
-pub mod accum;
 pub mod envmap;
 pub mod estimator;
 pub mod medium;
@@ -29,7 +28,6 @@ pub mod phase;
 pub mod surface;
 pub mod tracking;
 
-pub use accum::Accumulator;
 pub use envmap::EnvMap;
 pub use medium::{DensityMedium, Medium, TableMedium};
 pub use tracking::MajorantMode;
@@ -37,6 +35,7 @@ pub use tracking::MajorantMode;
 use crate::accel::majorant::MajorantGrid;
 use crate::camera::Camera;
 use crate::error::RenderError;
+use crate::film::{luminance, PathFilm};
 use crate::light::Light;
 use crate::tf::TransferFunction;
 use estimator::Estimator;
@@ -48,6 +47,11 @@ use std::time::Instant;
 use tracking::Tracker;
 use volcore::{Volume, VolumeVisitor, VoxelSource};
 use volindex::MinMaxIndex;
+
+/// Bytes a path-traced frame needs per pixel, for the frame-memory check
+/// ([`crate::frame::check::memory`]): the film's f64 sums, the mean image
+/// and its encodings.
+pub const PATH_BYTES_PER_PIXEL: u64 = 32 + 12 + 12 + 8;
 
 /// The lights of a path-traced scene: the ray caster's light model
 /// ([`Light`], one direction convention: `towards` points from the scene
@@ -225,13 +229,16 @@ pub struct PathTracer<'a> {
 const GRID_LEVEL: usize = 0;
 
 impl<'a> PathTracer<'a> {
-    /// Resolve the medium and build its majorant grid.
+    /// Check the frame's memory ([`PATH_BYTES_PER_PIXEL`] per pixel of the
+    /// camera's image) and the settings, resolve the medium and build its
+    /// majorant grid.
     pub fn new(
         vol: &'a Volume,
         index: &'a MinMaxIndex,
         camera: &'a Camera,
         settings: &'a PathSettings,
     ) -> Result<PathTracer<'a>, RenderError> {
+        crate::frame::check::memory(camera, PATH_BYTES_PER_PIXEL, "path-traced frame")?;
         index
             .check_volume(vol.dims(), vol.meta.sample_type)
             .map_err(|e| RenderError::Index(e.to_string()))?;
@@ -316,7 +323,7 @@ impl<'a> PathTracer<'a> {
 
     /// The same tracer, [`PathTracer::render`] stopping before its next
     /// pass once `cancel` is raised (the passes done so far stay in the
-    /// accumulator, whole).
+    /// film, whole).
     pub fn with_cancel(self, cancel: crate::settings::Cancel) -> Self {
         PathTracer { cancel, ..self }
     }
@@ -350,7 +357,7 @@ impl<'a> PathTracer<'a> {
     }
 
     /// Add `spp` samples to every pixel of `acc` (one pass, all threads).
-    pub fn pass(&self, acc: &mut Accumulator, spp: u64) -> Result<PathCounters, RenderError> {
+    pub fn pass(&self, acc: &mut PathFilm, spp: u64) -> Result<PathCounters, RenderError> {
         if (acc.width(), acc.height()) != (self.camera.width(), self.camera.height()) {
             return Err(RenderError::Setting(format!(
                 "the accumulated image is {}x{}, the camera's {}x{}",
@@ -368,7 +375,7 @@ impl<'a> PathTracer<'a> {
         Ok(counters)
     }
 
-    fn pass_with<M: Medium>(&self, medium: &M, acc: &mut Accumulator, spp: u64) -> PathCounters {
+    fn pass_with<M: Medium>(&self, medium: &M, acc: &mut PathFilm, spp: u64) -> PathCounters {
         let s = self.vol.meta.spacing;
         let d = self.vol.dims().as_array();
         let est = Estimator {
@@ -413,9 +420,9 @@ impl<'a> PathTracer<'a> {
     /// tracer's cancel flag ([`PathTracer::with_cancel`]) is raised first.
     pub fn render(
         &self,
-        acc: &mut Accumulator,
+        acc: &mut PathFilm,
         budget: &Budget,
-        mut progress: impl FnMut(&Accumulator, &PathCounters),
+        mut progress: impl FnMut(&PathFilm, &PathCounters),
     ) -> Result<PathCounters, RenderError> {
         if budget.spp.is_none() && budget.seconds.is_none() && budget.until_error.is_none() {
             return Err(RenderError::Setting(
@@ -501,7 +508,7 @@ impl<S: VoxelSource, M: Medium> PassRows for SourceRows<'_, S, M> {
             for i in start..start + spp {
                 let l = self.est.radiance(&mut cur, x as u32, y as u32, i, &mut n);
                 let (r, g, b) = (l.x as f64, l.y as f64, l.z as f64);
-                let lum = accum::luminance(r, g, b);
+                let lum = luminance(r, g, b);
                 px[0] += r;
                 px[1] += g;
                 px[2] += b;

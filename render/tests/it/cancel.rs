@@ -5,9 +5,8 @@
 use crate::common;
 
 use glam::Vec3;
-use volrender::path::{
-    Accumulator, Budget, MajorantMode, MediumSpec, PathLights, PathSettings, PathTracer,
-};
+use volrender::film::PathFilm;
+use volrender::path::{Budget, MajorantMode, MediumSpec, PathLights, PathSettings, PathTracer};
 use volrender::{render_tf, Cancel, Mode, RenderError, RenderSettings, Tf, TransferFunction};
 
 #[test]
@@ -65,7 +64,7 @@ fn a_flag_raised_after_a_pass_stops_the_path_tracer_there() {
     let pt = PathTracer::new(&v, &ix, &cam, &s)
         .unwrap()
         .with_cancel(cancel.clone());
-    let mut acc = Accumulator::new(cam.width(), cam.height(), pt.key(0));
+    let mut acc = PathFilm::new(cam.width(), cam.height(), pt.key(0));
     let budget = Budget {
         spp: Some(64),
         ..Default::default()

@@ -9,9 +9,9 @@ use volcore::region::pack_sliced;
 use volcore::scene::{SceneSource, ShapesScene};
 use volcore::{Dims, Volume};
 use volindex::{BuildOptions, MinMaxIndex};
+use volrender::film::PathFilm;
 use volrender::path::{
-    Accumulator, Budget, EnvMap, MajorantMode, MediumSpec, PathCounters, PathLights, PathSettings,
-    PathTracer,
+    Budget, EnvMap, MajorantMode, MediumSpec, PathCounters, PathLights, PathSettings, PathTracer,
 };
 use volrender::{Camera, Light, Projection};
 
@@ -60,20 +60,20 @@ fn render(
     cam: &Camera,
     s: &PathSettings,
     spp: u64,
-) -> (Accumulator, PathCounters) {
+) -> (PathFilm, PathCounters) {
     let pt = PathTracer::new(v, ix, cam, s).unwrap();
-    let mut acc = Accumulator::new(cam.width(), cam.height(), pt.key(0));
+    let mut acc = PathFilm::new(cam.width(), cam.height(), pt.key(0));
     let n = pt.pass(&mut acc, spp).unwrap();
     (acc, n)
 }
 
 /// The image mean and its standard error (pixels independent).
-fn image_mean(acc: &Accumulator) -> (f64, f64) {
+fn image_mean(acc: &PathFilm) -> (f64, f64) {
     let rgb = acc.mean_rgb();
     let n = (rgb.len() / 3) as f64;
     let mean = rgb
         .chunks(3)
-        .map(|c| volrender::path::accum::luminance(c[0] as f64, c[1] as f64, c[2] as f64))
+        .map(|c| volrender::film::luminance(c[0] as f64, c[1] as f64, c[2] as f64))
         .sum::<f64>()
         / n;
     let se2: f64 = acc
@@ -239,7 +239,7 @@ fn images_are_bit_identical_across_threads_and_resumes() {
     let pt = PathTracer::new(&v, &ix, &cam, &s).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let state = dir.path().join("s.state");
-    let mut a = Accumulator::new(20, 20, pt.key(0));
+    let mut a = PathFilm::new(20, 20, pt.key(0));
     pt.render(
         &mut a,
         &Budget {
@@ -251,14 +251,14 @@ fn images_are_bit_identical_across_threads_and_resumes() {
     .unwrap();
     a.write_to(&mut std::fs::File::create(&state).unwrap())
         .unwrap();
-    let mut b = Accumulator::load(&state, 20, 20, pt.key(0)).unwrap();
+    let mut b = PathFilm::load(&state, 20, 20, pt.key(0)).unwrap();
     pt.pass(&mut b, 3).unwrap();
     assert_eq!(b, one);
     // Another scene's key is refused.
     let other = settings(0.6, 0.8, sun_and_env());
     let key = PathTracer::new(&v, &ix, &cam, &other).unwrap().key(0);
     assert_ne!(key, pt.key(0));
-    assert!(Accumulator::load(&state, 20, 20, key).is_err());
+    assert!(PathFilm::load(&state, 20, 20, key).is_err());
 }
 
 /// The majorant grid changes the cost, not the expectation: the image
@@ -368,7 +368,7 @@ fn budgets_stop_renders() {
     let cam = outside(24.0, 8);
     let s = settings(0.5, 0.8, sun_and_env());
     let pt = PathTracer::new(&v, &ix, &cam, &s).unwrap();
-    let mut acc = Accumulator::new(8, 8, pt.key(0));
+    let mut acc = PathFilm::new(8, 8, pt.key(0));
     assert!(pt.render(&mut acc, &Budget::default(), |_, _| {}).is_err());
     let mut passes = 0;
     pt.render(
@@ -579,6 +579,30 @@ fn maps_are_checked_and_black_ones_cost_nothing() {
     let (acc, n) = render(&v, &ix, &cam, &s, 4);
     assert_eq!(n.shadow_rays, 0);
     assert!(acc.mean_rgb().iter().all(|&c| c == 0.0));
+}
+
+/// The path tracer's frame memory is checked by the ray caster's check,
+/// at its own bytes per pixel: the largest image is refused before any
+/// buffer is made, one that fits is not.
+#[test]
+fn frames_past_the_memory_budget_are_refused() {
+    let v = shapes(8);
+    let ix = index(&v);
+    let s = settings(1.0, 0.5, env(1.0));
+    let e = PathTracer::new(&v, &ix, &outside(8.0, 1 << 15), &s)
+        .err()
+        .expect("a 32768x32768 path-traced frame is past the budget");
+    let e = e.to_string();
+    assert!(
+        e.contains("path-traced frame")
+            && e.contains("budget")
+            && e.contains(&format!(
+                "{} bytes per pixel",
+                volrender::path::PATH_BYTES_PER_PIXEL
+            )),
+        "{e}"
+    );
+    assert!(PathTracer::new(&v, &ix, &outside(8.0, 4096), &s).is_ok());
 }
 
 /// Hybrid scattering: in a constant medium the gradient is zero, so no

@@ -9,8 +9,8 @@
 //! [`crate::distributed`]). Resolving divides by the count, maps the mode's
 //! scalar to grey where the mode is a projection (MIP, MinIP, X-ray), and
 //! composites over the background. The result stays linear light;
-//! [`Frame::srgb8`] encodes it for 8-bit output. The path tracer keeps its
-//! own resumable per-pixel sums ([`crate::path::Accumulator`]).
+//! [`Frame::srgb8`] encodes it for 8-bit output. The path tracer adds its
+//! samples to a film of its own ([`super::path`]).
 
 use crate::trace::RayResult;
 use glam::Vec3;

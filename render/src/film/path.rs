@@ -1,7 +1,7 @@
-//! Per-pixel sums of a progressive render, in f64: radiance (r, g, b)
-//! and the luminance's square, added sample by sample in sample order, so
-//! a pixel's sums depend only on its samples (not on threads, tiles or how
-//! the samples were split into passes). Saved to and loaded from a state
+//! The path tracer's film: per-pixel sums of a progressive render, in
+//! f64: radiance (r, g, b) and the luminance's square, added sample by
+//! sample in sample order, so a pixel's sums depend only on its samples
+//! (not on threads, tiles or how the samples were split into passes). Saved to and loaded from a state
 //! file, a render continues where it stopped: 64 samples and 64 more give
 //! the same bits as 128 at once.
 //!
@@ -20,9 +20,10 @@ pub fn luminance(r: f64, g: f64, b: f64) -> f64 {
     0.2126 * r + 0.7152 * g + 0.0722 * b
 }
 
-/// The sums of a progressive render.
+/// The path tracer's film: the sums of a progressive render (see the
+/// module docs).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Accumulator {
+pub struct PathFilm {
     width: u32,
     height: u32,
     key: u64,
@@ -31,10 +32,10 @@ pub struct Accumulator {
     sums: Vec<[f64; 4]>,
 }
 
-impl Accumulator {
+impl PathFilm {
     /// Empty sums for a `width × height` image of the scene with `key`.
-    pub fn new(width: u32, height: u32, key: u64) -> Accumulator {
-        Accumulator {
+    pub fn new(width: u32, height: u32, key: u64) -> PathFilm {
+        PathFilm {
             width,
             height,
             key,
@@ -64,7 +65,7 @@ impl Accumulator {
     }
 
     /// The rows of sums, for a pass to add to, and the sample count the
-    /// pass starts at; call [`Accumulator::finish_pass`] after.
+    /// pass starts at; call [`PathFilm::finish_pass`] after.
     pub(crate) fn rows_mut(&mut self) -> (&mut [[f64; 4]], u64) {
         (&mut self.sums, self.spp)
     }
@@ -128,7 +129,7 @@ impl Accumulator {
         (lit > 0 && mean > 0.0).then(|| (se2 / lit as f64).sqrt() / (mean / lit as f64))
     }
 
-    /// The state as [`Accumulator::load`] reads it: a 32-byte header, then
+    /// The state as [`PathFilm::load`] reads it: a 32-byte header, then
     /// four little-endian f64 sums per pixel. (`vol-render --accumulate`
     /// writes it under a temporary name renamed into place when complete.)
     pub fn write_to(&self, w: &mut dyn Write) -> std::io::Result<()> {
@@ -145,9 +146,9 @@ impl Accumulator {
         Ok(())
     }
 
-    /// Read a state written by [`Accumulator::write_to`], refusing one of
+    /// Read a state written by [`PathFilm::write_to`], refusing one of
     /// another scene (`key`) or image size.
-    pub fn load(path: &Path, width: u32, height: u32, key: u64) -> Result<Accumulator, String> {
+    pub fn load(path: &Path, width: u32, height: u32, key: u64) -> Result<PathFilm, String> {
         let mut f = std::fs::File::open(path).map_err(|e| e.to_string())?;
         let len = f.metadata().map_err(|e| e.to_string())?.len();
         let mut head = [0u8; HEADER as usize];
@@ -191,7 +192,7 @@ impl Accumulator {
         if sums.iter().flatten().any(|v| !v.is_finite()) {
             return Err("holds non-finite sums: damaged".into());
         }
-        Ok(Accumulator {
+        Ok(PathFilm {
             width: w,
             height: h,
             key: k,
@@ -209,7 +210,7 @@ mod tests {
     fn state_files_round_trip_and_refuse_other_scenes() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("s.state");
-        let mut a = Accumulator::new(3, 2, 77);
+        let mut a = PathFilm::new(3, 2, 77);
         {
             let (rows, start) = a.rows_mut();
             assert_eq!(start, 0);
@@ -219,27 +220,25 @@ mod tests {
         }
         a.finish_pass(4);
         a.write_to(&mut std::fs::File::create(&p).unwrap()).unwrap();
-        assert_eq!(Accumulator::load(&p, 3, 2, 77).unwrap(), a);
-        assert!(Accumulator::load(&p, 3, 2, 78)
+        assert_eq!(PathFilm::load(&p, 3, 2, 77).unwrap(), a);
+        assert!(PathFilm::load(&p, 3, 2, 78)
             .unwrap_err()
             .contains("another scene"));
-        assert!(Accumulator::load(&p, 2, 3, 77).unwrap_err().contains("3x2"));
+        assert!(PathFilm::load(&p, 2, 3, 77).unwrap_err().contains("3x2"));
         let bytes = std::fs::read(&p).unwrap();
         std::fs::write(&p, &bytes[..bytes.len() - 1]).unwrap();
-        assert!(Accumulator::load(&p, 3, 2, 77)
+        assert!(PathFilm::load(&p, 3, 2, 77)
             .unwrap_err()
             .contains("truncated"));
         std::fs::write(&p, b"VKPATH0").unwrap();
-        assert!(Accumulator::load(&p, 3, 2, 77).is_err());
+        assert!(PathFilm::load(&p, 3, 2, 77).is_err());
         std::fs::write(&p, [b'x'; 64]).unwrap();
-        assert!(Accumulator::load(&p, 3, 2, 77)
-            .unwrap_err()
-            .contains("header"));
+        assert!(PathFilm::load(&p, 3, 2, 77).unwrap_err().contains("header"));
     }
 
     #[test]
     fn errors_pool_lit_pixels() {
-        let mut a = Accumulator::new(2, 1, 0);
+        let mut a = PathFilm::new(2, 1, 0);
         assert_eq!(a.relative_error(), None);
         {
             let (rows, _) = a.rows_mut();
