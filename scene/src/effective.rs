@@ -307,6 +307,29 @@ mod tests {
         }
     }
 
+    /// A scene at the defaults still names every option a default
+    /// decides (`mode`, `size`, `fov`...), so a later change of a default
+    /// does not change what a printed scene renders.
+    #[test]
+    fn a_default_scene_prints_every_option_that_has_a_default() {
+        let (o, r) = resolved(&["--".to_string(), "/d/v.vvol".to_string()]);
+        let scene = effective(&o, &r).unwrap();
+        // The input flags are printed when they differ from the defaults.
+        let input = <volformats::Selection as clap::Args>::augment_args(clap::Command::new("i"));
+        let is_input = |id: &str| input.get_arguments().any(|a| a.get_id() == id);
+        for arg in Options::command().get_arguments() {
+            let id = arg.get_id().as_str();
+            let skip = NOT_PRINTED.contains(&id)
+                || is_input(id)
+                || arg.get_help_heading() == Some(PATH_HEADING)
+                || arg.get_default_values().is_empty();
+            if !skip {
+                let key = key_of(arg);
+                assert!(scene.get(&key).is_some(), "`{key}` is not printed");
+            }
+        }
+    }
+
     fn to_toml_text(scene: &Scene) -> String {
         crate::file::to_toml(scene).unwrap()
     }

@@ -66,7 +66,8 @@ pub struct Options {
     pub iso: Option<f32>,
     /// Image size WxH, 1..=32768 per side, within a frame memory budget
     /// of 8 GiB at 160 bytes per pixel (about 53 megapixels, e.g.
-    /// 7000x7000); a larger frame is refused before rendering.
+    /// 7000x7000; path tracing: 64 bytes, about 134 megapixels); a larger
+    /// frame is refused before rendering.
     #[arg(long, default_value = "512x512", value_parser = parse_size)]
     pub size: (u32, u32),
     /// Camera position x,y,z (world units); needs --look-at.
