@@ -9,8 +9,9 @@
 //! except those [`NOT_PRINTED`] and, outside `--mode path`, the path
 //! tracer's.
 
+use crate::args::key_of;
 use crate::error::{Error, Result};
-use crate::file::{key_of, Scene};
+use crate::file::Scene;
 use crate::lights::LightSpec;
 use crate::options::{ModeArg, Options, NOT_PRINTED, PATH_HEADING};
 use clap::{CommandFactory, ValueHint};
@@ -95,7 +96,7 @@ fn resolve(values: &mut Map<String, Value>, cli: &Options, resolved: &Resolved) 
     // As the plan reads it: the scene's text, else a preset, else a file.
     let tf = match &cli.tf_text {
         Some(_) => Value::Null,
-        None if crate::plan::is_preset(&cli.tf) => Value::String(cli.tf.clone()),
+        None if crate::options::is_preset(&cli.tf) => Value::String(cli.tf.clone()),
         None => Value::String(absolute(&cli.tf)),
     };
     set("tf", tf);

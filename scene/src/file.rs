@@ -1,7 +1,7 @@
 //! Scene files: everything one render needs, in TOML. Their keys are
 //! vol-render's flags by their long names (`look-at = [0, 0, 0]` is
 //! `--look-at 0,0,0`, `volume` the positional argument), each value read
-//! through clap as the flag's text would be ([`crate::pairs`] turns a
+//! through clap as the flag's text would be ([`crate::args`] turns a
 //! value into that text), so the options have one definition
 //! ([`crate::options`]): a new flag is a key, with the flag's parser,
 //! default and checks. What no flag says is all a [`Scene`] keeps apart:
@@ -10,10 +10,10 @@
 //! This module reads, checks and writes the file; [`crate::merge`] puts
 //! it under the options given.
 
+use crate::args::{arg_of, command_args, key_of};
 use crate::error::{Error, Result};
 use crate::lights::LightSpec;
 use crate::options::Options;
-use crate::pairs;
 use clap::error::ErrorKind as ClapKind;
 use clap::{Arg, Command, CommandFactory};
 use serde::ser::SerializeMap;
@@ -22,7 +22,7 @@ use serde_json::Value;
 use std::path::Path;
 
 /// The keys no flag says: read as tables and text, not through clap
-/// (the ids of [`pairs::SCENE_ONLY`] as keys).
+/// (the ids of [`crate::pairs::SCENE_ONLY`] as keys).
 const SCENE_ONLY_KEYS: [&str; 2] = ["lights", "tf-text"];
 
 /// Options a scene file may not hold (by id): a scene inside a scene,
@@ -51,21 +51,6 @@ struct SceneOnly {
     lights: Option<Vec<LightSpec>>,
     #[serde(default, rename = "tf-text")]
     tf_text: Option<String>,
-}
-
-/// The option `key` names: the argument whose long flag it is, or the
-/// positional argument with that id (`volume`).
-pub fn arg_of<'c>(cmd: &'c Command, key: &str) -> Option<&'c Arg> {
-    cmd.get_arguments().find(|a| match a.get_long() {
-        Some(long) => long == key,
-        None => a.get_id().as_str() == key,
-    })
-}
-
-/// The key of the option `arg` (its long flag; a positional's id).
-pub fn key_of(arg: &Arg) -> String {
-    arg.get_long()
-        .map_or_else(|| arg.get_id().as_str().to_string(), str::to_string)
 }
 
 impl Scene {
@@ -157,8 +142,8 @@ impl Scene {
 /// requires or conflicts with) left to the whole scene's parse.
 fn check_value(cmd: &Command, arg: &Arg, value: &Value) -> std::result::Result<(), String> {
     let key = key_of(arg);
-    let (args, _) = pairs::command_args(cmd, [(key.as_str(), value.clone())])
-        .map_err(|e| e.message().to_string())?;
+    let (args, _) =
+        command_args(cmd, [(key.as_str(), value.clone())]).map_err(|e| e.message().to_string())?;
     let argv = std::iter::once("vol-render".to_string()).chain(args);
     match cmd.clone().try_get_matches_from(argv) {
         Ok(_) => Ok(()),

@@ -23,6 +23,7 @@
 
 #![warn(missing_docs)]
 
+pub mod args;
 pub mod choices;
 pub mod effective;
 pub mod error;

@@ -5,10 +5,10 @@
 //!
 //! Relative paths in a file are taken from the file's directory.
 
+use crate::args::{arg_of, command_args};
 use crate::error::Result;
-use crate::file::{arg_of, Scene};
+use crate::file::Scene;
 use crate::options::Options;
-use crate::pairs::command_args;
 use clap::{Arg, Command, CommandFactory, ValueHint};
 use serde_json::Value;
 use std::collections::BTreeSet;
@@ -77,7 +77,9 @@ fn conflicts(cmd: &Command, a: &Arg, b: &Arg) -> bool {
 fn from_dir(arg: &Arg, value: &Value, dir: &Path) -> Value {
     let is_path = arg.get_value_hint() == ValueHint::AnyPath
         || (arg.get_id().as_str() == "tf"
-            && value.as_str().is_some_and(|t| !crate::plan::is_preset(t)));
+            && value
+                .as_str()
+                .is_some_and(|t| !crate::options::is_preset(t)));
     match value {
         Value::String(p) if is_path && Path::new(p).is_relative() => {
             Value::String(dir.join(p).display().to_string())

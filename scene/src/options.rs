@@ -350,6 +350,11 @@ pub const NOT_PRINTED: [&str; 14] = [
     "old_time",
 ];
 
+/// Whether `--tf` names a preset (`auto:P` included) rather than a file.
+pub fn is_preset(name: &str) -> bool {
+    volrender::tf::PRESETS.contains(&name) || name.starts_with("auto:")
+}
+
 impl Options {
     /// Every option at its default (no volume).
     pub fn defaults() -> Options {

@@ -8,15 +8,16 @@
 //! Two scene-file keys have no flag: `lights` (a list of tables, as in
 //! the file) and `tf-text`; they are read as the scene file reads them.
 
-use crate::error::clap_error;
-use crate::error::{Error, Result};
+use crate::error::{clap_error, Error, Result};
 use crate::file::Scene;
 use crate::lights::LightSpec;
 use crate::options::Options;
 use crate::request::Request;
-use clap::{ArgAction, Command, CommandFactory, FromArgMatches};
+use clap::{CommandFactory, FromArgMatches};
 use serde_json::Value;
 use std::collections::BTreeSet;
+
+pub use crate::args::{command_args, id_of};
 
 /// The keys that only a scene file (or a pair) can give: no flag says them.
 pub const SCENE_ONLY: [&str; 2] = ["lights", "tf_text"];
@@ -31,11 +32,6 @@ pub struct Pairs {
     pub scene_only: Scene,
     /// The ids of every option named (`look_at`), `null` values aside.
     pub given: BTreeSet<String>,
-}
-
-/// `name` as an option's id: `look-at` and `look_at` are `look_at`.
-pub fn id_of(name: &str) -> String {
-    name.trim().replace('-', "_")
 }
 
 /// Take `pairs` apart into arguments and scene-only keys. An unknown
@@ -86,99 +82,6 @@ where
     Ok(out)
 }
 
-/// Name/value pairs as arguments of the command line `cmd` defines
-/// (without the program's name), and the ids of the options named: each
-/// name an argument's id or long flag (`look-at` or `look_at`), a
-/// positional argument's value after `--`. The other tools' options (the
-/// Python package's `generate` takes vol-gen's) go through it too. An
-/// unknown name is refused naming it; a `null` value is as if the pair
-/// were not there.
-pub fn command_args<I, K>(cmd: &Command, pairs: I) -> Result<(Vec<String>, BTreeSet<String>)>
-where
-    I: IntoIterator<Item = (K, Value)>,
-    K: AsRef<str>,
-{
-    let mut args = Vec::new();
-    let mut given = BTreeSet::new();
-    let mut positional = Vec::new();
-    for (name, value) in pairs {
-        let name = name.as_ref();
-        let id = id_of(name);
-        if value.is_null() {
-            continue;
-        }
-        let Some(arg) = cmd.get_arguments().find(|a| a.get_id().as_str() == id) else {
-            return Err(Error::usage(format!(
-                "unknown option `{}`",
-                volcore::text::clip(&volcore::text::escape(name), 40)
-            )));
-        };
-        let bad = |what: &str| {
-            Error::usage(format!(
-                "option `{}`: {what}",
-                volcore::text::clip(&volcore::text::escape(name), 40)
-            ))
-        };
-        let Some(long) = arg.get_long() else {
-            // A positional argument (vol-render's volume).
-            positional.push(text(&value).ok_or_else(|| bad("expected a path"))?);
-            given.insert(id);
-            continue;
-        };
-        match (arg.get_action(), &value) {
-            (ArgAction::SetTrue, Value::Bool(b)) => {
-                if *b {
-                    args.push(format!("--{long}"));
-                }
-            }
-            (ArgAction::SetTrue, _) => return Err(bad("expected true or false")),
-            (ArgAction::Append, Value::Array(items)) => {
-                for item in items {
-                    let t = text(item).ok_or_else(|| bad("expected a list of texts"))?;
-                    args.push(format!("--{long}={t}"));
-                }
-            }
-            // An option whose value may be left out (`--ortho`).
-            (_, Value::Bool(b)) if arg.get_num_args().is_some_and(|n| n.min_values() == 0) => {
-                if *b {
-                    args.push(format!("--{long}"));
-                }
-            }
-            (_, v) => {
-                let t = text(v).ok_or_else(|| bad("expected a value"))?;
-                args.push(format!("--{long}={t}"));
-            }
-        }
-        given.insert(id);
-    }
-    if !positional.is_empty() {
-        args.push("--".into());
-        args.extend(positional);
-    }
-    Ok((args, given))
-}
-
-/// A value as the text a flag takes: a string as it is, a number as
-/// written, a list as its items joined by commas (`[700, 700]` is
-/// `700,700`, which `--size` reads as `700x700`).
-fn text(v: &Value) -> Option<String> {
-    match v {
-        Value::String(s) => Some(s.clone()),
-        Value::Number(n) => Some(n.to_string()),
-        Value::Bool(b) => Some(b.to_string()),
-        Value::Array(items) => items
-            .iter()
-            .map(|i| match i {
-                Value::String(s) => Some(s.clone()),
-                Value::Number(n) => Some(n.to_string()),
-                _ => None,
-            })
-            .collect::<Option<Vec<_>>>()
-            .map(|v| v.join(",")),
-        Value::Null | Value::Object(_) => None,
-    }
-}
-
 impl Request {
     /// The render that `pairs` ask for: each name an option's (as a flag
     /// or a scene-file key), each value parsed and checked as the flag's
@@ -206,42 +109,5 @@ impl Request {
         let mut request = Request::from_matches(options, &matches);
         request.mark_given(p.given);
         Ok(request)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use serde_json::json;
-
-    #[test]
-    fn pairs_become_another_command_lines_arguments() {
-        let cmd = Command::new("t")
-            .arg(clap::Arg::new("scene").required(true))
-            .arg(clap::Arg::new("seed").long("seed"))
-            .arg(
-                clap::Arg::new("dry_run")
-                    .long("dry-run")
-                    .action(ArgAction::SetTrue),
-            );
-        let (args, given) = command_args(
-            &cmd,
-            [
-                ("seed", json!(4)),
-                ("dry-run", json!(true)),
-                ("scene", json!("shapes")),
-                ("unused", Value::Null),
-            ],
-        )
-        .unwrap();
-        assert_eq!(args, ["--seed=4", "--dry-run", "--", "shapes"]);
-        assert_eq!(
-            given.into_iter().collect::<Vec<_>>(),
-            ["dry_run", "scene", "seed"]
-        );
-        let e = command_args(&cmd, [("colour", json!(1))]).unwrap_err();
-        assert_eq!(e.message(), "unknown option `colour`");
-        let e = command_args(&cmd, [("dry_run", json!(3))]).unwrap_err();
-        assert_eq!(e.message(), "option `dry_run`: expected true or false");
     }
 }

@@ -176,11 +176,6 @@ fn transfer_function(
         .map_err(Error::named)
 }
 
-/// Whether `--tf` names a preset (`auto:P` included) rather than a file.
-pub fn is_preset(name: &str) -> bool {
-    PRESETS.contains(&name) || name.starts_with("auto:")
-}
-
 /// The tail percentile of `--tf auto` or `auto:P`; `None` for other names.
 fn auto_tail(name: &str) -> Result<Option<f64>> {
     if name == "auto" {

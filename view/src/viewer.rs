@@ -157,7 +157,7 @@ fn check_pairs(pairs: &Map<String, Value>) -> Result<(), Error> {
         }
         // `tf` names a preset or a file: only presets from the page.
         if let ("tf", Value::String(tf)) = (id.as_str(), value) {
-            if !volscene::plan::is_preset(tf) {
+            if !volscene::options::is_preset(tf) {
                 return Err(Error::usage(format!(
                     "option `tf`: `{}` is not a preset ({}); the page gives presets or tf-text, files go in the --scene file",
                     volcore::text::clip(&volcore::text::escape(tf), 40),
