@@ -132,15 +132,22 @@ def test_from_array(dtype, shape):
     for name, v in arrays.items():
         got = volkit.from_array(v).array()
         assert got.dtype == a.dtype and np.array_equal(got.reshape(a.shape), a), name
-    # save takes 2D arrays as one slice as well.
 
 
+def scrambled(a):
+    """What the Fortran-order bug read: `a`'s Fortran memory order taken
+    as C order (to check a test can tell the two apart)."""
+    return np.asfortranarray(a).ravel(order="K").reshape(a.shape)
+
+
+@pytest.mark.parametrize("mode", ["mip", "dvr"])
 @pytest.mark.parametrize("dtype", VOLUME_TYPES)
-def test_render(dtype):
+def test_render(dtype, mode):
     a, arrays = each_layout(dtype, (6, 7, 8))
-    opts = dict(mode="mip", size="12x10", orbit=[30, 20, 150], tf="auto")
+    opts = dict(mode=mode, size="16x12", tf="auto")
     ref, _ = volkit.render(a, **opts)
     assert ref.max() > 0
+    assert not np.array_equal(volkit.render(scrambled(a), **opts)[0], ref)
     for name, v in arrays.items():
         img, _ = volkit.render(v, **opts)
         assert np.array_equal(img, ref, equal_nan=True), name
@@ -181,6 +188,8 @@ def test_index(tmp_path, dtype):
     a, arrays = each_layout(dtype, (8, 10, 12))
     ref = volkit.index(a, tmp_path / "c.vidx", cell=4)
     want = (tmp_path / "c.vidx").read_bytes()
+    volkit.index(scrambled(a), tmp_path / "s.vidx", cell=4)
+    assert (tmp_path / "s.vidx").read_bytes() != want
     for name, v in arrays.items():
         ix = volkit.index(v, tmp_path / f"{name}.vidx", cell=4)
         assert ix.range == ref.range, name
