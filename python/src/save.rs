@@ -4,7 +4,7 @@
 
 use crate::errors;
 use crate::volume::{decode, geometry_of, spacing_of, PyVolume};
-use numpy::{Element, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::{Element, PyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use std::path::{Path, PathBuf};
 use volcore::volume::TypedGrid;
@@ -29,16 +29,8 @@ fn array_slices(a: &Bound<'_, PyAny>) -> PyResult<(Dims, Vec<SliceData>)> {
         wrap: fn(Vec<T>) -> SliceData,
     ) -> PyResult<(Dims, Vec<SliceData>)> {
         let dims = crate::volume::dims_of(a.shape())?;
-        let ro = a.readonly();
-        let owned;
-        let samples = match ro.as_slice() {
-            Ok(s) => s,
-            Err(_) => {
-                owned = ro.as_array().iter().copied().collect::<Vec<T>>();
-                &owned[..]
-            }
-        };
-        Ok((dims, slices_of(dims, samples, wrap)))
+        let slices = crate::volume::with_c_order(a, |s| slices_of(dims, &s, wrap));
+        Ok((dims, slices))
     }
     macro_rules! try_type {
         ($t:ty, $v:ident) => {
@@ -183,7 +175,10 @@ pub fn save<'py>(
 
 /// The preprocessing keywords of `kw` as flags (unknown ones refused,
 /// naming the ones there are).
-fn prep_of(what: &str, kw: Option<&Bound<'_, pyo3::types::PyDict>>) -> PyResult<volformats::PrepFlags> {
+fn prep_of(
+    what: &str,
+    kw: Option<&Bound<'_, pyo3::types::PyDict>>,
+) -> PyResult<volformats::PrepFlags> {
     let mut pairs = Vec::new();
     for (k, v) in kw.into_iter().flat_map(|d| d.iter()) {
         let key: String = k.extract()?;

@@ -9,6 +9,7 @@ use numpy::{Element, PyArray1, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rayon::prelude::*;
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use volcore::volume::TypedGrid;
 use volcore::{Compression, Dims, Geometry, Sample, VolumeData, VoxelSource};
@@ -437,6 +438,26 @@ pub fn dims_of(shape: &[usize]) -> PyResult<Dims> {
     Dims::new(x as u64, y as u64, z as u64).map_err(|e| errors::value(e.to_string()))
 }
 
+/// Calls `f` with the samples of `a` in logical C order (the last axis
+/// fastest: x fastest, as volumes store them): borrowed when `a` is
+/// C-contiguous, else copied in that order. Every entry point that takes
+/// an array's samples goes through here. numpy's own `as_slice` also
+/// borrows Fortran-contiguous arrays, in memory order (the first axis
+/// fastest), which silently transposed them (issue 53); ndarray's
+/// `as_slice` of the view borrows only the standard (C) layout, and the
+/// view's iterator walks any strides (negative, zero) in logical order.
+pub fn with_c_order<T: Element + Copy, R>(
+    a: &Bound<'_, numpy::PyArrayDyn<T>>,
+    f: impl FnOnce(Cow<'_, [T]>) -> R,
+) -> R {
+    let ro = a.readonly();
+    let view = ro.as_array();
+    match view.as_slice() {
+        Some(s) => f(Cow::Borrowed(s)),
+        None => f(Cow::Owned(view.iter().copied().collect())),
+    }
+}
+
 /// A Volume in memory from a numpy array (z, y, x) of uint8, uint16,
 /// int16 or float32 (copied), with spacing, origin and direction in numpy
 /// order (z, y, x).
@@ -464,11 +485,7 @@ pub fn volume_of_array(array: &Bound<'_, PyAny>) -> PyResult<volcore::Volume> {
         a: &Bound<'_, numpy::PyArrayDyn<T>>,
     ) -> PyResult<volcore::Volume> {
         let dims = dims_of(a.shape())?;
-        let ro = a.readonly();
-        let samples = match ro.as_slice() {
-            Ok(s) => s.to_vec(),
-            Err(_) => ro.as_array().iter().copied().collect(),
-        };
+        let samples = with_c_order(a, |s| s.into_owned());
         volcore::Volume::from_samples(dims, samples).map_err(|e| errors::value(e.to_string()))
     }
     if let Ok(a) = array.cast::<numpy::PyArrayDyn<u8>>() {

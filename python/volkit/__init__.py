@@ -7,6 +7,10 @@ Axis order: every shape, spacing, origin and direction is in numpy's order
 Text options that are the command line's own (``raw_dims="X,Y,Z"`` of
 ``open``, ``size="WxH"`` of ``render``) keep the command line's order.
 
+Arrays: any numpy memory layout (C or Fortran order, transposed, strided or
+reversed views) is read in its logical (z, y, x) order, as a C-order copy
+of the same data would be.
+
 Errors: bad options raise ``ValueError``, file problems ``OSError`` (a missing
 input ``FileNotFoundError``), with the tools' one-line messages; Ctrl-C during
 a long call raises ``KeyboardInterrupt`` (the work stops at the next tile,

@@ -102,7 +102,8 @@ def from_array(
     origin: Optional[Sequence[float]] = ...,
     direction: Optional[Mat3] = ...,
 ) -> Volume:
-    """A Volume in memory from a (z, y, x) array (a copy)."""
+    """A Volume in memory from a (z, y, x) array (a copy, in logical order
+    whatever the array's memory layout)."""
 
 def save(
     data: Union[Volume, npt.ArrayLike],
