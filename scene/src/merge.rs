@@ -21,6 +21,9 @@ pub struct Under {
     pub flags: Vec<String>,
     /// The positional argument (the volume), when the file gives it.
     pub positional: Vec<String>,
+    /// The files the scene names, by key, as resolved (`volume`,
+    /// `/data/a.vvol`), so errors about them can name the scene too.
+    pub paths: Vec<(String, String)>,
 }
 
 /// The arguments that say the options of `scene` that the options with
@@ -40,8 +43,14 @@ pub fn under(scene: &Scene, dir: &Path, given: &BTreeSet<String>) -> Result<Unde
         }
         pairs.push((key.clone(), from_dir(arg, value, dir)));
     }
-    let (mut flags, _) = command_args(&cmd, pairs)?;
     let mut out = Under::default();
+    for (key, value) in &pairs {
+        let is_path = arg_of(&cmd, key).is_some_and(|a| names_file(a, value));
+        if let (true, Value::String(p)) = (is_path, value) {
+            out.paths.push((key.clone(), p.clone()));
+        }
+    }
+    let (mut flags, _) = command_args(&cmd, pairs)?;
     if let Some(at) = flags.iter().position(|a| a == "--") {
         out.positional = flags.split_off(at + 1);
         flags.pop();
@@ -75,15 +84,20 @@ fn conflicts(cmd: &Command, a: &Arg, b: &Arg) -> bool {
 /// A file's value as the flag takes it: a relative path (an option whose
 /// value is a path, or a `tf` that is not a preset) from `dir`.
 fn from_dir(arg: &Arg, value: &Value, dir: &Path) -> Value {
-    let is_path = arg.get_value_hint() == ValueHint::AnyPath
-        || (arg.get_id().as_str() == "tf"
-            && value
-                .as_str()
-                .is_some_and(|t| !crate::options::is_preset(t)));
     match value {
-        Value::String(p) if is_path && Path::new(p).is_relative() => {
+        Value::String(p) if names_file(arg, value) && Path::new(p).is_relative() => {
             Value::String(dir.join(p).display().to_string())
         }
         other => other.clone(),
     }
+}
+
+/// Whether `value` of `arg` names a file: an option whose value is a
+/// path, or a `tf` that is not a preset.
+fn names_file(arg: &Arg, value: &Value) -> bool {
+    arg.get_value_hint() == ValueHint::AnyPath
+        || (arg.get_id().as_str() == "tf"
+            && value
+                .as_str()
+                .is_some_and(|t| !crate::options::is_preset(t)))
 }

@@ -25,6 +25,8 @@ pub struct Request {
     flags: Vec<OsString>,
     /// The given positional argument (the volume).
     positional: Vec<OsString>,
+    /// The files the scene file named, by key (`volume`), as resolved.
+    scene_paths: Vec<(String, String)>,
 }
 
 impl Request {
@@ -37,6 +39,7 @@ impl Request {
             given: BTreeSet::new(),
             flags: Vec::new(),
             positional: Vec::new(),
+            scene_paths: Vec::new(),
         };
         for arg in Options::command().get_arguments() {
             let id = arg.get_id().as_str();
@@ -156,7 +159,31 @@ impl Request {
         };
         self.options = options;
         self.flags = flags;
+        self.scene_paths = under.paths;
         Ok(self)
+    }
+
+    /// `e`, naming the scene file and its key too when it is about a file
+    /// the scene file named (`a.toml: key `volume`: /data/b.vvol: no such
+    /// file or directory`): the path alone does not say where it came
+    /// from.
+    pub fn naming_scene(&self, e: Error) -> Error {
+        let Some(scene) = &self.options.scene else {
+            return e;
+        };
+        let about = self.scene_paths.iter().find(|(_, p)| {
+            let shown = volcore::text::escape(p);
+            e.message()
+                .strip_prefix(shown.as_str())
+                .is_some_and(|rest| rest.starts_with(':'))
+        });
+        match about {
+            Some((key, _)) => e.context(format!(
+                "{}: key `{key}`",
+                volcore::text::escape(&scene.display().to_string())
+            )),
+            None => e,
+        }
     }
 
     /// The volume's path, or the error that there is none (naming the

@@ -249,6 +249,27 @@ fn bad_scenes_fail_in_one_line_naming_file_line_and_key() {
         ]),
         "missing.toml",
     );
+    // A file the scene names that cannot be read: the error names the
+    // scene and its key as well as the file.
+    for (text, needle) in [
+        ("volume = \"none.vvol\"\n", "key `volume`: "),
+        ("volume = \"s.vvol\"\ntf = \"none.tf\"\n", "key `tf`: "),
+    ] {
+        std::fs::write(d.join("paths.toml"), text).unwrap();
+        let msg = fails(
+            tool("vol-render").args([
+                "--scene",
+                d.join("paths.toml").to_str().unwrap(),
+                "-o",
+                d.join("x.png").to_str().unwrap(),
+            ]),
+            &format!("paths.toml: {needle}"),
+        );
+        assert!(
+            msg.contains(&format!("{needle}{}", d.join("none").display())),
+            "{msg}"
+        );
+    }
     // Without a volume anywhere: a usage error.
     std::fs::write(d.join("empty.toml"), "").unwrap();
     fails(

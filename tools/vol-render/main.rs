@@ -23,24 +23,32 @@ fn main() -> ExitCode {
         Err(code) => return code,
     };
     volkit_cli::run("vol-render", || {
-        let (options, volume) = resolve_cli(Request::from_matches(options, &matches))?;
-        run(&options, &volume)
+        let (request, volume) = resolve_cli(Request::from_matches(options, &matches))?;
+        run(request.options(), &volume).map_err(|e| naming_scene(&request, e))
     })
+}
+
+/// An error about a file the scene file named, naming the scene too.
+fn naming_scene(request: &Request, e: anyhow::Error) -> anyhow::Error {
+    match e.downcast::<volscene::Error>() {
+        Ok(e) => request.naming_scene(e).into(),
+        Err(e) => e,
+    }
 }
 
 /// Fill the options from their `--scene` file (options given on the
 /// command line win) and check that there is a volume and an output: the
-/// options and the volume's path.
-fn resolve_cli(request: Request) -> Result<(Options, PathBuf)> {
+/// request and the volume's path.
+fn resolve_cli(request: Request) -> Result<(Request, PathBuf)> {
     let request = request.with_scene_file()?;
     let volume = request.volume()?;
-    let options = request.into_options();
+    let options = request.options();
     if options.output.is_none() && !options.print_scene {
         return Err(volkit_cli::usage(
             "no output: give -o FILE.png, or `output` in the --scene file",
         ));
     }
-    Ok((options, volume))
+    Ok((request, volume))
 }
 
 fn run(options: &Options, volume: &Path) -> Result<()> {

@@ -75,8 +75,8 @@ pub fn main() -> ExitCode {
     };
     volkit_cli::run("vol-render", || {
         let request = Request::from_matches(cli, &matches);
-        let (cli, volume) = agree(&world, crate::resolve_cli(request))?;
-        job(&world, &cli, &volume)
+        let (request, volume) = agree(&world, crate::resolve_cli(request))?;
+        job(&world, request.options(), &volume).map_err(|e| crate::naming_scene(&request, e))
     })
 }
 
