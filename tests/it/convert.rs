@@ -1039,3 +1039,31 @@ fn tiff_slice_folder_replaces_an_earlier_one_whole() {
     beside.sort();
     assert_eq!(beside.len(), 5, "{beside:?}");
 }
+
+/// Malformed values of vol-convert's own flags are usage errors: exit
+/// status 2, as clap's are, one line naming the flag's problem, and no
+/// output.
+#[test]
+fn malformed_crop_and_window_are_usage_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let v = d.join("s.vvol");
+    ok(tool("vol-gen")
+        .args(["shapes", "--dims", "16,16,16", "--quiet", "-o"])
+        .arg(&v));
+    let out = d.join("o.vvol");
+    for (args, needle) in [
+        (&["--crop", "0:10"][..], "is not x0:x1,y0:y1,z0:z1"),
+        (
+            &["--window", "1..2", "--type", "u8"][..],
+            "--window '1..2' is not lo:hi",
+        ),
+        (&["--window", "1:2"][..], "--window needs --type"),
+    ] {
+        let mut c = tool("vol-convert");
+        c.arg(&v).args(args).arg("-o").arg(&out);
+        fails(&mut c, needle);
+        assert_eq!(c.status().unwrap().code(), Some(2), "{args:?}");
+        assert!(!out.exists(), "{args:?}");
+    }
+}

@@ -360,10 +360,15 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
         return Err(usage("no INPUT given (or --merge PARTS...)"));
     };
     let window: Option<Window> = match &cli.window {
-        Some(w) => Some(w.parse().map_err(|e| at(input, format!("--window {e}")))?),
+        Some(w) => Some(
+            w.parse()
+                .map_err(|e| usage_at(input, format!("--window {e}")))?,
+        ),
         None => None,
     };
-    convert::check_window(window.as_ref(), cli.sample_type).map_err(|e| at(input, e))?;
+    // Malformed values and a missing companion flag are usage errors
+    // (exit 2), as clap's own are.
+    convert::check_window(window.as_ref(), cli.sample_type).map_err(|e| usage_at(input, e))?;
     // Check the output first: a bad output name should not cost a scan.
     let out_opts = output_options(cli);
     let target = target(cli, &out_opts)?;
@@ -378,7 +383,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     let info = reader.info().clone();
     let crop = match &cli.crop {
         Some(s) => {
-            let parsed = convert::parse_crop(s).map_err(|e| at(input, e))?;
+            let parsed = convert::parse_crop(s).map_err(|e| usage_at(input, e))?;
             Some(convert::resolve_crop(&parsed, info.dims).map_err(|e| at(input, e))?)
         }
         None => None,
