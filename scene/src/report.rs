@@ -73,7 +73,7 @@ pub fn frame_report(cx: &Context, frame: &Frame, t: &Times, extra: Option<&Extra
     let mpix = (frame.width as f64 * frame.height as f64) / 1e6;
     let mut v = json!({
         "tool": "vol-render",
-        "path": cx.volume.display().to_string(),
+        "input": cx.volume.display().to_string(),
         "output": cx.output.map(|o| o.display().to_string()),
         "mode": format!("{:?}", cli.mode).to_lowercase(),
         "width": frame.width,
@@ -183,7 +183,7 @@ pub fn path_report(cx: &Context, traced: &Traced, t: &Times) -> Report {
     let error = acc.relative_error();
     let json = json!({
         "tool": "vol-render",
-        "path": cx.volume.display().to_string(),
+        "input": cx.volume.display().to_string(),
         "output": cx.output.map(|o| o.display().to_string()),
         "mode": "path",
         "width": acc.width(),

@@ -96,6 +96,9 @@ fn a_scene_renders_as_its_options_and_the_command_line_overrides_it() {
         .args(["--scene", s, "--json", "-o"])
         .arg(d.join("j.png"))));
     assert_eq!(j["scene"]["step"], 0.5);
+    // The volume is `input`, as in every tool's report.
+    assert_eq!(j["input"], vol.to_str().unwrap(), "{j}");
+    assert!(j.get("path").is_none(), "{j}");
     assert_eq!(j["scene"]["lights"][0]["type"], "headlight");
 }
 
