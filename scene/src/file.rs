@@ -76,13 +76,8 @@ impl Scene {
             if SCENE_ONLY_KEYS.contains(&key.as_str()) {
                 continue;
             }
-            let line = key_line(text, &key);
-            let at = |what: String| match line {
-                Some(n) => format!("line {n}, key `{}`: {what}", shown(&key)),
-                None => format!("key `{}`: {what}", shown(&key)),
-            };
-            let value = json_of(&value).map_err(at)?;
-            entries.push((line.unwrap_or(usize::MAX), key, value));
+            let value = json_of(&value).map_err(|what| at_key(text, &key, &what))?;
+            entries.push((key_line(text, &key).unwrap_or(usize::MAX), key, value));
         }
         // The file's order (the table's is by name).
         entries.sort_by_key(|(line, _, _)| *line);
@@ -92,10 +87,7 @@ impl Scene {
             lights: only.lights,
         };
         scene.check().map_err(|(key, what)| match key {
-            Some(key) => match key_line(text, &key) {
-                Some(n) => format!("line {n}, key `{}`: {what}", shown(&key)),
-                None => format!("key `{}`: {what}", shown(&key)),
-            },
+            Some(key) => at_key(text, &key, &what),
             None => what,
         })?;
         Ok(scene)
@@ -195,6 +187,14 @@ fn key_line(text: &str, key: &str) -> Option<usize> {
             })
         })
         .map(|i| i + 1)
+}
+
+/// `what` is wrong with `key`, as `line N, key `k`: what`.
+fn at_key(text: &str, key: &str, what: &str) -> String {
+    match key_line(text, key) {
+        Some(n) => format!("line {n}, key `{}`: {what}", shown(key)),
+        None => format!("key `{}`: {what}", shown(key)),
+    }
 }
 
 /// A key as an error shows it: escaped and clipped.
