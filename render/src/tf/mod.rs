@@ -84,11 +84,13 @@ impl TransferFunction {
         if let Some(r) = self.ranges.iter().find(|r| v >= r.lo && v < r.hi) {
             return (r.rgb, r.alpha);
         }
+        // The points are sorted: the first past `v` by bisection, so a
+        // table's build stays bounded however many points a file gives.
         let p = &self.points;
-        match p.iter().position(|q| q.value > v) {
-            None => p.last().map_or(([0.0; 3], 0.0), |q| (q.rgb, q.alpha)),
-            Some(0) => (p[0].rgb, p[0].alpha),
-            Some(i) => {
+        match p.partition_point(|q| q.value <= v) {
+            i if i == p.len() => p.last().map_or(([0.0; 3], 0.0), |q| (q.rgb, q.alpha)),
+            0 => (p[0].rgb, p[0].alpha),
+            i => {
                 let (a, b) = (&p[i - 1], &p[i]);
                 let span = b.value - a.value;
                 let t = if span > 0.0 {
