@@ -132,6 +132,10 @@ pub struct RenderSettings {
     pub step: f32,
     /// Reconstruction between voxels.
     pub interp: Interp,
+    /// DVR classifies each segment between consecutive samples from a
+    /// pre-integrated table (1D transfer functions, trilinear values)
+    /// instead of each sample alone.
+    pub preintegrated: bool,
     /// Gradient method for shading and 2D classification.
     pub gradient: GradientMethod,
     /// Blinn-Phong shading (DVR); iso surfaces are always shaded.
@@ -168,6 +172,7 @@ impl Default for RenderSettings {
             mode: Mode::Dvr,
             step: 0.5,
             interp: Interp::Trilinear,
+            preintegrated: false,
             gradient: GradientMethod::Central,
             shading: false,
             lighting: Lighting::default(),

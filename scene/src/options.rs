@@ -104,6 +104,14 @@ pub struct Options {
     /// samples per ray across the volume's diagonal is refused.
     #[arg(long, allow_hyphen_values = true)]
     pub step: Option<f32>,
+    /// DVR: classify each segment between consecutive samples from a
+    /// pre-integrated table of (front, back) value pairs instead of each
+    /// sample alone, so layers thinner than the step still show and a
+    /// longer step reaches the same error (1D transfer functions,
+    /// trilinear values). The table costs milliseconds per transfer
+    /// function and step.
+    #[arg(long)]
+    pub preintegrated: bool,
     /// Early ray termination threshold (accumulated opacity).
     #[arg(long, default_value_t = 0.99)]
     pub ert: f32,

@@ -58,6 +58,14 @@ impl Plan {
             }
             _ => None,
         };
+        if cli.preintegrated {
+            if let Some(Tf::TwoD(_)) = &tf {
+                return Err(Error::usage(format!(
+                    "--preintegrated: {}",
+                    volrender::frame::dvr::not_pre_integrated()
+                )));
+            }
+        }
         let (camera, look_at, orbit) = camera(cli, vol)?;
         let step = match cli.step {
             Some(step) => step,
@@ -355,6 +363,18 @@ fn settings(
     {
         return Err(Error::option("--shadows, --ao and --ao-field are the ray caster's effects: the path tracer casts its own shadow rays and scatters light"));
     }
+    if cli.preintegrated && cli.mode != ModeArg::Dvr {
+        return Err(Error::usage(
+            "--preintegrated is for --mode dvr: the other modes classify no segments \
+             through a transfer function",
+        ));
+    }
+    if cli.preintegrated && cli.interp != InterpArg::Trilinear {
+        return Err(Error::usage(
+            "--preintegrated needs --interp trilinear: it assumes values vary linearly \
+             between samples",
+        ));
+    }
     if cli.iso.is_some() && cli.mode != ModeArg::Iso {
         return Err(Error::option("--iso needs --mode iso"));
     }
@@ -415,6 +435,7 @@ fn settings(
     Ok(RenderSettings {
         mode,
         step,
+        preintegrated: cli.preintegrated,
         interp: match cli.interp {
             InterpArg::Nearest => Interp::Nearest,
             InterpArg::Trilinear => Interp::Trilinear,

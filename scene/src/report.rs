@@ -98,6 +98,10 @@ pub fn frame_report(cx: &Context, frame: &Frame, t: &Times, extra: Option<&Extra
             obj.extend(more.clone());
         }
     }
+    if cli.mode == crate::options::ModeArg::Dvr {
+        v["table_s"] = s.table_s.into();
+        v["table_bytes"] = s.table_bytes.into();
+    }
     let e = &s.effects;
     let field_cell = cli
         .ao_field_cell

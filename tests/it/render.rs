@@ -615,3 +615,45 @@ fn completions_and_man_page_come_from_the_command_line_definition() {
     fails(&mut c, "--man");
     assert_eq!(c.status().unwrap().code(), Some(2));
 }
+
+/// `--preintegrated`: where it does not apply, one line and exit 2 with
+/// nothing written; where it does, a frame whose --json states the
+/// table's cost and whose printed scene reads back the flag.
+#[test]
+fn preintegration_is_refused_where_it_does_not_apply_and_costs_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = gen(d, "s.vvol", &["shapes", "--dims", "40,36,32"]);
+    let out = d.join("x.png");
+    for (args, needle) in [
+        (&["--mode", "mip"][..], "--mode dvr"),
+        (&["--mode", "xray"][..], "--mode dvr"),
+        (&["--interp", "nearest", "--tf", "shapes"][..], "trilinear"),
+        (&["--tf", "boundary"][..], "1D transfer functions"),
+    ] {
+        let mut c = tool("vol-render");
+        c.arg(&vol)
+            .args(["--preintegrated", "--size", "24x24", "-o"])
+            .arg(&out)
+            .args(args);
+        fails(&mut c, needle);
+        assert_eq!(c.status().unwrap().code(), Some(2), "{args:?}");
+        assert!(!out.exists(), "{args:?}");
+    }
+    let report = |extra: &[&str]| {
+        json(&ok(tool("vol-render")
+            .arg(&vol)
+            .args(["--tf", "shapes", "--size", "48x40", "--json", "-q", "-o"])
+            .arg(&out)
+            .args(extra)))
+    };
+    let pre = report(&["--preintegrated"]);
+    let post = report(&[]);
+    // u8 values: two bins per unit, 510 x 510 pairs (and the single and
+    // half-step tables beside them).
+    assert_eq!(pre["table_bytes"].as_u64(), Some(510 * 512 * 16));
+    assert!(pre["table_s"].as_f64().unwrap() > 0.0);
+    assert_eq!(post["table_bytes"].as_u64(), Some(1020 * 16));
+    assert_eq!(pre["scene"]["preintegrated"], serde_json::json!(true));
+    assert_eq!(post["scene"]["preintegrated"], serde_json::json!(false));
+}

@@ -3,13 +3,16 @@
 //! A [`Classifier`] maps a sample's value (and, when it asks for it, its
 //! gradient magnitude) to linear colour and step-corrected opacity, and
 //! tells the skipping which macrocells can hold nothing but transparent
-//! samples. The 1D table ([`TfTable`]) and the 2D table over value and
-//! gradient magnitude ([`TfTable2d`]) are its implementations; both are
-//! built once per frame from a transfer function ([`crate::tf`]).
+//! samples. The 1D table ([`TfTable`]), the 2D table over value and
+//! gradient magnitude ([`TfTable2d`]) and the pre-integrated table over
+//! pairs of values ([`PairTable`]) are its implementations; each is built
+//! once per frame from a transfer function ([`crate::tf`]).
 
+pub mod pairs;
 pub mod table;
 pub mod table2d;
 
+pub use pairs::PairTable;
 pub use table::{Bins, TfTable, MAX_BINS};
 pub use table2d::TfTable2d;
 
@@ -40,6 +43,29 @@ pub trait Classifier: Sync {
     /// has length `gradient` (ignored unless [`Self::NEEDS_GRADIENT`]).
     /// NaN values are transparent.
     fn classify(&self, v: f32, gradient: f32) -> [f32; 4];
+
+    /// Whether samples are classified in pairs: each sample stands for
+    /// the segment from the sample before it ([`Self::classify_segment`]),
+    /// not for the step around it.
+    const SEGMENTS: bool = false;
+
+    /// `[r, g, b, alpha]` of the segment between consecutive samples of
+    /// values `front` and `back` (for classifiers with [`Self::SEGMENTS`];
+    /// others classify the back sample alone).
+    #[inline(always)]
+    fn classify_segment(&self, front: f32, back: f32) -> [f32; 4] {
+        let _ = front;
+        self.classify(back, 0.0)
+    }
+
+    /// `[r, g, b, alpha]` of half a step of constant value `v`: what a
+    /// classifier of segments adds before a ray's first sample and after
+    /// its last, so its samples cover what a classifier of single samples
+    /// covers (half a step around each).
+    #[inline(always)]
+    fn classify_half(&self, v: f32) -> [f32; 4] {
+        self.classify(v, 0.0)
+    }
 
     /// `classify(v[i], 0.0)` of eight samples of values `v`, bit for bit
     /// (for classifiers that do not read the gradient); tables override it
@@ -97,6 +123,19 @@ pub fn optical_depth(alpha: f32) -> f32 {
         return f32::INFINITY;
     }
     (-(-(alpha as f64)).ln_1p()) as f32
+}
+
+/// Entry `front` composited over entry `back` (each `[r, g, b, alpha]`,
+/// colour not premultiplied): one entry for both, in the same form.
+#[inline]
+pub fn over(front: [f32; 4], back: [f32; 4]) -> [f32; 4] {
+    let wb = (1.0 - front[3]) * back[3];
+    let alpha = front[3] + wb;
+    if alpha <= 0.0 {
+        return [0.0; 4];
+    }
+    let c = |i: usize| (front[i] * front[3] + back[i] * wb) / alpha;
+    [c(0), c(1), c(2), alpha]
 }
 
 /// sRGB transfer curve to linear light.

@@ -65,6 +65,11 @@ impl TfTable2d {
         }
     }
 
+    /// Number of entries (value bins × gradient bins).
+    pub fn entries(&self) -> usize {
+        self.entries.len()
+    }
+
     /// The value domain.
     pub fn domain(&self) -> (f32, f32) {
         self.values.domain()

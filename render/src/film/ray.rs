@@ -29,6 +29,11 @@ pub struct FrameStats {
     pub samples: u64,
     /// Jumps over empty cells.
     pub skips: u64,
+    /// Seconds building the DVR classifier's tables (part of
+    /// `render_s`): what a change of transfer function or step costs.
+    pub table_s: f64,
+    /// Their memory, bytes.
+    pub table_bytes: u64,
     /// Wall seconds of the frame: its set-up (classifier tables, skipping
     /// flags, culling, light and occlusion grids) and its rays; not the
     /// AO field, built once per transfer function (its own figure).
@@ -254,6 +259,12 @@ impl Film {
     /// Record the time spent rendering into the film.
     pub fn set_render_seconds(&mut self, s: f64) {
         self.stats.render_s = s;
+    }
+
+    /// Record the classifier tables' build time and memory.
+    pub fn set_table(&mut self, seconds: f64, bytes: u64) {
+        self.stats.table_s = seconds;
+        self.stats.table_bytes = bytes;
     }
 
     /// Record the pixel blocks culled before tracing.

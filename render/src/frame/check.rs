@@ -35,6 +35,9 @@ pub fn frame(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result
             )));
         }
     }
+    if settings.preintegrated {
+        preintegration(settings)?;
+    }
     if settings.tile == 0 {
         return Err(RenderError::Setting("tile size must be at least 1".into()));
     }
@@ -42,6 +45,26 @@ pub fn frame(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result
         if !v.is_finite() {
             return Err(RenderError::Setting("iso value must be finite".into()));
         }
+    }
+    Ok(())
+}
+
+/// Check that pre-integration applies: DVR (the only mode with a
+/// transfer function) with trilinear values (a pre-integrated segment
+/// assumes the value varies linearly between its samples; nearest-voxel
+/// values jump, and would make skipped and traced frames differ).
+fn preintegration(settings: &RenderSettings) -> Result<(), RenderError> {
+    if settings.mode != Mode::Dvr {
+        return Err(RenderError::Setting(
+            "pre-integration is for DVR: other modes have no transfer function".into(),
+        ));
+    }
+    if settings.interp != crate::settings::Interp::Trilinear {
+        return Err(RenderError::Setting(
+            "pre-integration needs trilinear values: it assumes the value varies linearly \
+             between samples"
+                .into(),
+        ));
     }
     Ok(())
 }

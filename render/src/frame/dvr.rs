@@ -12,7 +12,8 @@
 use super::effects::{ao_parts, light_grids, open_skies, shadow_geometry};
 use super::FrameInputs;
 use crate::accel::{cull, FixedCells};
-use crate::classify::{Classifier, GradientBound, TfTable, TfTable2d};
+use crate::classify::pairs::DEFAULT_PAIR_BINS;
+use crate::classify::{Classifier, GradientBound, PairTable, TfTable, TfTable2d};
 use crate::effects::{Classified, ShadowCaster};
 use crate::error::RenderError;
 use crate::film::{EffectStats, Film};
@@ -44,6 +45,10 @@ impl ReadGradient for TfTable2d {
     type Of<G: Gradient> = G;
 }
 
+impl ReadGradient for PairTable {
+    type Of<G: Gradient> = NoGradient;
+}
+
 /// What blocks light in a DVR frame with gradient method `G` and
 /// classifier `K`: the classified volume, reading the gradient `K` needs.
 pub type DvrOccluder<'a, G, K> = Classified<'a, <K as ReadGradient>::Of<G>, K>;
@@ -58,6 +63,14 @@ pub enum Tables {
         /// For shadow and occlusion samples.
         shadow: Option<TfTable>,
     },
+    /// Over pairs of values, pre-integrated for the view step; shadow and
+    /// occlusion samples are classified one by one.
+    PreIntegrated {
+        /// For view samples.
+        view: PairTable,
+        /// For shadow and occlusion samples.
+        shadow: Option<TfTable>,
+    },
     /// Over value and gradient magnitude.
     TwoD {
         /// For view samples.
@@ -69,18 +82,28 @@ pub enum Tables {
 
 impl Tables {
     /// The tables of `tf` for `step` (and `shadow_step`) over the transfer
-    /// function's domain, or the volume's value `range`.
+    /// function's domain, or the volume's value `range`; the view table
+    /// pre-integrated when `preintegrated` (1D transfer functions only).
     pub fn new(
         vol: &Volume,
         tf: &Tf,
         range: (f32, f32),
         step: f32,
         shadow_step: Option<f32>,
-    ) -> Tables {
+        preintegrated: bool,
+    ) -> Result<Tables, RenderError> {
         let (lo, hi) = tf.domain().unwrap_or(range);
         let hi = if hi > lo { hi } else { lo + 1.0 };
         let bins = TfTable::default_bins(lo, hi);
-        match tf {
+        Ok(match tf {
+            Tf::OneD(t) if preintegrated => {
+                let pair_bins = PairTable::default_bins(lo, hi, DEFAULT_PAIR_BINS);
+                Tables::PreIntegrated {
+                    view: PairTable::new(t, lo, hi, pair_bins, step),
+                    shadow: shadow_step.map(|step| TfTable::new(t, lo, hi, bins, step)),
+                }
+            }
+            Tf::TwoD(_) if preintegrated => return Err(not_pre_integrated()),
             Tf::OneD(t) => {
                 let table = |step| TfTable::new(t, lo, hi, bins, step);
                 Tables::OneD {
@@ -107,7 +130,22 @@ impl Tables {
                     shadow: shadow_step.map(table),
                 }
             }
-        }
+        })
+    }
+
+    /// The tables' memory, bytes.
+    pub fn bytes(&self) -> u64 {
+        let n = match self {
+            Tables::OneD { view, shadow } => view.bins() + shadow.as_ref().map_or(0, |t| t.bins()),
+            Tables::PreIntegrated { view, shadow } => {
+                // The pairs, and the single and half-step tables.
+                view.bins() * (view.bins() + 2) + shadow.as_ref().map_or(0, |t| t.bins())
+            }
+            Tables::TwoD { view, shadow } => {
+                view.entries() + shadow.as_ref().map_or(0, |t| t.entries())
+            }
+        };
+        (n * std::mem::size_of::<[f32; 4]>()) as u64
     }
 
     /// Per finest-level cell of `index`: whether the view table can show
@@ -119,6 +157,7 @@ impl Tables {
     ) -> Result<Vec<bool>, RenderError> {
         let mut levels = match self {
             Tables::OneD { view, .. } => view.transparent_cells(index, gradients)?,
+            Tables::PreIntegrated { view, .. } => view.transparent_cells(index, gradients)?,
             Tables::TwoD { view, .. } => view.transparent_cells(index, gradients)?,
         };
         let finest = if levels.is_empty() {
@@ -128,6 +167,16 @@ impl Tables {
         };
         Ok(finest.into_iter().map(|clear| !clear).collect())
     }
+}
+
+/// Why a 2D transfer function is not pre-integrated.
+pub fn not_pre_integrated() -> RenderError {
+    RenderError::Setting(
+        "pre-integration is for 1D transfer functions: a 2D one classifies by gradient \
+         magnitude too, and a table over pairs of (value, gradient) would have four \
+         dimensions"
+            .into(),
+    )
 }
 
 /// Render a DVR frame: refused without a transfer function; its
@@ -150,11 +199,13 @@ struct DvrFrame<'a> {
     tf: &'a Tf,
 }
 
-/// The parts of a DVR frame shared by every choice of types.
-struct Parts<'a, K> {
+/// The parts of a DVR frame shared by every choice of types: view
+/// samples are classified by `V`, shadow and occlusion samples by `K`.
+struct Parts<'a, V, K> {
     /// The classifier at the view step.
-    table: &'a K,
-    /// The same classifier at the shadow step, when the frame has effects.
+    table: &'a V,
+    /// The shadow samples' classifier at the shadow step, when the frame
+    /// has effects.
     shadow: Option<&'a K>,
     /// The cells view rays skip, when skipping is on.
     skip: Option<&'a FixedCells<'a>>,
@@ -175,24 +226,32 @@ impl DvrFrame<'_> {
         let effects = s.shading && (s.shadows.is_some() || s.ao.is_some());
         let shadow_step =
             effects.then(|| shadow_geometry(&self.inputs.geom, s.shadows.as_ref()).step);
-        match Tables::new(
+        let start = std::time::Instant::now();
+        let tables = Tables::new(
             self.inputs.vol,
             self.tf,
             self.inputs.range,
             s.step,
             shadow_step,
-        ) {
+            s.preintegrated,
+        )?;
+        let (table_s, table_bytes) = (start.elapsed().as_secs_f64(), tables.bytes());
+        let mut film = match tables {
             Tables::OneD { view, shadow } => self.classified(&view, shadow.as_ref()),
+            Tables::PreIntegrated { view, shadow } => self.classified(&view, shadow.as_ref()),
             Tables::TwoD { view, shadow } => self.classified(&view, shadow.as_ref()),
-        }
+        }?;
+        film.set_table(table_s, table_bytes);
+        Ok(film)
     }
 
-    /// Render with classifier `table` (and `shadow`, the same at the
-    /// shadow step, with effects): its transparent cells, the pixel blocks
-    /// whose rays meet none of the others, then the reconstruction.
-    fn classified<K: ReadGradient>(
+    /// Render with classifier `table` (and `shadow`, the classifier of
+    /// shadow samples at the shadow step, with effects): its transparent
+    /// cells, the pixel blocks whose rays meet none of the others, then
+    /// the reconstruction.
+    fn classified<V: ReadGradient, K: ReadGradient>(
         &self,
-        table: &K,
+        table: &V,
         shadow: Option<&K>,
     ) -> Result<Film, RenderError> {
         let s = self.inputs.settings;
@@ -228,31 +287,38 @@ impl DvrFrame<'_> {
                 ..tiles
             },
         };
-        let mut film = self.shaded::<K>(&parts)?;
+        let mut film = self.shaded(&parts)?;
         film.set_culled_blocks(busy.as_ref().map_or(0, |b| b.culled()) as u64);
         Ok(film)
     }
 
-    /// Render with classifier `K`: the gradient method and shading.
-    fn shaded<K: ReadGradient>(&self, parts: &Parts<'_, K>) -> Result<Film, RenderError> {
+    /// Render with classifiers `V` and `K`: the gradient method and
+    /// shading.
+    fn shaded<V: ReadGradient, K: ReadGradient>(
+        &self,
+        parts: &Parts<'_, V, K>,
+    ) -> Result<Film, RenderError> {
         use GradientMethod as M;
         match (self.inputs.settings.shading, self.inputs.settings.gradient) {
             // A 1D table reads no gradient: both arms are one type.
-            (false, M::Central) => self.trace::<K::Of<Central>, K, _>(parts, Unshaded),
-            (false, M::Analytic) => self.trace::<K::Of<Analytic>, K, _>(parts, Unshaded),
-            (true, M::Central) => self.lit::<Central, K>(parts),
-            (true, M::Analytic) => self.lit::<Analytic, K>(parts),
+            (false, M::Central) => self.trace::<V::Of<Central>, V, K, _>(parts, Unshaded),
+            (false, M::Analytic) => self.trace::<V::Of<Analytic>, V, K, _>(parts, Unshaded),
+            (true, M::Central) => self.lit::<Central, V, K>(parts),
+            (true, M::Analytic) => self.lit::<Analytic, V, K>(parts),
         }
     }
 
     /// Render shaded, with gradient method `G`: Blinn-Phong, with the
     /// frame's shadows and occlusion when it has them, through its
     /// occluder.
-    fn lit<G: Gradient, K: ReadGradient>(&self, parts: &Parts<'_, K>) -> Result<Film, RenderError> {
+    fn lit<G: Gradient, V: ReadGradient, K: ReadGradient>(
+        &self,
+        parts: &Parts<'_, V, K>,
+    ) -> Result<Film, RenderError> {
         let s = self.inputs.settings;
         let Some(alpha) = parts.shadow else {
             let phong = Phong::<DvrOccluder<G, K>>::new(&s.lighting, parts.threshold2, None, None);
-            return self.trace::<G, K, _>(parts, phong);
+            return self.trace::<G, V, K, _>(parts, phong);
         };
         let sgeom = shadow_geometry(&self.inputs.geom, s.shadows.as_ref());
         let depth = alpha.to_optical_depth();
@@ -298,18 +364,18 @@ impl DvrFrame<'_> {
             ShadowCaster::new(occ, clear.as_ref(), sgeom, hi, &grids, 0.0).with_open_skies(&skies);
         let caster = s.shadows.is_some().then_some(&caster);
         let phong = Phong::new(&s.lighting, parts.threshold2, caster, ao_source.as_ref());
-        let mut film = self.trace::<G, K, _>(parts, phong)?;
+        let mut film = self.trace::<G, V, K, _>(parts, phong)?;
         film.add_grid_stats(&stats);
         Ok(film)
     }
 
     /// Trace the frame with the integrator of these types.
-    fn trace<G: Gradient, K: Classifier, S: Shading>(
+    fn trace<G: Gradient, V: Classifier, K, S: Shading>(
         &self,
-        parts: &Parts<'_, K>,
+        parts: &Parts<'_, V, K>,
         shading: S,
     ) -> Result<Film, RenderError> {
-        let dvr = Dvr::<G, K, S>::new(
+        let dvr = Dvr::<G, V, S>::new(
             self.inputs.geom,
             parts.table,
             shading,

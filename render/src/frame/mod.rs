@@ -220,7 +220,14 @@ pub fn busy_cells(
                 method: settings.gradient,
                 inv_spacing: inv_spacing(vol),
             };
-            let tables = Tables::new(vol, tf, value_range(vol), settings.step, None);
+            let tables = Tables::new(
+                vol,
+                tf,
+                value_range(vol),
+                settings.step,
+                None,
+                settings.preintegrated,
+            )?;
             tables.busy_cells(index, &gradients)?
         }
         // NaN counts as below the level (as the iso rule has it).

@@ -83,8 +83,9 @@ impl RayMarch for XrayRay<'_, '_> {
     fn query(&self) {}
 
     #[inline(always)]
-    fn skipped(&mut self, from: i64, to: i64) {
+    fn skipped<C: Cursor>(&mut self, _: &mut C, from: i64, to: i64, _: &RaySteps) -> Flow {
         self.count += to - from;
+        Flow::Next
     }
 
     #[inline(always)]

@@ -26,8 +26,11 @@ pub struct RaySteps {
     /// First sample this trace takes: `k0`, or later for a share of the
     /// ray (see [`super::Span`]).
     pub start: i64,
-    /// Last sample.
+    /// Last sample this trace takes: `last`, or earlier for a share of
+    /// the ray.
     pub k1: i64,
+    /// Last sample of the ray (inside the volume).
+    pub last: i64,
     /// Distance between samples.
     pub step: f64,
     /// `1 / step`.
@@ -47,11 +50,13 @@ impl RaySteps {
     /// direction `d`) over `[t0, t1]`, `step` apart.
     pub fn voxel_space(o: Vec3, d: Vec3, t0: f32, t1: f32, step: f64, loc: Locator) -> RaySteps {
         let k0 = (t0 as f64 / step).ceil() as i64;
+        let last = (t1 as f64 / step).floor() as i64;
         RaySteps {
             ray: VoxelRay::new(o, d),
             k0,
             start: k0,
-            k1: (t1 as f64 / step).floor() as i64,
+            k1: last,
+            last,
             step,
             inv_step: 1.0 / step,
             loc,
@@ -130,9 +135,14 @@ pub trait RayMarch {
     /// The ray's current contribution to the rule.
     fn query(&self) -> Self::Query;
     /// Samples `from .. to` were skipped (all of them the ray's own: `to`
-    /// is at most one past its last sample).
+    /// is at most one past its last sample); an integrator whose samples
+    /// stand for the segment before them may still take sample `from`
+    /// here (`cur` reads it) and stop the ray.
     #[inline(always)]
-    fn skipped(&mut self, _from: i64, _to: i64) {}
+    fn skipped<C: Cursor>(&mut self, cur: &mut C, from: i64, to: i64, s: &RaySteps) -> Flow {
+        let _ = (cur, from, to, s);
+        Flow::Next
+    }
     /// Take sample `k` at ray parameter `t`, voxel-space point `p`;
     /// `cell` is the sample's level-0 macrocell when the loop looked it up
     /// for this sample.
@@ -257,7 +267,10 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
                     if let Some(kn) = steps.after_skip(k, until) {
                         // A jump may end past the ray's last sample: only
                         // the ray's own samples were skipped.
-                        state.skipped(k, kn.min(steps.k1.saturating_add(1)));
+                        let to = kn.min(steps.k1.saturating_add(1));
+                        if state.skipped(cur, k, to, steps) == Flow::Stop {
+                            break;
+                        }
                         k = kn;
                         skips += 1;
                         continue;

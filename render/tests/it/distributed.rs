@@ -211,6 +211,16 @@ fn shares_composited_equal_the_single_frame() {
                 ..base.clone()
             },
         ),
+        // A share's first sample reads the sample before it, so its
+        // segment is composited once, by the share that holds its end.
+        (
+            "dvr-preintegrated",
+            RenderSettings {
+                ert: None,
+                preintegrated: true,
+                ..base.clone()
+            },
+        ),
     ];
     for (cname, cam) in cameras() {
         for (mname, s) in &modes {

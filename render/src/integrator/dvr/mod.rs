@@ -10,7 +10,7 @@
 pub mod shading;
 
 use crate::accel::FixedCells;
-use crate::classify::Classifier;
+use crate::classify::{over, Classifier};
 use crate::ray::Ray;
 use crate::trace::march::{march, one_by_one, Flow, RayMarch, RaySteps};
 use crate::trace::reconstruct::{Gradient, Interp};
@@ -69,6 +69,8 @@ where
         let steps = RaySteps::for_span(&self.geom, ray, span);
         let mut st = DvrRay {
             dvr: self,
+            steps: &steps,
+            front: None,
             loc: self.geom.locator,
             inv_spacing: self.geom.inv_spacing,
             interp: self.geom.interp,
@@ -90,6 +92,11 @@ where
 
 struct DvrRay<'d, 'a, G, K, S: Shading> {
     dvr: &'d Dvr<'a, G, K, S>,
+    /// The ray's samples (read again for a segment's front sample).
+    steps: &'d RaySteps,
+    /// For classifiers of segments: the value of the sample before the
+    /// next one taken, when the ray took it (`None`: read it again).
+    front: Option<f32>,
     // Copies of the frame geometry the samples read, local to the ray so
     // they stay in registers.
     loc: Locator,
@@ -124,13 +131,33 @@ where
     fn sample<C: Cursor>(
         &mut self,
         cur: &mut C,
-        _: i64,
+        k: i64,
         t: f32,
         p: Vec3,
         _: Option<usize>,
     ) -> Flow {
         let (v, early) = G::value(self.interp, &self.loc, cur, p);
-        self.take(cur, t, p, v, early, None)
+        self.take(cur, k, t, p, v, early, None)
+    }
+
+    /// With a classifier of segments, the segment that ends at the first
+    /// skipped sample is taken: it may cross values the skipped cells do
+    /// not hold. The segments between skipped samples lie inside the
+    /// skipped block, so they are transparent; the one after the skip is
+    /// taken with the sample that ends it, whose front is read again.
+    #[inline(always)]
+    fn skipped<C: Cursor>(&mut self, cur: &mut C, from: i64, to: i64, s: &RaySteps) -> Flow {
+        if !K::SEGMENTS {
+            return Flow::Next;
+        }
+        let t = s.t(from);
+        let p = s.at(t);
+        let (v, early) = G::value(self.interp, &self.loc, cur, p);
+        let flow = self.take(cur, from, t, p, v, early, None);
+        if to > from + 1 {
+            self.front = None;
+        }
+        flow
     }
 
     #[inline(always)]
@@ -161,7 +188,8 @@ where
                 k,
                 steps: s,
             };
-            if self.take(cur, ti, s.at(ti), vi, early, Some(lanes)) == Flow::Stop {
+            let ki = k + i as i64;
+            if self.take(cur, ki, ti, s.at(ti), vi, early, Some(lanes)) == Flow::Stop {
                 return Flow::Stop;
             }
         }
@@ -175,14 +203,16 @@ where
     K: Classifier,
     S: Shading,
 {
-    /// Classify, shade and composite the sample of value `v` at ray
+    /// Classify, shade and composite sample `k` of value `v` at ray
     /// parameter `t`, point `p` (`early`: what reading `v` gave the
     /// gradient; `lanes`: the run of eight it belongs to, whose gradients
     /// can be read together).
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn take<C: Cursor>(
         &mut self,
         cur: &mut C,
+        k: i64,
         t: f32,
         p: Vec3,
         v: f32,
@@ -198,6 +228,8 @@ where
             let g = G::gradient(early, loc, cur, p) * self.inv_spacing;
             let len2 = g.length_squared();
             (d.classifier.classify(v, len2.sqrt()), g, len2)
+        } else if K::SEGMENTS {
+            (self.segment_entry(cur, k, v), Vec3::ZERO, 0.0)
         } else {
             (d.classifier.classify(v, 0.0), Vec3::ZERO, 0.0)
         };
@@ -217,6 +249,51 @@ where
             return self.composite(c, e[3]);
         }
         Flow::Next
+    }
+
+    /// The value of the sample before sample `k` (of value `v`): the one
+    /// the ray holds, else read again; `None` for the ray's first sample.
+    /// `v` becomes the front of the next sample.
+    #[inline(always)]
+    fn front_of<C: Cursor>(&mut self, cur: &mut C, k: i64, v: f32) -> Option<f32> {
+        let front = match self.front {
+            Some(f) => Some(f),
+            None if k > self.steps.k0 => {
+                let s = self.steps;
+                Some(G::value(self.interp, &self.loc, cur, s.at(s.t(k - 1))).0)
+            }
+            None => None,
+        };
+        self.front = Some(v);
+        front
+    }
+
+    /// For a classifier of segments, the entry of sample `k` of value `v`:
+    /// the segment from the sample before it; half a step of `v` before
+    /// the ray's first sample, and half a step after its last, so the
+    /// samples cover the ray as single samples do.
+    #[inline(always)]
+    fn segment_entry<C: Cursor>(&mut self, cur: &mut C, k: i64, v: f32) -> [f32; 4] {
+        let c = self.dvr.classifier;
+        let e = match self.front_of(cur, k, v) {
+            Some(front) => c.classify_segment(front, v),
+            None => c.classify_half(v),
+        };
+        if k == self.steps.last {
+            over(e, c.classify_half(v))
+        } else {
+            e
+        }
+    }
+
+    /// The entries of samples `k .. k + 8` of values `v`: each alone, or
+    /// each the segment from the sample before it.
+    #[inline(always)]
+    fn classify8<C: Cursor>(&mut self, cur: &mut C, k: i64, v: &[f32; 8]) -> [[f32; 4]; 8] {
+        if !K::SEGMENTS {
+            return self.dvr.classifier.classify8(v);
+        }
+        std::array::from_fn(|i| self.segment_entry(cur, k + i as i64, v[i]))
     }
 
     /// The world gradient at `p`: from the blend of its cell's central
@@ -266,7 +343,7 @@ where
         s: &RaySteps,
     ) -> Flow {
         let d = self.dvr;
-        let e = d.classifier.classify8(v);
+        let e = self.classify8(cur, k, v);
         if !e.iter().any(|e| e[3] > 0.0) {
             self.samples += 8;
             return Flow::Next;
