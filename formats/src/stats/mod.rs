@@ -28,7 +28,7 @@ mod select;
 mod tests;
 
 pub use moments::Moments;
-pub use read::{Inputs, Opener};
+pub use read::{Inputs, OpenVolume, Opener};
 pub use select::PERCENTILES;
 
 use crate::reader::{At, ConvertError};

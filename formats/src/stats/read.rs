@@ -4,23 +4,54 @@
 use super::{labels_of, mask_of, StatsError};
 use crate::reader::{Access, CResult, SliceReader};
 use crate::slice::{SliceData, SliceType};
+use crate::vvol::BorrowedReader;
 use rayon::prelude::*;
 use std::ops::Range;
 use std::path::PathBuf;
+use volcore::Volume;
 
 /// Opens a reader of one input; called once per pass, so a stream that
-/// cannot be read twice needs an opener over a copy (an open volume).
-pub type Opener<'a> = &'a (dyn Fn() -> CResult<Box<dyn SliceReader + 'a>> + Sync);
+/// cannot be read twice needs an opener over a copy ([`OpenVolume`]).
+/// Closures returning a reader are openers.
+pub trait Opener: Sync {
+    /// A new reader of the input, from its first slice.
+    fn open(&self) -> CResult<Box<dyn SliceReader + '_>>;
+}
+
+impl<F: Fn() -> CResult<Box<dyn SliceReader>> + Sync> Opener for F {
+    fn open(&self) -> CResult<Box<dyn SliceReader + '_>> {
+        self()
+    }
+}
+
+/// A volume already open (read from standard input, say) as an
+/// [`Opener`]: each pass reads it again where it is.
+pub struct OpenVolume<'v> {
+    /// The name it was read from, for messages.
+    pub path: PathBuf,
+    /// The volume.
+    pub volume: &'v Volume,
+}
+
+impl Opener for OpenVolume<'_> {
+    fn open(&self) -> CResult<Box<dyn SliceReader + '_>> {
+        Ok(Box::new(BorrowedReader::new(
+            &self.path,
+            self.volume,
+            "open volume",
+        )))
+    }
+}
 
 /// The files the statistics read.
 pub struct Inputs<'a> {
     /// The volume.
-    pub values: Opener<'a>,
+    pub values: &'a dyn Opener,
     /// A volume of the same dimensions: only voxels where it is non-zero
     /// are counted.
-    pub mask: Option<Opener<'a>>,
+    pub mask: Option<&'a dyn Opener>,
     /// A volume of whole numbers of the same dimensions: figures per label.
-    pub labels: Option<Opener<'a>>,
+    pub labels: Option<&'a dyn Opener>,
 }
 
 /// Voxels a block of slices holds at least (whole slices): large enough
@@ -49,10 +80,10 @@ struct Open<'a> {
 
 impl<'a> Open<'a> {
     fn new(inputs: &Inputs<'a>) -> Result<Open<'a>, StatsError> {
-        let values = (inputs.values)()?;
-        let open_same = |o: Option<Opener<'a>>, what: &str| -> Result<_, StatsError> {
+        let values = inputs.values.open()?;
+        let open_same = |o: Option<&'a dyn Opener>, what: &str| -> Result<_, StatsError> {
             let Some(o) = o else { return Ok(None) };
-            let r = o()?;
+            let r = o.open()?;
             let (a, b) = (r.info(), values.info());
             if a.dims != b.dims {
                 return Err(StatsError::Mismatch(format!(

@@ -65,8 +65,8 @@ fn stats_of(
     let l = labels.map(|l| open("l", l));
     let inputs = Inputs {
         values: &v,
-        mask: m.as_ref().map(|m| m as Opener),
-        labels: l.as_ref().map(|l| l as Opener),
+        mask: m.as_ref().map(|m| m as &dyn Opener),
+        labels: l.as_ref().map(|l| l as &dyn Opener),
     };
     compute(&inputs, &Options::default(), &|_| {})
 }
