@@ -39,7 +39,7 @@ $B/vol-gen noise --dims 128,128,128 --period 32 -o - | $B/vol-convert - -o "$OUT
 $B/vol-info "$OUT/noise.vvol"
 
 step "index: min/max macrocells and histogram"
-$B/vol-index "$OUT/shapes.vvol" --stats
+$B/vol-index "$OUT/shapes.vvol" --stats -o "$OUT/shapes.vvol.vidx"
 
 step "render: the thesis transfer function with Phong shading"
 CAM=(--eye 352,352,352 --look-at 0,0,0 --fov 60 --size 512x512)

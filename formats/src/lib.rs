@@ -20,7 +20,8 @@
 //!   its format; [`select`] is what to read from an input that holds more
 //!   than one volume (the input-selection flags), [`stacks`] how many
 //!   channels and time points an input holds, [`rescale`] maps stored
-//!   values to real ones as slices are read.
+//!   values to real ones as slices are read, [`stats`] streams an
+//!   input's statistics (inside a mask, per label).
 //! - [`convert`], which turns any input into any output slice by slice;
 //!   [`prepflags`]: the preprocessing flags (`--resample`, `--orient`,
 //!   `--smooth`, ...), resolved into the stages [`convert`] runs through
@@ -65,6 +66,7 @@ pub mod rescale;
 pub mod select;
 pub mod slice;
 pub mod stacks;
+pub mod stats;
 pub mod stream;
 pub mod thesis;
 pub mod tiff;

@@ -342,6 +342,21 @@ fn stats_output_options_and_default_path() {
     ] {
         assert!(out.contains(part), "missing '{part}' in:\n{out}");
     }
+    // --stats alone prints and writes nothing (issue 53 §5); with -o it
+    // writes the index too.
+    assert!(!d.join("s.vvol.vidx").exists());
+    let v = json(&ok(tool("vol-index").arg(&vol).args(["--stats", "--json"])));
+    assert_eq!(
+        (&v["output"], &v["bytes"]),
+        (&serde_json::Value::Null, &serde_json::Value::Null)
+    );
+    assert!(!d.join("s.vvol.vidx").exists());
+    ok(tool("vol-index")
+        .arg(&vol)
+        .args(["--stats", "-o"])
+        .arg(d.join("s.vidx")));
+    assert!(d.join("s.vidx").exists());
+    ok(tool("vol-index").arg(&vol));
     assert!(d.join("s.vvol.vidx").exists());
     // -o and --cell; the check reads the cell edge from the file.
     let other = d.join("sub-16.vidx");

@@ -22,6 +22,7 @@ mod psnr;
 mod render;
 mod scene;
 mod shard;
+mod stats;
 mod units;
 mod vocabulary;
 

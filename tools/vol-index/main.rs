@@ -15,7 +15,7 @@ use volformats::{thesis, FileKind, ReadOptions};
 use volindex::build::DEFAULT_CELL_EDGE;
 use volindex::histogram::DEFAULT_BINS;
 use volindex::shard::{IndexPart, PART_EXTENSION};
-use volindex::{BuildOptions, Histogram, IndexError, MinMaxIndex};
+use volindex::{BuildOptions, IndexError, MinMaxIndex};
 use volkit_cli::{noteln, outln, usage, Selection};
 
 /// Build the min/max macrocell index of a volume (any format vol-convert
@@ -46,7 +46,9 @@ struct Cli {
     #[arg(long, value_name = "N", default_value_t = DEFAULT_BINS, conflicts_with = "check")]
     bins: u32,
     /// Print the value range, histogram summary, cells per level and the
-    /// empty fraction (on stdout).
+    /// empty fraction (on stdout). Without -o no index is written: the
+    /// figures only (vol-info --stats gives a volume's statistics, mean
+    /// and SD included, without building an index).
     #[arg(long)]
     stats: bool,
     /// Print one JSON object with the figures instead of text.
@@ -72,7 +74,8 @@ struct Cli {
 
 const EXAMPLES: &str = "Examples:
   vol-index shapes.vvol                      # writes shapes.vvol.vidx
-  vol-index shapes.vvol --stats              # ... and prints range, histogram, cells
+  vol-index shapes.vvol --stats              # prints range, histogram, cells; writes nothing
+  vol-index shapes.vvol --stats -o s.vidx    # prints them and writes s.vidx
   vol-index noise.vvol --cell 16 -o noise-16.vidx --json
   vol-index --check shapes.vvol.vidx shapes.vvol && echo fresh
   vol-index --raw-dims 256,256,256 --raw-type u16 scan.raw
@@ -159,7 +162,8 @@ struct Timing {
     build_s: f64,
     write_s: f64,
     seconds: f64,
-    bytes: u64,
+    /// Bytes written, `None` when no index was written.
+    bytes: Option<u64>,
 }
 
 /// The build options the flags ask for, checked, for a volume file.
@@ -173,12 +177,10 @@ fn build_options(cli: &Cli, volume: &Path) -> Result<BuildOptions> {
     Ok(opts)
 }
 
-fn build(cli: &Cli, volume: &Path) -> Result<()> {
-    let start = Instant::now();
-    let opts = build_options(cli, volume)?;
-    let vname = name(volume);
-    let output = cli.output.clone().unwrap_or_else(|| default_output(volume));
-    let oname = name(&output);
+/// Refuse an output the index cannot be written to: stdout, a part file
+/// name, a volume file name.
+fn check_output(output: &Path) -> Result<()> {
+    let oname = name(output);
     if output.as_os_str() == "-" {
         return Err(usage(
             "-: the index is written to a file, not to stdout: use -o FILE.vidx",
@@ -189,10 +191,25 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
             "{oname}: .{PART_EXTENSION} files are the parts of a sharded build: add --shard K/N"
         )));
     }
-    if FileKind::of(&output).is_some() {
+    if FileKind::of(output).is_some() {
         return Err(usage(format!(
             "{oname}: refusing to write an index under a volume file name: use a .vidx name"
         )));
+    }
+    Ok(())
+}
+
+fn build(cli: &Cli, volume: &Path) -> Result<()> {
+    let start = Instant::now();
+    let opts = build_options(cli, volume)?;
+    let vname = name(volume);
+    let output = cli.output.clone().unwrap_or_else(|| default_output(volume));
+    let oname = name(&output);
+    // --stats alone asks for figures, not for a file: the index is built
+    // in memory, and written only when -o names a file.
+    let write = !cli.stats || cli.output.is_some();
+    if write {
+        check_output(&output)?;
     }
     let read = read_options(cli)?;
 
@@ -220,7 +237,11 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
     drop(vol);
 
     let t = Instant::now();
-    let bytes = write_index(&ix, &output).map_err(at(&oname))?;
+    let bytes = if write {
+        Some(write_index(&ix, &output).map_err(at(&oname))?)
+    } else {
+        None
+    };
     let write_s = t.elapsed().as_secs_f64();
     let timing = Timing {
         load_s,
@@ -233,7 +254,10 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
     if cli.json {
         let mut v = summary(&ix, volume, &output);
         v["mode"] = json!("build");
-        v["output"] = json!(oname);
+        v["output"] = json!(write.then_some(&oname));
+        if !write {
+            v["index"] = Value::Null;
+        }
         v["bytes"] = json!(timing.bytes);
         v["load_s"] = json!(timing.load_s);
         v["build_s"] = json!(timing.build_s);
@@ -246,21 +270,29 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
     if cli.stats {
         print_stats(&ix, volume)?;
     }
-    if !cli.quiet {
-        let s = ix.stats();
-        noteln!(
-            "vol-index: wrote {oname} ({} bytes, {} cells of {}³, {} levels) in {:.3} s \
-             (open {:.3} s, build {:.3} s, write {:.3} s)",
-            timing.bytes,
-            s.cells,
-            ix.cell_edge(),
-            s.levels,
-            timing.seconds,
-            timing.load_s,
-            timing.build_s,
-            timing.write_s,
-        );
+    if cli.quiet {
+        return Ok(());
     }
+    let Some(bytes) = timing.bytes else {
+        noteln!(
+            "vol-index: no index written (--stats without -o; add -o FILE.vidx to keep one; \
+             vol-info --stats gives the volume's statistics without an index)"
+        );
+        return Ok(());
+    };
+    let s = ix.stats();
+    noteln!(
+        "vol-index: wrote {oname} ({} bytes, {} cells of {}³, {} levels) in {:.3} s \
+         (open {:.3} s, build {:.3} s, write {:.3} s)",
+        bytes,
+        s.cells,
+        ix.cell_edge(),
+        s.levels,
+        timing.seconds,
+        timing.load_s,
+        timing.build_s,
+        timing.write_s,
+    );
     Ok(())
 }
 
@@ -448,37 +480,13 @@ fn range_json(ix: &MinMaxIndex) -> (Value, Value) {
     }
 }
 
-/// The `n` fullest non-empty bins, fullest first (ties: lower bin first).
-fn busiest(h: &Histogram, n: usize) -> Vec<usize> {
-    let mut bins: Vec<usize> = (0..h.bins()).filter(|&i| h.counts()[i] > 0).collect();
-    bins.sort_by(|&a, &b| h.counts()[b].cmp(&h.counts()[a]).then(a.cmp(&b)));
-    bins.truncate(n);
-    bins
-}
-
-/// True when every bin holds a single integer value.
-fn unit_bins(h: &Histogram) -> bool {
-    let w = (h.hi() - h.lo()) / h.bins() as f64;
-    w == 1.0 && h.lo().fract() == 0.0
-}
-
-/// A bin as text: its value for unit bins, else its interval.
-fn bin_label(h: &Histogram, i: usize) -> String {
-    let (a, b) = h.bin_edges(i);
-    if unit_bins(h) {
-        format!("{a}")
-    } else {
-        format!("[{}, {})", a as f32, b as f32)
-    }
-}
-
 /// The figures both modes report, as a JSON object.
 fn summary(ix: &MinMaxIndex, volume: &Path, index: &Path) -> Value {
     let s = ix.stats();
     let h = ix.histogram();
     let (min, max) = range_json(ix);
     let total = h.total().max(1) as f64;
-    let busiest: Vec<Value> = busiest(h, BUSIEST)
+    let busiest: Vec<Value> = h.busiest(BUSIEST)
         .into_iter()
         .map(|i| {
             let (a, b) = h.bin_edges(i);
@@ -534,17 +542,18 @@ fn print_stats(ix: &MinMaxIndex, volume: &Path) -> std::io::Result<()> {
     }
     let total = h.total();
     if total > 0 {
-        let exact = if unit_bins(h) { "" } else { " (bin starts)" };
+        let exact = if h.unit_bins() { "" } else { " (bin starts)" };
         let p: Vec<String> = PERCENTILES
             .iter()
             .filter_map(|&(k, q)| h.quantile(q).map(|v| format!("{k} {}", v as f32)))
             .collect();
         outln!("  percentiles{exact}: {}", p.join(", "))?;
-        let b: Vec<String> = busiest(h, BUSIEST)
+        let b: Vec<String> = h
+            .busiest(BUSIEST)
             .into_iter()
             .map(|i| {
                 let pc = 100.0 * h.counts()[i] as f64 / total as f64;
-                format!("{} {pc:.1}%", bin_label(h, i))
+                format!("{} {pc:.1}%", h.bin_label(i))
             })
             .collect();
         outln!(

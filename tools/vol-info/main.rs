@@ -1,4 +1,7 @@
-//! vol-info: describe a volume file and optionally verify its checksums.
+//! vol-info: describe a volume file and optionally verify its checksums
+//! or give its statistics.
+
+mod stats;
 
 use anyhow::Result;
 use clap::Parser;
@@ -45,6 +48,8 @@ struct Cli {
     verify: bool,
     #[command(flatten, next_help_heading = "Input")]
     input_sel: Selection,
+    #[command(flatten, next_help_heading = "Statistics")]
+    stats: stats::StatsFlags,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -63,6 +68,10 @@ const EXAMPLES: &str = "Examples:
   vol-info ct-series/                  # one series: described; several: listed
   vol-info ct-series/ --series 3       # by SeriesNumber, or a unique UID prefix
   vol-info --json 'ct/*.dcm'
+  vol-info --stats scan.nii.gz         # count, min, max, mean, SD, percentiles, histogram
+  vol-info --stats --json --bins 64 scan.nii.gz
+  vol-info brain.nii.gz --mask brain-mask.nii.gz          # the same inside the mask
+  vol-info ct.nrrd --labels seg.nrrd   # per label: voxels, volume (mm³), mean, SD, min, max
   vol-gen noise --dims 64,64,64 -o - | vol-info -
   vol-info --raw-dims 256,256,256 --raw-type u16 --raw-endian big scan.raw";
 
@@ -150,6 +159,7 @@ fn info(cli: &Cli) -> Result<()> {
         channel_given: sel.channel.is_some(),
         time_point_given: sel.time_point.is_some(),
     };
+    let figures = stats::compute(&cli.input, &opts, &vol, &cli.stats, cli.quiet)?;
     if !cli.quiet {
         for note in &notes {
             noteln!("vol-info: {note}");
@@ -162,7 +172,11 @@ fn info(cli: &Cli) -> Result<()> {
             format,
             file_bytes,
             start.elapsed().as_secs_f64(),
+            figures.as_ref().map(stats::Figures::json),
         )?;
+        if let (Some(f), false) = (&figures, cli.json) {
+            f.print()?;
+        }
     }
     Ok(())
 }
@@ -249,6 +263,7 @@ fn report(
     format: &str,
     file_bytes: Option<u64>,
     seconds: f64,
+    stats: Option<serde_json::Value>,
 ) -> std::io::Result<()> {
     let m = &vol.meta.as_stored();
     let (brick, bricks) = match m.layout {
@@ -273,6 +288,9 @@ fn report(
                 "seconds": seconds,
             }),
         );
+        if let Some(stats) = stats {
+            json::merge(&mut v, stats);
+        }
         return outln!("{v}");
     }
     outln!("{}: {} ({format})", cli.input.display(), m)?;

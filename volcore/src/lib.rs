@@ -17,6 +17,7 @@ pub mod cache;
 pub mod dims;
 pub mod error;
 pub mod grid;
+pub mod histogram;
 pub mod lanes;
 pub mod meta;
 pub mod region;

@@ -12,7 +12,7 @@ pub use read::{
     from_bytes, open, open_stored, parallel_crc, read_header, read_header_from, read_stream,
     OpenOptions, Stored,
 };
-pub use slices::{vvol_stream, VolumeReader};
+pub use slices::{vvol_stream, BorrowedReader, VolumeReader};
 pub use trailer::{Trailer, TRAILER_LEN, TRAILER_MAGIC};
 pub use write::{write, VvolWriter, WriteStats};
 

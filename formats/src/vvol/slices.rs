@@ -61,19 +61,62 @@ impl VolumeReader {
             Stored::F64(meta, _) => *meta,
         };
         VolumeReader {
-            info: InputInfo {
-                nifti_codes: None,
-                path: path.to_path_buf(),
-                dims: meta.dims,
-                sample_type: meta.sample_type.into(),
-                spacing: Some(meta.spacing),
-                geometry: meta.geometry,
-                format: format.to_string(),
-            },
+            info: info_of(path, &meta, format),
             path: path.to_path_buf(),
             volume,
             bytes,
         }
+    }
+}
+
+/// What a reader of a volume described by `meta` read from `path` hands
+/// out.
+fn info_of(path: &Path, meta: &volcore::VolumeMeta, format: &str) -> InputInfo {
+    InputInfo {
+        nifti_codes: None,
+        path: path.to_path_buf(),
+        dims: meta.dims,
+        sample_type: meta.sample_type.into(),
+        spacing: Some(meta.spacing),
+        geometry: meta.geometry,
+        format: format.to_string(),
+    }
+}
+
+/// An open volume read slice by slice without being owned: a second
+/// look at a volume already read, as from standard input, which cannot
+/// be read again.
+pub struct BorrowedReader<'a> {
+    info: InputInfo,
+    volume: &'a Volume,
+}
+
+impl<'a> BorrowedReader<'a> {
+    /// Read `volume` (read from `path`) slice by slice.
+    pub fn new(path: &Path, volume: &'a Volume, format: &str) -> BorrowedReader<'a> {
+        BorrowedReader {
+            info: info_of(path, &volume.meta, format),
+            volume,
+        }
+    }
+}
+
+impl SliceReader for BorrowedReader<'_> {
+    fn info(&self) -> &InputInfo {
+        &self.info
+    }
+    fn access(&self) -> Access {
+        Access::Random
+    }
+    fn read_slice_into(&self, z: u64, _reuse: Option<SliceData>) -> CResult<SliceData> {
+        let s = self.volume.visit(ReadSlice(z));
+        match self.volume.error() {
+            Some(e) => Err(ConvertError::new(&self.info.path, Error::invalid(e))),
+            None => Ok(s),
+        }
+    }
+    fn bytes_in(&self) -> u64 {
+        0
     }
 }
 
