@@ -68,6 +68,20 @@ fn bad(path: &Path, msg: impl Into<String>) -> ConvertError {
     ConvertError::new(path, Error::invalid(msg.into()))
 }
 
+/// An error with its causes, `outer: inner: ...` (dicom-rs's errors say
+/// little at the top: "Could not read data set token"), escaped and
+/// clipped: its text may quote the file.
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        s.push_str(": ");
+        s.push_str(&c.to_string());
+        cause = c.source();
+    }
+    volcore::text::clip(&s, 200)
+}
+
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],

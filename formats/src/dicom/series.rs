@@ -112,7 +112,7 @@ fn non_image(path: &Path, obj: &DefaultDicomObject) -> Option<String> {
 
 /// Read the data set of one file up to (not including) its pixel data.
 fn read_header(path: &Path) -> CResult<Header> {
-    check_lengths(path)?;
+    check_lengths(path).map_err(|e| bad(path, format!("damaged DICOM file: {e}")))?;
     let obj = OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
         .open_file(path)
