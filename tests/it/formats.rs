@@ -767,16 +767,29 @@ const PACS_MR: &str = "1.2.826.0.1.3680043.8.498.41";
 #[test]
 fn pacs_folder_lists_its_series_and_skips_what_holds_no_image() {
     let p = fixture("dicom_pacs");
-    // Two series, an SR, a presentation state and a DICOMDIR: a table.
+    // Two series, an SR, a presentation state and a DICOMDIR: a table of
+    // the series, then one of the files skipped, each with its reason.
     let o = tool("vol-info").arg(&p).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8_lossy(&o.stdout);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("skipped 3 files") && err.contains("DICOMDIR"),
-        "{err}"
+    let (series, files) = text
+        .split_once("  3 files skipped:\n")
+        .expect("a skipped table");
+    assert_eq!(
+        files
+            .lines()
+            .map(str::split_whitespace)
+            .map(|w| w.collect::<Vec<_>>().join(" "))
+            .collect::<Vec<_>>(),
+        vec![
+            "FILE REASON",
+            "DICOMDIR holds no image: DICOMDIR",
+            "PR000001.dcm holds no image: Grayscale Softcopy Presentation State Storage",
+            "SR000001.dcm holds no image: Basic Text SR Storage",
+        ],
+        "{text}"
     );
-    let rows: Vec<Vec<&str>> = text
+    let rows: Vec<Vec<&str>> = series
         .lines()
         .skip(2)
         .map(|l| {
@@ -796,12 +809,16 @@ fn pacs_folder_lists_its_series_and_skips_what_holds_no_image() {
     );
     // The same list in JSON.
     let j = info(&p, &[]);
-    assert_eq!(j["skipped"], 3);
+    assert_eq!(
+        j["skipped"][0],
+        serde_json::json!({"file": "DICOMDIR", "kind": "no-image", "reason": "holds no image: DICOMDIR"})
+    );
+    assert_eq!(j["skipped"].as_array().unwrap().len(), 3);
     assert_eq!(
         j["series"],
         serde_json::json!([
-            {"uid": PACS_CT, "number": 3, "description": "Axial 2.0", "modality": "CT", "images": 4, "dims": [6, 5, 4]},
-            {"uid": PACS_MR, "number": 7, "description": "Axial T1", "modality": "MR", "images": 3, "dims": [5, 4, 3]},
+            {"uid": PACS_CT, "number": 3, "description": "Axial 2.0", "modality": "CT", "images": 4, "dims": [6, 5, 4], "problem": null},
+            {"uid": PACS_MR, "number": 7, "description": "Axial T1", "modality": "MR", "images": 3, "dims": [5, 4, 3], "problem": null},
         ])
     );
     // vol-convert needs a pick, and names the candidates.
@@ -845,8 +862,11 @@ fn pacs_folder_lists_its_series_and_skips_what_holds_no_image() {
     for f in ["DICOMDIR", "SR000001.dcm", "PR000001.dcm"] {
         std::fs::copy(p.join(f), none.join(f)).unwrap();
     }
-    let e = fails(tool("vol-info").arg(&none), "no DICOM image");
-    assert!(e.contains("no-images") && e.contains("3 files"), "{e}");
+    let e = fails(tool("vol-info").arg(&none), "no readable DICOM series");
+    assert!(
+        e.contains("no-images") && e.contains("3 files") && e.contains("first: DICOMDIR"),
+        "{e}"
+    );
 }
 
 #[test]

@@ -10,6 +10,7 @@ mod accuracy;
 mod channels;
 mod common;
 mod convert;
+mod dicom;
 mod docs;
 mod formats;
 mod gen;

@@ -25,8 +25,9 @@ use volkit_cli::{json, noteln, usage, Selection};
 /// .txt/.lst file listing slices, a .raw file (dims and type from flags or
 /// from NAME_XxYxZ_TYPE.raw), NRRD (.nrrd/.nhdr, raw or gzip), MetaImage
 /// (.mhd/.mha), a DICOM series (a directory, or a glob or list of DICOM
-/// files: files that hold no image, such as a DICOMDIR or a structured
-/// report, are skipped and counted), an OME-Zarr (NAME.ome.zarr), a thesis
+/// files: files that join no series, such as a DICOMDIR, a report or a
+/// capture without ImagePositionPatient, are skipped and counted; vol-info
+/// lists them with their reasons), an OME-Zarr (NAME.ome.zarr), a thesis
 /// .vol, a .vvol, or - for standard input (a .vvol stream, a NRRD with
 /// attached data, or raw with --raw-dims).
 ///

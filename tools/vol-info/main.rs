@@ -10,13 +10,15 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 use volcore::{Dims, Layout, SampleType, Volume};
-use volformats::dicom::{Scan, SeriesInfo};
+use volformats::dicom::{Scan, SeriesInfo, Skipped};
 use volformats::open::{input_kind, InputKind};
 use volformats::stacks::Stacks;
 use volformats::tiff::ChannelSel;
 use volformats::vvol;
 use volkit_cli::json;
-use volkit_cli::{noteln, outln, Selection};
+use volkit_cli::{outln, Selection};
+
+mod listing;
 
 /// Describe a volume (any format vol-convert reads: .vvol, .vol, .raw,
 /// NRRD, MetaImage, NIfTI, DICOM series, TIFF stacks, OME-Zarr, or - for a
@@ -35,9 +37,12 @@ use volkit_cli::{noteln, outln, Selection};
 /// states it, and the flags that pick another (--channel, --time-point).
 ///
 /// A DICOM input holding several series is listed instead (UID, number,
-/// description, modality, images, dimensions), one series a line; pick
-/// one with --series. Files that hold no image (a DICOMDIR, structured
-/// reports, presentation states) are skipped, and counted on stderr.
+/// description, modality, images, dimensions), one series a line, with
+/// what keeps a series from reading as a volume; pick one with --series.
+/// Files that join no series (a DICOMDIR, reports, images without
+/// ImagePositionPatient, multi-frame or colour images, damaged files)
+/// are skipped and listed after the description or the series, each with
+/// its reason; the exit status is 0 while some series reads.
 #[derive(Parser, Debug)]
 #[command(name = "vol-info", version, after_help = EXAMPLES)]
 struct Cli {
@@ -111,23 +116,22 @@ fn info(cli: &Cli) -> Result<()> {
         opts.time = Some(0);
     }
     let mut format = kind.map(|k| k.name().to_string());
-    let mut notes = Vec::new();
+    // A DICOM input's skipped files, listed after the description.
+    let mut skipped = None;
     let vol = if matches!(kind, Some(InputKind::DicomDir | InputKind::Dicom)) {
         use volformats::convert::SliceReader;
         let scan = volformats::open::dicom_scan(&cli.input, &opts)?;
         if cli.input_sel.series.is_none() && scan.series().len() > 1 {
+            scan.check_readable()?;
             if !cli.quiet {
-                for note in scan.notes() {
-                    noteln!("vol-info: {note}");
-                }
                 list_series(cli, &scan, start.elapsed().as_secs_f64())?;
             }
             return Ok(());
         }
+        skipped = Some(scan.skipped().to_vec());
         let reader = scan.open(cli.input_sel.series.as_deref())?;
         // The words vol-convert uses: "dicom series (CT, 120 images)".
         format = Some(reader.info().format.clone());
-        notes = reader.notes();
         volformats::open::load(Box::new(reader), None)?
     } else {
         volformats::open(&cli.input, &opts)?
@@ -161,19 +165,15 @@ fn info(cli: &Cli) -> Result<()> {
     };
     let figures = stats::compute(&cli.input, &opts, &vol, &cli.stats, cli.quiet)?;
     if !cli.quiet {
-        for note in &notes {
-            noteln!("vol-info: {note}");
-        }
         let format = format.as_deref().unwrap_or("stream");
-        report(
-            cli,
-            &vol,
-            &described,
+        let found = Found {
             format,
             file_bytes,
-            start.elapsed().as_secs_f64(),
-            figures.as_ref().map(stats::Figures::json),
-        )?;
+            skipped: skipped.as_deref(),
+            seconds: start.elapsed().as_secs_f64(),
+            stats: figures.as_ref().map(stats::Figures::json),
+        };
+        report(cli, &vol, &described, found)?;
         if let (Some(f), false) = (&figures, cli.json) {
             f.print()?;
         }
@@ -256,15 +256,29 @@ impl Described {
     }
 }
 
-fn report(
-    cli: &Cli,
-    vol: &Volume,
-    described: &Described,
-    format: &str,
+/// What reading the input found, beside the volume itself.
+struct Found<'a> {
+    /// The input's format name.
+    format: &'a str,
+    /// The file's size, when it is one file.
     file_bytes: Option<u64>,
+    /// DICOM files in the folder that joined no series.
+    skipped: Option<&'a [Skipped]>,
+    /// Seconds the reading (and verifying) took.
     seconds: f64,
+    /// --stats: the figures, as JSON.
     stats: Option<serde_json::Value>,
-) -> std::io::Result<()> {
+}
+
+/// Describe the volume: one JSON object with --json, else lines of text.
+fn report(cli: &Cli, vol: &Volume, described: &Described, found: Found) -> std::io::Result<()> {
+    let Found {
+        format,
+        file_bytes,
+        skipped,
+        seconds,
+        stats,
+    } = found;
     let m = &vol.meta.as_stored();
     let (brick, bricks) = match m.layout {
         Layout::Sliced => (None, None),
@@ -288,6 +302,12 @@ fn report(
                 "seconds": seconds,
             }),
         );
+        if let Some(s) = skipped {
+            json::merge(
+                &mut v,
+                json!({ "skipped": listing::skipped_json(&cli.input, s) }),
+            );
+        }
         if let Some(stats) = stats {
             json::merge(&mut v, stats);
         }
@@ -336,11 +356,15 @@ fn report(
     if cli.verify {
         outln!("  verified in {seconds:.2} s")?;
     }
+    for line in listing::skipped_lines(&cli.input, skipped.unwrap_or_default()) {
+        outln!("  {line}")?;
+    }
     Ok(())
 }
 
-/// The series of a DICOM input holding several: a table, or with --json
-/// one object whose `series` lists them.
+/// The series of a DICOM input holding several: a table with a line for
+/// each series that cannot be read, then the skipped files; or with
+/// --json one object whose `series` and `skipped` list them.
 fn list_series(cli: &Cli, scan: &Scan, seconds: f64) -> std::io::Result<()> {
     let series = scan.series();
     if cli.json {
@@ -354,6 +378,7 @@ fn list_series(cli: &Cli, scan: &Scan, seconds: f64) -> std::io::Result<()> {
                     "modality": s.modality,
                     "images": s.images,
                     "dims": s.dims,
+                    "problem": s.problem,
                 })
             })
             .collect();
@@ -362,7 +387,7 @@ fn list_series(cli: &Cli, scan: &Scan, seconds: f64) -> std::io::Result<()> {
             "input": cli.input.display().to_string(),
             "format": InputKind::DicomDir.name(),
             "series": list,
-            "skipped": scan.skipped().len(),
+            "skipped": listing::skipped_json(&cli.input, scan.skipped()),
             "seconds": seconds,
         });
         return outln!("{v}");
@@ -373,6 +398,18 @@ fn list_series(cli: &Cli, scan: &Scan, seconds: f64) -> std::io::Result<()> {
         series.len()
     )?;
     for line in series_table(&series) {
+        outln!("  {line}")?;
+    }
+    for s in &series {
+        if let Some(p) = &s.problem {
+            outln!(
+                "  {} cannot be read: {}",
+                volcore::text::escape(&s.describe()),
+                volcore::text::escape(p)
+            )?;
+        }
+    }
+    for line in listing::skipped_lines(&cli.input, scan.skipped()) {
         outln!("  {line}")?;
     }
     Ok(())
@@ -414,20 +451,7 @@ fn series_table(series: &[SeriesInfo]) -> Vec<String> {
             format!("{}x{}x{}", s.dims[0], s.dims[1], s.dims[2]),
         ]);
     }
-    let widths: Vec<usize> = (0..6)
-        .map(|c| rows.iter().map(|r| r[c].chars().count()).max().unwrap_or(0))
-        .collect();
-    rows.iter()
-        .map(|r| {
-            r.iter()
-                .zip(&widths)
-                .map(|(cell, w)| format!("{cell:<w$}"))
-                .collect::<Vec<_>>()
-                .join("  ")
-                .trim_end()
-                .to_string()
-        })
-        .collect()
+    listing::columns(&rows)
 }
 
 /// Bytes the samples of `dims` take as `t`, or `None` past 2^64: a

@@ -1,17 +1,21 @@
-//! The allocation guard: a DICOM file is walked element by element
-//! before dicom-rs reads it, and refused when an element claims more
-//! bytes than the file holds (dicom-rs would reserve them first).
+//! The allocation guard: a DICOM file is read token by token with
+//! dicom-rs's own data set reader before dicom-rs opens it, and refused
+//! when an element (or a pixel data fragment) claims more bytes than are
+//! left in the file: dicom-rs reserves and zero-fills a value's declared
+//! length before reading it.
+//!
+//! The walk is dicom-rs's parser itself, so it reads every element as
+//! dicom-rs will (implicit VR by the data dictionary, whole binary values,
+//! undefined lengths as sequences): an earlier walk of volkit's own
+//! disagreed with it on an implicit-VR file, which then took 1 GB.
 
-use super::bad;
-use crate::reader::{At, CResult};
+use dicom_parser::dataset::read::DataSetReaderOptions;
+use dicom_parser::dataset::{DataSetReader, DataToken};
+use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
+use std::cell::Cell;
+use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
-
-/// Where [`check_lengths`] reads a data set from: the file, or the inflated
-/// data set of the deflated transfer syntax.
-trait Walk: std::io::Read {
-    /// Pass `n` bytes of value; errors when fewer are left.
-    fn skip(&mut self, n: u64) -> std::io::Result<()>;
-}
+use std::rc::Rc;
 
 /// A file, with its length: a value is skipped by seeking, after checking
 /// that it ends inside the file.
@@ -29,7 +33,8 @@ impl std::io::Read for FileWalk {
     }
 }
 
-impl Walk for FileWalk {
+impl FileWalk {
+    /// Pass `n` bytes of value; errors when fewer are left.
     fn skip(&mut self, n: u64) -> std::io::Result<()> {
         if n > self.len.saturating_sub(self.pos) {
             return Err(std::io::ErrorKind::UnexpectedEof.into());
@@ -41,46 +46,23 @@ impl Walk for FileWalk {
     }
 }
 
-/// An inflated stream: a value is skipped by reading it (its end is only
-/// known by reaching it).
-struct StreamWalk<R>(R);
+/// A reader that counts the bytes it hands on: what dicom-rs's decoder
+/// has consumed of the data set, exactly (it reads from this, not
+/// ahead of it).
+struct Counted<R> {
+    inner: R,
+    read: Rc<Cell<u64>>,
+}
 
-impl<R: std::io::Read> std::io::Read for StreamWalk<R> {
+impl<R: Read> Read for Counted<R> {
     fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        self.0.read(buf)
+        let n = self.inner.read(buf)?;
+        self.read.set(self.read.get() + n as u64);
+        Ok(n)
     }
-}
-
-impl<R: std::io::Read> Walk for StreamWalk<R> {
-    fn skip(&mut self, n: u64) -> std::io::Result<()> {
-        let mut part = std::io::Read::take(&mut self.0, n);
-        let got = std::io::copy(&mut part, &mut std::io::sink())?;
-        if got < n {
-            return Err(std::io::ErrorKind::UnexpectedEof.into());
-        }
-        Ok(())
-    }
-}
-
-/// Read exactly `buf.len()` bytes; `false` at a clean end of the data
-/// (no byte left), an error at a partial read.
-fn read_or_end(r: &mut dyn Walk, buf: &mut [u8]) -> std::io::Result<bool> {
-    let mut got = 0;
-    while got < buf.len() {
-        match r.read(&mut buf[got..]) {
-            Ok(0) if got == 0 => return Ok(false),
-            Ok(0) => return Err(std::io::ErrorKind::UnexpectedEof.into()),
-            Ok(n) => got += n,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(true)
 }
 
 const UNDEFINED: u32 = u32::MAX;
-const ITEM: (u16, u16) = (0xfffe, 0xe000);
-const SEQUENCE_END: (u16, u16) = (0xfffe, 0xe0dd);
 
 /// Whether explicit-VR elements of value representation `vr` carry a
 /// 16-bit length: dicom-rs reads one for these and a 32-bit one (after
@@ -112,148 +94,67 @@ fn short_length_vr(vr: &[u8; 2]) -> bool {
     )
 }
 
-/// Walk the data elements of one encoding (explicit or implicit VR, byte
-/// order) to the end of `r`, stepping into sequences and items and over
-/// every other value (and pixel data fragments); the first value that
-/// runs past the end of the data is an error.
-fn walk_elements(r: &mut dyn Walk, explicit: bool, big: bool) -> Result<(), String> {
-    let u16_of = |b: [u8; 2]| {
-        if big {
-            u16::from_be_bytes(b)
-        } else {
-            u16::from_le_bytes(b)
-        }
-    };
-    let u32_of = |b: [u8; 4]| {
-        if big {
-            u32::from_be_bytes(b)
-        } else {
-            u32::from_le_bytes(b)
-        }
-    };
-    let mut fragments = false;
-    let mut pending: Option<(u16, u16)> = None;
-    loop {
-        let tag = match pending.take() {
-            Some(t) => t,
-            None => {
-                let mut b = [0u8; 4];
-                match read_or_end(r, &mut b) {
-                    Ok(true) => (u16_of([b[0], b[1]]), u16_of([b[2], b[3]])),
-                    // A data set that stops inside a tag is dicom-rs's to report.
-                    _ => return Ok(()),
-                }
-            }
-        };
-        let name = format!("({:04X},{:04X})", tag.0, tag.1);
-        let short = |r: &mut dyn Walk| -> Result<u32, String> {
-            let mut b = [0u8; 2];
-            r.read_exact(&mut b)
-                .map_err(|_| format!("element {name} is truncated"))?;
-            Ok(u16_of(b) as u32)
-        };
-        let long = |r: &mut dyn Walk| -> Result<u32, String> {
-            let mut b = [0u8; 4];
-            r.read_exact(&mut b)
-                .map_err(|_| format!("element {name} is truncated"))?;
-            Ok(u32_of(b))
-        };
-        // Items and delimiters have no VR, in either encoding.
-        if tag.0 == 0xfffe {
-            let len = long(r)?;
-            if tag == ITEM && fragments && len != UNDEFINED {
-                r.skip(len as u64).map_err(|_| {
-                    format!("a pixel data fragment claims {len} bytes, past the end of the data")
-                })?;
-            } else if tag == SEQUENCE_END {
-                fragments = false;
-            }
-            continue;
-        }
-        let (vr, len) = if explicit {
-            let mut v = [0u8; 2];
-            r.read_exact(&mut v)
-                .map_err(|_| format!("element {name} is truncated"))?;
-            let wide = !short_length_vr(&v);
-            let len = if wide {
-                short(r)?;
-                long(r)?
-            } else {
-                short(r)?
-            };
-            (Some(v), len)
-        } else {
-            (None, long(r)?)
-        };
-        if len == UNDEFINED {
-            // As dicom-rs reads it: undefined-length pixel data holds
-            // fragments, any other undefined-length element (whatever its
-            // VR) a sequence in the same encoding; items follow up to a
-            // sequence delimiter.
-            if tag == (0x7fe0, 0x0010) {
-                fragments = true;
-            }
-            continue;
-        }
-        if vr.as_ref() == Some(b"SQ") {
-            continue;
-        }
-        if vr.is_none() && len >= 8 {
-            // Implicit VR: a value that starts with an item is a sequence.
-            let mut b = [0u8; 4];
-            r.read_exact(&mut b).map_err(|_| {
-                format!("element {name} claims {len} bytes, past the end of the data")
-            })?;
-            let t = (u16_of([b[0], b[1]]), u16_of([b[2], b[3]]));
-            if t == ITEM {
-                pending = Some(t);
-                continue;
-            }
-            r.skip(len as u64 - 4).map_err(|_| {
-                format!("element {name} claims {len} bytes, past the end of the data")
-            })?;
-            continue;
-        }
-        // dicom-rs reads whole numbers of a binary VR's values: the
-        // bytes of a length that is no multiple of their size are left
-        // for the next element's header.
-        let size = match vr.as_ref().map(|v| &v[..]) {
-            Some(b"US" | b"OW" | b"SS") => 2,
-            Some(b"FL" | b"OF" | b"SL" | b"OL" | b"UL" | b"AT") => 4,
-            Some(b"FD" | b"OD" | b"SV" | b"OV" | b"UV") => 8,
-            _ => 1,
-        };
-        r.skip(u64::from(len - len % size))
-            .map_err(|_| format!("element {name} claims {len} bytes, past the end of the data"))?;
-    }
-}
+/// The deflated transfer syntaxes: the data set after the meta group is
+/// one raw deflate stream.
+const DEFLATED: [&str; 2] = ["1.2.840.10008.1.2.1.99", "1.2.840.10008.1.2.4.95"];
 
-/// Refuse a file any of whose data elements claims more bytes than the
-/// file holds (more than its inflated data set, for the deflated transfer
-/// syntax). dicom-rs reserves and zero-fills a value's declared length
-/// before reading it: unchecked, a 600-byte file claiming a 4 GiB element
-/// would take 4 GiB of memory.
-pub(super) fn check_lengths(path: &Path) -> CResult<()> {
-    use std::io::{Read, Seek, SeekFrom};
-    let f = std::fs::File::open(path).at(path)?;
-    let len = f.metadata().at(path)?.len();
+/// Check the lengths of the file at `path` before dicom-rs reads it, and
+/// return its transfer syntax UID (empty when the meta group gives none).
+///
+/// The meta group is walked here, as dicom-rs reads it (elements while
+/// fewer bytes than (0002,0000) gives have been read); the data set after
+/// it through dicom-rs's own token reader, which hands over each
+/// element's header before reading its value: a value that claims more
+/// bytes than are left is an error, before anything is reserved. So each
+/// value dicom-rs reserves afterwards is at most the file's size (the
+/// inflated data set's, for the deflated transfer syntaxes). A file that
+/// is no Part 10 file, or whose meta group dicom-rs cannot read, passes:
+/// dicom-rs refuses it without reserving anything.
+pub(super) fn check_lengths(path: &Path) -> Result<String, String> {
+    let f = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    let len = f.metadata().map_err(|e| e.to_string())?.len();
     let mut w = FileWalk {
         r: std::io::BufReader::new(f),
         pos: 0,
         len,
     };
-    // The preamble and DICM, then the meta group (explicit VR little endian).
     if len < 132 {
-        return Ok(());
+        return Ok(String::new());
     }
-    w.r.seek(SeekFrom::Start(132)).at(path)?;
+    w.r.seek(SeekFrom::Start(132)).map_err(|e| e.to_string())?;
     w.pos = 132;
-    let fail = |e: String| bad(path, format!("damaged DICOM file: {e}"));
-    // The meta group as dicom-rs reads it: elements while fewer bytes
-    // than (0002,0000) gives have been read, whatever their tags.
+    let Some(ts) = meta_group(&mut w)? else {
+        return Ok(String::new());
+    };
+    let Some(syntax) = TransferSyntaxRegistry.get(&ts) else {
+        return Ok(ts);
+    };
+    if !syntax.can_decode_dataset() {
+        return Ok(ts);
+    }
+    let start = w.pos;
+    if DEFLATED.contains(&ts.as_str()) {
+        // The inflated length first (read, not held), then the walk.
+        let mut counter = flate2::read::DeflateDecoder::new(w.r);
+        let total = std::io::copy(&mut counter, &mut std::io::sink())
+            .map_err(|e| format!("the deflated data set cannot be inflated: {e}"))?;
+        let mut f = counter.into_inner();
+        f.seek(SeekFrom::Start(start)).map_err(|e| e.to_string())?;
+        walk_data_set(flate2::read::DeflateDecoder::new(f), total, syntax)?;
+    } else {
+        walk_data_set(w.r, len - start, syntax)?;
+    }
+    Ok(ts)
+}
+
+/// Walk the meta group (from after `DICM`) and return its transfer
+/// syntax UID; `None` when the group is not one dicom-rs reads (it then
+/// refuses the file itself), an error when an element runs past the end
+/// of the file.
+fn meta_group(w: &mut FileWalk) -> Result<Option<String>, String> {
     let mut head = [0u8; 12];
     if w.read_exact(&mut head).is_err() || head[..8] != [2, 0, 0, 0, b'U', b'L', 4, 0] {
-        return Ok(());
+        return Ok(None);
     }
     let group_len = u64::from(u32::from_le_bytes([head[8], head[9], head[10], head[11]]));
     let mut ts = None;
@@ -261,7 +162,7 @@ pub(super) fn check_lengths(path: &Path) -> CResult<()> {
     while read < group_len {
         let mut h = [0u8; 8];
         if w.read_exact(&mut h).is_err() {
-            return Ok(());
+            return Ok(None);
         }
         let tag = (
             u16::from_le_bytes([h[0], h[1]]),
@@ -273,18 +174,18 @@ pub(super) fn check_lengths(path: &Path) -> CResult<()> {
         } else {
             let mut l = [0u8; 4];
             if w.read_exact(&mut l).is_err() {
-                return Ok(());
+                return Ok(None);
             }
             (u32::from_le_bytes(l), 12)
         };
         if len == UNDEFINED {
-            return Ok(());
+            return Ok(None);
         }
-        let name = format!("({:04X},{:04X})", tag.0, tag.1);
         let past = || {
-            fail(format!(
-                "element {name} claims {len} bytes, past the end of the data"
-            ))
+            format!(
+                "element ({:04X},{:04X}) claims {len} bytes, past the end of the file",
+                tag.0, tag.1
+            )
         };
         if tag == (0x0002, 0x0010) && len <= 64 {
             let mut b = vec![0u8; len as usize];
@@ -299,16 +200,105 @@ pub(super) fn check_lengths(path: &Path) -> CResult<()> {
         }
         read += header + u64::from(len);
     }
-    let ts = ts.unwrap_or_default();
-    match ts.as_str() {
-        "1.2.840.10008.1.2" => walk_elements(&mut w, false, false),
-        "1.2.840.10008.1.2.2" => walk_elements(&mut w, true, true),
-        "1.2.840.10008.1.2.1.99" | "1.2.840.10008.1.2.4.95" => {
-            let mut s = StreamWalk(flate2::read::DeflateDecoder::new(w.r));
-            walk_elements(&mut s, true, false)
+    Ok(Some(ts.unwrap_or_default()))
+}
+
+/// Read the data set in `source` (`total` bytes) with dicom-rs's token
+/// reader, as dicom-object does (default options); before each value
+/// and each pixel data fragment is read, its length is checked against
+/// the bytes left. A token dicom-rs cannot read is an error too (the
+/// file's pixel data would not decode either), in dicom-rs's words.
+fn walk_data_set(
+    source: impl Read + 'static,
+    total: u64,
+    ts: &dicom_transfer_syntax_registry::TransferSyntax,
+) -> Result<(), String> {
+    let read = Rc::new(Cell::new(0u64));
+    let counted = Counted {
+        inner: source,
+        read: Rc::clone(&read),
+    };
+    let tokens = DataSetReader::new_with_ts_options(counted, ts, DataSetReaderOptions::default())
+        .map_err(|e| super::chain(&e))?;
+    let mut fragments = false;
+    for token in tokens {
+        let token = token.map_err(|e| super::chain(&e))?;
+        let claim = match &token {
+            DataToken::ElementHeader(h) => h.len.get().map(|n| (h.tag.to_string(), n)),
+            DataToken::PixelSequenceStart => {
+                fragments = true;
+                None
+            }
+            DataToken::SequenceEnd => {
+                fragments = false;
+                None
+            }
+            DataToken::ItemStart { len } if fragments => {
+                len.get().map(|n| ("a pixel data fragment".to_string(), n))
+            }
+            _ => None,
+        };
+        if let Some((what, n)) = claim {
+            let left = total.saturating_sub(read.get());
+            if u64::from(n) > left {
+                return Err(format!(
+                    "{} claims {n} bytes where {left} are left in the file",
+                    if what.starts_with('(') {
+                        format!("element {what}")
+                    } else {
+                        what
+                    }
+                ));
+            }
         }
-        _ => walk_elements(&mut w, true, false),
     }
-    .map_err(fail)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn repo(p: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(p)
+    }
+
+    /// The fuzzer's implicit-VR input: its (0000,0000) group length is a
+    /// UL of 51 bytes, of which dicom-rs reads 12 whole values and takes
+    /// the rest for the next header, which then claims 1 GiB. The old
+    /// walk of volkit's own skipped all 51 bytes and let it through;
+    /// dicom-rs then reserved the gigabyte.
+    #[test]
+    fn the_implicit_vr_element_dicom_rs_would_reserve_a_gigabyte_for_is_refused() {
+        let start = std::time::Instant::now();
+        let e = check_lengths(&repo("fuzz/regressions/dicom/f43f9f4edf6e29e6")).unwrap_err();
+        assert!(e.contains("claims 1073747968 bytes"), "{e}");
+        assert!(start.elapsed().as_secs_f64() < 0.5, "{:?}", start.elapsed());
+    }
+
+    #[test]
+    fn whole_files_pass_and_give_their_transfer_syntax() {
+        let dir = repo("tests/fixtures/dicom_ct");
+        for e in std::fs::read_dir(dir).unwrap() {
+            let ts = check_lengths(&e.unwrap().path()).unwrap();
+            assert_eq!(ts, "1.2.840.10008.1.2.1");
+        }
+    }
+
+    #[test]
+    fn a_truncated_pixel_data_value_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let src = std::fs::read_dir(repo("tests/fixtures/dicom_ct"))
+            .unwrap()
+            .next()
+            .unwrap()
+            .unwrap()
+            .path();
+        let mut b = std::fs::read(src).unwrap();
+        b.truncate(b.len() - 3);
+        let p = dir.path().join("t.dcm");
+        std::fs::write(&p, b).unwrap();
+        let e = check_lengths(&p).unwrap_err();
+        assert!(e.contains("(7FE0,0010) claims"), "{e}");
+    }
 }

@@ -3,13 +3,18 @@
 //! `dicom-pixeldata` for the pixel data and its codecs: native, RLE,
 //! JPEG, deflate).
 //!
-//! - Files that hold no image are skipped (and counted): a `DICOMDIR`, and
-//!   objects without Rows and Columns whose SOP class is no image storage
-//!   class (structured reports, presentation states, RT structure sets,
-//!   key object selections). Only an input left without images is refused.
+//! - Every file either joins a series or is skipped with its reason
+//!   ([`SkipReason`]): not DICOM, unreadable, truncated or damaged, no
+//!   image (a `DICOMDIR`, and objects without Rows and Columns whose SOP
+//!   class is no image storage class: reports, presentation states, RT
+//!   structure sets), multi-frame, an undecodable transfer syntax, colour,
+//!   or an image without SeriesInstanceUID, Rows and Columns,
+//!   ImagePositionPatient or ImageOrientationPatient. Only an input left
+//!   without a series is refused.
 //! - Files are grouped by SeriesInstanceUID ([`Scan`]); with several
 //!   series `--series` picks one by its SeriesNumber, its whole UID or a
-//!   unique prefix of it, and without it the error lists them.
+//!   unique prefix of it, and without it the error lists them. Only the
+//!   chosen series' own inconsistencies (below) are an error.
 //! - Slices are sorted by ImagePositionPatient projected on the slice
 //!   normal (the cross product of the ImageOrientationPatient rows), not by
 //!   file name or InstanceNumber.
@@ -27,20 +32,24 @@
 //! The reader is here; its jobs are in `guard` (refusing files whose
 //! element lengths would make dicom-rs allocate more than the file
 //! holds), `series` (reading each file's header, grouping the files by
-//! series and picking one) and `pixels` (decoding a slice's pixel data,
-//! RLE included).
+//! series and picking one), `skip` (why a file was skipped, and the
+//! summaries of them) and `pixels` (decoding a slice's pixel data, RLE
+//! included).
 
 mod guard;
 mod pixels;
 mod series;
+mod skip;
 
-pub use series::{Scan, SeriesInfo, Skipped};
+pub use series::{Scan, SeriesInfo};
+pub use skip::{shown, SkipReason, Skipped};
 
 use crate::error::Error;
 use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
 use crate::slice::SliceData;
 use pixels::{stored_type, widest};
-use series::{skipped_notes, SliceHeader};
+use series::SliceHeader;
+use skip::skipped_notes;
 use std::path::{Path, PathBuf};
 use volcore::{Dims, Geometry};
 
@@ -68,6 +77,20 @@ fn bad(path: &Path, msg: impl Into<String>) -> ConvertError {
     ConvertError::new(path, Error::invalid(msg.into()))
 }
 
+/// An error with its causes, `outer: inner: ...` (dicom-rs's errors say
+/// little at the top: "Could not read data set token"), escaped and
+/// clipped: its text may quote the file.
+fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        s.push_str(": ");
+        s.push_str(&c.to_string());
+        cause = c.source();
+    }
+    volcore::text::clip(&s, 200)
+}
+
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
@@ -85,7 +108,8 @@ fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 /// The files of a DICOM input: a directory (every regular, non-hidden
-/// file that is DICOM), a glob or a list file.
+/// file: those that are no DICOM file are skipped as such by [`Scan`]),
+/// a glob or a list file.
 pub fn list_files(input: &Path, files: Option<Vec<PathBuf>>) -> CResult<Vec<PathBuf>> {
     let files = match files {
         Some(f) => f,
@@ -94,7 +118,7 @@ pub fn list_files(input: &Path, files: Option<Vec<PathBuf>>) -> CResult<Vec<Path
             for e in std::fs::read_dir(input).at(input)? {
                 let e = e.at(input)?;
                 let hidden = e.file_name().to_string_lossy().starts_with('.');
-                if !hidden && e.path().is_file() && is_dicom_file(&e.path()) {
+                if !hidden && e.path().is_file() {
                     v.push(e.path());
                 }
             }
@@ -159,12 +183,6 @@ impl DicomReader {
                 return Err(bad(
                     &s.path,
                     "pixel type differs from the rest of the series",
-                ));
-            }
-            if s.frames != 1 {
-                return Err(bad(
-                    &s.path,
-                    format!("multi-frame DICOM image ({} frames): volkit reads series of single-frame images", s.frames),
                 ));
             }
         }

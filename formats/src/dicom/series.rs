@@ -1,10 +1,12 @@
-//! Series scanning: each file's header read up to its pixel data, the
-//! files that hold no image skipped, the images grouped by series, and
-//! one series picked by `--series`.
+//! Series scanning: each file's header read up to its pixel data, each
+//! file that cannot join a series skipped with its reason, the images
+//! grouped by series and each series checked as a volume, and one series
+//! picked by `--series`.
 
 use super::guard::check_lengths;
+use super::skip::{skipped_brief, SkipReason, Skipped};
 use super::{bad, DicomReader};
-use crate::reader::CResult;
+use crate::reader::{CResult, ConvertError};
 use crate::rescale::Rescale;
 use dicom_dictionary_std::tags;
 use dicom_object::{DefaultDicomObject, OpenFileOptions};
@@ -28,7 +30,6 @@ pub(super) struct SliceHeader {
     pub(super) bits_allocated: u16,
     pub(super) bits_stored: u16,
     pub(super) signed: bool,
-    pub(super) frames: u32,
 }
 
 fn text(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<String> {
@@ -53,30 +54,13 @@ fn int(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<i64> {
         .and_then(|e| e.to_int::<i64>().ok())
 }
 
-/// A file of a DICOM input that holds no image, skipped.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Skipped {
-    /// The file.
-    pub path: PathBuf,
-    /// What it holds: `DICOMDIR` or its SOP class's name.
-    pub what: String,
-}
-
-/// What one file of an input is.
-enum Header {
-    /// A slice of an image series.
-    Image(SliceHeader),
-    /// Anything else.
-    Other(Skipped),
-}
-
 /// The Media Storage Directory (`DICOMDIR`) SOP class.
 const DICOMDIR_CLASS: &str = "1.2.840.10008.1.3.10";
 
 /// What `obj` holds when it is no image, `None` for an image: a DICOMDIR
 /// (by its SOP class or its name), or an object without Rows and Columns
 /// whose SOP class is not an image storage class. An image class without
-/// Rows stays an image, to be refused as damaged.
+/// Rows stays an image, to be skipped as one without Rows and Columns.
 fn non_image(path: &Path, obj: &DefaultDicomObject) -> Option<String> {
     use dicom_core::dictionary::UidDictionary;
     let class = text(obj, tags::SOP_CLASS_UID)
@@ -105,62 +89,94 @@ fn non_image(path: &Path, obj: &DefaultDicomObject) -> Option<String> {
         if class.is_empty() {
             "an object without SOP class".into()
         } else {
-            format!("SOP class {class}")
+            format!("SOP class {}", volcore::text::excerpt(&class))
         }
     }))
 }
 
-/// Read the data set of one file up to (not including) its pixel data.
-fn read_header(path: &Path) -> CResult<Header> {
-    check_lengths(path)?;
+/// Whether the file starts like a DICOM Part 10 file; an error when it
+/// cannot be read at all.
+fn sniff_file(path: &Path) -> Result<bool, SkipReason> {
+    use std::io::Read;
+    let mut head = Vec::with_capacity(132);
+    std::fs::File::open(path)
+        .and_then(|f| f.take(132).read_to_end(&mut head))
+        .map_err(|e| SkipReason::Unreadable(e.to_string()))?;
+    Ok(super::sniff(&head))
+}
+
+/// Read one file's header (its data set up to, not including, its pixel
+/// data) as a slice of a series, or say why it can be none. The checks
+/// run from the most to the least fundamental: a multi-frame or colour
+/// image is named so even when it lacks ImagePositionPatient too.
+fn read_header(path: &Path) -> Result<SliceHeader, SkipReason> {
+    use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
+    if !sniff_file(path)? {
+        return Err(SkipReason::NotDicom);
+    }
+    let ts = check_lengths(path).map_err(SkipReason::Damaged)?;
+    let unsupported_ts = |name: Option<&str>| SkipReason::TransferSyntax {
+        uid: volcore::text::excerpt(&ts),
+        name: name.map(str::to_string),
+    };
+    let syntax = TransferSyntaxRegistry.get(&ts);
+    if !ts.is_empty() && syntax.is_none() {
+        return Err(unsupported_ts(None));
+    }
     let obj = OpenFileOptions::new()
         .read_until(tags::PIXEL_DATA)
         .open_file(path)
-        .map_err(|e| bad(path, format!("not a readable DICOM file: {e}")))?;
+        .map_err(|e| SkipReason::Damaged(super::chain(&e)))?;
     if let Some(what) = non_image(path, &obj) {
-        return Ok(Header::Other(Skipped {
-            path: path.to_path_buf(),
-            what,
-        }));
+        return Err(SkipReason::NoImage(what));
     }
-    let need = |tag, name: &str| -> CResult<Vec<f64>> {
-        floats(&obj, tag).ok_or_else(|| bad(path, format!("DICOM image without {name}")))
-    };
+    let frames = int(&obj, tags::NUMBER_OF_FRAMES).unwrap_or(1);
+    if frames > 1 {
+        return Err(SkipReason::MultiFrame(
+            u32::try_from(frames).unwrap_or(u32::MAX),
+        ));
+    }
+    if let Some(syntax) = syntax.filter(|s| !s.can_decode_all()) {
+        return Err(unsupported_ts(Some(syntax.name())));
+    }
+    let spp = int(&obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1);
+    if spp != 1 {
+        return Err(SkipReason::Colour(format!("{spp} samples per pixel")));
+    }
+    let photometric = text(&obj, tags::PHOTOMETRIC_INTERPRETATION).unwrap_or_default();
+    if !matches!(photometric.as_str(), "" | "MONOCHROME1" | "MONOCHROME2") {
+        return Err(SkipReason::Colour(format!(
+            "PhotometricInterpretation {}",
+            volcore::text::excerpt(&photometric)
+        )));
+    }
     let series = text(&obj, tags::SERIES_INSTANCE_UID)
-        .ok_or_else(|| bad(path, "DICOM file without SeriesInstanceUID"))?;
+        .filter(|s| !s.is_empty())
+        .ok_or(SkipReason::Missing("SeriesInstanceUID"))?;
     let rows = int(&obj, tags::ROWS).unwrap_or(0);
     let cols = int(&obj, tags::COLUMNS).unwrap_or(0);
     if !(1..=65535).contains(&rows) || !(1..=65535).contains(&cols) {
-        return Err(bad(path, "DICOM image without Rows and Columns"));
+        return Err(SkipReason::Missing("Rows and Columns"));
     }
+    let need = |tag, name| floats(&obj, tag).ok_or(SkipReason::Missing(name));
     let p = need(tags::IMAGE_POSITION_PATIENT, "ImagePositionPatient")?;
     let o = need(tags::IMAGE_ORIENTATION_PATIENT, "ImageOrientationPatient")?;
     let s = floats(&obj, tags::PIXEL_SPACING).unwrap_or_else(|| vec![1.0, 1.0]);
     if p.len() != 3 || o.len() != 6 || s.len() != 2 {
-        return Err(bad(
-            path,
-            "DICOM ImagePositionPatient, ImageOrientationPatient or PixelSpacing has the wrong number of values",
+        return Err(SkipReason::Unsupported(
+            "ImagePositionPatient, ImageOrientationPatient or PixelSpacing has the wrong number of values".into(),
         ));
     }
     if p.iter().chain(&o).chain(&s).any(|v| !v.is_finite()) || s.iter().any(|v| *v <= 0.0) {
-        return Err(bad(
-            path,
-            "DICOM position, orientation or spacing is not finite and positive",
-        ));
-    }
-    let spp = int(&obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1);
-    if spp != 1 {
-        return Err(bad(
-            path,
-            format!("DICOM image with {spp} samples per pixel (colour): volkit reads grey images"),
+        return Err(SkipReason::Unsupported(
+            "position, orientation or spacing is not finite and positive".into(),
         ));
     }
     let bits_allocated = int(&obj, tags::BITS_ALLOCATED).unwrap_or(16) as u16;
     if !matches!(bits_allocated, 8 | 16 | 32) {
-        return Err(bad(
-            path,
-            format!("DICOM BitsAllocated {bits_allocated} is not supported (8, 16 or 32)"),
-        ));
+        return Err(SkipReason::Unsupported(format!(
+            "BitsAllocated {bits_allocated} is not supported (8, 16 or 32)"
+        )));
     }
     let bits_stored = (int(&obj, tags::BITS_STORED).unwrap_or(bits_allocated as i64) as u16)
         .clamp(1, bits_allocated);
@@ -171,18 +187,11 @@ fn read_header(path: &Path) -> CResult<Header> {
         .and_then(|v| v.first().copied())
         .unwrap_or(0.0);
     if !(slope.is_finite() && intercept.is_finite()) || slope == 0.0 {
-        return Err(bad(
-            path,
-            "DICOM RescaleSlope or RescaleIntercept is not usable",
+        return Err(SkipReason::Unsupported(
+            "RescaleSlope or RescaleIntercept is not usable".into(),
         ));
     }
-    let ts = obj
-        .meta()
-        .transfer_syntax()
-        .trim_end_matches('\0')
-        .to_string();
-    check_transfer_syntax(path, &ts)?;
-    Ok(Header::Image(SliceHeader {
+    Ok(SliceHeader {
         path: path.to_path_buf(),
         series,
         series_number: int(&obj, tags::SERIES_NUMBER),
@@ -197,24 +206,7 @@ fn read_header(path: &Path) -> CResult<Header> {
         bits_allocated,
         bits_stored,
         signed: int(&obj, tags::PIXEL_REPRESENTATION) == Some(1),
-        frames: int(&obj, tags::NUMBER_OF_FRAMES).unwrap_or(1).max(1) as u32,
-    }))
-}
-
-/// Fail clearly on a transfer syntax this build cannot decode.
-fn check_transfer_syntax(path: &Path, uid: &str) -> CResult<()> {
-    use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
-    match TransferSyntaxRegistry.get(uid) {
-        Some(ts) if ts.can_decode_all() => Ok(()),
-        Some(ts) => Err(bad(
-            path,
-            format!(
-                "DICOM transfer syntax {} ({uid}) cannot be decoded by volkit: convert the series to an uncompressed, RLE or JPEG transfer syntax first (e.g. with dcmdjpeg or gdcmconv --raw)",
-                ts.name()
-            ),
-        )),
-        None => Err(bad(path, format!("unknown DICOM transfer syntax {uid}"))),
-    }
+    })
 }
 
 /// One series of a DICOM input, as listed.
@@ -232,6 +224,10 @@ pub struct SeriesInfo {
     pub images: usize,
     /// Columns, rows and images.
     pub dims: [u64; 3],
+    /// Why the series cannot be read as one volume (mixed sizes, missing
+    /// slices, gantry tilt, ...), the error opening it gives; `None` when
+    /// it can.
+    pub problem: Option<String>,
 }
 
 impl SeriesInfo {
@@ -254,53 +250,66 @@ impl SeriesInfo {
 }
 
 /// The files of a DICOM input read up to their pixel data: the images
-/// grouped by series (in order of SeriesNumber, then UID), and the files
-/// skipped as no image.
+/// grouped by series (in order of SeriesNumber, then UID), each series
+/// checked as a volume, and the files skipped with their reasons.
 pub struct Scan {
     input: PathBuf,
-    series: Vec<(SeriesInfo, Vec<SliceHeader>)>,
+    series: Vec<(SeriesInfo, CResult<DicomReader>)>,
     skipped: Vec<Skipped>,
 }
 
 impl Scan {
-    /// Read the headers of `files` (from `input`, named in errors); an
-    /// input whose files hold no image at all is an error.
+    /// Read the headers of `files` (from `input`, named in errors). A file
+    /// that cannot join a series is skipped, with its reason; an input
+    /// none of whose files joins one is an error naming the first.
     pub fn new(input: &Path, files: &[PathBuf]) -> CResult<Scan> {
         use rayon::prelude::*;
-        let headers: Vec<Header> = files
-            .par_iter()
-            .map(|f| read_header(f))
-            .collect::<CResult<_>>()?;
+        let headers: Vec<(&PathBuf, Result<SliceHeader, SkipReason>)> =
+            files.par_iter().map(|f| (f, read_header(f))).collect();
         let mut by_series: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
         let mut skipped = Vec::new();
-        for h in headers {
+        for (path, h) in headers {
             match h {
-                Header::Image(h) => by_series.entry(h.series.clone()).or_default().push(h),
-                Header::Other(s) => skipped.push(s),
+                Ok(h) => by_series.entry(h.series.clone()).or_default().push(h),
+                Err(reason) => skipped.push(Skipped {
+                    path: path.clone(),
+                    reason,
+                }),
             }
         }
+        skipped.sort_by(|a: &Skipped, b: &Skipped| a.path.cmp(&b.path));
         if by_series.is_empty() {
             return Err(bad(
                 input,
                 format!(
-                    "holds no DICOM image: {} skipped",
-                    skipped_summary(&skipped)
+                    "no readable DICOM series: {} skipped",
+                    skipped_brief(input, &skipped)
                 ),
             ));
         }
-        let mut series: Vec<(SeriesInfo, Vec<SliceHeader>)> = by_series
+        let mut series: Vec<(SeriesInfo, CResult<DicomReader>)> = by_series
             .into_iter()
             .map(|(uid, v)| {
                 let first = &v[0];
-                let info = SeriesInfo {
+                let mut info = SeriesInfo {
                     number: v.iter().find_map(|h| h.series_number),
                     description: first.description.clone(),
                     modality: first.modality.clone(),
                     images: v.len(),
                     dims: [first.cols as u64, first.rows as u64, v.len() as u64],
                     uid,
+                    problem: None,
                 };
-                (info, v)
+                let reader = DicomReader::new(input, v);
+                // The input is named once, by whoever prints the problem.
+                info.problem = reader.as_ref().err().map(|e| {
+                    if e.path == input {
+                        e.error.to_string()
+                    } else {
+                        e.to_string()
+                    }
+                });
+                (info, reader)
             })
             .collect();
         series.sort_by(|a, b| (a.0.number, &a.0.uid).cmp(&(b.0.number, &b.0.uid)));
@@ -316,15 +325,9 @@ impl Scan {
         self.series.iter().map(|(s, _)| s.clone()).collect()
     }
 
-    /// The files skipped as no image.
+    /// The files skipped, with their reasons.
     pub fn skipped(&self) -> &[Skipped] {
         &self.skipped
-    }
-
-    /// What the user should hear of: how many files were skipped (what
-    /// [`DicomReader`]'s notes say too).
-    pub fn notes(&self) -> Vec<String> {
-        skipped_notes(&self.input, &self.skipped)
     }
 
     /// The index of the series `sel` names, tried in this order: its
@@ -391,44 +394,48 @@ impl Scan {
         ))
     }
 
-    /// Open the series `sel` names (see [`Scan::select`]).
+    /// An error unless some series reads as a volume: `no readable DICOM
+    /// series`, with the first series' problem and the files skipped.
+    pub fn check_readable(&self) -> CResult<()> {
+        if self.series.iter().any(|(s, _)| s.problem.is_none()) {
+            return Ok(());
+        }
+        let (first, _) = &self.series[0];
+        let mut msg = format!(
+            "no readable DICOM series: {} series cannot be read (first: {}: {})",
+            self.series.len(),
+            first.describe(),
+            first.problem.as_deref().unwrap_or_default()
+        );
+        if !self.skipped.is_empty() {
+            msg.push_str(&format!(
+                "; {} skipped",
+                skipped_brief(&self.input, &self.skipped)
+            ));
+        }
+        Err(bad(&self.input, msg))
+    }
+
+    /// Open the series `sel` names (see [`Scan::select`]), whatever else
+    /// the input holds: only the series' own problem is an error, with the
+    /// files skipped named after it (one of them may be its missing slice).
     pub fn open(mut self, sel: Option<&str>) -> CResult<DicomReader> {
         let i = self.select(sel)?;
-        let (_, slices) = self.series.swap_remove(i);
-        let mut r = DicomReader::new(&self.input, slices)?;
-        r.skipped = self.skipped;
-        Ok(r)
+        let (_, reader) = self.series.swap_remove(i);
+        match reader {
+            Ok(mut r) => {
+                r.skipped = self.skipped;
+                Ok(r)
+            }
+            Err(e) if self.skipped.is_empty() => Err(e),
+            Err(e) => Err(ConvertError::new(
+                &e.path,
+                crate::error::Error::invalid(format!(
+                    "{}; {} skipped",
+                    e.error,
+                    skipped_brief(&self.input, &self.skipped)
+                )),
+            )),
+        }
     }
-}
-
-/// `3 files (1 DICOMDIR, 2 Basic Text SR Storage)`: how many files were
-/// skipped and what they hold.
-fn skipped_summary(skipped: &[Skipped]) -> String {
-    let mut kinds: BTreeMap<&str, usize> = BTreeMap::new();
-    for s in skipped {
-        *kinds.entry(s.what.as_str()).or_default() += 1;
-    }
-    format!(
-        "{} file{} ({})",
-        skipped.len(),
-        if skipped.len() == 1 { "" } else { "s" },
-        kinds
-            .iter()
-            .map(|(k, n)| format!("{n} {k}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    )
-}
-
-/// `input: skipped 2 files (...) that hold no image`, or nothing.
-pub(super) fn skipped_notes(input: &Path, skipped: &[Skipped]) -> Vec<String> {
-    if skipped.is_empty() {
-        return Vec::new();
-    }
-    vec![format!(
-        "{}: skipped {} that hold{} no image",
-        input.display(),
-        skipped_summary(skipped),
-        if skipped.len() == 1 { "s" } else { "" }
-    )]
 }
