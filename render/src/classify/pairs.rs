@@ -80,27 +80,44 @@ impl PairTable {
             })
             .collect();
         let ratio = step as f64 / tf.reference_step as f64;
-        // Rows of pairs `distance` bins apart: (i, i ± distance).
+        // ln(1 − α) per bin: a share `r` of the reference step has opacity
+        // −expm1(r · ln(1 − α)), as `correct_opacity` computes it.
+        let log_clear: Vec<f64> = bin
+            .iter()
+            .map(|b| match b.1 {
+                a if a.is_nan() || a <= 0.0 => 0.0,
+                a if a >= 1.0 => f64::NEG_INFINITY,
+                a => (-(a as f64)).ln_1p(),
+            })
+            .collect();
+        // Rows of pairs `distance` bins apart: (i, i ± distance), each a
+        // task. A ramp across `distance` bins spends half as long in its
+        // end bins as in each bin between; the bins between are
+        // composited by sliding windows, so a row costs O(bins).
         let rows: Vec<Vec<(usize, [f32; 4])>> = (1..n)
             .into_par_iter()
             .map(|distance| {
-                // A ramp across `distance` bins spends half as long in its
-                // end bins as in each bin between.
-                let middle: Vec<f32> = bin
+                // An end bin's opacity `a` for half the share of a bin
+                // between: that one's is `1 − (1 − a)² = a·(2 − a)`.
+                let share = ratio / (2 * distance) as f64;
+                let (end, middle): (Vec<Over>, Vec<Over>) = bin
                     .iter()
-                    .map(|b| correct_opacity(b.1, ratio / distance as f64))
-                    .collect();
-                let end: Vec<f32> = bin
-                    .iter()
-                    .map(|b| correct_opacity(b.1, ratio / (2 * distance) as f64))
-                    .collect();
+                    .zip(&log_clear)
+                    .map(|(b, &l)| {
+                        let a = -(l * share).exp_m1();
+                        (Over::piece(b.0, a), Over::piece(b.0, a * (2.0 - a)))
+                    })
+                    .unzip();
+                let width = distance - 1;
+                let ahead = windows(&middle, width, |a, b| a.then(b));
+                let back = windows(&middle, width, |a, b| b.then(a));
                 let mut row = Vec::with_capacity(2 * (n - distance));
                 for i in 0..n - distance {
                     let j = i + distance;
-                    let up = (i..=j).map(|b| piece(b, i, j, &middle, &end, &bin));
-                    row.push((i * n + j, composite(up)));
-                    let down = (i..=j).rev().map(|b| piece(b, j, i, &middle, &end, &bin));
-                    row.push((j * n + i, composite(down)));
+                    let up = end[i].then(ahead[i + 1]).then(end[j]);
+                    row.push((i * n + j, up.entry()));
+                    let down = end[j].then(back[i + 1]).then(end[i]);
+                    row.push((j * n + i, down.entry()));
                 }
                 row
             })
@@ -142,43 +159,87 @@ impl PairTable {
     }
 }
 
-/// Bin `b`'s colour and its opacity over its share of a ramp from bin
-/// `from` to bin `to`.
-#[inline]
-fn piece(
-    b: usize,
-    from: usize,
-    to: usize,
-    middle: &[f32],
-    end: &[f32],
-    bin: &[([f32; 3], f32)],
-) -> ([f32; 3], f32) {
-    let a = if b == from || b == to {
-        end[b]
-    } else {
-        middle[b]
-    };
-    (bin[b].0, a)
+/// Light and transmittance of a stretch of a segment, in f64: stretches
+/// compose front to back with [`Over::then`] (associative, not
+/// commutative).
+#[derive(Clone, Copy, Debug)]
+struct Over {
+    /// Linear light it emits toward the front, per channel.
+    light: [f64; 3],
+    /// The fraction of light from behind that passes it.
+    through: f64,
 }
 
-/// Composite pieces (linear colour, opacity) front to back into one
-/// entry, in f64.
-fn composite(pieces: impl Iterator<Item = ([f32; 3], f32)>) -> [f32; 4] {
-    let mut light = [0f64; 3];
-    let mut through = 1f64;
-    for (rgb, a) in pieces {
-        let w = through * a as f64;
-        for (l, c) in light.iter_mut().zip(rgb) {
-            *l += w * c as f64;
+impl Over {
+    /// Nothing: light passes unchanged.
+    const CLEAR: Over = Over {
+        light: [0.0; 3],
+        through: 1.0,
+    };
+
+    /// A bin of linear colour `rgb` over a stretch of opacity `alpha`.
+    fn piece(rgb: [f32; 3], alpha: f64) -> Over {
+        let a = alpha.clamp(0.0, 1.0);
+        Over {
+            light: rgb.map(|c| c as f64 * a),
+            through: 1.0 - a,
         }
-        through *= 1.0 - a as f64;
     }
-    let alpha = 1.0 - through;
-    if alpha <= 0.0 {
-        return [0.0; 4];
+
+    /// This stretch in front of `back`.
+    fn then(self, back: Over) -> Over {
+        Over {
+            light: std::array::from_fn(|c| self.light[c] + self.through * back.light[c]),
+            through: self.through * back.through,
+        }
     }
-    let c = light.map(|l| (l / alpha) as f32);
-    [c[0], c[1], c[2], alpha as f32]
+
+    /// As a table entry: colour is the light divided by the opacity.
+    fn entry(self) -> [f32; 4] {
+        let alpha = 1.0 - self.through;
+        if alpha <= 0.0 {
+            return [0.0; 4];
+        }
+        let c = self.light.map(|l| (l / alpha) as f32);
+        [c[0], c[1], c[2], alpha as f32]
+    }
+}
+
+/// For every start `a` with `a + width <= items.len()`, `items[a]` to
+/// `items[a + width - 1]` combined in index order by the associative
+/// `op` ([`Over::CLEAR`] when `width` is 0); one more entry (at
+/// `items.len() - width + 1`) is [`Over::CLEAR`] so a window one past the
+/// end can be asked for an empty range. O(items): the items are cut into
+/// blocks of `width`, each position keeps the combination from itself to
+/// its block's end and from its block's start to itself, and a window is
+/// one of the first joined with one of the second.
+fn windows(items: &[Over], width: usize, op: impl Fn(Over, Over) -> Over) -> Vec<Over> {
+    let n = items.len();
+    if width == 0 {
+        return vec![Over::CLEAR; n + 1];
+    }
+    let mut to_end = items.to_vec();
+    let mut from_start = items.to_vec();
+    for block in (0..n).step_by(width) {
+        let last = (block + width).min(n) - 1;
+        for p in (block..last).rev() {
+            to_end[p] = op(items[p], to_end[p + 1]);
+        }
+        for p in block + 1..=last {
+            from_start[p] = op(from_start[p - 1], items[p]);
+        }
+    }
+    let mut out: Vec<Over> = (0..=n.saturating_sub(width))
+        .map(|a| {
+            if a % width == 0 {
+                to_end[a]
+            } else {
+                op(to_end[a], from_start[a + width - 1])
+            }
+        })
+        .collect();
+    out.push(Over::CLEAR);
+    out
 }
 
 /// An entry of linear colour `rgb` and opacity `alpha`.
@@ -325,6 +386,36 @@ mod tests {
                     (got - want).abs() < 1e-4,
                     "{i}->{j} channel {c}: {got} vs {want}"
                 );
+            }
+        }
+    }
+
+    /// Sliding windows equal each window combined one by one, in both
+    /// orders, for every width.
+    #[test]
+    fn windows_equal_combining_each_window() {
+        let items: Vec<Over> = (0..23)
+            .map(|i| {
+                Over::piece(
+                    [i as f32 / 23.0, 0.5, 1.0 - i as f32 / 46.0],
+                    (i % 7) as f64 / 9.0,
+                )
+            })
+            .collect();
+        for width in 0..items.len() {
+            for ahead in [true, false] {
+                let op = |a: Over, b: Over| if ahead { a.then(b) } else { b.then(a) };
+                let got = windows(&items, width, op);
+                for a in 0..=items.len() - width {
+                    let want = items[a..a + width]
+                        .iter()
+                        .fold(Over::CLEAR, |acc, &x| op(acc, x));
+                    let (g, w) = (got[a], want);
+                    assert!((g.through - w.through).abs() < 1e-12, "{width} {a}");
+                    for c in 0..3 {
+                        assert!((g.light[c] - w.light[c]).abs() < 1e-12, "{width} {a}");
+                    }
+                }
             }
         }
     }
