@@ -63,6 +63,7 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
         j["files"][0],
         out.join("accuracy.csv").display().to_string()
     );
+    assert_eq!(j["files"][1], out.join("methods.md").display().to_string());
     let text = std::fs::read_to_string(out.join("accuracy.csv")).unwrap();
     let rows = parse_csv(&text);
 
@@ -78,6 +79,10 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     ];
     let per_scene: usize = expected.iter().map(|(_, v)| v.len()).sum();
     let scenes = ["thesis", "noise", "boundary", "ct"];
+    // The steps again, pre-integrated, on the scenes with a 1D transfer
+    // function (not `boundary`).
+    let pre_scenes = ["thesis", "noise", "ct"];
+    let steps = expected[1].1;
     // The thesis and CT scenes' shadow studies: reference, off, 2 ray
     // steps, 2 grids; and their AO studies: reference, off, 2 ray counts,
     // 2 fields, 1 finer field.
@@ -85,7 +90,9 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     let (shadow_rows, ao_rows) = (6, 7);
     assert_eq!(
         rows.len(),
-        scenes.len() * per_scene + effect_scenes.len() * (shadow_rows + ao_rows),
+        scenes.len() * per_scene
+            + pre_scenes.len() * steps.len()
+            + effect_scenes.len() * (shadow_rows + ao_rows),
         "{text}"
     );
     for scene in effect_scenes {
@@ -146,6 +153,11 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
             "{scene}: PSNR at step 0.05 ({fine}) <= at 1.6 ({coarse})"
         );
         assert!(fine_samples > coarse_samples, "{scene}: samples");
+        if pre_scenes.contains(&scene) {
+            let (_, _, pre_fine) = get("preintegrated", "0.05");
+            let (_, _, pre_coarse) = get("preintegrated", "1.6");
+            assert!(pre_fine > pre_coarse, "{scene}: pre-integrated PSNR");
+        }
         // Tiles and threads change the time only, never the image.
         assert_eq!(get("tile", "8").2, get("tile", "32").2, "{scene}: tile");
         assert_eq!(
@@ -154,6 +166,20 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
             "{scene}: threads"
         );
     }
+    // Time to each PSNR per method and scene.
+    let methods = std::fs::read_to_string(out.join("methods.md")).unwrap();
+    for scene in pre_scenes {
+        for method in ["step", "pre-integrated"] {
+            assert!(
+                methods.contains(&format!("| {scene} | {method} |")),
+                "{methods}"
+            );
+        }
+    }
+    assert!(
+        !methods.contains("| boundary | pre-integrated |"),
+        "{methods}"
+    );
     // The plots (when a font was found, as on any machine with DejaVu).
     if std::path::Path::new("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf").exists() {
         for f in [

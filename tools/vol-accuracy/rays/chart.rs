@@ -1,7 +1,8 @@
 //! The ray-casting study's plot: PSNR against median time, one panel per
 //! knob, as PNG and SVG.
 
-use super::measure::Row;
+use super::frontier::frontier;
+use super::measure::{Row, PREINTEGRATED};
 use super::setup::{BASE_ERT, BASE_STEP};
 use crate::plot::{drawing_error, grid_size, seconds, titled_grid, write_png_svg, Chart, COLOURS};
 use anyhow::{bail, Result};
@@ -46,11 +47,20 @@ struct RayChart<'a> {
     smoke: bool,
 }
 
-/// The knobs with a finite PSNR, in sweep order.
+/// The curves drawn in `knob`'s panel: its own, and for the step the
+/// same steps pre-integrated.
+fn curves(knob: &'static str) -> Vec<&'static str> {
+    match knob {
+        "step" => vec!["step", PREINTEGRATED],
+        k => vec![k],
+    }
+}
+
+/// The knobs with a finite PSNR that have a panel, in sweep order.
 fn knobs_of(rows: &[Row]) -> Vec<&'static str> {
     let mut knobs: Vec<&'static str> = Vec::new();
     for r in rows.iter().filter(|r| r.psnr_db.is_some()) {
-        if !knobs.contains(&r.knob) {
+        if r.knob != PREINTEGRATED && !knobs.contains(&r.knob) {
             knobs.push(r.knob);
         }
     }
@@ -137,56 +147,78 @@ impl Chart for RayChart<'_> {
                     )))
                     .map_err(drawing_error)?;
             }
-            let pts: Vec<&&Row> = finite.iter().filter(|r| r.knob == *knob).collect();
-            // Spread of the runs: a bar from the fastest to the slowest.
-            chart
-                .draw_series(pts.iter().map(|r| {
-                    let y = r.psnr_db.unwrap_or(0.0);
-                    PathElement::new(vec![(r.min_s, y), (r.max_s, y)], colour.stroke_width(1))
-                }))
-                .map_err(drawing_error)?;
-            if !categorical(knob) {
+            for (j, curve) in curves(knob).into_iter().enumerate() {
+                let colour = if j == 0 {
+                    colour
+                } else {
+                    COLOURS[(i + 3) % COLOURS.len()]
+                };
+                let knob = &curve;
+                let pts: Vec<&&Row> = finite.iter().filter(|r| r.knob == *knob).collect();
+                // Spread of the runs: a bar from the fastest to the slowest.
                 chart
-                    .draw_series(LineSeries::new(
-                        pts.iter().map(|r| (r.median_s, r.psnr_db.unwrap_or(0.0))),
-                        colour.stroke_width(2),
-                    ))
+                    .draw_series(pts.iter().map(|r| {
+                        let y = r.psnr_db.unwrap_or(0.0);
+                        PathElement::new(vec![(r.min_s, y), (r.max_s, y)], colour.stroke_width(1))
+                    }))
+                    .map_err(drawing_error)?;
+                if !categorical(knob) {
+                    chart
+                        .draw_series(LineSeries::new(
+                            pts.iter().map(|r| (r.median_s, r.psnr_db.unwrap_or(0.0))),
+                            colour.stroke_width(2),
+                        ))
+                        .map_err(drawing_error)?;
+                }
+                chart
+                    .draw_series(pts.iter().map(|r| {
+                        Circle::new((r.median_s, r.psnr_db.unwrap_or(0.0)), 4, colour.filled())
+                    }))
+                    .map_err(drawing_error)?;
+                chart
+                    .draw_series(pts.iter().filter(|r| is_default(knob, &r.value)).map(|r| {
+                        Circle::new(
+                            (r.median_s, r.psnr_db.unwrap_or(0.0)),
+                            8,
+                            BLACK.stroke_width(2),
+                        )
+                    }))
+                    .map_err(drawing_error)?;
+                // Value labels beside their markers, cycling through three heights
+                // so neighbours at nearly the same time do not overlap.
+                let lift = (p1 - p0) / 24.0;
+                chart
+                    .draw_series(pts.iter().enumerate().map(|(j, r)| {
+                        let dy = lift * [1.5, -1.0, 3.5][j % 3];
+                        let mut label = r.value.clone();
+                        if *knob == PREINTEGRATED {
+                            label.push_str(" pre");
+                        }
+                        if is_default(knob, &r.value) {
+                            label.push_str(" (default)");
+                        }
+                        if r.build_s > 0.0 {
+                            label.push_str(&format!(" (+{} s build)", seconds(r.build_s)));
+                        }
+                        Text::new(
+                            label,
+                            (r.median_s * 1.06, r.psnr_db.unwrap_or(0.0) + dy),
+                            ("sans-serif", 12).into_font().color(&colour.mix(0.9)),
+                        )
+                    }))
                     .map_err(drawing_error)?;
             }
-            chart
-                .draw_series(pts.iter().map(|r| {
-                    Circle::new((r.median_s, r.psnr_db.unwrap_or(0.0)), 4, colour.filled())
-                }))
-                .map_err(drawing_error)?;
-            chart
-                .draw_series(pts.iter().filter(|r| is_default(knob, &r.value)).map(|r| {
-                    Circle::new(
-                        (r.median_s, r.psnr_db.unwrap_or(0.0)),
-                        8,
-                        BLACK.stroke_width(2),
-                    )
-                }))
-                .map_err(drawing_error)?;
-            // Value labels beside their markers, cycling through three heights
-            // so neighbours at nearly the same time do not overlap.
-            let lift = (p1 - p0) / 24.0;
-            chart
-                .draw_series(pts.iter().enumerate().map(|(j, r)| {
-                    let dy = lift * [1.5, -1.0, 3.5][j % 3];
-                    let mut label = r.value.clone();
-                    if is_default(knob, &r.value) {
-                        label.push_str(" (default)");
-                    }
-                    if r.build_s > 0.0 {
-                        label.push_str(&format!(" (+{} s build)", seconds(r.build_s)));
-                    }
-                    Text::new(
-                        label,
-                        (r.median_s * 1.06, r.psnr_db.unwrap_or(0.0) + dy),
-                        ("sans-serif", 12).into_font().color(&colour.mix(0.9)),
-                    )
-                }))
-                .map_err(drawing_error)?;
+            if *knob == "step" {
+                // The frontier: the fastest setting of any knob at each
+                // PSNR, as a thin grey line.
+                let front: Vec<(f64, f64)> = frontier(rows)
+                    .iter()
+                    .map(|r| (r.median_s, r.psnr_db.unwrap_or(0.0)))
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(front, BLACK.mix(0.35).stroke_width(1)))
+                    .map_err(drawing_error)?;
+            }
         }
         root.present().map_err(drawing_error)?;
         Ok(())

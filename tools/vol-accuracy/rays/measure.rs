@@ -10,6 +10,9 @@ use crate::drive::{path_arg, psnr, render, strs, tool, Ctx, Timing};
 use anyhow::{Context, Result};
 use std::path::Path;
 
+/// The knob of steps swept with `--preintegrated` (its values are steps).
+pub const PREINTEGRATED: &str = "preintegrated";
+
 /// One measured setting: a row of the CSV.
 pub struct Row {
     /// Scene (or effect study) name.
@@ -69,6 +72,12 @@ pub fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
     for s in &sweep.step {
         settings.push(("step", s.to_string(), strs(&["--step", s])));
     }
+    if scene.preintegrates {
+        for s in &sweep.step {
+            let args = strs(&["--step", s, "--preintegrated"]);
+            settings.push((PREINTEGRATED, s.to_string(), args));
+        }
+    }
     for e in &sweep.ert {
         let a = if *e == "off" {
             strs(&["--no-ert"])
@@ -96,7 +105,7 @@ pub fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
     for (knob, value, args) in settings {
         // The base settings, except for the knob being swept.
         let mut all = Vec::new();
-        if knob != "step" {
+        if knob != "step" && knob != PREINTEGRATED {
             all.extend(strs(&["--step", BASE_STEP]));
         }
         if knob != "ert" {

@@ -5,6 +5,7 @@
 
 mod chart;
 mod csv;
+mod frontier;
 mod measure;
 mod setup;
 
@@ -29,11 +30,13 @@ pub fn run(ctx: &Ctx, only: Option<&str>, font: Option<&Path>) -> Result<Vec<Pat
     };
     let font = load_font(font)?;
     let mut rows = Vec::new();
+    let mut by_scene = Vec::new();
     for scene in &scenes {
         let scene_rows = measure::run_scene(ctx, scene, &sweep)?;
         if font {
             chart::plot(&ctx.out, scene.name, &scene_rows, ctx.quick)?;
         }
+        by_scene.push((scene.name, scene_rows.len()));
         rows.extend(scene_rows);
         if scene.effects {
             for study in [
@@ -51,5 +54,16 @@ pub fn run(ctx: &Ctx, only: Option<&str>, font: Option<&Path>) -> Result<Vec<Pat
     let csv = ctx.out.join("accuracy.csv");
     csv::write_csv(&csv, &rows)?;
     say!("vol-accuracy: wrote {}", csv.display());
-    Ok(vec![csv])
+    // Each scene's own rows (its effect studies are other scenes).
+    let tables: Vec<(&str, &[measure::Row])> = by_scene
+        .iter()
+        .map(|&(name, n)| {
+            let at = rows.iter().position(|r| r.scene == name).unwrap_or(0);
+            (name, &rows[at..(at + n).min(rows.len())])
+        })
+        .collect();
+    let md = ctx.out.join("methods.md");
+    frontier::write_table(&md, &tables)?;
+    say!("vol-accuracy: wrote {}", md.display());
+    Ok(vec![csv, md])
 }

@@ -17,10 +17,14 @@ pub struct Scene {
     /// Also study shadows and ambient occlusion (as the scenes
     /// `NAME-shadows` and `NAME-ao`).
     pub effects: bool,
+    /// Its transfer function is 1D: the step is swept pre-integrated too.
+    pub preintegrates: bool,
 }
 
 /// The values swept for each knob.
 pub struct Sweep {
+    /// Steps, swept as they are and (1D transfer functions) with
+    /// `--preintegrated`.
     pub step: Vec<&'static str>,
     pub ert: Vec<&'static str>,
     pub cell: Vec<&'static str>,
@@ -129,6 +133,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: None,
         effects: true,
+        preintegrates: true,
     };
     let noise = Scene {
         name: "noise",
@@ -145,6 +150,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: Some(NOISE_TF),
         effects: false,
+        preintegrates: true,
     };
     // The same kind of volume through a 2D transfer function: the
     // boundary preset (opacity rising with the gradient magnitude), whose
@@ -166,6 +172,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: None,
         effects: false,
+        preintegrates: false,
     };
     // A CT-like head (air, skin, a closed skull, brain, small lesions, in
     // Hounsfield units with noise) through the `ct` preset: dense where
@@ -194,6 +201,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: None,
         effects: true,
+        preintegrates: true,
     };
     let sweep = if quick {
         Sweep {
