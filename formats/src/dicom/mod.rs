@@ -253,13 +253,14 @@ impl DicomReader {
                 ]),
                 geometry,
                 format: format!(
-                    "dicom series ({}{} images)",
+                    "dicom series ({}{} image{})",
                     if first.modality.is_empty() {
                         String::new()
                     } else {
                         format!("{}, ", first.modality)
                     },
-                    slices.len()
+                    slices.len(),
+                    if slices.len() == 1 { "" } else { "s" }
                 ),
             },
             slices,
