@@ -741,20 +741,28 @@ mod avx2 {
         s2: i32,
     ) -> [__m256; 3] {
         let zero = _mm256_setzero_si256();
-        let at = |off: i32| {
-            _mm256_mask_i32gather_epi32::<1>(
-                zero,
-                w.base,
-                _mm256_add_epi32(w.local, _mm256_set1_epi32(off)),
-                inside,
-            )
-        };
+        // A macro, not a closure: LLVM left the closure out of line in
+        // some builds (3% more instructions per shaded DVR frame).
+        macro_rules! at {
+            ($off:expr) => {
+                _mm256_mask_i32gather_epi32::<1>(
+                    zero,
+                    w.base,
+                    _mm256_add_epi32(w.local, _mm256_set1_epi32($off)),
+                    inside,
+                )
+            };
+        }
         // Rows (d1, d2) in the order d1 + 2·d2 (d1 along the first of the
         // two slower axes); each read from one voxel before its first
         // corner.
         let rows = [0, s1, s2, s1 + s2];
-        let wide = rows.map(|r| quad(at(r - 1)));
-        let two = |off: i32| pair(at(off));
+        let wide = rows.map(|r| quad(at!(r - 1)));
+        macro_rules! two {
+            ($off:expr) => {
+                pair(at!($off))
+            };
+        }
         // Fastest axis: the differences of each row's two corners' outer
         // neighbours.
         let fast = wide.map(|q| (_mm256_sub_ps(q[2], q[0]), _mm256_sub_ps(q[3], q[1])));
@@ -766,16 +774,16 @@ mod avx2 {
             (_mm256_sub_ps(p.0, m.0), _mm256_sub_ps(p.1, m.1))
         };
         let first = [
-            diff(cell(1), two(-s1)),
-            diff(two(2 * s1), cell(0)),
-            diff(cell(3), two(s2 - s1)),
-            diff(two(2 * s1 + s2), cell(2)),
+            diff(cell(1), two!(-s1)),
+            diff(two!(2 * s1), cell(0)),
+            diff(cell(3), two!(s2 - s1)),
+            diff(two!(2 * s1 + s2), cell(2)),
         ];
         let second = [
-            diff(cell(2), two(-s2)),
-            diff(cell(3), two(s1 - s2)),
-            diff(two(2 * s2), cell(0)),
-            diff(two(s1 + 2 * s2), cell(1)),
+            diff(cell(2), two!(-s2)),
+            diff(cell(3), two!(s1 - s2)),
+            diff(two!(2 * s2), cell(0)),
+            diff(two!(s1 + 2 * s2), cell(1)),
         ];
         let blend = |r| rows_blend::<Z>(r, w.f);
         if Z {
