@@ -8,10 +8,28 @@ use tempfile::{NamedTempFile, TempDir};
 /// A file written under a temporary name in the target's directory and
 /// renamed to the target by [`AtomicFile::commit`]. Dropped without a
 /// commit (an error, a panic), the temporary file is removed, so a failed
-/// write never leaves a partial file at the target path.
+/// write never leaves a partial file at the target path. A target that
+/// exists and is not a regular file (`/dev/null`, a FIFO, a terminal) is
+/// written in place: renaming over it would replace the device node.
 pub struct AtomicFile {
-    temp: NamedTempFile,
-    target: PathBuf,
+    inner: Inner,
+}
+
+/// Where an [`AtomicFile`] writes.
+enum Inner {
+    /// A temporary file, renamed to `target` on commit.
+    Temp {
+        temp: NamedTempFile,
+        target: PathBuf,
+    },
+    /// The target itself, a device or pipe.
+    Direct(File),
+}
+
+/// Whether `target` exists and is not a regular file (nor a directory):
+/// a device, FIFO or socket, written in place.
+fn is_special(target: &Path) -> bool {
+    std::fs::metadata(target).is_ok_and(|m| !m.is_file() && !m.is_dir())
 }
 
 impl AtomicFile {
@@ -19,6 +37,12 @@ impl AtomicFile {
     /// writes to the same target whose writers are gone (killed) are
     /// removed first; see [`temp_file_in`].
     pub fn create(target: &Path) -> io::Result<AtomicFile> {
+        if is_special(target) {
+            let file = std::fs::OpenOptions::new().write(true).open(target)?;
+            return Ok(AtomicFile {
+                inner: Inner::Direct(file),
+            });
+        }
         let dir = parent_dir(target);
         let temp = temp_file_in(&dir, &temp_prefix(target), PARTIAL).map_err(|e| {
             io::Error::new(
@@ -27,8 +51,10 @@ impl AtomicFile {
             )
         })?;
         Ok(AtomicFile {
-            temp,
-            target: target.to_path_buf(),
+            inner: Inner::Temp {
+                temp,
+                target: target.to_path_buf(),
+            },
         })
     }
 
@@ -36,12 +62,18 @@ impl AtomicFile {
     /// whether that worked: a caller that failed with a full disk says the
     /// partial output is gone.
     pub fn discard(self) -> io::Result<()> {
-        self.temp.close()
+        match self.inner {
+            Inner::Temp { temp, .. } => temp.close(),
+            Inner::Direct(_) => Ok(()),
+        }
     }
 
     /// The open temporary file.
     pub fn file(&mut self) -> &mut File {
-        self.temp.as_file_mut()
+        match &mut self.inner {
+            Inner::Temp { temp, .. } => temp.as_file_mut(),
+            Inner::Direct(f) => f,
+        }
     }
 
     /// A second handle on the temporary file, sharing its position: for a
@@ -49,26 +81,30 @@ impl AtomicFile {
     /// for [`AtomicFile::commit`]. Whatever the handle buffers must be
     /// flushed before the commit.
     pub fn handle(&self) -> io::Result<File> {
-        self.temp.as_file().try_clone()
+        match &self.inner {
+            Inner::Temp { temp, .. } => temp.as_file().try_clone(),
+            Inner::Direct(f) => f.try_clone(),
+        }
     }
 
     /// Flush, give the file ordinary permissions (those of the file it
     /// replaces, else read-write for the owner and readable by everyone,
     /// rather than the temporary file's owner-only mode), and rename into
     /// place.
-    pub fn commit(mut self) -> io::Result<()> {
-        self.temp.as_file_mut().flush()?;
-        let perms = match std::fs::metadata(&self.target) {
+    pub fn commit(self) -> io::Result<()> {
+        let (mut temp, target) = match self.inner {
+            Inner::Temp { temp, target } => (temp, target),
+            Inner::Direct(mut f) => return f.flush(),
+        };
+        temp.as_file_mut().flush()?;
+        let perms = match std::fs::metadata(&target) {
             Ok(m) => Some(m.permissions()),
             Err(_) => default_permissions(),
         };
         if let Some(p) = perms {
-            self.temp.as_file().set_permissions(p)?;
+            temp.as_file().set_permissions(p)?;
         }
-        self.temp
-            .persist(&self.target)
-            .map(|_| ())
-            .map_err(|e| e.error)
+        temp.persist(&target).map(|_| ()).map_err(|e| e.error)
     }
 }
 
@@ -495,9 +531,27 @@ mod tests {
         assert!(dir.path().join(".b.raw.123456.partial").exists());
         // A second writer of the same target leaves the live one alone.
         let second = AtomicFile::create(&target).unwrap();
-        assert!(live.temp.path().exists() && second.temp.path().exists());
+        let temp = |f: &AtomicFile| match &f.inner {
+            Inner::Temp { temp, .. } => temp.path().to_path_buf(),
+            Inner::Direct(_) => unreachable!("a regular target"),
+        };
+        assert!(temp(&live).exists() && temp(&second).exists());
         second.commit().unwrap();
-        assert!(live.temp.path().exists());
+        assert!(temp(&live).exists());
+    }
+
+    /// `-o /dev/null` writes to the device: renaming over it would have
+    /// replaced the device node with a regular file.
+    #[test]
+    fn a_device_target_is_written_in_place() {
+        use std::os::unix::fs::FileTypeExt;
+        let null = Path::new("/dev/null");
+        let mut f = AtomicFile::create(null).unwrap();
+        f.file().write_all(b"discarded").unwrap();
+        f.commit().unwrap();
+        let m = std::fs::metadata(null).unwrap();
+        assert!(m.file_type().is_char_device());
+        assert_eq!(m.len(), 0);
     }
 
     /// A directory of `files` (name, contents) at `dir`.
