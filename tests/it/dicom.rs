@@ -214,8 +214,8 @@ fn ct_with_a_secondary_capture_reads_the_ct_and_lists_the_capture() {
     assert!(text.contains("dicom series (CT, 20 images)"), "{text}");
     // One slice is one image (issue 53 §6).
     let one = ct_folder(&d.path().join("one"), 1);
-    let text = ok(tool("vol-info").arg(&one));
-    assert!(text.contains("dicom series (CT, 1 image)"), "{text}");
+    let single = ok(tool("vol-info").arg(&one));
+    assert!(single.contains("dicom series (CT, 1 image)"), "{single}");
     let row = text
         .lines()
         .find(|l| l.contains("dose-report.dcm"))
