@@ -1,6 +1,6 @@
 //! The tables of a DICOM input's listing: the files its scan skipped
-//! (file and reason, in text or JSON), and the column padding the series
-//! table shares.
+//! (file and reason, in text or JSON), and the column padding every
+//! table of vol-info shares (series, skipped files, --labels).
 
 use serde_json::json;
 use std::path::Path;
@@ -68,6 +68,15 @@ pub fn skipped_json(input: &Path, skipped: &[Skipped]) -> serde_json::Value {
 mod tests {
     use super::*;
     use volformats::dicom::SkipReason;
+
+    #[test]
+    fn columns_pad_to_the_widest_cell() {
+        let rows = [
+            ["A".to_string(), "BB".to_string()],
+            ["ccc".to_string(), "d".to_string()],
+        ];
+        assert_eq!(columns(&rows), ["A    BB", "ccc  d"]);
+    }
 
     #[test]
     fn skipped_files_are_a_table_with_escaped_names() {

@@ -308,29 +308,11 @@ impl Figures {
                 opt(max),
             ]);
         }
-        for line in table(&rows) {
+        for line in crate::listing::columns(&rows) {
             outln!("    {line}")?;
         }
         Ok(())
     }
-}
-
-/// Rows as lines of columns padded to their widest cell.
-fn table<const N: usize>(rows: &[[String; N]]) -> Vec<String> {
-    let widths: Vec<usize> = (0..N)
-        .map(|c| rows.iter().map(|r| r[c].chars().count()).max().unwrap_or(0))
-        .collect();
-    rows.iter()
-        .map(|r| {
-            r.iter()
-                .zip(&widths)
-                .map(|(cell, w)| format!("{cell:<w$}"))
-                .collect::<Vec<_>>()
-                .join("  ")
-                .trim_end()
-                .to_string()
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -346,14 +328,5 @@ mod tests {
         assert_eq!(num(1.5e-9), "1.500000e-9");
         assert_eq!(num(0.0), "0");
         assert_eq!(num(f64::NAN), "NaN");
-    }
-
-    #[test]
-    fn table_pads_columns() {
-        let rows = [
-            ["A".to_string(), "BB".to_string()],
-            ["ccc".to_string(), "d".to_string()],
-        ];
-        assert_eq!(table(&rows), ["A    BB", "ccc  d"]);
     }
 }
