@@ -384,8 +384,9 @@ pub const DICOM_SERIES: &str = "1.2.826.0.1.3680043.10.1234.1";
 pub const DICOM_SIZE: (u16, u16) = (4, 3);
 
 /// One DICOM element, explicit VR little endian, its value padded to an
-/// even length (with NUL for UIDs and binary values, else a space).
-fn dicom_element(out: &mut Vec<u8>, tag: u32, vr: &[u8; 2], value: &[u8]) {
+/// even length (with NUL for UIDs and binary values, else a space); the
+/// DICOM folder tests write their files with it too.
+pub fn dicom_element(out: &mut Vec<u8>, tag: u32, vr: &[u8; 2], value: &[u8]) {
     let mut v = value.to_vec();
     if v.len() % 2 == 1 {
         v.push(if matches!(vr, b"UI" | b"OB" | b"OW") {

@@ -8,6 +8,7 @@
 
 use crate::common::{fails, json, ok, python_json, run, tool};
 use std::path::{Path, PathBuf};
+use volkit_fuzz::dicom_element as element;
 
 const EXPLICIT_LE: &str = "1.2.840.10008.1.2.1";
 const JPEG_2000: &str = "1.2.840.10008.1.2.4.91";
@@ -85,28 +86,6 @@ impl DataSet {
             .map(|e| e.2.clone())
             .unwrap_or_default()
     }
-}
-
-/// One explicit-VR little-endian element, its value padded to even length.
-fn element(out: &mut Vec<u8>, tag: u32, vr: &[u8; 2], value: &[u8]) {
-    let mut v = value.to_vec();
-    if v.len() % 2 == 1 {
-        v.push(if matches!(vr, b"UI" | b"OB" | b"OW") {
-            0
-        } else {
-            b' '
-        });
-    }
-    out.extend_from_slice(&((tag >> 16) as u16).to_le_bytes());
-    out.extend_from_slice(&(tag as u16).to_le_bytes());
-    out.extend_from_slice(vr);
-    if matches!(vr, b"OB" | b"OW" | b"SQ" | b"UN" | b"UT") {
-        out.extend_from_slice(&[0, 0]);
-        out.extend_from_slice(&(v.len() as u32).to_le_bytes());
-    } else {
-        out.extend_from_slice(&(v.len() as u16).to_le_bytes());
-    }
-    out.extend_from_slice(&v);
 }
 
 fn us(v: u16) -> [u8; 2] {
