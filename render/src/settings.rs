@@ -136,6 +136,10 @@ pub struct RenderSettings {
     /// pre-integrated table (1D transfer functions, trilinear values)
     /// instead of each sample alone.
     pub preintegrated: bool,
+    /// DVR with adaptive steps: the error tolerated per unit length
+    /// (optical depth) when a sample in a macrocell stands for several
+    /// steps ([`crate::accel::strides`]); `None` for one sample per step.
+    pub adaptive: Option<f32>,
     /// Gradient method for shading and 2D classification.
     pub gradient: GradientMethod,
     /// Blinn-Phong shading (DVR); iso surfaces are always shaded.
@@ -173,6 +177,7 @@ impl Default for RenderSettings {
             step: 0.5,
             interp: Interp::Trilinear,
             preintegrated: false,
+            adaptive: None,
             gradient: GradientMethod::Central,
             shading: false,
             lighting: Lighting::default(),

@@ -15,7 +15,8 @@
 pub use crate::choices::{GradientArg, InterpArg, ModeArg, ShadingArg, TonemapArg, UpArg};
 use crate::lights::LightSpec;
 use crate::parse::{
-    parse_ao, parse_colour, parse_shadows, parse_size, parse_sun_arg, parse_up, parse_vec3,
+    parse_ao, parse_colour, parse_positive, parse_shadows, parse_size, parse_sun_arg, parse_up,
+    parse_vec3,
 };
 use clap::Parser;
 use glam::Vec3;
@@ -112,6 +113,15 @@ pub struct Options {
     /// function and step.
     #[arg(long)]
     pub preintegrated: bool,
+    /// DVR: adaptive steps. In each macrocell of the index, one sample
+    /// stands for up to 64 steps where the transfer function changes
+    /// slowly over the cell's values (exactly, in closed form, where it is
+    /// constant) and for one step where it changes fast; TOL is the error
+    /// tolerated per unit length, in optical depth (try 0.01; smaller is
+    /// closer to --step alone). 1D transfer functions, not with
+    /// --preintegrated; builds the index even with --no-ess.
+    #[arg(long, value_name = "TOL", value_parser = parse_positive, allow_hyphen_values = true)]
+    pub adaptive: Option<f32>,
     /// Early ray termination threshold (accumulated opacity).
     #[arg(long, default_value_t = 0.99)]
     pub ert: f32,

@@ -6,6 +6,14 @@
 use crate::choices::UpArg;
 use glam::Vec3;
 
+/// A positive finite number (`--adaptive`'s tolerance).
+pub fn parse_positive(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a positive number")),
+    }
+}
+
 /// `WxH` within 1..=32768 per side.
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s

@@ -58,11 +58,17 @@ impl Plan {
             }
             _ => None,
         };
-        if cli.preintegrated {
-            if let Some(Tf::TwoD(_)) = &tf {
+        if let Some(Tf::TwoD(_)) = &tf {
+            if cli.preintegrated {
                 return Err(Error::usage(format!(
                     "--preintegrated: {}",
                     volrender::frame::dvr::not_pre_integrated()
+                )));
+            }
+            if cli.adaptive.is_some() {
+                return Err(Error::usage(format!(
+                    "--adaptive: {}",
+                    volrender::frame::dvr::not_adaptive()
                 )));
             }
         }
@@ -375,6 +381,18 @@ fn settings(
              between samples",
         ));
     }
+    if cli.adaptive.is_some() && cli.mode != ModeArg::Dvr {
+        return Err(Error::usage(
+            "--adaptive is for --mode dvr: the other modes integrate no transfer function \
+             over steps",
+        ));
+    }
+    if cli.adaptive.is_some() && cli.preintegrated {
+        return Err(Error::usage(
+            "--adaptive and --preintegrated do not combine: a pre-integrated segment is one \
+             step long",
+        ));
+    }
     if cli.iso.is_some() && cli.mode != ModeArg::Iso {
         return Err(Error::option("--iso needs --mode iso"));
     }
@@ -436,6 +454,7 @@ fn settings(
         mode,
         step,
         preintegrated: cli.preintegrated,
+        adaptive: cli.adaptive,
         interp: match cli.interp {
             InterpArg::Nearest => Interp::Nearest,
             InterpArg::Trilinear => Interp::Trilinear,

@@ -111,9 +111,9 @@ pub fn open(options: &Options, path: &Path) -> Result<Volume> {
     })
 }
 
-/// The index the options ask for: none under `--no-ess`, the `--index`
-/// file (checked against the volume at `path`), else one built in memory
-/// with `--cell`.
+/// The index the options ask for: none under `--no-ess` (unless
+/// `--adaptive` reads its cells), the `--index` file (checked against the
+/// volume at `path`), else one built in memory with `--cell`.
 pub fn load_index(options: &Options, path: &Path, vol: &Volume) -> Result<Option<MinMaxIndex>> {
     index_for(options, path, vol, None)
 }
@@ -125,7 +125,7 @@ fn index_for(
     vol: &Volume,
     fingerprint: Option<std::result::Result<u64, String>>,
 ) -> Result<Option<MinMaxIndex>> {
-    if options.no_ess {
+    if options.no_ess && options.adaptive.is_none() {
         return Ok(None);
     }
     match &options.index {

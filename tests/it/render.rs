@@ -657,3 +657,60 @@ fn preintegration_is_refused_where_it_does_not_apply_and_costs_are_reported() {
     assert_eq!(pre["scene"]["preintegrated"], serde_json::json!(true));
     assert_eq!(post["scene"]["preintegrated"], serde_json::json!(false));
 }
+
+/// `--adaptive TOL`: refused with one line and exit 2 where it does not
+/// apply or TOL is not a positive number; with `--no-ess` it still reads
+/// the index (the same frame as with skipping), takes fewer samples than
+/// the step alone, and the strides' cost is in the tables' figures.
+#[test]
+fn adaptive_steps_are_refused_where_they_do_not_apply_and_read_the_index() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = gen(d, "s.vvol", &["noise", "--dims", "48,40,36"]);
+    let out = d.join("x.png");
+    for (args, needle) in [
+        (&["--adaptive", "0"][..], "positive number"),
+        (&["--adaptive", "-1"][..], "positive number"),
+        (&["--adaptive", "NaN"][..], "positive number"),
+        (&["--adaptive", "inf"][..], "positive number"),
+        (&["--adaptive", "0.01", "--mode", "mip"][..], "--mode dvr"),
+        (&["--adaptive", "0.01", "--mode", "path"][..], "--mode dvr"),
+        (&["--adaptive", "0.01", "--preintegrated"][..], "do not combine"),
+        (&["--adaptive", "0.01", "--tf", "boundary"][..], "1D transfer functions"),
+    ] {
+        let mut c = tool("vol-render");
+        c.arg(&vol)
+            .args(["--size", "24x24", "-o"])
+            .arg(&out)
+            .args(args);
+        fails(&mut c, needle);
+        assert_eq!(c.status().unwrap().code(), Some(2), "{args:?}");
+        assert!(!out.exists(), "{args:?}");
+    }
+    // Empty below 110 (cells to skip), a ramp above.
+    let tf = d.join("ramp.tf");
+    std::fs::write(&tf, "point 110 0 0 0 0\npoint 200 250 200 150 0.4\n").unwrap();
+    let report = |extra: &[&str]| {
+        let r = json(&ok(tool("vol-render")
+            .arg(&vol)
+            .arg("--tf")
+            .arg(&tf)
+            .args(["--size", "48x40", "--step", "0.1", "--json", "-q", "-o"])
+            .arg(&out)
+            .args(extra)));
+        (r, std::fs::read(&out).unwrap())
+    };
+    let samples_of = |r: &serde_json::Value| r["samples"].as_u64().unwrap();
+    let (plain, _) = report(&[]);
+    let (adaptive, image) = report(&["--adaptive", "0.05"]);
+    let (walked, walked_image) = report(&["--adaptive", "0.05", "--no-ess"]);
+    assert_eq!(image, walked_image, "skipping changed the adaptive frame");
+    assert!(samples_of(&walked) > samples_of(&adaptive), "--no-ess skipped nothing");
+    assert!(samples_of(&adaptive) < samples_of(&plain), "{adaptive} vs {plain}");
+    // The strides: one byte per level-0 cell (6 x 5 x 5 of 8 voxels).
+    assert_eq!(
+        adaptive["table_bytes"].as_u64(),
+        Some(plain["table_bytes"].as_u64().unwrap() + 6 * 5 * 5)
+    );
+    assert_eq!(adaptive["scene"]["adaptive"], serde_json::json!(0.05));
+}

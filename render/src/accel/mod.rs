@@ -25,6 +25,7 @@ pub mod hierarchy;
 pub mod majorant;
 pub mod open_sky;
 pub mod skip;
+pub mod strides;
 
 pub use hierarchy::{Hierarchy, Step};
 pub use skip::{ClearBoxes, FixedCells, IsoSides, RunningMax, RunningMin};
@@ -85,6 +86,18 @@ pub trait Accel<Q: Copy>: Sync {
     fn flag(&self, _cell: usize) -> u8 {
         0
     }
+    /// Whether this frame's steps are adaptive: a sample in a busy
+    /// level-0 cell stands for `2^stride_log2(cell)` steps.
+    #[inline(always)]
+    fn strided(&self) -> bool {
+        false
+    }
+    /// `log2` of the steps one sample in busy level-0 cell `cell` stands
+    /// for (see [`strides`]); 0 when steps are not adaptive.
+    #[inline(always)]
+    fn stride_log2(&self, _cell: usize) -> u32 {
+        0
+    }
 }
 
 /// No skipping: every sample is taken.
@@ -116,6 +129,14 @@ impl<Q: Copy, A: Accel<Q>> Accel<Q> for &A {
     fn flag(&self, cell: usize) -> u8 {
         (**self).flag(cell)
     }
+    #[inline(always)]
+    fn strided(&self) -> bool {
+        (**self).strided()
+    }
+    #[inline(always)]
+    fn stride_log2(&self, cell: usize) -> u32 {
+        (**self).stride_log2(cell)
+    }
 }
 
 /// A rule that is on for some frames and off for others: one compiled
@@ -140,5 +161,13 @@ impl<Q: Copy, A: Accel<Q>> Accel<Q> for Option<A> {
     #[inline(always)]
     fn flag(&self, cell: usize) -> u8 {
         self.as_ref().map_or(0, |a| a.flag(cell))
+    }
+    #[inline(always)]
+    fn strided(&self) -> bool {
+        self.as_ref().is_some_and(|a| a.strided())
+    }
+    #[inline(always)]
+    fn stride_log2(&self, cell: usize) -> u32 {
+        self.as_ref().map_or(0, |a| a.stride_log2(cell))
     }
 }

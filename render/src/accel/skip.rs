@@ -31,6 +31,9 @@ pub struct FixedCells<'a> {
     /// the nearest level-0 cell ahead that may not be skipped (0 on those;
     /// see [`super::distance`]).
     distance: OctantDistances,
+    /// With adaptive steps: per level-0 cell, `log2` of the steps one
+    /// sample there stands for ([`super::strides`]).
+    strides: Option<Vec<u8>>,
 }
 
 impl<'a> FixedCells<'a> {
@@ -65,7 +68,27 @@ impl<'a> FixedCells<'a> {
             h: Hierarchy::new(index),
             distance: OctantDistances::new(n),
             flags,
+            strides: None,
         }
+    }
+
+    /// The same rule with adaptive steps: `log2_strides` per level-0 cell
+    /// (one per cell, from [`super::strides::stride_log2s`]).
+    pub fn with_strides(mut self, log2_strides: Vec<u8>) -> Self {
+        self.strides = Some(log2_strides);
+        self
+    }
+
+    /// The rule that skips nothing, only walks `index`'s level-0 cells
+    /// (for adaptive steps without skipping).
+    pub fn none(index: &'a MinMaxIndex) -> Self {
+        let n: usize = index.levels().iter().map(|l| l.len()).sum();
+        Self::with_flags(index, vec![0; n])
+    }
+
+    /// The level-0 cells' strides (`log2`), when steps are adaptive.
+    pub fn strides(&self) -> Option<&[u8]> {
+        self.strides.as_deref()
     }
 
     /// Boxes made only of cells this rule skips.
@@ -107,6 +130,17 @@ impl Accel<()> for FixedCells<'_> {
     fn step(&self, p: Vec3, ray: &VoxelRay, _: ()) -> Step {
         let table = self.distance.table(ray.octant, &self.flags);
         self.h.step_ahead(p, ray, |c| table[c])
+    }
+    #[inline(always)]
+    fn strided(&self) -> bool {
+        self.strides.is_some()
+    }
+    #[inline(always)]
+    fn stride_log2(&self, cell: usize) -> u32 {
+        self.strides
+            .as_ref()
+            .and_then(|s| s.get(cell))
+            .map_or(0, |&s| u32::from(s))
     }
 }
 

@@ -11,6 +11,7 @@
 pub mod pairs;
 pub mod table;
 pub mod table2d;
+pub mod variation;
 
 pub use pairs::PairTable;
 pub use table::{Bins, TfTable, MAX_BINS};
@@ -81,6 +82,13 @@ pub trait Classifier: Sync {
     #[inline(always)]
     fn alpha8(&self, v: &[f32; 8]) -> [f32; 8] {
         v.map(|x| self.classify(x, 0.0)[3])
+    }
+
+    /// How much classification can change over value ranges, for
+    /// adaptive steps ([`variation::Variation`]); `None` for classifiers
+    /// that do not bound it (2D and pre-integrated tables).
+    fn variation(&self) -> Option<variation::Variation> {
+        None
     }
 
     /// The same table with each opacity `α` replaced by its optical depth

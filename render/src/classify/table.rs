@@ -191,6 +191,10 @@ impl Classifier for TfTable {
         v.map(|x| self.lookup(x))
     }
 
+    fn variation(&self) -> Option<super::variation::Variation> {
+        Some(super::variation::Variation::new(self.bins, &self.entries))
+    }
+
     fn to_optical_depth(&self) -> Self {
         let mut t = self.clone();
         for e in &mut t.entries {

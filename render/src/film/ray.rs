@@ -29,8 +29,9 @@ pub struct FrameStats {
     pub samples: u64,
     /// Jumps over empty cells.
     pub skips: u64,
-    /// Seconds building the DVR classifier's tables (part of
-    /// `render_s`): what a change of transfer function or step costs.
+    /// Seconds building the DVR classifier's tables, and with adaptive
+    /// steps the cells' strides (part of `render_s`): what a change of
+    /// transfer function or step costs.
     pub table_s: f64,
     /// Their memory, bytes.
     pub table_bytes: u64,
@@ -261,10 +262,11 @@ impl Film {
         self.stats.render_s = s;
     }
 
-    /// Record the classifier tables' build time and memory.
-    pub fn set_table(&mut self, seconds: f64, bytes: u64) {
-        self.stats.table_s = seconds;
-        self.stats.table_bytes = bytes;
+    /// Add to the classifier tables' build time and memory (the tables,
+    /// then the adaptive steps' strides, each add theirs).
+    pub fn add_table(&mut self, seconds: f64, bytes: u64) {
+        self.stats.table_s += seconds;
+        self.stats.table_bytes += bytes;
     }
 
     /// Record the pixel blocks culled before tracing.

@@ -38,6 +38,9 @@ pub fn frame(settings: &RenderSettings, vol: &Volume, camera: &Camera) -> Result
     if settings.preintegrated {
         preintegration(settings)?;
     }
+    if let Some(tol) = settings.adaptive {
+        adaptive(settings, tol)?;
+    }
     if settings.tile == 0 {
         return Err(RenderError::Setting("tile size must be at least 1".into()));
     }
@@ -65,6 +68,31 @@ fn preintegration(settings: &RenderSettings) -> Result<(), RenderError> {
              between samples"
                 .into(),
         ));
+    }
+    Ok(())
+}
+
+/// Check that adaptive steps apply: DVR (the only mode whose samples
+/// stand for steps of a transfer function's integral), without
+/// pre-integration (its segments are one step long), with a tolerance
+/// that is a positive finite number.
+fn adaptive(settings: &RenderSettings, tol: f32) -> Result<(), RenderError> {
+    if settings.mode != Mode::Dvr {
+        return Err(RenderError::Setting(
+            "adaptive steps are for DVR: other modes integrate no transfer function".into(),
+        ));
+    }
+    if settings.preintegrated {
+        return Err(RenderError::Setting(
+            "adaptive steps and pre-integration do not combine: a pre-integrated segment is \
+             one step long"
+                .into(),
+        ));
+    }
+    if !(tol.is_finite() && tol > 0.0) {
+        return Err(RenderError::Setting(format!(
+            "the adaptive tolerance must be a positive number, not {tol}"
+        )));
     }
     Ok(())
 }

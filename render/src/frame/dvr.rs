@@ -11,6 +11,7 @@
 
 use super::effects::{ao_parts, light_grids, open_skies, shadow_geometry};
 use super::FrameInputs;
+use crate::accel::strides::stride_log2s;
 use crate::accel::{cull, FixedCells};
 use crate::classify::pairs::DEFAULT_PAIR_BINS;
 use crate::classify::{Classifier, GradientBound, PairTable, TfTable, TfTable2d};
@@ -241,7 +242,7 @@ impl DvrFrame<'_> {
             Tables::PreIntegrated { view, shadow } => self.classified(&view, shadow.as_ref()),
             Tables::TwoD { view, shadow } => self.classified(&view, shadow.as_ref()),
         }?;
-        film.set_table(table_s, table_bytes);
+        film.add_table(table_s, table_bytes);
         Ok(film)
     }
 
@@ -263,7 +264,21 @@ impl DvrFrame<'_> {
             method: s.gradient,
             inv_spacing: self.inputs.geom.inv_spacing,
         };
-        let skip = transparent_cells(self.inputs.skip_index, table, &gradients)?;
+        let skip = match s.adaptive {
+            Some(tol) => {
+                let start = std::time::Instant::now();
+                let cells = adaptive_cells(self.inputs, table, &gradients, tol)?;
+                let took = start.elapsed().as_secs_f64();
+                Some((cells, took))
+            }
+            None => transparent_cells(self.inputs.skip_index, table, &gradients)?.map(|c| (c, 0.0)),
+        };
+        let strides_s = skip.as_ref().map_or(0.0, |s| s.1);
+        let strides_bytes = skip
+            .as_ref()
+            .and_then(|s| s.0.strides())
+            .map_or(0, |s| s.len() as u64);
+        let skip = skip.map(|s| s.0);
         // Pixel blocks whose rays meet no cell the rule keeps are not
         // traced (their pixels are empty either way).
         let tiles = self.inputs.tiles;
@@ -289,6 +304,7 @@ impl DvrFrame<'_> {
         };
         let mut film = self.shaded(&parts)?;
         film.set_culled_blocks(busy.as_ref().map_or(0, |b| b.culled()) as u64);
+        film.add_table(strides_s, strides_bytes);
         Ok(film)
     }
 
@@ -400,6 +416,44 @@ pub fn transparent_cells<'a>(
                 .map(|flags| FixedCells::transparent(ix, flags))
         })
         .transpose()
+}
+
+/// The cells view rays walk with adaptive steps under tolerance `tol`
+/// (optical depth per unit length): every level-0 cell's stride from how
+/// much `classifier` can change over its range, the transparent cells
+/// skipped when skipping is on (and looked up sample by sample when it is
+/// off, see [`crate::accel::strides`]).
+fn adaptive_cells<'a>(
+    inputs: &FrameInputs<'a>,
+    classifier: &impl Classifier,
+    gradients: &GradientBound,
+    tol: f32,
+) -> Result<FixedCells<'a>, RenderError> {
+    let index = inputs.index.ok_or_else(|| {
+        RenderError::Setting("adaptive steps need the volume's index (its cells' ranges)".into())
+    })?;
+    let variation = classifier.variation().ok_or_else(not_adaptive)?;
+    let flags = classifier.transparent_cells(index, gradients)?;
+    let finest = flags.first().map_or(&[][..], Vec::as_slice);
+    let spacing = inputs.vol.meta.spacing;
+    let shortest = spacing[0].min(spacing[1]).min(spacing[2]);
+    let cell_length = index.cell_edge() as f32 * shortest;
+    let strides = stride_log2s(index, &variation, finest, tol, cell_length);
+    let cells = if inputs.skip_index.is_some() {
+        FixedCells::transparent(index, flags)
+    } else {
+        FixedCells::none(index)
+    };
+    Ok(cells.with_strides(strides))
+}
+
+/// Why a frame's classifier takes no adaptive steps.
+pub fn not_adaptive() -> RenderError {
+    RenderError::Setting(
+        "adaptive steps are for 1D transfer functions without pre-integration: they bound \
+         how fast a cell's classification can change from its value range alone"
+            .into(),
+    )
 }
 
 // Checked when the crate compiles. Bug: with analytic gradients and a 1D

@@ -57,6 +57,9 @@ pub struct FrameInputs<'a> {
     pub vol: &'a Volume,
     /// The index to skip with, when skipping is on.
     pub skip_index: Option<&'a MinMaxIndex>,
+    /// The volume's index, whether or not skipping is on (adaptive steps
+    /// read its cells' ranges).
+    pub index: Option<&'a MinMaxIndex>,
     /// The transfer function (DVR needs one).
     pub tf: Option<&'a Tf>,
     /// The frame's settings, checked; the mode among them.
@@ -139,6 +142,13 @@ pub fn render_film(
 ) -> Result<(Film, Display), RenderError> {
     let start = Instant::now();
     check::frame(settings, vol, camera)?;
+    if share.is_some() && settings.adaptive.is_some() {
+        return Err(RenderError::Setting(
+            "adaptive steps are not split across ranks yet: a share of a ray would have to \
+             start where the whole ray's strides put a sample"
+                .into(),
+        ));
+    }
     if let Some(ix) = index {
         if ix.dims() != vol.dims() {
             return Err(RenderError::Index(format!(
@@ -171,6 +181,7 @@ pub fn render_film(
     let inputs = FrameInputs {
         vol,
         skip_index,
+        index,
         tf,
         settings,
         geom,

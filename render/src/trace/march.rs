@@ -154,6 +154,12 @@ pub trait RayMarch {
         p: Vec3,
         cell: Option<usize>,
     ) -> Flow;
+    /// With adaptive steps: the next sample taken stands for `n` steps
+    /// (until told otherwise; 1 when steps are not adaptive).
+    #[inline(always)]
+    fn stretch(&mut self, n: u32) {
+        let _ = n;
+    }
     /// Whether the loop may hand runs of eight samples to
     /// [`RayMarch::sample8`] with their trilinear values read at once (the
     /// samples read nothing else to find their value, nor their cell).
@@ -202,6 +208,17 @@ pub fn one_by_one<M: RayMarch + ?Sized, C: Cursor>(
 /// Walk the samples of `steps` with the ray state `state`, skipping where
 /// `accel` allows (when it is active for the frame); returns the number of
 /// skips made. `k` is always a sample index (`t = k·step`).
+///
+/// With adaptive steps (`accel` strided), a busy level-0 cell's stretch of
+/// samples takes its first sample and then those at multiples of the
+/// cell's stride `2^s`, each standing for the steps up to the next sample
+/// taken (told to the state by [`RayMarch::stretch`]); a run of eight
+/// such samples is read in lanes as eight consecutive samples of the step
+/// `2^s·step` (the same parameters, bit for bit). Stretches never merge
+/// across cells, and a cell the frame's strides mark
+/// [`crate::accel::strides::LOOK_UP`] (transparent, without skipping) is
+/// looked up at every sample, so a visible cell's first sample is the
+/// same with skipping on or off.
 #[inline(always)]
 pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     state: &mut M,
@@ -221,21 +238,32 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     // goes one by one.
     let on = A::ON && accel.active();
     let batch = M::BATCH && state.reads_trilinear() && (M::CACHE_BUSY || !on) && cur.batches();
-    let (o, d) = (steps.ray.o.to_array(), steps.ray.d.to_array());
+    // Adaptive steps: `stride` is the log2 stride of the busy stretch up
+    // to `busy_until` (0: every sample).
+    let strided = on && M::CACHE_BUSY && accel.strided();
+    let mut stride = 0u32;
     // When a run of eight would cross the end of a busy cell, the loop
-    // looks one sample ahead: if that sample's cell is busy too, the busy
-    // stretch grows to its exit (the same samples are taken, in longer
-    // runs); otherwise the answer is kept for when the loop reaches it.
+    // looks one sample ahead: if that sample's cell is busy too (and, with
+    // adaptive steps, both take every sample), the busy stretch grows to
+    // its exit (the same samples are taken, in longer runs); otherwise
+    // the answer is kept for when the loop reaches it.
     let mut ahead: Option<(i64, Step)> = None;
     while k <= steps.k1 {
         if batch {
-            if on && k <= busy_until && busy_until < steps.k1 && k.saturating_add(7) > busy_until {
+            if on
+                && stride == 0
+                && k <= busy_until
+                && busy_until < steps.k1
+                && k.saturating_add(7) > busy_until
+            {
                 let next = busy_until + 1;
                 if ahead.is_none_or(|(at, _)| at != next) {
                     let step = accel.step(steps.at(steps.t(next)), &steps.ray, state.query());
                     ahead = Some((next, step));
-                    if let Step::Busy { exit, .. } = step {
-                        busy_until = busy_until.max(steps.last_before(exit));
+                    if let Step::Busy { exit, cell } = step {
+                        if accel.stride_log2(cell) == 0 {
+                            busy_until = busy_until.max(steps.last_before(exit));
+                        }
                     }
                 }
             }
@@ -244,14 +272,12 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
             } else {
                 steps.k1
             };
-            if k.saturating_add(7) <= last {
-                if let Some(run) = cur.trilinear8(o, d, k, steps.step) {
-                    if state.sample8(cur, k, &run.t, &run.v, steps) == Flow::Stop {
-                        break;
-                    }
-                    k += 8;
-                    continue;
+            if let Some(flow) = run8(state, cur, k, stride, last, steps, strided) {
+                if flow == Flow::Stop {
+                    break;
                 }
+                k += 8 << stride;
+                continue;
             }
         }
         let t = steps.t(k);
@@ -276,30 +302,90 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
                         continue;
                     }
                     cell = Some(c);
+                    stride = 0;
                 }
                 Step::Busy { exit, cell: c } => {
-                    if M::CACHE_BUSY {
+                    stride = accel.stride_log2(c);
+                    if M::CACHE_BUSY && stride != LOOK_UP {
                         busy_until = steps.last_before(exit);
+                    } else {
+                        stride = 0;
                     }
                     cell = Some(c);
                     // A busy stretch's first eight samples go in lanes too
                     // (integrators that batch read no cell).
-                    if batch && k.saturating_add(7) <= busy_until.min(steps.k1) {
-                        if let Some(run) = cur.trilinear8(o, d, k, steps.step) {
-                            if state.sample8(cur, k, &run.t, &run.v, steps) == Flow::Stop {
+                    if batch {
+                        let last = busy_until.min(steps.k1);
+                        if let Some(flow) = run8(state, cur, k, stride, last, steps, strided) {
+                            if flow == Flow::Stop {
                                 break;
                             }
-                            k += 8;
+                            k += 8 << stride;
                             continue;
                         }
                     }
                 }
             }
         }
+        let next = if stride == 0 || k > busy_until {
+            k + 1
+        } else {
+            strided_next(k, stride, busy_until.min(steps.last))
+        };
+        if strided {
+            state.stretch((next - k) as u32);
+        }
         if state.sample(cur, k, t, p, cell) == Flow::Stop {
             break;
         }
-        k += 1;
+        k = next;
     }
     skips
+}
+
+/// Where the strides mark a cell to be looked up at every sample
+/// ([`crate::accel::strides::LOOK_UP`]).
+const LOOK_UP: u32 = crate::accel::strides::LOOK_UP as u32;
+
+/// With stride `2^log2`, the sample after `k` in a stretch ending at
+/// `last`: the next multiple of the stride, or the one past the stretch,
+/// whichever comes first (always past `k`).
+#[inline(always)]
+fn strided_next(k: i64, log2: u32, last: i64) -> i64 {
+    let s = 1i64 << log2;
+    let aligned = (k.div_euclid(s) + 1) * s;
+    aligned.min(last.saturating_add(1)).max(k + 1)
+}
+
+/// Samples `k, k + 2^stride, …` (eight of them) read at once and taken,
+/// when they all lie in the stretch up to `last` (each standing for
+/// `2^stride` steps: the stretch holds the one after the eighth too) and
+/// the cursor reads them in lanes; `None` to take `k` alone.
+#[inline(always)]
+fn run8<C: Cursor, M: RayMarch>(
+    state: &mut M,
+    cur: &mut C,
+    k: i64,
+    stride: u32,
+    last: i64,
+    steps: &RaySteps,
+    strided: bool,
+) -> Option<Flow> {
+    let s = 1i64 << stride;
+    let fits = if stride == 0 {
+        k.saturating_add(7) <= last
+    } else {
+        k & (s - 1) == 0 && k.saturating_add(8 * s - 1) <= last.min(steps.last)
+    };
+    if !fits {
+        return None;
+    }
+    let (o, d) = (steps.ray.o.to_array(), steps.ray.d.to_array());
+    // `(k/s + i)·(s·step)` is `(k + i·s)·step` rounded once, as each
+    // sample's own parameter is (`s` is a power of two).
+    let run = cur.trilinear8(o, d, k >> stride, steps.step * s as f64)?;
+    if strided {
+        state.stretch(s as u32);
+    }
+    Some(state.sample8(cur, k, &run.t, &run.v, steps))
 }

@@ -3,6 +3,7 @@
 //! executable instead of one per topic file. Run one topic with a filter,
 //! e.g. `cargo test -p volrender --test it golden::`.
 
+mod adaptive;
 mod ao;
 mod cancel;
 mod common;

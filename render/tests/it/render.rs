@@ -375,6 +375,28 @@ fn all_modes() -> Vec<RenderSettings> {
             ert: None,
             ..base.clone()
         },
+        // Adaptive steps: a sample in a busy cell stands for up to 64
+        // steps. A visible cell's first sample must be the same with
+        // skipping on or off, and a strided run of eight read in lanes
+        // must be the samples one by one.
+        RenderSettings {
+            adaptive: Some(0.05),
+            shading: true,
+            ..base.clone()
+        },
+        RenderSettings {
+            adaptive: Some(0.5),
+            step: 0.1,
+            ert: None,
+            ..base.clone()
+        },
+        RenderSettings {
+            adaptive: Some(0.2),
+            interp: Interp::Nearest,
+            shading: true,
+            gradient: GradientMethod::Analytic,
+            ..base.clone()
+        },
         RenderSettings {
             mode: Mode::Mip,
             ..base.clone()
@@ -451,24 +473,26 @@ fn skipping_is_exact_from_far_away() {
         // cell's face and picked up a sliver of a neighbour would show; its
         // mean counts skipped samples, so a jump past the ray's end that
         // counted samples beyond it would show too.
-        for (mode, preintegrated) in [
-            (Mode::Dvr, false),
-            (Mode::Dvr, true),
-            (Mode::XraySum, false),
-            (Mode::XrayMean, false),
+        for (mode, preintegrated, adaptive) in [
+            (Mode::Dvr, false, None),
+            (Mode::Dvr, true, None),
+            (Mode::Dvr, false, Some(0.2)),
+            (Mode::XraySum, false, None),
+            (Mode::XrayMean, false, None),
         ] {
             let s = RenderSettings {
                 mode,
                 step: 0.1,
                 shading: true,
                 preintegrated,
+                adaptive,
                 ..Default::default()
             };
             let (on, off) = with_and_without_skipping(&v, &ix, &tf, &cam, &s);
             assert_eq!(
                 bits(&on),
                 bits(&off),
-                "{mode:?} (pre-integrated: {preintegrated}) orbit {az}, {el}"
+                "{mode:?} (pre-integrated: {preintegrated}, adaptive: {adaptive:?}) orbit {az}, {el}"
             );
             assert!(on.stats.skips > 0 && on.stats.samples < off.stats.samples);
         }
@@ -624,6 +648,24 @@ fn batched_modes() -> Vec<RenderSettings> {
             shading: true,
             ert: None,
             ess: false,
+            ..Default::default()
+        },
+        // Strided runs of eight, shaded in lanes, with and without
+        // skipping.
+        RenderSettings {
+            step: 0.1,
+            shading: true,
+            adaptive: Some(0.5),
+            ert: None,
+            ..Default::default()
+        },
+        RenderSettings {
+            step: 0.1,
+            shading: true,
+            adaptive: Some(0.5),
+            ess: false,
+            lighting: sun.clone(),
+            shadows: grid,
             ..Default::default()
         },
         RenderSettings {

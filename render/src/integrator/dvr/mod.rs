@@ -78,6 +78,7 @@ where
             colour: Vec3::ZERO,
             alpha: 0.0,
             samples: 0,
+            stretch: 1,
         };
         let skips = march(&mut st, &self.skip, cur, &steps);
         RayResult {
@@ -106,6 +107,8 @@ struct DvrRay<'d, 'a, G, K, S: Shading> {
     colour: Vec3,
     alpha: f32,
     samples: u32,
+    /// Steps the next sample stands for (adaptive steps; else 1).
+    stretch: u32,
 }
 
 impl<G, K, S> RayMarch for DvrRay<'_, '_, G, K, S>
@@ -119,6 +122,11 @@ where
 
     #[inline(always)]
     fn query(&self) {}
+
+    #[inline(always)]
+    fn stretch(&mut self, n: u32) {
+        self.stretch = n;
+    }
 
     const BATCH: bool = G::FROM_VALUE.is_some();
 
@@ -186,6 +194,7 @@ where
                 cross: &mut cross,
                 lane: i,
                 k,
+                stretch: self.stretch,
                 steps: s,
             };
             let ki = k + i as i64;
@@ -233,6 +242,7 @@ where
         } else {
             (d.classifier.classify(v, 0.0), Vec3::ZERO, 0.0)
         };
+        let e = self.stretched(e);
         if e[3] > 0.0 {
             let mut c = Vec3::new(e[0], e[1], e[2]);
             if S::ON {
@@ -314,6 +324,17 @@ where
         g * self.inv_spacing
     }
 
+    /// Entry `e` for a sample that stands for [`Self::stretch`] steps:
+    /// its opacity `1 − (1 − α)^n` (in f64: exact at 0 and 1, and
+    /// accurate for small α), the colour unchanged.
+    #[inline(always)]
+    fn stretched(&self, mut e: [f32; 4]) -> [f32; 4] {
+        if self.stretch != 1 && e[3] > 0.0 {
+            e[3] = (1.0 - (1.0 - f64::from(e[3])).powi(self.stretch as i32)) as f32;
+        }
+        e
+    }
+
     /// Composite colour `c` of opacity `alpha` behind what the ray holds;
     /// stop once the termination rule says so.
     #[inline(always)]
@@ -343,7 +364,7 @@ where
         s: &RaySteps,
     ) -> Flow {
         let d = self.dvr;
-        let e = self.classify8(cur, k, v);
+        let e = self.classify8(cur, k, v).map(|e| self.stretched(e));
         if !e.iter().any(|e| e[3] > 0.0) {
             self.samples += 8;
             return Flow::Next;
@@ -360,6 +381,7 @@ where
                     cross: &mut cross,
                     lane: i,
                     k,
+                    stretch: self.stretch,
                     steps: s,
                 };
                 let blend = lanes.blend(cur);
@@ -406,12 +428,15 @@ where
     }
 }
 
-/// A sample's place in a run of eight read together, and the run's
-/// central-difference blends, read in lanes when first asked for.
+/// A sample's place in a run of eight read together (samples `k`,
+/// `k + stretch`, …), and the run's central-difference blends, read in
+/// lanes when first asked for.
 struct LaneGradients<'a> {
     cross: &'a mut Option<Option<volcore::grid::Cross8>>,
     lane: usize,
     k: i64,
+    /// Steps between the run's samples: a power of two that divides `k`.
+    stretch: u32,
     steps: &'a RaySteps,
 }
 
@@ -421,8 +446,14 @@ impl LaneGradients<'_> {
     #[inline(always)]
     fn blend<C: Cursor>(self, cur: &mut C) -> Option<Vec3> {
         let s = self.steps;
+        // The run as eight consecutive samples of `stretch` steps (as the
+        // march read their values).
+        let (k, step) = (
+            self.k.div_euclid(i64::from(self.stretch)),
+            s.step * f64::from(self.stretch),
+        );
         let c = (*self.cross.get_or_insert_with(|| {
-            cur.cross_blend8(s.ray.o.to_array(), s.ray.d.to_array(), self.k, s.step)
+            cur.cross_blend8(s.ray.o.to_array(), s.ray.d.to_array(), k, step)
         }))?;
         let i = self.lane;
         (c.interior >> i & 1 == 1).then(|| Vec3::new(c.g[0][i], c.g[1][i], c.g[2][i]))
