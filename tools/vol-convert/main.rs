@@ -374,7 +374,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     let out_opts = output_options(cli);
     let target = target(cli, &out_opts)?;
     target.preflight().map_err(anyhow::Error::new)?;
-    let mut opts = volkit_cli::select::read_options(&cli.input_sel)?;
+    let mut opts = volkit_cli::select::read_options(&cli.input_sel, &[input])?;
     if cli.luma {
         opts.channel = ChannelSel::Luma;
     }

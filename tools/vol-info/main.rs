@@ -91,7 +91,7 @@ fn main() -> ExitCode {
 fn info(cli: &Cli) -> Result<()> {
     let start = Instant::now();
     let name = cli.input.display().to_string();
-    let mut opts = volkit_cli::select::read_options(&cli.input_sel)?;
+    let mut opts = volkit_cli::select::read_options(&cli.input_sel, &[&cli.input])?;
     opts.vvol = vvol::OpenOptions {
         verify: cli.verify,
         ..Default::default()
