@@ -30,6 +30,9 @@ pub struct ReadOptions {
     /// DICOM: the series to read when the input holds several: its
     /// SeriesNumber, its SeriesInstanceUID or a unique prefix of it.
     pub series: Option<String>,
+    /// OME-Zarr: the pyramid level to read (`None`: level 0, the full
+    /// resolution); refused for every other input.
+    pub level: Option<u32>,
     /// How to open `.vvol` files.
     pub vvol: vvol::OpenOptions,
 }
@@ -250,9 +253,45 @@ pub fn is_tiff(b: &[u8]) -> bool {
     )
 }
 
+/// The one line that refuses `--level N` for an input of `kind`, which
+/// has no pyramid levels (only OME-Zarr has).
+fn level_refusal(kind: InputKind, level: u32) -> String {
+    format!(
+        "--level {level}: a {} input has no pyramid levels (--level picks a level of an OME-Zarr pyramid)",
+        kind.name()
+    )
+}
+
+/// `--level` given for an input of `kind` that has no levels: an error.
+fn refuse_level(path: &Path, kind: InputKind, opts: &ReadOptions) -> CResult<()> {
+    match opts.level {
+        Some(n) if kind != InputKind::OmeZarr => Err(ConvertError::new(
+            path,
+            Error::invalid(level_refusal(kind, n)),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Refuse what `opts` asks of the input `path` names that it cannot
+/// have (`--level` of anything but an OME-Zarr) before anything is read:
+/// the tools exit 2 with it as a usage error, Python raises `ValueError`.
+/// A path whose kind cannot be told is left to the open that follows,
+/// which says why.
+pub fn check_applies(path: &Path, opts: &ReadOptions) -> CResult<()> {
+    if opts.level.is_none() {
+        return Ok(());
+    }
+    match input_kind(path, opts) {
+        Ok(kind) => refuse_level(path, kind, opts),
+        Err(_) => Ok(()),
+    }
+}
+
 /// Open the input `path` names (see [`input_kind`]).
 pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> {
     let kind = input_kind(path, opts)?;
+    refuse_level(path, kind, opts)?;
     Ok(match kind {
         InputKind::Stdin => open_stdin(path, opts)?,
         InputKind::TiffDir | InputKind::TiffGlob | InputKind::TiffList => {
@@ -277,7 +316,7 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
                 ChannelSel::Channel(c) => Some(c as u64),
                 _ => None,
             };
-            Box::new(crate::omezarr::open(path, c, opts.time)?)
+            Box::new(crate::omezarr::open(path, c, opts.time, opts.level)?)
         }
         InputKind::Tiff => match crate::tiff::imagej_raw(path)? {
             Some(ij) => Box::new(
@@ -423,7 +462,9 @@ fn open_stdin(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> 
 /// values, as `vol-convert` would pick). Origin and directions are kept.
 pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
     if path.as_os_str() != "-" {
-        match input_kind(path, opts)? {
+        let kind = input_kind(path, opts)?;
+        refuse_level(path, kind, opts)?;
+        match kind {
             InputKind::Vvol => return vvol::open(path, opts.vvol).at(path),
             InputKind::ThesisVol => return thesis::open(path).and_then(|f| f.volume()).at(path),
             InputKind::Raw => {

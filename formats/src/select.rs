@@ -1,7 +1,7 @@
 //! What to read from an input that holds more than one volume, or cannot
 //! describe itself: the one definition of the input-selection flags every
 //! tool that opens a volume takes (`--raw-*`, `--series`, `--channel`,
-//! `--time-point`), flattened into each tool's command line, so an error
+//! `--time-point`, `--level`), flattened into each tool's command line, so an error
 //! that names one of these flags names a flag the tool has.
 
 use crate::open::ReadOptions;
@@ -30,6 +30,10 @@ pub struct Selection {
     /// OME-Zarr): the time point to read, from 0.
     #[cfg_attr(feature = "clap", arg(long = "time-point", value_name = "T"))]
     pub time_point: Option<u64>,
+    /// OME-Zarr pyramid: the level to read, 0 (full resolution, the
+    /// default) to the coarsest; other inputs have no levels and refuse it.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "N"))]
+    pub level: Option<u32>,
     /// The old spelling of --time-point (and of vol-render's --seconds):
     /// refused, naming both.
     #[cfg_attr(
@@ -62,6 +66,7 @@ impl Selection {
             channel: self.channel.map_or(ChannelSel::Single, ChannelSel::Channel),
             time: self.time_point,
             series: self.series.clone(),
+            level: self.level,
             ..ReadOptions::default()
         })
     }
@@ -72,6 +77,7 @@ impl Selection {
             || self.series.is_some()
             || self.channel.is_some()
             || self.time_point.is_some()
+            || self.level.is_some()
             || self.old_time.is_some()
     }
 }

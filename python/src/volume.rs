@@ -297,7 +297,7 @@ pub fn selection_keywords() -> Vec<String> {
 /// The read options the selection keywords ask for: the command line's
 /// input-selection flags by their long names in snake case (`raw_dims`,
 /// `raw_type`, `raw_endian`, `raw_skip`, `series`, `channel`,
-/// `time_point`), parsed by the tools' own definition, so a keyword
+/// `time_point`, `level`), parsed by the tools' own definition, so a keyword
 /// means what its flag means; plus [`PYTHON_ONLY`]. The old `time` is
 /// refused as the command line refuses `--time`.
 pub fn read_options(sel: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
@@ -371,7 +371,8 @@ pub fn read_options(sel: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
 /// line's order; or `shape=(z, y, x)`), `raw_type`, `raw_endian`,
 /// `raw_skip`, `channel` or `luma` (colour TIFF, hyperstacks, OME),
 /// `time_point` (4D data), `series` (a DICOM series: number, UID or
-/// unique UID prefix), and
+/// unique UID prefix), `level` (an OME-Zarr pyramid level: 0, the full
+/// resolution, by default; refused for other inputs), and
 /// `in_memory` (read a .vvol into memory instead of mapping it). A sliced
 /// uncompressed .vvol, an uncompressed .nii and a .raw file are
 /// memory-mapped: opening costs milliseconds whatever the size.
@@ -384,6 +385,7 @@ pub fn open(
 ) -> PyResult<PyVolume> {
     crate::guard(|| {
         let opts = read_options(selection)?;
+        volformats::open::check_applies(&path, &opts).map_err(|e| errors::value(e.to_string()))?;
         let vol = crate::run(py, volformats::convert::request_stop, || {
             volformats::open(&path, &opts)
         });

@@ -78,7 +78,7 @@ def test_selection_keywords_are_the_command_line_flags():
     python_only = {"shape", "luma", "in_memory"}
     assert python_only <= set(named)
     flags = [k for k in named if k not in python_only]
-    assert {"raw_dims", "raw_type", "raw_endian", "raw_skip", "series", "channel", "time_point"} <= set(flags)
+    assert {"raw_dims", "raw_type", "raw_endian", "raw_skip", "series", "channel", "time_point", "level"} <= set(flags)
     for tool in ["vol-info", "vol-convert", "vol-render", "vol-index", "vol-psnr"]:
         help_text = cli(tool, "--help").stdout
         for k in flags:
@@ -90,3 +90,26 @@ def test_selection_keywords_are_the_command_line_flags():
     v = volkit.open(src, **{"time-point": 1, "channel": 1})
     w = volkit.open(src, time_point=1, channel=1)
     np.testing.assert_array_equal(v.array(), w.array())
+
+
+def test_level_reads_a_level_of_an_ome_zarr_pyramid_as_vol_convert_does(tmp_path):
+    z = tmp_path / "ct.ome.zarr"
+    cli("vol-convert", FIXTURES / "dicom_ct", "--pyramid", "3", "-o", z, "--quiet")
+    # z (2.5) is over twice as coarse as x (0.7): level 1 halves y and x.
+    shapes = [(10, 12, 16), (10, 6, 8), (5, 3, 4)]
+    for level in range(3):
+        v = volkit.open(z, level=level)
+        w = via_cli(tmp_path, z, "--level", str(level))
+        assert v.shape == shapes[level] == w.shape
+        np.testing.assert_array_equal(v.array(), w.array())
+        assert v.spacing == w.spacing and v.origin == w.origin and v.direction == w.direction
+    np.testing.assert_array_equal(volkit.open(z).array(), volkit.open(z, level=0).array())
+    # Past the last level: the file and how many levels it has.
+    with pytest.raises(OSError, match="ct.ome.zarr.*has 3 levels"):
+        volkit.open(z, level=3)
+    # An input without levels refuses it, as the tools do (exit 2 there).
+    src = FIXTURES / "nibabel_f64.nii"
+    r = cli("vol-info", src, "--level", "1", check=False)
+    assert r.returncode == 2
+    with pytest.raises(ValueError, match="nifti input has no pyramid levels"):
+        volkit.open(src, level=1)

@@ -90,11 +90,13 @@ def open(
     luma: bool = ...,
     time: Optional[int] = ...,
     series: Optional[str] = ...,
+    level: Optional[int] = ...,
     in_memory: bool = ...,
 ) -> Volume:
     """Open anything vol-convert reads, with its selection options
     (``raw_dims`` is vol-convert's text ``"X,Y,Z"``; ``shape`` the same in
-    numpy order)."""
+    numpy order; ``level`` a level of an OME-Zarr pyramid, 0 by default,
+    and ValueError for any other input)."""
 
 def from_array(
     array: npt.ArrayLike,

@@ -173,6 +173,7 @@ mod tests {
         ("series", "2"),
         ("channel", "1"),
         ("time_point", "3"),
+        ("level", "2"),
         ("output", "/d/o.png"),
         ("index", "/d/v.vidx"),
         ("tf", "/d/t.tf"),

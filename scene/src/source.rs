@@ -100,6 +100,7 @@ impl Source {
 /// Open the volume at `path` (in memory with `--in-memory`).
 pub fn open(options: &Options, path: &Path) -> Result<Volume> {
     let mut read = options.input.read_options().map_err(Error::usage)?;
+    volformats::open::check_applies(path, &read).map_err(|e| Error::usage(e.to_string()))?;
     read.vvol = vvol::OpenOptions {
         in_memory: options.in_memory,
         ..Default::default()

@@ -465,7 +465,8 @@ fn tifffile_ome_hyperstacks_and_zstd_int32() {
 /// What zarr-python and ome-zarr-py read from the OME-Zarr at `path`:
 /// the NGFF version, the Zarr format, each level's shape, scale and
 /// translation, a voxel, and the first voxel of level 1 with the mean of
-/// the 2x2x2 block of level 0 it stands for. `None` (with a note) when
+/// the block of level 0 it stands for (the level's scale over level 0's
+/// along each axis). `None` (with a note) when
 /// python3 or a module is missing outside CI; CI installs them (.ci/run).
 fn read_in_ome_zarr_py(path: &Path) -> Option<serde_json::Value> {
     let script = format!(
@@ -485,6 +486,7 @@ ts = image.metadata["coordinateTransformations"]
 pick = lambda level, kind: [t[kind] for t in level if t["type"] == kind][0]
 a0 = np.asarray(image.data[0])
 a1 = np.asarray(image.data[1])
+f = [round(b / a) for a, b in zip(pick(ts[0], "scale"), pick(ts[1], "scale"))]
 print(json.dumps({{
     "version": loc.version,
     "zarr_format": zarr.open_group(path, mode="r").metadata.zarr_format,
@@ -493,7 +495,7 @@ print(json.dumps({{
     "translations": [pick(t, "translation") for t in ts],
     "v": int(a0[9, 11, 15]),
     "l1": int(a1[0, 0, 0]),
-    "l1_mean": float(a0[0:2, 0:2, 0:2].astype(np.float64).mean()),
+    "l1_mean": float(a0[0:f[0], 0:f[1], 0:f[2]].astype(np.float64).mean()),
 }}))
 "#,
         path = path.to_string_lossy()
@@ -545,18 +547,20 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
         };
         assert_eq!(j["version"], version, "{j}");
         assert_eq!(j["zarr_format"], zarr_format, "{j}");
+        // z (2.5) is over twice as coarse as x (0.7): level 1 halves x
+        // and y alone, level 2 all three.
         assert_eq!(
             j["shapes"],
-            serde_json::json!([[10, 12, 16], [5, 6, 8], [3, 3, 4]]),
+            serde_json::json!([[10, 12, 16], [10, 6, 8], [5, 3, 4]]),
             "{j}"
         );
         assert!(close(&j["scales"][0], &[2.5, 0.8, 0.7]), "{j}");
-        assert!(close(&j["scales"][1], &[5.0, 1.6, 1.4]), "{j}");
-        assert!(close(&j["scales"][2], &[10.0, 3.2, 2.8]), "{j}");
-        // A level-l voxel sits at the centre of the 2^l voxels it covers.
+        assert!(close(&j["scales"][1], &[2.5, 1.6, 1.4]), "{j}");
+        assert!(close(&j["scales"][2], &[5.0, 3.2, 2.8]), "{j}");
+        // A level's voxel sits at the centre of the voxels it covers.
         assert!(close(&j["translations"][0], &[12.5, -30.0, -40.0]), "{j}");
-        assert!(close(&j["translations"][1], &[13.75, -29.6, -39.65]), "{j}");
-        assert!(close(&j["translations"][2], &[16.25, -28.8, -38.95]), "{j}");
+        assert!(close(&j["translations"][1], &[12.5, -29.6, -39.65]), "{j}");
+        assert!(close(&j["translations"][2], &[13.75, -28.8, -38.95]), "{j}");
         assert_eq!(j["v"], 10 * (15 + 2 * 11 + 3 * 9) - 1024);
         let mean = j["l1_mean"].as_f64().unwrap();
         assert_eq!(j["l1"].as_f64().unwrap(), mean.round(), "{j}");
@@ -568,6 +572,194 @@ fn ome_zarr_ngff_04_and_05_round_trip_and_read_in_ome_zarr_py() {
         .arg(d.join("x.nrrd"));
     fails(&mut c, "--ngff applies to OME-Zarr output");
     assert_eq!(c.status().unwrap().code(), Some(2));
+}
+
+/// What ome-zarr-py reads from each level of the OME-Zarr at `path`:
+/// its shape, scale and translation, whether its samples equal the raw
+/// u16 file `raw[N]` (what volkit reads as level N), and the first voxel
+/// of the last level with the mean of the full-resolution block it stands
+/// for, rounded half away from zero.
+fn levels_in_ome_zarr_py(path: &Path, raw: &[PathBuf]) -> Option<serde_json::Value> {
+    let raw: Vec<String> = raw
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect();
+    let script = format!(
+        r#"
+import json, math, sys
+try:
+    import numpy as np
+    from ome_zarr.io import parse_url
+    from ome_zarr.reader import Reader
+except ImportError as e:
+    print("SKIP", e); sys.exit(0)
+loc = parse_url({path:?}, mode="r")
+image = list(Reader(loc)())[0]
+ts = image.metadata["coordinateTransformations"]
+pick = lambda level, kind: [t[kind] for t in level if t["type"] == kind][0]
+raw = {raw:?}
+levels = [np.asarray(d) for d in image.data]
+equal = [bool(np.array_equal(a, np.fromfile(r, dtype="<u2").reshape(a.shape)))
+         for a, r in zip(levels, raw)]
+s0, sl = pick(ts[0], "scale"), pick(ts[-1], "scale")
+f = [round(b / a) for a, b in zip(s0, sl)]
+block = levels[0][0:f[0], 0:f[1], 0:f[2]].astype(np.float64)
+print(json.dumps({{
+    "shapes": [list(a.shape) for a in levels],
+    "scales": [pick(t, "scale") for t in ts],
+    "translations": [pick(t, "translation") for t in ts],
+    "equal": equal,
+    "last": int(levels[-1][0, 0, 0]),
+    "last_mean": math.floor(block.mean() + 0.5),
+}}))
+"#,
+        path = path.to_string_lossy()
+    );
+    python_json(&script, "pip install zarr ome-zarr")
+}
+
+/// Every level `vol-convert --pyramid` writes of anisotropic data reads
+/// the same in ome-zarr-py as `--level N` reads it in volkit, with the
+/// scale and translation `vol-info --level N` gives; a level is the mean
+/// of the full-resolution voxels it stands for, rounded once.
+#[test]
+fn ome_zarr_levels_read_the_same_in_ome_zarr_py_and_with_level() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let src = d.join("a.vvol");
+    ok(tool("vol-gen")
+        .args(["noise", "--dims", "37,29,23", "--type", "u16"])
+        .args(["--spacing", "0.5,0.5,2", "-q", "-o"])
+        .arg(&src));
+    for ngff in ["0.4", "0.5"] {
+        let z = d.join(format!("a-{ngff}.ome.zarr"));
+        ok(tool("vol-convert")
+            .arg(&src)
+            .args(["--pyramid", "5", "--ngff", ngff, "-q", "-o"])
+            .arg(&z));
+        // x and y halve alone until they reach z's 2, then all three.
+        let want_dims = [
+            [37, 29, 23],
+            [19, 15, 23],
+            [10, 8, 23],
+            [5, 4, 12],
+            [3, 2, 6],
+        ];
+        let want_spacing = [
+            [0.5, 0.5, 2.0],
+            [1.0, 1.0, 2.0],
+            [2.0, 2.0, 2.0],
+            [4.0, 4.0, 4.0],
+            [8.0, 8.0, 8.0],
+        ];
+        let j = info(&z, &[]);
+        assert_eq!(j["level"], 0, "{j}");
+        assert_eq!(j["levels"].as_array().unwrap().len(), 5, "{j}");
+        let mut raw = Vec::new();
+        let mut origins = Vec::new();
+        for n in 0..5 {
+            let level = n.to_string();
+            let j = info(&z, &["--level", &level]);
+            assert_eq!(j["dims"], serde_json::json!(want_dims[n]), "{j}");
+            assert!(close(&j["spacing"], &want_spacing[n]), "{j}");
+            assert!(close(&j["levels"][n]["spacing"], &want_spacing[n]), "{j}");
+            assert_eq!(j["levels"][n]["dims"], j["dims"], "{j}");
+            assert_eq!(j["level"], n, "{j}");
+            // Centred on the level-0 voxels it stands for.
+            let f = [0, 1, 2].map(|a| want_spacing[n][a] / want_spacing[0][a]);
+            let o = [0, 1, 2].map(|a| (f[a] - 1.0) / 2.0 * want_spacing[0][a]);
+            assert!(close(&j["origin"], &o), "{j}");
+            origins.push(o);
+            let r = d.join(format!("l{n}.raw"));
+            ok(tool("vol-convert")
+                .arg(&z)
+                .args(["--level", &level, "-q", "-o"])
+                .arg(&r));
+            raw.push(r);
+        }
+        let Some(j) = levels_in_ome_zarr_py(&z, &raw) else {
+            continue;
+        };
+        assert_eq!(
+            j["equal"],
+            serde_json::json!([true, true, true, true, true]),
+            "{ngff}: {j}"
+        );
+        for n in 0..5 {
+            let w = want_dims[n];
+            assert_eq!(j["shapes"][n], serde_json::json!([w[2], w[1], w[0]]), "{j}");
+            let s = want_spacing[n];
+            assert!(close(&j["scales"][n], &[s[2], s[1], s[0]]), "{j}");
+            let o = origins[n];
+            assert!(close(&j["translations"][n], &[o[2], o[1], o[0]]), "{j}");
+        }
+        // Level 4 stands for 16x16x4 voxels: their mean, rounded once.
+        assert_eq!(j["last"], j["last_mean"], "{ngff}: {j}");
+    }
+}
+
+/// `--level` picks a level of an OME-Zarr pyramid in every tool that
+/// reads volumes; any other input refuses it as a usage error naming the
+/// file, and a level past the last is refused naming the file and how
+/// many levels it has.
+#[test]
+fn level_is_refused_by_inputs_without_levels_and_past_the_last() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let (gen, src, z) = (d.join("a.vvol"), d.join("a.nrrd"), d.join("a.ome.zarr"));
+    ok(tool("vol-gen")
+        .args(["noise", "--dims", "24,20,18", "-q", "-o"])
+        .arg(&gen));
+    ok(tool("vol-convert").arg(&gen).args(["-q", "-o"]).arg(&src));
+    ok(tool("vol-convert")
+        .arg(&src)
+        .args(["--pyramid", "3", "-q", "-o"])
+        .arg(&z));
+    let out = d.join("o.nrrd");
+    let png = d.join("o.png");
+    let vidx = d.join("o.vidx");
+    let runs: [(&str, Vec<&std::ffi::OsStr>); 5] = [
+        ("vol-info", vec![]),
+        ("vol-convert", vec!["-o".as_ref(), out.as_os_str()]),
+        ("vol-index", vec!["-o".as_ref(), vidx.as_os_str()]),
+        (
+            "vol-render",
+            vec![
+                "--size".as_ref(),
+                "16x16".as_ref(),
+                "-o".as_ref(),
+                png.as_os_str(),
+            ],
+        ),
+        ("vol-psnr", vec![]),
+    ];
+    for (name, extra) in &runs {
+        let with = |input: &Path, level: &str| {
+            let mut c = tool(name);
+            c.arg(input);
+            if *name == "vol-psnr" {
+                c.arg(input);
+            }
+            c.args(["--level", level]).args(extra);
+            c
+        };
+        let mut c = with(&src, "1");
+        let e = fails(&mut c, "a nrrd input has no pyramid levels");
+        assert!(
+            e.contains("a.nrrd") && e.contains("--level 1"),
+            "{name}: {e}"
+        );
+        assert_eq!(c.status().unwrap().code(), Some(2), "{name}");
+        let mut c = with(&z, "3");
+        let e = fails(&mut c, "the pyramid has 3 levels (0..2)");
+        assert!(e.contains("a.ome.zarr"), "{name}: {e}");
+        ok(&mut with(&z, "2"));
+    }
+    // A level's array named as the input: the store and --level to use.
+    fails(
+        tool("vol-info").arg(z.join("1")),
+        "is level 1 of the OME-Zarr pyramid",
+    );
 }
 
 /// The names in `dir`, sorted.

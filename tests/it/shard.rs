@@ -399,10 +399,20 @@ fn sharded_ome_zarr_stores_are_identical_and_appear_only_when_complete() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let stack = tiff_stack(d, "u16", "40,30,300");
-    for (pyramid, ngff) in [("1", "0.4"), ("2", "0.5"), ("3", "0.4")] {
-        let args = ["--pyramid", pyramid, "--ngff", ngff];
+    // Anisotropic spacing: z coarse (levels 1 and 2 keep every slice,
+    // level 3 halves it), or z fine (levels 1 and 2 halve z alone).
+    for (pyramid, ngff, spacing) in [
+        ("1", "0.4", "1,1,1"),
+        ("2", "0.5", "1,1,1"),
+        ("3", "0.4", "1,1,1"),
+        ("4", "0.4", "1,1,4"),
+        ("3", "0.5", "4,4,1"),
+    ] {
+        let args = ["--pyramid", pyramid, "--ngff", ngff, "--spacing", spacing];
         // The same store name (the multiscale's name) in other directories.
-        let whole = d.join(format!("whole{pyramid}")).join("v.ome.zarr");
+        let whole = d
+            .join(format!("whole{pyramid}-{spacing}"))
+            .join("v.ome.zarr");
         std::fs::create_dir(whole.parent().unwrap()).unwrap();
         ok(tool("vol-convert")
             .arg(&stack)
@@ -412,7 +422,9 @@ fn sharded_ome_zarr_stores_are_identical_and_appear_only_when_complete() {
             .arg(&whole));
         let want = tree(&whole);
         for n in [1, 2, 3, 7] {
-            let out = d.join(format!("sharded{pyramid}-{n}")).join("v.ome.zarr");
+            let out = d
+                .join(format!("sharded{pyramid}-{spacing}-{n}"))
+                .join("v.ome.zarr");
             for k in (0..n).rev() {
                 // Until the last shard is in, the store is no OME-Zarr.
                 if k + 1 < n {
@@ -435,12 +447,12 @@ fn sharded_ome_zarr_stores_are_identical_and_appear_only_when_complete() {
             }
             assert!(
                 tree(&out) == want,
-                "pyramid {pyramid} NGFF {ngff} in {n} shards"
+                "pyramid {pyramid} NGFF {ngff} spacing {spacing} in {n} shards"
             );
         }
     }
     // A shard refuses a store that is complete or another write's.
-    let whole = d.join("whole1").join("v.ome.zarr");
+    let whole = d.join("whole1-1,1,1").join("v.ome.zarr");
     fails(
         tool("vol-convert")
             .arg(&stack)

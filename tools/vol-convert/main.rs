@@ -101,11 +101,15 @@ struct Cli {
     /// Mirror along these axes, e.g. z or x,y.
     #[arg(long, value_delimiter = ',', value_parser = ["x", "y", "z"])]
     flip: Vec<String>,
-    /// OME-Zarr output: pyramid levels, the full resolution included.
+    /// OME-Zarr output: pyramid levels, the full resolution included. Each
+    /// level halves the axes whose spacing is less than twice the finest
+    /// (0.5,0.5,2 becomes 1,1,2, then 2,2,2, then 4,4,4); every level's
+    /// scale is recorded. More levels than the volume makes is refused.
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
     pyramid: u32,
-    /// OME-Zarr output: how each pyramid level is made from the one above
-    /// (2x2x2 blocks): mean or max.
+    /// OME-Zarr output: how each pyramid level's voxel is made from the
+    /// full-resolution voxels it stands for: mean (rounded once, for
+    /// integer types) or max.
     #[arg(long, default_value = "mean", value_parser = one_of::<Downsample>(["mean", "max"]))]
     downsample: Downsample,
     /// OME-Zarr output: NGFF 0.4 on Zarr v2 (the default: napari-ome-zarr,
@@ -161,6 +165,7 @@ const EXAMPLES: &str = "Examples:
   vol-convert scan.vvol -o slices/
   vol-convert ct.nii.gz --pyramid 4 -o ct.ome.zarr            # NGFF 0.4, Zarr v2
   vol-convert ct.nii.gz --pyramid 4 --ngff 0.5 -o ct.ome.zarr # NGFF 0.5, Zarr v3
+  vol-convert ct.ome.zarr --level 2 -o ct-quarter.nii.gz      # read pyramid level 2
   vol-gen shapes --dims 256,256,256 -o - | vol-convert - --layout bricked:32 -o out.vvol
 
 Preprocessing (one pass; the stages apply in the order of the help's heading):
@@ -374,7 +379,7 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     let out_opts = output_options(cli);
     let target = target(cli, &out_opts)?;
     target.preflight().map_err(anyhow::Error::new)?;
-    let mut opts = volkit_cli::select::read_options(&cli.input_sel)?;
+    let mut opts = volkit_cli::select::read_options(&cli.input_sel, &[input])?;
     if cli.luma {
         opts.channel = ChannelSel::Luma;
     }

@@ -144,8 +144,8 @@ fn default_output(volume: &Path) -> PathBuf {
 }
 
 /// How to read the volume.
-fn read_options(cli: &Cli) -> Result<ReadOptions> {
-    volkit_cli::select::read_options(&cli.input_sel)
+fn read_options(cli: &Cli, volume: &Path) -> Result<ReadOptions> {
+    volkit_cli::select::read_options(&cli.input_sel, &[volume])
 }
 
 /// Streams have no fingerprint, and the index must name its file.
@@ -211,7 +211,7 @@ fn build(cli: &Cli, volume: &Path) -> Result<()> {
     if write {
         check_output(&output)?;
     }
-    let read = read_options(cli)?;
+    let read = read_options(cli, volume)?;
 
     // Fingerprint first: if the file is replaced before it is opened, the
     // index holds the new samples under the old fingerprint and is rejected
@@ -313,7 +313,7 @@ fn build_shard(cli: &Cli, volume: &Path, shard: Shard) -> Result<()> {
         )));
     }
     let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
-    let vol = volformats::open(volume, &read_options(cli)?).map_err(|e| anyhow!("{e}"))?;
+    let vol = volformats::open(volume, &read_options(cli, volume)?).map_err(|e| anyhow!("{e}"))?;
     let part = volindex::shard::build_shard(&vol, &opts, fp, shard).map_err(at(&vname))?;
     if let Some(e) = vol.error() {
         bail!("{vname}: {e}");
@@ -433,7 +433,7 @@ fn check(cli: &Cli, volume: &Path, index: &Path) -> Result<()> {
     refuse_stream(volume)?;
     let vname = name(volume);
     let iname = name(index);
-    let opts = read_options(cli)?;
+    let opts = read_options(cli, volume)?;
     let fp = volformats::fingerprint(volume).map_err(at(&vname))?;
     let (dims, sample_type) = volume_shape(volume, &opts)?;
     let file = std::fs::File::open(index).map_err(at(&iname))?;

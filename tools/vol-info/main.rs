@@ -18,6 +18,7 @@ use volformats::vvol;
 use volkit_cli::json;
 use volkit_cli::{outln, Selection};
 
+mod levels;
 mod listing;
 
 /// Describe a volume (any format vol-convert reads: .vvol, .vol, .raw,
@@ -35,6 +36,9 @@ mod listing;
 /// selection too: its first channel at its first time point, with the
 /// number of channels and time points, the time step where the file
 /// states it, and the flags that pick another (--channel, --time-point).
+///
+/// An OME-Zarr pyramid is described at its full resolution (or the level
+/// --level N picks), with every level's dimensions and spacing.
 ///
 /// A DICOM input holding several series is listed instead (UID, number,
 /// description, modality, images, dimensions), one series a line, with
@@ -70,6 +74,8 @@ const EXAMPLES: &str = "Examples:
   vol-info brain.nii.gz
   vol-info cells.ome.tif               # channels: 2, time points: 5; described: channel 0, time point 0
   vol-info cells.ome.tif --channel 1 --time-point 4
+  vol-info cells.ome.zarr              # pyramid levels: their dims and spacing
+  vol-info cells.ome.zarr --level 2    # describe level 2
   vol-info ct-series/                  # one series: described; several: listed
   vol-info ct-series/ --series 3       # by SeriesNumber, or a unique UID prefix
   vol-info --json 'ct/*.dcm'
@@ -91,7 +97,7 @@ fn main() -> ExitCode {
 fn info(cli: &Cli) -> Result<()> {
     let start = Instant::now();
     let name = cli.input.display().to_string();
-    let mut opts = volkit_cli::select::read_options(&cli.input_sel)?;
+    let mut opts = volkit_cli::select::read_options(&cli.input_sel, &[&cli.input])?;
     opts.vvol = vvol::OpenOptions {
         verify: cli.verify,
         ..Default::default()
@@ -163,6 +169,14 @@ fn info(cli: &Cli) -> Result<()> {
         channel_given: sel.channel.is_some(),
         time_point_given: sel.time_point.is_some(),
     };
+    let levels = match kind {
+        Some(InputKind::OmeZarr) => Some(levels::Levels {
+            all: volformats::omezarr::levels(&cli.input)?,
+            level: sel.level.unwrap_or(0),
+            given: sel.level.is_some(),
+        }),
+        _ => None,
+    };
     let figures = stats::compute(&cli.input, &opts, &vol, &cli.stats, cli.quiet)?;
     if !cli.quiet {
         let format = format.as_deref().unwrap_or("stream");
@@ -170,6 +184,7 @@ fn info(cli: &Cli) -> Result<()> {
             format,
             file_bytes,
             skipped: skipped.as_deref(),
+            levels: levels.as_ref(),
             seconds: start.elapsed().as_secs_f64(),
             stats: figures.as_ref().map(stats::Figures::json),
         };
@@ -264,6 +279,8 @@ struct Found<'a> {
     file_bytes: Option<u64>,
     /// DICOM files in the folder that joined no series.
     skipped: Option<&'a [Skipped]>,
+    /// An OME-Zarr input's pyramid levels.
+    levels: Option<&'a levels::Levels>,
     /// Seconds the reading (and verifying) took.
     seconds: f64,
     /// --stats: the figures, as JSON.
@@ -276,6 +293,7 @@ fn report(cli: &Cli, vol: &Volume, described: &Described, found: Found) -> std::
         format,
         file_bytes,
         skipped,
+        levels,
         seconds,
         stats,
     } = found;
@@ -292,6 +310,7 @@ fn report(cli: &Cli, vol: &Volume, described: &Described, found: Found) -> std::
         });
         json::merge(&mut v, json::volume(m));
         json::merge(&mut v, described.json());
+        json::merge(&mut v, levels::Levels::json(levels));
         json::merge(
             &mut v,
             json!({
@@ -315,6 +334,9 @@ fn report(cli: &Cli, vol: &Volume, described: &Described, found: Found) -> std::
     }
     outln!("{}: {} ({format})", cli.input.display(), m)?;
     for line in described.lines() {
+        outln!("  {line}")?;
+    }
+    for line in levels.map(levels::Levels::lines).unwrap_or_default() {
         outln!("  {line}")?;
     }
     if let Some(b) = file_bytes {

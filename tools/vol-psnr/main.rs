@@ -367,7 +367,7 @@ fn volumes(cli: &Cli) -> Result<Report, Fail> {
             "--alpha and --luma apply to images only",
         ));
     }
-    let opts = volkit_cli::select::read_options(&cli.input_sel)
+    let opts = volkit_cli::select::read_options(&cli.input_sel, &[&cli.a, &cli.b])
         .map_err(|e| Fail::new(EXIT_USAGE, e.to_string()))?;
     let open =
         |p: &Path| volformats::open(p, &opts).map_err(|e| Fail::new(EXIT_READ, e.to_string()));

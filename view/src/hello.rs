@@ -148,7 +148,7 @@ mod tests {
         for want in ["tf", "mode", "step", "seconds"] {
             assert!(ids.contains(&want), "{want} missing: {ids:?}");
         }
-        for fixed in ["raw_dims", "series", "channel", "time_point"] {
+        for fixed in ["raw_dims", "series", "channel", "time_point", "level"] {
             assert!(!ids.contains(&fixed), "{fixed} offered: {ids:?}");
         }
     }

@@ -51,12 +51,18 @@ pub fn output_size(
     let sample_type = sample_type.unwrap_or(SampleType::F32);
     let zarr = crate::omezarr::is_zarr(out);
     if zarr {
-        crate::omezarr::check_levels(dims, opts.pyramid).at(out)?;
+        crate::omezarr::check_levels(dims, grid.spacing.map(|v| v as f32), opts.pyramid).at(out)?;
     }
     let mut bytes = dims.count().saturating_mul(sample_type.size() as u64);
     if let Some(shard) = opts.shard {
         let (mine, units) = if zarr {
-            let zs = crate::omezarr::shard_slices(dims, opts.pyramid, shard).at(out)?;
+            let zs = crate::omezarr::shard_slices(
+                dims,
+                grid.spacing.map(|v| v as f32),
+                opts.pyramid,
+                shard,
+            )
+            .at(out)?;
             (zs.end - zs.start, dims.z)
         } else {
             let units = match opts.layout {

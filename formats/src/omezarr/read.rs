@@ -5,6 +5,7 @@ use super::{floats, ome_attributes, transforms, zerr};
 use crate::error::Error;
 use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
 use crate::slice::{SliceData, SliceType};
+use serde_json::Value;
 use std::ops::Range;
 use std::path::Path;
 use std::sync::{Arc, Mutex};
@@ -27,21 +28,114 @@ pub struct ZarrReader {
     bytes: u64,
 }
 
-/// Open the OME-Zarr image at `root`.
-pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<ZarrReader> {
-    let (attrs, version) = ome_attributes(root).ok_or_else(|| {
-        ConvertError::new(
-            root,
-            Error::invalid("no Zarr group metadata (zarr.json or .zattrs)"),
-        )
-    })?;
-    let ms = attrs
+/// The group attributes of the image at `root`, its NGFF version, and
+/// its first multiscale.
+fn multiscale(root: &Path) -> CResult<(Value, &'static str, Value)> {
+    let bad = |m: &str| ConvertError::new(root, Error::invalid(m));
+    let (attrs, version) =
+        ome_attributes(root).ok_or_else(|| bad("no Zarr group metadata (zarr.json or .zattrs)"))?;
+    let Some(ms) = attrs
         .get("multiscales")
         .and_then(|m| m.as_array())
         .and_then(|m| m.first())
-        .ok_or_else(|| {
-            ConvertError::new(root, Error::invalid("Zarr group without OME multiscales"))
-        })?;
+        .cloned()
+    else {
+        return Err(bad(&match level_of_parent(root) {
+            Some((store, level)) => format!(
+                "is level {level} of the OME-Zarr pyramid {}: read it as {} --level {level}",
+                store.display(),
+                store.display()
+            ),
+            None => "Zarr group without OME multiscales".to_string(),
+        }));
+    };
+    Ok((attrs, version, ms))
+}
+
+/// When `path` is a level's array inside an OME-Zarr pyramid (`x.ome.zarr/1`),
+/// the store and the level.
+fn level_of_parent(path: &Path) -> Option<(std::path::PathBuf, usize)> {
+    let name = path.file_name()?.to_str()?;
+    let store = path.parent()?;
+    let (attrs, _) = ome_attributes(store)?;
+    let ms = attrs.get("multiscales")?.as_array()?.first()?;
+    let level = ms
+        .get("datasets")?
+        .as_array()?
+        .iter()
+        .position(|d| d.get("path").and_then(|p| p.as_str()) == Some(name))?;
+    Some((store.to_path_buf(), level))
+}
+
+/// The datasets (pyramid levels) of a multiscale, at least one.
+fn datasets<'a>(root: &Path, ms: &'a Value) -> CResult<&'a [Value]> {
+    ms.get("datasets")
+        .and_then(|d| d.as_array())
+        .filter(|d| !d.is_empty())
+        .map(|d| d.as_slice())
+        .ok_or_else(|| ConvertError::new(root, Error::invalid("OME multiscales without datasets")))
+}
+
+/// The `scale` and `translation` of dataset `ds` of multiscale `ms`
+/// over `n` axes: the dataset's own, then the multiscale's applied.
+fn level_transform(ms: &Value, ds: &Value, n: usize) -> (Vec<f64>, Vec<f64>) {
+    let (mut scale, mut trans) = transforms(ds.get("coordinateTransformations"), n);
+    let (s2, t2) = transforms(ms.get("coordinateTransformations"), n);
+    for a in 0..n {
+        trans[a] = trans[a] * s2[a] + t2[a];
+        scale[a] *= s2[a];
+    }
+    (scale, trans)
+}
+
+/// One level of an OME-Zarr pyramid, as [`levels`] lists it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LevelInfo {
+    /// Voxels along x, y, z.
+    pub dims: Dims,
+    /// Voxel spacing along x, y, z, in the image's unit.
+    pub spacing: [f32; 3],
+}
+
+/// The levels of the OME-Zarr pyramid at `root`, full resolution first:
+/// what `--level N` reads (metadata only).
+pub fn levels(root: &Path) -> CResult<Vec<LevelInfo>> {
+    let (_, _, ms) = multiscale(root)?;
+    let count = datasets(root, &ms)?.len();
+    (0..count)
+        .map(|l| {
+            // Any channel and time point: the levels' shapes are the same.
+            let r = open_level(root, Some(0), Some(0), Some(l as u32))?;
+            Ok(LevelInfo {
+                dims: r.info.dims,
+                spacing: r.info.spacing.unwrap_or([1.0; 3]),
+            })
+        })
+        .collect()
+}
+
+/// Open the OME-Zarr image at `root`: level `level` of its first
+/// multiscale (0, the full resolution, when `None`), channel `channel`
+/// and time point `time` where it has those axes.
+pub fn open(
+    root: &Path,
+    channel: Option<u64>,
+    time: Option<u64>,
+    level: Option<u32>,
+) -> CResult<ZarrReader> {
+    let mut r = open_level(root, channel, time, level)?;
+    r.bytes = dir_size(root);
+    Ok(r)
+}
+
+fn open_level(
+    root: &Path,
+    channel: Option<u64>,
+    time: Option<u64>,
+    level: Option<u32>,
+) -> CResult<ZarrReader> {
+    let (attrs, version, ms) = multiscale(root)?;
+    let ms = &ms;
     let axes: Vec<String> = ms
         .get("axes")
         .and_then(|a| a.as_array())
@@ -67,25 +161,29 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
                 .collect()
         })
         .unwrap_or_default();
-    let ds = ms
-        .get("datasets")
-        .and_then(|d| d.as_array())
-        .and_then(|d| d.first())
-        .ok_or_else(|| {
-            ConvertError::new(root, Error::invalid("OME multiscales without datasets"))
-        })?;
+    let all = datasets(root, ms)?;
+    let pick = level.unwrap_or(0);
+    let ds = all.get(pick as usize).ok_or_else(|| {
+        ConvertError::new(
+            root,
+            Error::invalid(format!(
+                "--level {pick} asked for, but the pyramid has {} level{} (0..{})",
+                all.len(),
+                if all.len() == 1 { "" } else { "s" },
+                all.len() - 1
+            )),
+        )
+    })?;
     let ds_path = ds
         .get("path")
         .and_then(|p| p.as_str())
         .unwrap_or("0")
         .to_string();
     let n = axes.len();
-    let (mut scale, mut trans) = transforms(ds.get("coordinateTransformations"), n);
-    let (s2, t2) = transforms(ms.get("coordinateTransformations"), n);
-    for a in 0..n {
-        trans[a] = trans[a] * s2[a] + t2[a];
-        scale[a] *= s2[a];
-    }
+    let (mut scale, mut trans) = level_transform(ms, ds, n);
+    // Level 0's translation: the origin is level 0's, moved along the
+    // axis directions by what the level's translation adds to it.
+    let (_, mut trans0) = level_transform(ms, &all[0], n);
     let store = Arc::new(FilesystemStore::new(root).map_err(zerr).at(root)?);
     let array = Array::open(store, &format!("/{ds_path}"))
         .map_err(zerr)
@@ -192,6 +290,7 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
         if let (Some(a), Some(k)) = (a, u.factor_to(unit)) {
             scale[a] *= k;
             trans[a] *= k;
+            trans0[a] *= k;
         }
     }
     let sp = |a: Option<usize>| a.map(|a| scale[a]).unwrap_or(1.0);
@@ -202,8 +301,10 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
             1.0
         }
     });
-    let tr = |a: Option<usize>| a.map(|a| trans[a]).unwrap_or(0.0);
-    let origin = [tr(Some(axis_x)), tr(Some(axis_y)), tr(axis_z)];
+    let tr = |t: &[f64], a: Option<usize>| a.map(|a| t[a]).unwrap_or(0.0);
+    let index_axes = [Some(axis_x), Some(axis_y), axis_z];
+    let origin0 = index_axes.map(|a| tr(&trans0, a));
+    let shift = index_axes.map(|a| tr(&trans, a) - tr(&trans0, a));
     let direction = attrs
         .get("volkit")
         .and_then(|v| v.get("direction"))
@@ -216,6 +317,8 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
         Some(d) => [0, 1, 2].map(|a| [d[0][a], d[1][a], d[2][a]]),
         None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
     };
+    let origin =
+        [0, 1, 2].map(|r| origin0[r] + (0..3).map(|a| axes3[a][r] * shift[a]).sum::<f64>());
     let geometry = Geometry::from_axes(origin, axes3)
         .map_err(|e| Error::invalid(format!("OME-Zarr geometry: {e}")))
         .at(root)?
@@ -230,7 +333,6 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
         .unwrap_or(1)
         .clamp(1, 256)
         .min((MAX_SLAB_BYTES / plane).max(1));
-    let bytes = dir_size(root);
     Ok(ZarrReader {
         info: InputInfo {
             nifti_codes: None,
@@ -248,7 +350,7 @@ pub fn open(root: &Path, channel: Option<u64>, time: Option<u64>) -> CResult<Zar
         fixed,
         slab: chunk_z,
         cache: Mutex::new(None),
-        bytes,
+        bytes: 0,
     })
 }
 
@@ -702,13 +804,8 @@ impl SliceReader for ZarrReader {
 pub fn stacks(root: &Path) -> CResult<crate::stacks::Stacks> {
     use crate::stacks::{step, Stacks, TimeUnit};
     let bad = |m: &str| ConvertError::new(root, Error::invalid(m));
-    let (attrs, _) =
-        ome_attributes(root).ok_or_else(|| bad("no Zarr group metadata (zarr.json or .zattrs)"))?;
-    let ms = attrs
-        .get("multiscales")
-        .and_then(|m| m.as_array())
-        .and_then(|m| m.first())
-        .ok_or_else(|| bad("Zarr group without OME multiscales"))?;
+    let (_, _, ms) = multiscale(root)?;
+    let ms = &ms;
     // Each axis's name and unit.
     let axes: Vec<(String, Option<&str>)> = match ms.get("axes").and_then(|a| a.as_array()) {
         Some(a) => a
@@ -723,15 +820,10 @@ pub fn stacks(root: &Path) -> CResult<crate::stacks::Stacks> {
             .map(|a| (a.to_string(), None))
             .to_vec(),
     };
-    let ds = ms
-        .get("datasets")
-        .and_then(|d| d.as_array())
-        .and_then(|d| d.first())
-        .ok_or_else(|| bad("OME multiscales without datasets"))?;
+    let ds = &datasets(root, ms)?[0];
     let ds_path = ds.get("path").and_then(|p| p.as_str()).unwrap_or("0");
     let n = axes.len();
-    let (scale, _) = transforms(ds.get("coordinateTransformations"), n);
-    let (s2, _) = transforms(ms.get("coordinateTransformations"), n);
+    let (scale, _) = level_transform(ms, ds, n);
     let store = Arc::new(FilesystemStore::new(root).map_err(zerr).at(root)?);
     let array = Array::open(store, &format!("/{ds_path}"))
         .map_err(zerr)
@@ -752,7 +844,7 @@ pub fn stacks(root: &Path) -> CResult<crate::stacks::Stacks> {
     };
     if let Some(t) = find("t").filter(|_| s.time_points > 1) {
         let unit = axes[t].1.and_then(TimeUnit::parse);
-        let v = scale[t] * s2[t];
+        let v = scale[t];
         if unit.is_some() || v != 1.0 {
             s.time_step = step(v);
             s.time_unit = unit.filter(|_| s.time_step.is_some());

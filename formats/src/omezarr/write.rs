@@ -1,6 +1,10 @@
 //! Writing an OME-Zarr store slice by slice, whole or one shard of it,
-//! with its pyramid levels computed as the slices pass.
+//! with its pyramid levels computed as the slices pass. Each level is
+//! made from the full-resolution values, rounded once: a level adds the
+//! f64 sums (or maxima) of the level above into its own, not that level's
+//! rounded samples.
 
+use super::pyramid::{plan, LevelShape};
 use super::{zerr, Downsample, Ngff, CHUNK};
 use crate::error::Error;
 use crate::slice::SliceSample;
@@ -15,17 +19,37 @@ use zarrs::filesystem::FilesystemStore;
 /// One level of the pyramid being written.
 struct Level<T> {
     array: Array<FilesystemStore>,
-    dims: Dims,
+    shape: LevelShape,
     chunk: [u64; 3],
     /// Slices waiting for a full chunk layer, and the z of the first.
     pending: Vec<Vec<T>>,
     first_z: u64,
-    /// A slice waiting for its partner to make a slice of the next level.
-    carry: Option<Vec<T>>,
+    /// Below level 0: the slice being made from the level above.
+    acc: Option<Wide>,
+    /// Full-resolution voxels each column (x) and row (y) stands for.
+    cover: [Vec<u32>; 2],
     /// One past the last slice pushed.
     seen: u64,
     /// One past the last slice this writer writes.
     end_z: u64,
+}
+
+/// A slice of the level above the one being made: full-resolution
+/// samples (level 0), or a [`Wide`] slice's values.
+enum Above<'a, T> {
+    Samples(&'a [T]),
+    Wide(&'a [f64]),
+}
+
+/// A slice of a level in full-resolution terms: per voxel the f64 sum
+/// (mean) or maximum (max) of the full-resolution values it stands for,
+/// with the number of full-resolution slices it holds.
+struct Wide {
+    values: Vec<f64>,
+    /// Slices of the level above added so far.
+    parts: u64,
+    /// Full-resolution slices added so far.
+    slices: u64,
 }
 
 /// Writes an OME-Zarr (NGFF 0.4 on Zarr v2, or 0.5 on Zarr v3) slice by
@@ -87,27 +111,21 @@ fn dtype_v2(t: SampleType) -> &'static str {
 /// `volkit` attribute (directions, origin, frame) sits at the top in both.
 pub fn multiscales(
     name: &str,
-    levels: usize,
+    levels: &[LevelShape],
     spacing: [f32; 3],
     geometry: &Geometry,
     down: Downsample,
     ngff: Ngff,
 ) -> Value {
-    let datasets: Vec<Value> = (0..levels)
-        .map(|l| {
-            let f = (1u64 << l) as f64;
-            let s = [
-                spacing[2] as f64 * f,
-                spacing[1] as f64 * f,
-                spacing[0] as f64 * f,
-            ];
-            // A level-l voxel is centred on the mean of the 2^l voxels it covers.
-            let shift = |a: usize| (f - 1.0) / 2.0 * spacing[a] as f64;
-            let t = [
-                geometry.origin[2] + shift(2),
-                geometry.origin[1] + shift(1),
-                geometry.origin[0] + shift(0),
-            ];
+    let datasets: Vec<Value> = levels
+        .iter()
+        .enumerate()
+        .map(|(l, shape)| {
+            let f = shape.factor.map(|f| f as f64);
+            let s = [2, 1, 0].map(|a| spacing[a] as f64 * f[a]);
+            // A level's voxel is centred on the voxels it stands for.
+            let shift = |a: usize| (f[a] - 1.0) / 2.0 * spacing[a] as f64;
+            let t = [2, 1, 0].map(|a| geometry.origin[a] + shift(a));
             json!({
                 "path": l.to_string(),
                 "coordinateTransformations": [
@@ -226,67 +244,24 @@ fn create_array(
 /// store (removed when the last shard completes the store).
 pub const SHARDS_DIR: &str = ".volkit-shards";
 
-/// Slices of the full-resolution volume per shard unit with `levels`
-/// pyramid levels: one chunk layer of the coarsest level, so that every
+/// Slices of the full-resolution volume per shard unit of a pyramid
+/// `levels`: one chunk layer of the coarsest level, so that every
 /// level's chunk layers fall wholly inside one unit.
-fn unit_slices(dims: Dims, levels: usize) -> u64 {
-    CHUNK.min(dims.z.max(1)) << (levels.max(1) - 1)
-}
-
-/// The most pyramid levels `dims` makes: each level halves the one above
-/// (rounding up) until one level is a single voxel along every axis, and
-/// that single voxel is no level of its own (the full resolution always is).
-pub fn max_levels(dims: Dims) -> u32 {
-    let mut n = 1;
-    let mut d = dims.x.max(dims.y).max(dims.z);
-    // A u64 halves to 1 in at most 64 steps.
-    while d > 1 {
-        d = d.div_ceil(2);
-        if d > 1 {
-            n += 1;
-        }
-    }
-    n
-}
-
-/// Refuse more pyramid levels than [`max_levels`], saying how many
-/// `dims` makes.
-pub fn check_levels(dims: Dims, levels: u32) -> crate::error::Result<()> {
-    let most = max_levels(dims);
-    if levels > most {
-        return Err(Error::invalid(format!(
-            "--pyramid {levels}: a {dims} volume makes at most {most} pyramid level{} (each halves the one above; the last is {})",
-            if most == 1 { "" } else { "s" },
-            level_shape(dims, most)
-        )));
-    }
-    Ok(())
-}
-
-/// The dims of the `levels` pyramid levels of `dims` (see
-/// [`check_levels`]).
-fn level_dims(dims: Dims, levels: u32) -> crate::error::Result<Vec<Dims>> {
-    check_levels(dims, levels)?;
-    let mut dl = Vec::new();
-    let mut d = dims;
-    for _ in 0..levels.max(1) {
-        dl.push(d);
-        d = Dims::new(d.x.div_ceil(2), d.y.div_ceil(2), d.z.div_ceil(2))?;
-    }
-    Ok(dl)
-}
-
-/// The shape of level `n` (1 = full resolution) of `dims`, as `XxYxZ`.
-fn level_shape(dims: Dims, n: u32) -> String {
-    let half = |v: u64| (1..n).fold(v, |v, _| v.div_ceil(2));
-    format!("{}x{}x{}", half(dims.x), half(dims.y), half(dims.z))
+fn unit_slices(dims: Dims, levels: &[LevelShape]) -> u64 {
+    let fz = levels.last().map_or(1, |l| l.factor[2]);
+    CHUNK.min(dims.z.max(1)) * fz
 }
 
 /// The full-resolution slices shard `shard` of a write of `dims` with
-/// `levels` levels converts: its share of the units (see [`unit_slices`]).
-pub fn shard_slices(dims: Dims, levels: u32, shard: Shard) -> crate::error::Result<Range<u64>> {
-    let n = level_dims(dims, levels)?.len();
-    let unit = unit_slices(dims, n);
+/// `spacing` and `levels` levels converts: its share of the units (see
+/// [`unit_slices`]).
+pub fn shard_slices(
+    dims: Dims,
+    spacing: [f32; 3],
+    levels: u32,
+    shard: Shard,
+) -> crate::error::Result<Range<u64>> {
+    let unit = unit_slices(dims, &plan(dims, spacing, levels)?);
     let units = shard.units(dims.z.div_ceil(unit));
     Ok((units.start * unit).min(dims.z)..(units.end * unit).min(dims.z))
 }
@@ -367,16 +342,17 @@ impl<T: SliceSample> ZarrWriter<T> {
             down,
             ngff,
         } = spec;
+        let shapes = plan(dims, spacing, levels)?;
         std::fs::create_dir_all(path)?;
         let store = Arc::new(FilesystemStore::new(path).map_err(zerr)?);
-        let dl = level_dims(dims, levels)?;
-        let attrs = multiscales(name, dl.len(), spacing, geometry, down, ngff);
+        let attrs = multiscales(name, &shapes, spacing, geometry, down, ngff);
         let zs = match shard {
-            Some(s) => shard_slices(dims, levels, s)?,
+            Some(s) => shard_slices(dims, spacing, levels, s)?,
             None => 0..dims.z,
         };
         let mut out = Vec::new();
-        for (l, d) in dl.iter().enumerate() {
+        for (l, shape) in shapes.iter().enumerate() {
+            let d = &shape.dims;
             let chunk = [d.x.min(CHUNK), d.y.min(CHUNK), d.z.min(CHUNK)];
             let array = create_array(
                 &store,
@@ -388,15 +364,26 @@ impl<T: SliceSample> ZarrWriter<T> {
             )?;
             // The level's slices of the shard's units (units hold whole
             // chunk layers of every level).
-            let first = zs.start >> l;
-            let end = if zs.end == dims.z { d.z } else { zs.end >> l };
+            let fz = shape.factor[2];
+            let first = zs.start / fz;
+            let end = if zs.end == dims.z { d.z } else { zs.end / fz };
+            // Full-resolution voxels per column and row (fewer at the end).
+            let cover = |n: u64, full: u64, f: u64| -> Vec<u32> {
+                (0..n)
+                    .map(|i| ((i + 1) * f).min(full).saturating_sub(i * f) as u32)
+                    .collect()
+            };
             out.push(Level {
                 array,
-                dims: *d,
+                shape: *shape,
                 chunk,
                 pending: Vec::new(),
                 first_z: first,
-                carry: None,
+                acc: None,
+                cover: [
+                    cover(d.x, dims.x, shape.factor[0]),
+                    cover(d.y, dims.y, shape.factor[1]),
+                ],
                 seen: first,
                 end_z: end,
             });
@@ -473,32 +460,73 @@ impl<T: SliceSample> ZarrWriter<T> {
 
     /// Add the next z slice of the full-resolution volume.
     pub fn push(&mut self, slice: Vec<T>) -> crate::error::Result<()> {
-        self.push_at(0, slice)
+        let last = self.levels[0].seen + 1 == self.levels[0].end_z;
+        if self.levels_len() > 1 {
+            self.add_below(0, Above::Samples(&slice), 1, last)?;
+        }
+        self.store(0, slice)
     }
 
-    fn push_at(&mut self, l: usize, slice: Vec<T>) -> crate::error::Result<()> {
-        let last_z;
-        let mut down = None;
-        let more = l + 1 < self.levels_len();
+    /// Add a slice of level `l` (standing for `slices` full-resolution
+    /// slices; `last`: the level's last slice here) into the slice of
+    /// level `l + 1` being made; a complete slice is stored and added to
+    /// the level below it in turn.
+    fn add_below(
+        &mut self,
+        l: usize,
+        slice: Above<'_, T>,
+        slices: u64,
+        last: bool,
+    ) -> crate::error::Result<()> {
         let how = self.down;
-        {
-            let lv = &mut self.levels[l];
-            lv.seen += 1;
-            last_z = lv.seen == lv.end_z;
-            if more {
-                match lv.carry.take() {
-                    Some(a) => down = Some(downsample(&a, Some(&slice), lv.dims, how)),
-                    None if last_z => down = Some(downsample(&slice, None, lv.dims, how)),
-                    None => lv.carry = Some(slice.clone()),
-                }
-            }
-            lv.pending.push(slice);
-            if lv.pending.len() as u64 == lv.chunk[2] || last_z {
-                flush(lv)?;
-            }
+        let above = self.levels[l].shape.dims;
+        let lv = &mut self.levels[l + 1];
+        let (d, halves) = (lv.shape.dims, lv.shape.halves);
+        let acc = lv.acc.get_or_insert_with(|| Wide {
+            values: vec![
+                match how {
+                    Downsample::Mean => 0.0,
+                    Downsample::Max => f64::NEG_INFINITY,
+                };
+                (d.x * d.y) as usize
+            ],
+            parts: 0,
+            slices: 0,
+        });
+        match slice {
+            Above::Samples(s) => add_slice(
+                &mut acc.values,
+                &|i| f64::from(s[i].to_f32()),
+                above,
+                d,
+                halves,
+                how,
+            ),
+            Above::Wide(w) => add_slice(&mut acc.values, &|i| w[i], above, d, halves, how),
         }
-        if let Some(s) = down {
-            self.push_at(l + 1, s)?;
+        acc.parts += 1;
+        acc.slices += slices;
+        if acc.parts < 1 + u64::from(halves[2]) && !last {
+            return Ok(());
+        }
+        let Some(wide) = lv.acc.take() else {
+            return Ok(());
+        };
+        let out = finish_slice::<T>(&wide, &lv.cover, how);
+        let last_here = lv.seen + 1 == lv.end_z;
+        if l + 2 < self.levels_len() {
+            self.add_below(l + 1, Above::Wide(&wide.values), wide.slices, last_here)?;
+        }
+        self.store(l + 1, out)
+    }
+
+    /// Queue a slice of level `l`, writing a chunk layer when it is full.
+    fn store(&mut self, l: usize, slice: Vec<T>) -> crate::error::Result<()> {
+        let lv = &mut self.levels[l];
+        lv.seen += 1;
+        lv.pending.push(slice);
+        if lv.pending.len() as u64 == lv.chunk[2] || lv.seen == lv.end_z {
+            flush(lv)?;
         }
         Ok(())
     }
@@ -530,7 +558,7 @@ impl<T: SliceSample> ZarrWriter<T> {
 /// Write the pending slices of a level as one layer of chunks.
 fn flush<T: SliceSample>(lv: &mut Level<T>) -> crate::error::Result<()> {
     use rayon::prelude::*;
-    let d = lv.dims;
+    let d = lv.shape.dims;
     let [cx, cy, _] = lv.chunk;
     let nz = lv.pending.len();
     let cz_index = lv.first_z / lv.chunk[2];
@@ -566,60 +594,61 @@ fn flush<T: SliceSample>(lv: &mut Level<T>) -> crate::error::Result<()> {
     Ok(())
 }
 
-/// One slice of the next level from two slices (`b` missing at an odd end).
-fn downsample<T: Sample>(a: &[T], b: Option<&[T]>, d: Dims, how: Downsample) -> Vec<T> {
-    let (nx, ny) = (d.x.div_ceil(2) as usize, d.y.div_ceil(2) as usize);
-    let (w, h) = (d.x as usize, d.y as usize);
-    let mut out = Vec::with_capacity(nx * ny);
-    for y in 0..ny {
-        for x in 0..nx {
-            let mut sum = 0f64;
-            let mut max = f32::NEG_INFINITY;
-            let mut n = 0u32;
-            for s in [Some(a), b].into_iter().flatten() {
-                for yy in 2 * y..(2 * y + 2).min(h) {
-                    for xx in 2 * x..(2 * x + 2).min(w) {
-                        let v = s[yy * w + xx].to_f32();
-                        sum += v as f64;
-                        if v > max || v.is_nan() {
-                            max = v;
-                        }
-                        n += 1;
+/// Add a slice of the level above (`above` voxels, its values by
+/// `value`) into `acc`, a slice of the level below (`d` voxels, halving
+/// the axes `halves` of the level above): sums for the mean, maxima
+/// (NaN kept) for the max.
+fn add_slice(
+    acc: &mut [f64],
+    value: &impl Fn(usize) -> f64,
+    above: Dims,
+    d: Dims,
+    halves: [bool; 3],
+    how: Downsample,
+) {
+    let (w, h, nx) = (above.x as usize, above.y as usize, d.x as usize);
+    let (kx, ky) = (usize::from(halves[0]), usize::from(halves[1]));
+    for y in 0..h {
+        let row = &mut acc[(y >> ky) * nx..][..nx];
+        for x in 0..w {
+            let v = value(y * w + x);
+            let a = &mut row[x >> kx];
+            match how {
+                Downsample::Mean => *a += v,
+                Downsample::Max => {
+                    if v > *a || v.is_nan() {
+                        *a = v;
                     }
                 }
             }
-            let v = match how {
-                Downsample::Mean => {
-                    let m = sum / n as f64;
-                    if T::TYPE == SampleType::F32 {
-                        m as f32
-                    } else {
-                        m.round() as f32
-                    }
-                }
-                Downsample::Max => max,
-            };
-            out.push(T::from_f32(v));
         }
     }
-    out
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn more_pyramid_levels_than_the_dims_make_are_refused() {
-        let d = Dims::new(64, 64, 20).unwrap();
-        // 64, 32, 16, 8, 4, 2 along x: six levels; a seventh would be 1x1x1.
-        assert_eq!(max_levels(d), 6);
-        assert_eq!(level_dims(d, 6).unwrap().len(), 6);
-        let e = level_dims(d, 9).unwrap_err().to_string();
-        assert!(e.contains("at most 6") && e.contains("2x2x1"), "{e}");
-        assert_eq!(max_levels(Dims::new(1, 1, 1).unwrap()), 1);
-        assert_eq!(max_levels(Dims::new(2, 1, 1).unwrap()), 1);
-        assert_eq!(max_levels(Dims::new(3, 1, 1).unwrap()), 2);
-        assert!(check_levels(Dims::new(1, 1, 1).unwrap(), 2).is_err());
+/// The samples of a complete slice: each mean (the sum over the
+/// full-resolution voxels it stands for, `cover` columns by rows by
+/// `wide.slices`) rounded once for integer types, or each maximum.
+fn finish_slice<T: Sample>(wide: &Wide, cover: &[Vec<u32>; 2], how: Downsample) -> Vec<T> {
+    let nx = cover[0].len();
+    let mut out = Vec::with_capacity(wide.values.len());
+    let float = matches!(T::TYPE, SampleType::F32 | SampleType::F64);
+    for (i, &v) in wide.values.iter().enumerate() {
+        let v = match how {
+            Downsample::Mean => {
+                let n =
+                    f64::from(cover[0][i % nx]) * f64::from(cover[1][i / nx]) * wide.slices as f64;
+                let m = v / n.max(1.0);
+                // Rounded in f64, once: through f32 first, a mean just
+                // under a half could round up to it.
+                if float {
+                    m
+                } else {
+                    m.round()
+                }
+            }
+            Downsample::Max => v,
+        };
+        out.push(T::from_f64(v));
     }
+    out
 }

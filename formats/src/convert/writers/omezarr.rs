@@ -48,7 +48,7 @@ pub(super) fn open<'a, T: SliceSample>(
         Some(shard) => {
             check_shard_store(&path)?;
             let w = ZarrWriter::<T>::create_shard(&path, &store, shard).at(&path)?;
-            let zs = crate::omezarr::shard_slices(dims, levels, shard).at(&path)?;
+            let zs = crate::omezarr::shard_slices(dims, spec.spacing, levels, shard).at(&path)?;
             (w, zs, None)
         }
         None => {
