@@ -83,6 +83,8 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     // function (not `boundary`).
     let pre_scenes = ["thesis", "noise", "ct"];
     let steps = expected[1].1;
+    // And adaptive steps' tolerances, on the same scenes.
+    let tolerances = ["0.01", "0.1"];
     // The thesis and CT scenes' shadow studies: reference, off, 2 ray
     // steps, 2 grids; and their AO studies: reference, off, 2 ray counts,
     // 2 fields, 1 finer field.
@@ -91,7 +93,7 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     assert_eq!(
         rows.len(),
         scenes.len() * per_scene
-            + pre_scenes.len() * steps.len()
+            + pre_scenes.len() * (steps.len() + tolerances.len())
             + effect_scenes.len() * (shadow_rows + ao_rows),
         "{text}"
     );
@@ -157,6 +159,11 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
             let (_, _, pre_fine) = get("preintegrated", "0.05");
             let (_, _, pre_coarse) = get("preintegrated", "1.6");
             assert!(pre_fine > pre_coarse, "{scene}: pre-integrated PSNR");
+            // A tighter tolerance takes more samples, and is closer.
+            let (_, tight_samples, tight) = get("adaptive", "0.01");
+            let (_, loose_samples, loose) = get("adaptive", "0.1");
+            assert!(tight_samples > loose_samples, "{scene}: adaptive samples");
+            assert!(tight >= loose, "{scene}: adaptive PSNR {tight} < {loose}");
         }
         // Tiles and threads change the time only, never the image.
         assert_eq!(get("tile", "8").2, get("tile", "32").2, "{scene}: tile");
@@ -169,7 +176,7 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     // Time to each PSNR per method and scene.
     let methods = std::fs::read_to_string(out.join("methods.md")).unwrap();
     for scene in pre_scenes {
-        for method in ["step", "pre-integrated"] {
+        for method in ["step", "pre-integrated", "adaptive"] {
             assert!(
                 methods.contains(&format!("| {scene} | {method} |")),
                 "{methods}"
@@ -177,7 +184,8 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
         }
     }
     assert!(
-        !methods.contains("| boundary | pre-integrated |"),
+        !methods.contains("| boundary | pre-integrated |")
+            && !methods.contains("| boundary | adaptive |"),
         "{methods}"
     );
     // The plots (when a font was found, as on any machine with DejaVu).

@@ -675,8 +675,14 @@ fn adaptive_steps_are_refused_where_they_do_not_apply_and_read_the_index() {
         (&["--adaptive", "inf"][..], "positive number"),
         (&["--adaptive", "0.01", "--mode", "mip"][..], "--mode dvr"),
         (&["--adaptive", "0.01", "--mode", "path"][..], "--mode dvr"),
-        (&["--adaptive", "0.01", "--preintegrated"][..], "do not combine"),
-        (&["--adaptive", "0.01", "--tf", "boundary"][..], "1D transfer functions"),
+        (
+            &["--adaptive", "0.01", "--preintegrated"][..],
+            "do not combine",
+        ),
+        (
+            &["--adaptive", "0.01", "--tf", "boundary"][..],
+            "1D transfer functions",
+        ),
     ] {
         let mut c = tool("vol-render");
         c.arg(&vol)
@@ -705,8 +711,14 @@ fn adaptive_steps_are_refused_where_they_do_not_apply_and_read_the_index() {
     let (adaptive, image) = report(&["--adaptive", "0.05"]);
     let (walked, walked_image) = report(&["--adaptive", "0.05", "--no-ess"]);
     assert_eq!(image, walked_image, "skipping changed the adaptive frame");
-    assert!(samples_of(&walked) > samples_of(&adaptive), "--no-ess skipped nothing");
-    assert!(samples_of(&adaptive) < samples_of(&plain), "{adaptive} vs {plain}");
+    assert!(
+        samples_of(&walked) > samples_of(&adaptive),
+        "--no-ess skipped nothing"
+    );
+    assert!(
+        samples_of(&adaptive) < samples_of(&plain),
+        "{adaptive} vs {plain}"
+    );
     // The strides: one byte per level-0 cell (6 x 5 x 5 of 8 voxels).
     assert_eq!(
         adaptive["table_bytes"].as_u64(),

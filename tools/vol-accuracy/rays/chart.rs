@@ -2,7 +2,7 @@
 //! knob, as PNG and SVG.
 
 use super::frontier::frontier;
-use super::measure::{Row, PREINTEGRATED};
+use super::measure::{Row, ADAPTIVE, PREINTEGRATED};
 use super::setup::{BASE_ERT, BASE_STEP};
 use crate::plot::{drawing_error, grid_size, seconds, titled_grid, write_png_svg, Chart, COLOURS};
 use anyhow::{bail, Result};
@@ -48,10 +48,10 @@ struct RayChart<'a> {
 }
 
 /// The curves drawn in `knob`'s panel: its own, and for the step the
-/// same steps pre-integrated.
+/// same steps pre-integrated and adaptive steps' tolerances.
 fn curves(knob: &'static str) -> Vec<&'static str> {
     match knob {
-        "step" => vec!["step", PREINTEGRATED],
+        "step" => vec!["step", PREINTEGRATED, ADAPTIVE],
         k => vec![k],
     }
 }
@@ -60,7 +60,7 @@ fn curves(knob: &'static str) -> Vec<&'static str> {
 fn knobs_of(rows: &[Row]) -> Vec<&'static str> {
     let mut knobs: Vec<&'static str> = Vec::new();
     for r in rows.iter().filter(|r| r.psnr_db.is_some()) {
-        if r.knob != PREINTEGRATED && !knobs.contains(&r.knob) {
+        if !matches!(r.knob, PREINTEGRATED | ADAPTIVE) && !knobs.contains(&r.knob) {
             knobs.push(r.knob);
         }
     }
@@ -151,7 +151,7 @@ impl Chart for RayChart<'_> {
                 let colour = if j == 0 {
                     colour
                 } else {
-                    COLOURS[(i + 3) % COLOURS.len()]
+                    COLOURS[(i + 2 + j) % COLOURS.len()]
                 };
                 let knob = &curve;
                 let pts: Vec<&&Row> = finite.iter().filter(|r| r.knob == *knob).collect();
@@ -193,6 +193,9 @@ impl Chart for RayChart<'_> {
                         let mut label = r.value.clone();
                         if *knob == PREINTEGRATED {
                             label.push_str(" pre");
+                        }
+                        if *knob == ADAPTIVE {
+                            label = format!("tol {label}");
                         }
                         if is_default(knob, &r.value) {
                             label.push_str(" (default)");

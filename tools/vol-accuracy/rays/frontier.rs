@@ -2,14 +2,18 @@
 //! scene's settings (the fastest at each PSNR), and the time a method's
 //! curve needs for a PSNR, written as `methods.md`.
 
-use super::measure::{Row, PREINTEGRATED};
+use super::measure::{Row, ADAPTIVE, PREINTEGRATED};
 use crate::files::write_via_temp;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// The methods compared: (knob whose values are steps, name in tables).
-pub const METHODS: [(&str, &str); 2] = [("step", "step"), (PREINTEGRATED, "pre-integrated")];
+/// The methods compared: (knob, name in tables).
+pub const METHODS: [(&str, &str); 3] = [
+    ("step", "step"),
+    (PREINTEGRATED, "pre-integrated"),
+    (ADAPTIVE, "adaptive"),
+];
 
 /// PSNR levels the table reports the time for.
 pub const LEVELS_DB: [f64; 3] = [40.0, 45.0, 50.0];

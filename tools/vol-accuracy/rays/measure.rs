@@ -3,8 +3,8 @@
 //! per setting.
 
 use super::setup::{
-    Scene, Sweep, AO_AMBIENT, AO_REF_RAYS, BASE_ERT, BASE_STEP, REF_STEP, SHADOW_LIGHT,
-    SHADOW_REF_STEP,
+    Scene, Sweep, ADAPTIVE_STEP, AO_AMBIENT, AO_REF_RAYS, BASE_ERT, BASE_STEP, REF_STEP,
+    SHADOW_LIGHT, SHADOW_REF_STEP,
 };
 use crate::drive::{path_arg, psnr, render, strs, tool, Ctx, Timing};
 use anyhow::{Context, Result};
@@ -12,6 +12,10 @@ use std::path::Path;
 
 /// The knob of steps swept with `--preintegrated` (its values are steps).
 pub const PREINTEGRATED: &str = "preintegrated";
+
+/// The knob of adaptive steps' tolerances (`--adaptive TOL` at
+/// [`ADAPTIVE_STEP`]).
+pub const ADAPTIVE: &str = "adaptive";
 
 /// One measured setting: a row of the CSV.
 pub struct Row {
@@ -72,10 +76,14 @@ pub fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
     for s in &sweep.step {
         settings.push(("step", s.to_string(), strs(&["--step", s])));
     }
-    if scene.preintegrates {
+    if scene.tf_1d {
         for s in &sweep.step {
             let args = strs(&["--step", s, "--preintegrated"]);
             settings.push((PREINTEGRATED, s.to_string(), args));
+        }
+        for tol in &sweep.adaptive {
+            let args = strs(&["--step", ADAPTIVE_STEP, "--adaptive", tol]);
+            settings.push((ADAPTIVE, tol.to_string(), args));
         }
     }
     for e in &sweep.ert {
@@ -105,7 +113,7 @@ pub fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
     for (knob, value, args) in settings {
         // The base settings, except for the knob being swept.
         let mut all = Vec::new();
-        if knob != "step" && knob != PREINTEGRATED {
+        if !matches!(knob, "step" | PREINTEGRATED | ADAPTIVE) {
             all.extend(strs(&["--step", BASE_STEP]));
         }
         if knob != "ert" {

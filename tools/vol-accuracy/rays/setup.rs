@@ -17,8 +17,9 @@ pub struct Scene {
     /// Also study shadows and ambient occlusion (as the scenes
     /// `NAME-shadows` and `NAME-ao`).
     pub effects: bool,
-    /// Its transfer function is 1D: the step is swept pre-integrated too.
-    pub preintegrates: bool,
+    /// Its transfer function is 1D: the step is swept pre-integrated too,
+    /// and adaptive steps' tolerance is swept.
+    pub tf_1d: bool,
 }
 
 /// The values swept for each knob.
@@ -26,6 +27,9 @@ pub struct Sweep {
     /// Steps, swept as they are and (1D transfer functions) with
     /// `--preintegrated`.
     pub step: Vec<&'static str>,
+    /// Tolerances of adaptive steps (`--adaptive`), each at
+    /// [`ADAPTIVE_STEP`] (scenes with a 1D transfer function).
+    pub adaptive: Vec<&'static str>,
     pub ert: Vec<&'static str>,
     pub cell: Vec<&'static str>,
     pub tile: Vec<&'static str>,
@@ -76,6 +80,9 @@ impl FullQuick {
 /// Base settings of every render that is not the reference.
 pub const BASE_STEP: &str = "0.2";
 pub const BASE_ERT: &str = "0.99";
+/// The step adaptive steps refine from: the finest of the step sweep, so
+/// the tolerance alone sets how far strides coarsen it.
+pub const ADAPTIVE_STEP: &str = "0.05";
 /// Reference step.
 pub const REF_STEP: FullQuick = FullQuick {
     full: "0.01",
@@ -133,7 +140,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: None,
         effects: true,
-        preintegrates: true,
+        tf_1d: true,
     };
     let noise = Scene {
         name: "noise",
@@ -150,7 +157,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: Some(NOISE_TF),
         effects: false,
-        preintegrates: true,
+        tf_1d: true,
     };
     // The same kind of volume through a 2D transfer function: the
     // boundary preset (opacity rising with the gradient magnitude), whose
@@ -172,7 +179,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: None,
         effects: false,
-        preintegrates: false,
+        tf_1d: false,
     };
     // A CT-like head (air, skin, a closed skull, brain, small lesions, in
     // Hounsfield units with noise) through the `ct` preset: dense where
@@ -201,11 +208,12 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         ],
         tf_file: None,
         effects: true,
-        preintegrates: true,
+        tf_1d: true,
     };
     let sweep = if quick {
         Sweep {
             step: vec!["0.05", "0.2", "0.8", "1.6"],
+            adaptive: vec!["0.01", "0.1"],
             ert: vec!["0.9", "0.99", "off"],
             cell: vec!["4", "16"],
             tile: vec!["8", "32"],
@@ -219,6 +227,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
     } else {
         Sweep {
             step: vec!["0.05", "0.1", "0.2", "0.4", "0.8", "1.6"],
+            adaptive: vec!["0.001", "0.003", "0.01", "0.03", "0.1", "0.3"],
             ert: vec!["0.9", "0.95", "0.99", "0.999", "off"],
             cell: vec!["4", "8", "16", "32"],
             tile: vec!["8", "16", "32", "64"],
