@@ -391,6 +391,7 @@ const EXAMPLES: &str = "Examples:
   vol-render noise.vvol --mode mip --ortho -o mip.png --heatmap samples.png
   vol-render noise.vvol --mode mip --ortho-height 300 -o mip300.png
   vol-render brain.nii.gz --tf auto -o brain.png
+  vol-render ct.vvol --tf ct --shading phong --step 0.05 --adaptive 0.03 -o ct-fast.png
   vol-render shapes.vvol --index shapes.vvol.vidx --no-ert --threads 1 -o a.png
 
   vol-render sphere.vvol --tf boundary --shading phong -o shell.png
