@@ -62,7 +62,7 @@ pub fn stride_log2s(
 
 /// The largest `log2 s` (0 ..= [`MAX_STRIDE_LOG2`]) with `s·v ≤ budget`.
 fn stride_log2(budget: f64, v: f64) -> u8 {
-    if v.is_nan() || !(budget > 0.0) {
+    if v.is_nan() || budget.is_nan() || budget <= 0.0 {
         return 0;
     }
     if v <= 0.0 {
