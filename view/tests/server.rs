@@ -698,3 +698,37 @@ fn listen_on_every_address_prints_the_reachable_ones() {
         );
     }
 }
+
+/// Issue 53 §7: docs/view.md names only flags vol-view or vol-render
+/// has (it named `--time`, which is `--seconds`).
+#[test]
+fn the_guide_names_only_real_flags() {
+    use clap::CommandFactory;
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/view.md")).unwrap();
+    let help = std::process::Command::new(env!("CARGO_BIN_EXE_vol-view"))
+        .arg("--help")
+        .output()
+        .unwrap();
+    let view_help = String::from_utf8(help.stdout).unwrap();
+    let render = volscene::Options::command();
+    let mut unknown = Vec::new();
+    for (i, _) in text.match_indices("`--") {
+        let flag: String = text[i + 3..]
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '-')
+            .collect();
+        let known = render
+            .get_arguments()
+            .any(|a| a.get_long() == Some(flag.as_str()))
+            || view_help.contains(&format!("--{flag}"))
+            || ["help", "version"].contains(&flag.as_str());
+        if !known {
+            unknown.push(flag);
+        }
+    }
+    assert!(
+        unknown.is_empty(),
+        "docs/view.md names flags no tool has: {unknown:?}"
+    );
+}
