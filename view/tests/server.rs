@@ -718,10 +718,16 @@ fn the_guide_names_only_real_flags() {
             .chars()
             .take_while(|c| c.is_ascii_alphanumeric() || *c == '-')
             .collect();
+        // A hidden flag is an old spelling kept to say it is gone.
         let known = render
             .get_arguments()
-            .any(|a| a.get_long() == Some(flag.as_str()))
-            || view_help.contains(&format!("--{flag}"))
+            .any(|a| a.get_long() == Some(flag.as_str()) && !a.is_hide_set())
+            || view_help
+                .match_indices(&format!("--{flag}"))
+                .any(|(at, m)| {
+                    !view_help[at + m.len()..]
+                        .starts_with(|c: char| c.is_ascii_alphanumeric() || c == '-')
+                })
             || ["help", "version"].contains(&flag.as_str());
         if !known {
             unknown.push(flag);
