@@ -1092,14 +1092,7 @@ fn tiff_and_raw_outputs_say_what_geometry_they_drop() {
             "raw holds no geometry: dropped spacing 2,2,2, origin 10,20,30",
         ),
     ] {
-        let out = Command::new(env!("CARGO_BIN_EXE_vol-convert"))
-            .arg(&mhd)
-            .arg("-o")
-            .arg(d.path().join(name))
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{out:?}");
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = convert_notes(&mhd, &d.path().join(name));
         let notes: Vec<&str> = err.lines().filter(|l| l.contains("holds no")).collect();
         assert_eq!(notes.len(), 1, "{name}: {err}");
         assert!(notes[0].contains(want), "{name}: {err}");
@@ -1110,16 +1103,17 @@ fn tiff_and_raw_outputs_say_what_geometry_they_drop() {
         .args(["ramp", "--dims", "4,3,2", "-q", "-o"])
         .arg(&plain));
     for name in ["p.tif", "p_4x3x2_uint8.raw"] {
-        let out = Command::new(env!("CARGO_BIN_EXE_vol-convert"))
-            .arg(&plain)
-            .arg("-o")
-            .arg(d.path().join(name))
-            .output()
-            .unwrap();
-        assert!(out.status.success(), "{out:?}");
-        assert!(
-            !String::from_utf8_lossy(&out.stderr).contains("holds no"),
-            "{name}: {out:?}"
-        );
+        let err = convert_notes(&plain, &d.path().join(name));
+        assert!(!err.contains("holds no"), "{name}: {err}");
     }
+}
+
+/// `vol-convert input -o output`, which must succeed; its stderr.
+fn convert_notes(input: &Path, output: &Path) -> String {
+    let out = run(Command::new(env!("CARGO_BIN_EXE_vol-convert"))
+        .arg(input)
+        .arg("-o")
+        .arg(output));
+    assert!(out.status.success(), "{out:?}");
+    String::from_utf8_lossy(&out.stderr).into_owned()
 }
