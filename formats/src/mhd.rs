@@ -252,8 +252,11 @@ pub fn parse(text: &str) -> Result<(MhdHeader, u64)> {
             ))
         }
     };
+    // MetaImage has no unit field: its readers (ITK) take millimetres, and
+    // volkit's writer converts to them.
     let geometry = Geometry::from_axes(origin, axes)
-        .map_err(|e| Error::invalid(format!("MetaImage geometry: {e}")))?;
+        .map_err(|e| Error::invalid(format!("MetaImage geometry: {e}")))?
+        .with_unit(volcore::LengthUnit::Millimeter);
     if header_size == -1 && compressed {
         return Err(Error::invalid(
             "MetaImage HeaderSize -1 works with uncompressed data only",

@@ -356,7 +356,7 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
                 vvol::Stored::Volume(v) => v.meta.layout,
                 vvol::Stored::F64(meta, _) => meta.layout,
             };
-            let format = format!("vvol ({})", layout.describe());
+            let format = vvol_format(layout);
             Box::new(vvol::VolumeReader::of_stored(path, v, &format))
         }
         InputKind::ThesisVol => Box::new(thesis::ThesisReader::open(path)?),
@@ -369,7 +369,7 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
                 l.big_endian,
                 l.skip,
                 true,
-                "raw",
+                RAW_FORMAT,
             )?)
         }
     })
@@ -461,29 +461,58 @@ fn open_stdin(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReader>> 
 /// (wider sample types become the smallest stored type that holds their
 /// values, as `vol-convert` would pick). Origin and directions are kept.
 pub fn open(path: &Path, opts: &ReadOptions) -> CResult<Volume> {
+    open_described(path, opts).map(|(v, _)| v)
+}
+
+/// [`open`], and the name of the file's format as `vol-convert` reports
+/// it (`nifti-1 (nii, gzip)`, `vvol (sliced)`, `tiff (60 pages)`): the
+/// reader's [`InputInfo::format`](crate::reader::InputInfo), so every
+/// tool names a format the same way.
+pub fn open_described(path: &Path, opts: &ReadOptions) -> CResult<(Volume, String)> {
     if path.as_os_str() != "-" {
         let kind = input_kind(path, opts)?;
         refuse_level(path, kind, opts)?;
         match kind {
-            InputKind::Vvol => return vvol::open(path, opts.vvol).at(path),
-            InputKind::ThesisVol => return thesis::open(path).and_then(|f| f.volume()).at(path),
+            InputKind::Vvol => {
+                let v = vvol::open(path, opts.vvol).at(path)?;
+                let format = vvol_format(v.meta.layout);
+                return Ok((v, format));
+            }
+            InputKind::ThesisVol => {
+                let f = thesis::open(path).at(path)?;
+                return Ok((f.volume().at(path)?, f.format_name()));
+            }
             InputKind::Raw => {
                 let l = opts.raw.resolve(path).at(path)?;
                 if l.sample_type.stored().is_some() && l.skip == 0 {
-                    return crate::raw::open(path, l).at(path);
+                    return Ok((crate::raw::open(path, l).at(path)?, RAW_FORMAT.into()));
                 }
             }
             InputKind::Nifti => {
                 let spec = crate::nifti::open(path, opts.time).at(path)?;
+                let format = spec.format.clone();
                 if let Some(v) = crate::datafile::open_mapped(&spec).at(&spec.data_file)? {
-                    return Ok(v);
+                    return Ok((v, format));
                 }
-                return load(crate::datafile::open_data(path, &spec)?, None);
+                return Ok((
+                    load(crate::datafile::open_data(path, &spec)?, None)?,
+                    format,
+                ));
             }
             _ => {}
         }
     }
-    load(open_input(path, opts)?, None)
+    let reader = open_input(path, opts)?;
+    let format = reader.info().format.clone();
+    Ok((load(reader, None)?, format))
+}
+
+/// The format name of a raw file.
+const RAW_FORMAT: &str = "raw";
+
+/// The format name of a `.vvol` file of `layout`.
+fn vvol_format(layout: volcore::Layout) -> String {
+    format!("vvol ({})", layout.describe())
 }
 
 /// Read everything `reader` holds into memory, as `sample_type` (or the

@@ -152,6 +152,11 @@ pub fn open(path: &Path) -> Result<ThesisFile> {
 }
 
 impl ThesisFile {
+    /// The format's name in reports (`thesis .vol (sliced)`).
+    pub fn format_name(&self) -> String {
+        format!("thesis .vol ({:?})", self.header().layout).to_lowercase()
+    }
+
     /// The header.
     pub fn header(&self) -> &ThesisHeader {
         &self.header
@@ -345,7 +350,7 @@ impl ThesisReader {
                 sample_type: SliceType::U8,
                 spacing: Some(h.spacing),
                 geometry: volcore::Geometry::IDENTITY,
-                format: format!("thesis .vol ({:?})", h.layout).to_lowercase(),
+                format: file.format_name(),
             },
             file,
             bytes,

@@ -65,7 +65,8 @@ def test_round_trip(tmp_path, dtype, fmt):
     if has_geometry:
         np.testing.assert_allclose(v.origin, ORIGIN, atol=1e-6)
         np.testing.assert_allclose(v.direction, DIRECTION, atol=1e-6)
-    assert v.unit is None
+    # MetaImage has no unit field: read as the millimetres ITK assumes.
+    assert v.unit == ("millimeter" if name == "metaimage" else None)
 
 
 def test_save_keeps_layout_and_compression(tmp_path):

@@ -1067,3 +1067,53 @@ fn malformed_crop_and_window_are_usage_errors() {
         assert!(!out.exists(), "{args:?}");
     }
 }
+
+/// Issue 53 §6: TIFF and raw outputs cannot hold an origin or direction
+/// (raw not even the spacing): one note on stderr says what was dropped,
+/// and none when the input's are the defaults.
+#[test]
+fn tiff_and_raw_outputs_say_what_geometry_they_drop() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(d.path().join("a.raw"), [7u8; 24]).unwrap();
+    let mhd = d.path().join("a.mhd");
+    std::fs::write(
+        &mhd,
+        "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\nElementType = MET_UCHAR\n\
+         ElementSpacing = 2 2 2\nOffset = 10 20 30\nElementDataFile = a.raw\n",
+    )
+    .unwrap();
+    for (name, want) in [
+        (
+            "o.tif",
+            "TIFF holds no origin or direction: dropped origin 10,20,30",
+        ),
+        (
+            "o_4x3x2_uint8.raw",
+            "raw holds no geometry: dropped spacing 2,2,2, origin 10,20,30",
+        ),
+    ] {
+        let err = convert_notes(&mhd, &d.path().join(name));
+        let notes: Vec<&str> = err.lines().filter(|l| l.contains("holds no")).collect();
+        assert_eq!(notes.len(), 1, "{name}: {err}");
+        assert!(notes[0].contains(want), "{name}: {err}");
+    }
+    // The defaults: nothing to say.
+    let plain = d.path().join("plain.vvol");
+    ok(Command::new(env!("CARGO_BIN_EXE_vol-gen"))
+        .args(["ramp", "--dims", "4,3,2", "-q", "-o"])
+        .arg(&plain));
+    for name in ["p.tif", "p_4x3x2_uint8.raw"] {
+        let err = convert_notes(&plain, &d.path().join(name));
+        assert!(!err.contains("holds no"), "{name}: {err}");
+    }
+}
+
+/// `vol-convert input -o output`, which must succeed; its stderr.
+fn convert_notes(input: &Path, output: &Path) -> String {
+    let out = run(Command::new(env!("CARGO_BIN_EXE_vol-convert"))
+        .arg(input)
+        .arg("-o")
+        .arg(output));
+    assert!(out.status.success(), "{out:?}");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}

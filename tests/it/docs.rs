@@ -136,3 +136,42 @@ fn the_readme_is_a_landing_page() {
         "path-tracing---mode-path"
     );
 }
+
+/// Issue 53 §6: the README's `vol-info` sample is what the tool prints:
+/// the README's own `vol-gen … -o shapes.vvol` run as written, then
+/// `vol-info shapes.vvol`, compared with the text block that follows
+/// "`vol-info shapes.vvol` then prints".
+#[test]
+fn the_readmes_vol_info_sample_is_what_it_prints() {
+    let text = std::fs::read_to_string(root().join("README.md")).unwrap();
+    let gen_line = text
+        .lines()
+        .find(|l| l.starts_with("vol-gen shapes ") && l.contains("-o shapes.vvol"))
+        .expect("the README makes shapes.vvol with vol-gen");
+    let (_, after) = text
+        .split_once("`vol-info shapes.vvol` then prints")
+        .expect("the README shows vol-info's output");
+    let (_, block) = after.split_once("```text\n").expect("a text block follows");
+    let (want, _) = block.split_once("```").unwrap();
+    let d = tempfile::tempdir().unwrap();
+    let args: Vec<&str> = gen_line
+        .split('#')
+        .next()
+        .unwrap()
+        .split_whitespace()
+        .collect();
+    crate::common::ok(
+        crate::common::tool("vol-gen")
+            .args(&args[1..])
+            .current_dir(d.path()),
+    );
+    let got = crate::common::ok(
+        crate::common::tool("vol-info")
+            .arg("shapes.vvol")
+            .current_dir(d.path()),
+    );
+    assert_eq!(
+        got, want,
+        "README.md's sample differs from what vol-info prints"
+    );
+}

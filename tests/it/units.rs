@@ -158,6 +158,18 @@ fn units_a_format_cannot_state_are_converted_and_said() {
     let out = run(tool("vol-convert").arg(&nm).arg("-o").arg(&mha));
     assert!(String::from_utf8_lossy(&out.stderr).contains("MetaImage cannot state nm"));
     assert!(near(&info(&mha)["spacing"], [4e-5, 4e-5, 2e-4]));
+    // Issue 53 §6: read back in the millimetres the writer assumed, and
+    // kept through another MetaImage (.mhd) and a .vvol.
+    assert_eq!(info(&mha)["unit"], "millimeter");
+    let mhd = d.join("again.mhd");
+    ok(tool("vol-convert").arg(&mha).arg("-q").arg("-o").arg(&mhd));
+    let back = d.join("again.vvol");
+    ok(tool("vol-convert").arg(&mhd).arg("-q").arg("-o").arg(&back));
+    for p in [&mhd, &back] {
+        let j = info(p);
+        assert_eq!(j["unit"], "millimeter", "{}: {j}", p.display());
+        assert!(near(&j["spacing"], [4e-5, 4e-5, 2e-4]), "{j}");
+    }
     // .vvol holds nanometres as they are.
     let v = d.join("nm.vvol");
     let out = run(tool("vol-convert").arg(&nm).arg("-o").arg(&v));

@@ -121,10 +121,11 @@ fn info(cli: &Cli) -> Result<()> {
     if sizes.time_points > 1 && sel.time_point.is_none() {
         opts.time = Some(0);
     }
-    let mut format = kind.map(|k| k.name().to_string());
     // A DICOM input's skipped files, listed after the description.
     let mut skipped = None;
-    let vol = if matches!(kind, Some(InputKind::DicomDir | InputKind::Dicom)) {
+    // The format named as vol-convert names it (the reader's words:
+    // "dicom series (CT, 120 images)", "nifti-1 (nii, gzip)").
+    let (vol, format) = if matches!(kind, Some(InputKind::DicomDir | InputKind::Dicom)) {
         use volformats::convert::SliceReader;
         let scan = volformats::open::dicom_scan(&cli.input, &opts)?;
         if cli.input_sel.series.is_none() && scan.series().len() > 1 {
@@ -136,11 +137,10 @@ fn info(cli: &Cli) -> Result<()> {
         }
         skipped = Some(scan.skipped().to_vec());
         let reader = scan.open(cli.input_sel.series.as_deref())?;
-        // The words vol-convert uses: "dicom series (CT, 120 images)".
-        format = Some(reader.info().format.clone());
-        volformats::open::load(Box::new(reader), None)?
+        let format = reader.info().format.clone();
+        (volformats::open::load(Box::new(reader), None)?, format)
     } else {
-        volformats::open(&cli.input, &opts)?
+        volformats::open::open_described(&cli.input, &opts)?
     };
     let file_bytes = match kind {
         Some(_) if cli.input.is_file() => Some(std::fs::metadata(&cli.input)?.len()),
@@ -179,9 +179,8 @@ fn info(cli: &Cli) -> Result<()> {
     };
     let figures = stats::compute(&cli.input, &opts, &vol, &cli.stats, cli.quiet)?;
     if !cli.quiet {
-        let format = format.as_deref().unwrap_or("stream");
         let found = Found {
-            format,
+            format: &format,
             file_bytes,
             skipped: skipped.as_deref(),
             levels: levels.as_ref(),

@@ -7,6 +7,7 @@ use crate::viewer::Viewer;
 use clap::{ArgAction, Args, CommandFactory, ValueHint};
 use glam::Vec3;
 use serde_json::{json, Value};
+use volscene::options::PATH_HEADING;
 use volscene::{Error, Options};
 
 /// Bins of the histogram sent to the page's transfer function editor.
@@ -22,19 +23,63 @@ pub fn hello(viewer: &Viewer, save_dir: bool) -> Result<Value, Error> {
         "version": env!("CARGO_PKG_VERSION"),
         "options": options(),
         "presets": volrender::tf::PRESETS,
-        "scene": serde_json::to_value(&plan.scene).map_err(|e| Error::option(e.to_string()))?,
+        "scene": shortest(&plan.scene)?,
+        "tf": tf_points(plan.tf.as_ref())?,
         "camera": camera,
         "volume": {
             "name": viewer.volume.display().to_string(),
             "dims": [meta.dims.x, meta.dims.y, meta.dims.z],
-            "spacing": meta.spacing,
+            "spacing": shortest(&meta.spacing)?,
             "type": format!("{:?}", meta.sample_type).to_lowercase(),
             "range": [meta.range.min, meta.range.max],
-            "extent": meta.world_extent(),
+            "extent": shortest(&meta.world_extent())?,
             "origin": meta.geometry.origin,
         },
         "histogram": histogram(viewer),
         "save_dir": save_dir,
+    }))
+}
+
+/// `value` as JSON with every f32 in its shortest form (`0.99`, not the
+/// `0.9900000095367432` of its f64 widening): serialised as text, where
+/// serde writes an f32 as an f32, and read back.
+pub fn shortest<T: serde::Serialize + ?Sized>(value: &T) -> Result<Value, Error> {
+    serde_json::to_string(value)
+        .and_then(|text| serde_json::from_str(&text))
+        .map_err(|e| Error::option(format!("the page's JSON: {e}")))
+}
+
+/// A 1D transfer function as the page's editor starts from it: its
+/// domain (`null`: the volume's range), reference step, control points
+/// `[value, r, g, b, opacity]` and constant ranges `[lo, hi, r, g, b,
+/// opacity]`, colours 0-255 as in the TF text; `null` for none or a 2D
+/// one (the editor is 1D).
+pub fn tf_points(tf: Option<&volrender::tf::Tf>) -> Result<Value, Error> {
+    let Some(volrender::tf::Tf::OneD(t)) = tf else {
+        return Ok(Value::Null);
+    };
+    let rgb = |c: [f32; 3]| c.map(|v| (v * 255.0).round());
+    let points: Vec<[f32; 5]> = t
+        .points
+        .iter()
+        .map(|p| {
+            let [r, g, b] = rgb(p.rgb);
+            [p.value, r, g, b, p.alpha]
+        })
+        .collect();
+    let ranges: Vec<[f32; 6]> = t
+        .ranges
+        .iter()
+        .map(|q| {
+            let [r, g, b] = rgb(q.rgb);
+            [q.lo, q.hi, r, g, b, q.alpha]
+        })
+        .collect();
+    Ok(json!({
+        "domain": shortest(&t.domain.map(|(lo, hi)| [lo, hi]))?,
+        "step": shortest(&t.reference_step)?,
+        "points": shortest(&points)?,
+        "ranges": shortest(&ranges)?,
     }))
 }
 
@@ -61,6 +106,9 @@ pub fn options() -> Value {
                 "help": a.get_help().map(|h| h.to_string()),
                 "long_help": a.get_long_help().map(|h| h.to_string()),
                 "heading": a.get_help_heading(),
+                // The modes the option applies to (`null`: all): the
+                // path tracer's options are refused in other modes.
+                "modes": (a.get_help_heading() == Some(PATH_HEADING)).then_some(["path"]),
                 "kind": kind,
                 "defaults": a.get_default_values().iter()
                     .map(|v| v.to_string_lossy().into_owned()).collect::<Vec<_>>(),
@@ -135,6 +183,8 @@ fn histogram(viewer: &Viewer) -> Value {
 #[cfg(test)]
 mod tests {
     use super::options;
+    use serde_json::{json, Value};
+    use volscene::options::PATH_HEADING;
 
     #[test]
     fn the_form_has_the_render_options_but_not_the_input_selection() {
@@ -150,6 +200,29 @@ mod tests {
         }
         for fixed in ["raw_dims", "series", "channel", "time_point", "level"] {
             assert!(!ids.contains(&fixed), "{fixed} offered: {ids:?}");
+        }
+    }
+
+    /// Issue 53 §7: each option under the heading `vol-render --help`
+    /// prints it under, and the modes it applies to.
+    #[test]
+    fn options_carry_their_heading_and_modes() {
+        let v = options();
+        let by_id = |id: &str| {
+            v.as_array()
+                .unwrap()
+                .iter()
+                .find(|o| o["id"] == id)
+                .unwrap_or_else(|| panic!("{id} missing"))
+                .clone()
+        };
+        for id in ["ert", "tf", "step", "json"] {
+            assert_eq!(by_id(id)["heading"], Value::Null, "{id}: {}", by_id(id));
+            assert_eq!(by_id(id)["modes"], Value::Null, "{id}");
+        }
+        for id in ["spp", "seconds", "bounces", "tonemap"] {
+            assert_eq!(by_id(id)["heading"], PATH_HEADING, "{id}");
+            assert_eq!(by_id(id)["modes"], json!(["path"]), "{id}");
         }
     }
 }

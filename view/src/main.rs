@@ -98,8 +98,12 @@ fn run(args: &Args) -> Result<(), (u8, String)> {
     let name = viewer.volume.display().to_string();
     let server = Server::bind(&config, viewer)
         .map_err(|e| (1, format!("cannot listen on {}: {e}", config.addr)))?;
-    let url = server.url().map_err(|e| (1, e.to_string()))?;
+    let urls = server.urls().map_err(|e| (1, e.to_string()))?;
+    let url = urls.first().cloned().unwrap_or_default();
     println!("vol-view: showing {name} at {url}");
+    for other in &urls[1..] {
+        println!("vol-view: also at {other}");
+    }
     if config.token.is_some() {
         println!("vol-view: requests need the token in that address; share it only with those who may drive this server");
     }
@@ -136,8 +140,16 @@ fn volcore_text(s: &str) -> String {
     volcore::text::clip(&volcore::text::escape(s), 60)
 }
 
-/// Start the system's browser on `url` (a note when there is none).
+/// Start the system's browser on `url`; a line on stderr when there is
+/// no display, no browser, or the browser fails (the server goes on).
 fn open_browser(url: &str) {
+    let no_display = cfg!(all(unix, not(target_os = "macos")))
+        && std::env::var_os("DISPLAY").is_none()
+        && std::env::var_os("WAYLAND_DISPLAY").is_none();
+    if no_display {
+        eprintln!("vol-view: --open: no display (DISPLAY and WAYLAND_DISPLAY are unset); open the address above in a browser yourself");
+        return;
+    }
     let tries: &[&[&str]] = if cfg!(target_os = "macos") {
         &[&["open"]]
     } else if cfg!(windows) {
@@ -152,9 +164,19 @@ fn open_browser(url: &str) {
             .stdout(std::process::Stdio::null())
             .stderr(std::process::Stdio::null())
             .spawn();
-        if started.is_ok() {
+        if let Ok(mut child) = started {
+            let name = cmd[0];
+            // Its failure comes later (xdg-open finds no browser): say so
+            // then, without holding the server up.
+            std::thread::spawn(move || {
+                if let Ok(status) = child.wait() {
+                    if !status.success() {
+                        eprintln!("vol-view: --open: {name} failed ({status}); open the address above yourself");
+                    }
+                }
+            });
             return;
         }
     }
-    eprintln!("vol-view: found no browser to open; open the address above yourself");
+    eprintln!("vol-view: --open: found no browser to open; open the address above yourself");
 }

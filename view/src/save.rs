@@ -12,6 +12,12 @@ use std::path::{Path, PathBuf};
 pub struct Snapshot {
     /// The request it answers.
     pub seq: u64,
+    /// The name its files share (`view-12`, `view-12-16spp`; see
+    /// [`crate::worker::stem`]).
+    pub stem: String,
+    /// The `vol-render` command that renders it to `STEM.png` and
+    /// `STEM.pfm` (reading `STEM.toml` when it needs the scene file).
+    pub command: String,
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.
@@ -27,7 +33,7 @@ pub struct Snapshot {
 /// A file to download: its name, type and bytes.
 #[derive(Clone, Debug)]
 pub struct Download {
-    /// The file's name (`view-12.pfm`).
+    /// The file's name (`view-12.pfm`: the snapshot's stem).
     pub name: String,
     /// Its media type.
     pub mime: &'static str,
@@ -48,7 +54,7 @@ pub fn download(snap: &Snapshot, what: SaveKind) -> Result<Download, String> {
         SaveKind::Scene => ("toml", "application/toml", snap.toml.clone().into_bytes()),
     };
     Ok(Download {
-        name: format!("view-{}.{ext}", snap.seq),
+        name: format!("{}.{ext}", snap.stem),
         mime,
         bytes,
     })

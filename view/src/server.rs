@@ -55,22 +55,34 @@ impl Server {
         self.listener.local_addr()
     }
 
-    /// The page's address, with the token when one is needed (a wildcard
-    /// address shown as the loopback one).
+    /// The page's address, with the token when one is needed: the
+    /// first of [`Server::urls`].
     pub fn url(&self) -> io::Result<String> {
+        Ok(self.urls()?.swap_remove(0))
+    }
+
+    /// The page's addresses, with the token when one is needed: the
+    /// bound one, or for a wildcard address (`0.0.0.0`, `::`) the
+    /// machine's primary address and loopback
+    /// ([`crate::config::reachable`]).
+    pub fn urls(&self) -> io::Result<Vec<String>> {
         let addr = self.addr()?;
-        let host = match addr.ip() {
-            ip if ip.is_unspecified() => "127.0.0.1".to_string(),
-            std::net::IpAddr::V6(v6) => format!("[{v6}]"),
-            ip => ip.to_string(),
-        };
         let token = self
             .shared
             .guard
             .token()
             .map(|t| format!("?token={t}"))
             .unwrap_or_default();
-        Ok(format!("http://{host}:{}/{token}", addr.port()))
+        Ok(crate::config::reachable(addr.ip())
+            .into_iter()
+            .map(|ip| {
+                let host = match ip {
+                    std::net::IpAddr::V6(v6) => format!("[{v6}]"),
+                    v4 => v4.to_string(),
+                };
+                format!("http://{host}:{}/{token}", addr.port())
+            })
+            .collect())
     }
 
     /// Serve until the process ends.

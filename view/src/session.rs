@@ -189,7 +189,8 @@ fn handle(
                     };
                     Out {
                         header: json!({"type": "download", "seq": snap.seq, "name": d.name,
-                                       "mime": d.mime, "saved": saved}),
+                                       "mime": d.mime, "saved": saved,
+                                       "command": snap.command}),
                         payload: d.bytes,
                     }
                 }

@@ -102,10 +102,10 @@ impl Viewer {
     }
 
     /// The `vol-render` command that renders the view `pairs` ask for to
-    /// `view.png` and `view.pfm`; with keys only a scene file holds
-    /// (`tf-text`, `lights`), the command that reads its scene file
-    /// `view.toml` (the page's scene download).
-    pub fn command(&self, pairs: &Map<String, Value>) -> Result<String, Error> {
+    /// `STEM.png` and `STEM.pfm` (the names its saves get); with keys
+    /// only a scene file holds (`tf-text`, `lights`), the command that
+    /// reads its scene file `STEM.toml` (the page's scene download).
+    pub fn command(&self, pairs: &Map<String, Value>, stem: &str) -> Result<String, Error> {
         let split = volscene::pairs::split(pairs.iter().map(|(k, v)| (k.as_str(), v.clone())))?;
         let mut words = vec!["vol-render".to_string()];
         if !split
@@ -113,7 +113,7 @@ impl Viewer {
             .iter()
             .all(|id| !volscene::pairs::SCENE_ONLY.contains(&id.as_str()))
         {
-            words.extend(["--scene".into(), "view.toml".into()]);
+            words.extend(["--scene".into(), quote(&format!("{stem}.toml"))]);
         } else {
             if let Some((p, _)) = &self.scene {
                 words.extend(["--scene".into(), quote(&p.display().to_string())]);
@@ -121,8 +121,36 @@ impl Viewer {
             words.push(quote(&self.volume.display().to_string()));
             words.extend(split.args.iter().map(|a| quote(a)));
         }
-        words.extend(["-o", "view.png", "--hdr", "view.pfm"].map(String::from));
+        words.extend([
+            "-o".into(),
+            quote(&format!("{stem}.png")),
+            "--hdr".into(),
+            quote(&format!("{stem}.pfm")),
+        ]);
         Ok(words.join(" "))
+    }
+
+    /// The command (see [`Viewer::command`]) and scene file (TOML) of a
+    /// path-traced frame of the view `pairs` ask for that holds `spp`
+    /// passes: both state `spp` and neither a time or error budget, so
+    /// they render the frame as it was saved, not the view's budget.
+    pub fn stated(
+        &self,
+        pairs: &Map<String, Value>,
+        spp: u64,
+        stem: &str,
+    ) -> Result<(String, String), Error> {
+        let mut pairs = pairs.clone();
+        pairs.retain(|k, _| {
+            !["spp", "seconds", "until_error"].contains(&volscene::pairs::id_of(k).as_str())
+        });
+        pairs.insert("spp".into(), Value::from(spp));
+        let mut options = self.options(&pairs)?;
+        // A startup scene file's budget gives way too.
+        options.seconds = None;
+        options.until_error = None;
+        let toml = volscene::file::to_toml(&self.plan(&options)?.scene)?;
+        Ok((self.command(&pairs, stem)?, toml))
     }
 }
 

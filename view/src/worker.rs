@@ -116,6 +116,8 @@ struct View {
     full: Options,
     cancel: Cancel,
     passes: Option<Passes>,
+    /// The page's pairs for the full view.
+    pairs: Map<String, Value>,
     command: String,
     toml: String,
     note: Option<String>,
@@ -227,7 +229,7 @@ impl Worker {
         let full = viewer.options(&job.pairs)?;
         let full_plan = viewer.plan(&full)?;
         let toml = volscene::file::to_toml(&full_plan.scene)?;
-        let command = viewer.command(&job.pairs)?;
+        let command = viewer.command(&job.pairs, &stem(job.seq, None))?;
         let (options, plan, note) = if job.preview {
             preview(viewer, &full, &full_plan)?
         } else {
@@ -261,6 +263,7 @@ impl Worker {
             full,
             cancel,
             passes,
+            pairs: job.pairs.clone(),
             command,
             toml,
             note,
@@ -335,6 +338,22 @@ impl Worker {
             );
             return;
         }
+        // A path-traced frame's saves state the passes it holds.
+        let spp = match &rendered.image {
+            volscene::Image::Path(t) if v.passes.is_some() => Some(t.acc.spp()),
+            _ => None,
+        };
+        let stem = stem(v.seq, spp);
+        let (command, toml) = match spp {
+            Some(n) if !v.preview => match self.viewer.stated(&v.pairs, n, &stem) {
+                Ok(stated) => stated,
+                Err(e) => {
+                    send(&self.out, Out::error(Some(v.seq), e.message()));
+                    return;
+                }
+            },
+            _ => (v.command.clone(), v.toml.clone()),
+        };
         let (w, h) = (rendered.width(), rendered.height());
         let (channels, pixels) = rendered.display8(&v.options);
         let mut png = Vec::new();
@@ -368,17 +387,20 @@ impl Worker {
             "target_spp": target,
             "notes": v.plan.notes,
             "report": report.json,
-            "command": v.command,
-            "scene": v.toml,
+            "command": command,
+            "scene": toml,
+            "tf": crate::hello::tf_points(v.plan.tf.as_ref()).unwrap_or(Value::Null),
         });
         if !v.preview {
             let snap = Snapshot {
                 seq: v.seq,
+                stem,
+                command,
                 width: w,
                 height: h,
                 rgb: rendered.linear_rgb(),
                 png: png.clone(),
-                toml: v.toml.clone(),
+                toml,
             };
             *self.snapshot.lock().unwrap_or_else(|p| p.into_inner()) = Some(snap);
         }
@@ -445,6 +467,15 @@ impl Worker {
                 );
             }
         }
+    }
+}
+
+/// The name (without extension) of view `seq`'s saves: `view-12`, or
+/// `view-12-16spp` for a path-traced frame of 16 passes.
+pub fn stem(seq: u64, spp: Option<u64>) -> String {
+    match spp {
+        Some(n) => format!("view-{seq}-{n}spp"),
+        None => format!("view-{seq}"),
     }
 }
 

@@ -343,7 +343,7 @@ fn path_tracing_refines_a_pass_at_a_time_to_the_cli_image() {
     ws.send(Message::Text(r#"{"type":"save","what":"pfm"}"#.into()))
         .unwrap();
     let (pfm, _) = until(&mut ws, "download", None);
-    assert_eq!(pfm.header["name"], "view-1.pfm");
+    assert_eq!(pfm.header["name"], "view-1-4spp.pfm");
     // The same render in one go through the library: the same bytes.
     let Value::Object(map) = pairs else { panic!() };
     let request = volscene::Request::from_pairs(map).unwrap();
@@ -433,4 +433,308 @@ fn bad_volumes_are_one_line_naming_the_file() {
     assert!(String::from_utf8(help.stdout)
         .unwrap()
         .contains("vol-view shapes.vvol --open"));
+}
+
+/// Issue 53 §7: the hello's f32 values in their shortest form (`ert`
+/// 0.99, not 0.9900000095367432), and the transfer function the view
+/// starts with as points, for the editor to start from: the startup
+/// scene's TF file, and each frame's.
+#[test]
+fn the_hello_states_f32_values_shortest_and_the_transfer_function() {
+    let dir = tempfile::tempdir().unwrap();
+    let tf = dir.path().join("brain.tf");
+    std::fs::write(
+        &tf,
+        "domain 0 200\nstep 2\nrange 5 9 0 255 0 0.25\npoint 10 255 0 0 0.1\npoint 120.5 0 0 255 0.8\n",
+    )
+    .unwrap();
+    let scene = dir.path().join("start.toml");
+    let toml_path = |p: &Path| p.display().to_string().replace('\\', "\\\\");
+    std::fs::write(
+        &scene,
+        format!(
+            "volume = \"{}\"\ntf = \"{}\"\n",
+            toml_path(&volume(dir.path())),
+            toml_path(&tf)
+        ),
+    )
+    .unwrap();
+    let viewer = Viewer::open(None, Some(&scene)).unwrap();
+    let server = Server::bind(&Config::loopback(0), viewer).unwrap();
+    let addr = server.addr().unwrap();
+    std::thread::spawn(move || server.run());
+    let (mut ws, hello) = connect(addr, "");
+    assert_eq!(
+        hello["scene"]["ert"].to_string(),
+        "0.99",
+        "{}",
+        hello["scene"]
+    );
+    assert_eq!(
+        hello["tf"],
+        json!({"domain": [0.0, 200.0], "step": 2.0,
+               "points": [[10.0, 255.0, 0.0, 0.0, 0.1], [120.5, 0.0, 0.0, 255.0, 0.8]],
+               "ranges": [[5.0, 9.0, 0.0, 255.0, 0.0, 0.25]]})
+    );
+    render(&mut ws, 1, small(10.0));
+    let (f, _) = until(&mut ws, "frame", Some(1));
+    // `shapes`: constant ranges only.
+    let ranges = f.header["tf"]["ranges"].as_array().unwrap();
+    assert_eq!(ranges.len(), 3, "{}", f.header["tf"]);
+}
+
+/// Issue 53 §7: a save during path tracing states the passes it holds:
+/// the command shows `--spp N`, the scene file says `spp = N`, and the
+/// image, scene and command share one stem (`view-1-Nspp`); the PFM
+/// saved is what one render of N samples makes.
+#[test]
+fn a_save_while_path_tracing_refines_states_its_pass_count() {
+    let (addr, dir, _) = start(Config::loopback(0));
+    let (mut ws, _) = connect(addr, "");
+    let pairs = json!({"mode": "path", "tf": "shapes", "seconds": 600, "size": [48, 40],
+                       "orbit": [30, 20, 150], "env": 1});
+    render(&mut ws, 1, pairs.clone());
+    let (f, _) = until(&mut ws, "frame", Some(1));
+    assert_eq!(f.header["final"], false);
+    for what in ["pfm", "scene"] {
+        let msg = json!({"type": "save", "what": what});
+        ws.send(Message::Text(msg.to_string().into())).unwrap();
+    }
+    let mut saved = Vec::new();
+    while saved.len() < 2 {
+        let (d, before) = until(&mut ws, "download", None);
+        for frame in before.iter().filter(|m| m.header["type"] == "frame") {
+            let spp = frame.header["cost"]["spp"].as_u64().unwrap();
+            let command = frame.header["command"].as_str().unwrap();
+            assert!(command.contains(&format!("--spp={spp} ")), "{command}");
+            assert!(!command.contains("--seconds"), "{command}");
+            let scene = frame.header["scene"].as_str().unwrap();
+            assert!(scene.contains(&format!("spp = {spp}\n")), "{scene}");
+            assert!(!scene.contains("seconds"), "{scene}");
+        }
+        saved.push(d);
+    }
+    for d in &saved {
+        let name = d.header["name"].as_str().unwrap();
+        let (stem, ext) = name.rsplit_once('.').unwrap();
+        let spp: u64 = stem
+            .strip_prefix("view-1-")
+            .and_then(|s| s.strip_suffix("spp"))
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{name}: no pass count"));
+        let command = d.header["command"].as_str().unwrap();
+        assert!(
+            command.contains(&format!("--spp={spp} "))
+                && command.ends_with(&format!("-o {stem}.png --hdr {stem}.pfm")),
+            "{command}"
+        );
+        if ext == "toml" {
+            let text = String::from_utf8(d.payload.clone()).unwrap();
+            assert!(text.contains(&format!("spp = {spp}\n")), "{text}");
+            continue;
+        }
+        let mut one = pairs.as_object().unwrap().clone();
+        one.remove("seconds");
+        one.insert("spp".into(), json!(spp));
+        let request = volscene::Request::from_pairs(one).unwrap();
+        let options = request.options();
+        let source = volscene::Source::open(options, &dir.path().join("shapes.vvol")).unwrap();
+        let plan = volscene::Plan::for_source(options, &source).unwrap();
+        let r =
+            volscene::render(options, &source, &plan, &volscene::Cancel::new(), |_| {}).unwrap();
+        let mut want = Vec::new();
+        volformats::image::encode_pfm(&mut want, 48, 40, 3, &r.linear_rgb()).unwrap();
+        assert!(d.payload == want, "{name} is not {spp} samples per pixel");
+    }
+}
+
+/// Issue 53 §7: one save is one stem: the PNG, PFM and scene of a view
+/// and the command shown for it (which reads that scene file when it
+/// needs one).
+#[test]
+fn a_views_saves_and_command_share_one_stem() {
+    let (addr, _dir, _) = start(Config::loopback(0));
+    let (mut ws, _) = connect(addr, "");
+    let mut pairs = small(25.0);
+    pairs["tf-text"] = json!("domain 0 255\npoint 0 255 255 255 0\npoint 255 255 255 255 0.5\n");
+    pairs.as_object_mut().unwrap().remove("tf");
+    render(&mut ws, 19, pairs);
+    let (f, _) = until(&mut ws, "frame", Some(19));
+    let shown = f.header["command"].as_str().unwrap().to_string();
+    let mut names = Vec::new();
+    for what in ["png", "pfm", "scene"] {
+        let msg = json!({"type": "save", "what": what});
+        ws.send(Message::Text(msg.to_string().into())).unwrap();
+        let (d, _) = until(&mut ws, "download", None);
+        assert_eq!(d.header["command"], shown.as_str());
+        names.push(d.header["name"].as_str().unwrap().to_string());
+    }
+    assert_eq!(names, ["view-19.png", "view-19.pfm", "view-19.toml"]);
+    for name in &names {
+        assert!(
+            shown.contains(&format!(" {name}")),
+            "{shown} does not name {name}"
+        );
+    }
+}
+
+/// The lines vol-view prints on start (until "Ctrl-C"), its stderr as it
+/// comes, and the process.
+fn launch(
+    args: &[&str],
+    unset: &[&str],
+) -> (Vec<String>, std::sync::mpsc::Receiver<String>, Child) {
+    use std::io::BufRead;
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_vol-view"));
+    let dir = tempfile::tempdir().unwrap();
+    let vol = volume(dir.path());
+    cmd.arg(&vol).args(args);
+    for name in unset {
+        cmd.env_remove(name);
+    }
+    let mut child = cmd
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let err = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(err).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
+    let mut lines = Vec::new();
+    loop {
+        let mut line = String::new();
+        if out.read_line(&mut line).unwrap() == 0 {
+            break;
+        }
+        let stop = line.contains("Ctrl-C");
+        lines.push(line.trim_end().to_string());
+        if stop {
+            break;
+        }
+    }
+    // The volume is open: the folder may go.
+    drop(dir);
+    (lines, rx, Child(child))
+}
+
+/// A process killed when dropped.
+struct Child(std::process::Child);
+
+impl Drop for Child {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// The addresses (`http://…/`) in `lines`.
+fn urls(lines: &[String]) -> Vec<String> {
+    lines
+        .iter()
+        .filter_map(|l| l.split_whitespace().find(|w| w.starts_with("http://")))
+        .map(String::from)
+        .collect()
+}
+
+/// Issue 53 §7: `--open` without a display says so in one line on
+/// stderr, and the server goes on serving.
+#[test]
+fn open_without_a_display_says_so_and_serves() {
+    let (lines, err, _child) = launch(&["--open"], &["DISPLAY", "WAYLAND_DISPLAY"]);
+    let line = err
+        .recv_timeout(Duration::from_secs(20))
+        .unwrap_or_else(|_| panic!("nothing on stderr; stdout: {lines:?}"));
+    assert!(line.starts_with("vol-view: --open: no display"), "{line}");
+    let url = urls(&lines).remove(0);
+    let addr: SocketAddr = url["http://".len()..]
+        .trim_end_matches('/')
+        .parse()
+        .unwrap();
+    assert_eq!(get(addr, "/").0, 200);
+    assert!(err.recv_timeout(Duration::from_millis(300)).is_err());
+}
+
+/// Issue 53 §7: `--listen 0.0.0.0` prints the addresses that reach it:
+/// the machine's primary address (where it has one) and loopback, never
+/// the wildcard; each serves the page with its token.
+#[test]
+fn listen_on_every_address_prints_the_reachable_ones() {
+    let (lines, _err, _child) = launch(&["--listen", "0.0.0.0"], &[]);
+    let all = urls(&lines);
+    assert!(all.iter().all(|u| !u.contains("0.0.0.0")), "{lines:?}");
+    assert!(
+        all.iter().any(|u| u.starts_with("http://127.0.0.1:")),
+        "{lines:?}"
+    );
+    // The primary address as the system routes off the machine.
+    let primary = std::net::UdpSocket::bind("0.0.0.0:0")
+        .and_then(|s| s.connect("198.51.100.1:9").map(|_| s))
+        .and_then(|s| s.local_addr())
+        .map(|a| a.ip());
+    if let Ok(ip) = primary {
+        assert!(
+            all.iter().any(|u| u.starts_with(&format!("http://{ip}:"))),
+            "{ip} missing: {lines:?}"
+        );
+    }
+    for url in &all {
+        let rest = &url["http://".len()..];
+        let (host, target) = rest.split_once('/').unwrap();
+        let addr: SocketAddr = host.parse().unwrap();
+        let mut s = TcpStream::connect(addr).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(20))).unwrap();
+        write!(s, "GET /{target} HTTP/1.1\r\nHost: {host}\r\n\r\n").unwrap();
+        let mut text = String::new();
+        s.read_to_string(&mut text).unwrap();
+        assert!(
+            text.starts_with("HTTP/1.1 200"),
+            "{url}: {}",
+            text.lines().next().unwrap_or("")
+        );
+    }
+}
+
+/// Issue 53 §7: docs/view.md names only flags vol-view or vol-render
+/// has (it named `--time`, which is `--seconds`).
+#[test]
+fn the_guide_names_only_real_flags() {
+    use clap::CommandFactory;
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/view.md")).unwrap();
+    let help = std::process::Command::new(env!("CARGO_BIN_EXE_vol-view"))
+        .arg("--help")
+        .output()
+        .unwrap();
+    let view_help = String::from_utf8(help.stdout).unwrap();
+    let render = volscene::Options::command();
+    let mut unknown = Vec::new();
+    for (i, _) in text.match_indices("`--") {
+        let flag: String = text[i + 3..]
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '-')
+            .collect();
+        // A hidden flag is an old spelling kept to say it is gone.
+        let known = render
+            .get_arguments()
+            .any(|a| a.get_long() == Some(flag.as_str()) && !a.is_hide_set())
+            || view_help
+                .match_indices(&format!("--{flag}"))
+                .any(|(at, m)| {
+                    !view_help[at + m.len()..]
+                        .starts_with(|c: char| c.is_ascii_alphanumeric() || c == '-')
+                })
+            || ["help", "version"].contains(&flag.as_str());
+        if !known {
+            unknown.push(flag);
+        }
+    }
+    assert!(
+        unknown.is_empty(),
+        "docs/view.md names flags no tool has: {unknown:?}"
+    );
 }

@@ -10,6 +10,8 @@ const VIEW = Math.max(128, Math.min(2048, Number(params.get("view")) || 512));
 // Options the page's camera and size drive, and those of no use here.
 const CAMERA = ["orbit", "eye", "look-at", "size"];
 const UNUSED = ["print-scene", "json", "quiet", "repeat", "threads", "in-memory", "cell"];
+// The tf dropdown's entry while the editor's function is in use.
+const EDITED = "(the editor's, sent as tf-text)";
 // Options shown at the top of the form (the rest under "All options").
 const PRIMARY = ["mode", "tf", "iso", "shading", "step", "spp", "shadows", "ao", "light"];
 
@@ -28,6 +30,10 @@ const S = {
   cam: null,
   values: {},
   tfEdit: false,
+  // The transfer function of the view shown (the editor starts from it).
+  currentTf: null,
+  // The modes each option applies to, by name (absent: all).
+  modes: {},
   last: null,
   stats: { latencies: [], firstFull: null, stopToFull: [], frames: 0, previews: 0, cancelled: 0, passes: [] },
   downloads: [],
@@ -81,8 +87,22 @@ function send(msg) {
 
 function round(x) { return Math.round(x * 1e4) / 1e4; }
 
+// The mode the form asks for (the page's choice, else the startup
+// scene's).
+function currentMode() {
+  return S.values.mode || (S.hello && S.hello.scene.mode) || "dvr";
+}
+
+// Whether option `long` applies in the current mode (the server says
+// which modes each option is for; none: all).
+function applies(long) {
+  const modes = S.modes[long];
+  return !modes || modes.includes(currentMode());
+}
+
 function pairs() {
-  const p = Object.assign({}, S.values);
+  const p = {};
+  for (const [k, v] of Object.entries(S.values)) if (applies(k)) p[k] = v;
   if (S.tfEdit) {
     delete p.tf;
     p["tf-text"] = S.tf.text();
@@ -262,6 +282,7 @@ async function frame(h, png) {
     }
   }
   S.last = { header: h, drawnAt: now };
+  if (!S.tfEdit && !h.preview) S.currentTf = h.tf;
   showFrame(h);
 }
 
@@ -281,7 +302,9 @@ function showFrame(h) {
   const lines = [];
   if (h.note) lines.push(h.note);
   else lines.push(`${h.width}x${h.height}` + (spp ? `, ${c.spp} spp` : "") + (h.final ? "" : " …"));
-  $("overlay").textContent = lines.join("\n");
+  const overlay = $("overlay");
+  overlay.textContent = lines.join("\n");
+  overlay.hidden = false;
   $("command").textContent = h.command;
   $("scene").textContent = h.scene;
   $("notes").textContent = (h.notes || []).join("\n");
@@ -303,7 +326,7 @@ function download(h, bytes) {
   a.download = h.name;
   a.click();
   setTimeout(() => URL.revokeObjectURL(url), 10000);
-  status(`saved ${h.name}` + (h.saved ? ` (also ${h.saved})` : ""));
+  status(`saved ${h.name}` + (h.saved ? ` (also ${h.saved})` : "") + (h.command ? `: ${h.command}` : ""));
 }
 
 // --- the option form ------------------------------------------------
@@ -318,6 +341,10 @@ function initialValue(o) {
 function optionRow(o) {
   const row = document.createElement("div");
   row.className = "opt";
+  if (o.modes) {
+    S.modes[o.long] = o.modes;
+    row.dataset.modes = o.modes.join(" ");
+  }
   const label = document.createElement("label");
   label.textContent = o.long;
   label.title = o.long_help || o.help || "";
@@ -360,15 +387,24 @@ function optionRow(o) {
       S.tfEdit = false;
       $("tf-edit").checked = false;
     }
+    if (o.long === "mode") showModeOptions();
     stopped();
   });
   row.append(label, input);
   return row;
 }
 
+// Show the options that apply to the current mode only.
+function showModeOptions() {
+  for (const row of document.querySelectorAll(".opt[data-modes]")) {
+    row.hidden = !row.dataset.modes.split(" ").includes(currentMode());
+  }
+}
+
 function buildForm(options) {
   const primary = $("primary"), rest = $("options");
-  let heading = null;
+  // Each heading once, in the order of its first option.
+  const groups = new Map();
   for (const o of options) {
     if (!o.long || o.path || CAMERA.includes(o.long) || UNUSED.includes(o.long)) continue;
     if (o.long === "tf") {
@@ -381,15 +417,18 @@ function buildForm(options) {
       continue;
     }
     const h = o.heading || "Options";
-    if (h !== heading) {
-      heading = h;
+    if (!groups.has(h)) {
       const g = document.createElement("div");
-      g.className = "group";
-      g.textContent = h;
+      const title = document.createElement("div");
+      title.className = "group";
+      title.textContent = h;
+      g.append(title);
       rest.append(g);
+      groups.set(h, g);
     }
-    rest.append(row);
+    groups.get(h).append(row);
   }
+  showModeOptions();
 }
 
 // --- slices ---------------------------------------------------------
@@ -426,14 +465,16 @@ function slice(h, bytes) {
     }
   }
   ctx.putImageData(img, 0, 0);
-  // The point the three slices go through.
-  ctx.strokeStyle = "rgba(255,200,60,0.7)";
-  const px = S.point[u] / h.stride + 0.5, py = S.point[v] / h.stride + 0.5;
-  const y = flip ? h.height - py : py;
-  ctx.beginPath();
-  ctx.moveTo(px, 0); ctx.lineTo(px, h.height);
-  ctx.moveTo(0, y); ctx.lineTo(h.width, y);
-  ctx.stroke();
+  // The point the three slices go through, at least a screen pixel wide
+  // however far the slice is shrunk (its pixels are sampled, not
+  // averaged: a thinner line would fall between them).
+  const lw = Math.max(1, Math.ceil(h.width / (wu * k)));
+  const start = (i) => i - Math.floor((lw - 1) / 2);
+  const col = Math.floor(S.point[u] / h.stride);
+  const r = Math.floor(S.point[v] / h.stride);
+  ctx.fillStyle = "rgba(255,200,60,0.7)";
+  ctx.fillRect(start(col), 0, lw, h.height);
+  ctx.fillRect(0, start(flip ? h.height - 1 - r : r), h.width, lw);
   s.flip = flip;
 }
 
@@ -495,6 +536,7 @@ function hello(h) {
   $("view-box").style.width = $("view-box").style.height = `${VIEW}px`;
   const hist = h.histogram;
   S.tf.setHistogram(hist ? hist.lo : h.volume.range[0], hist ? hist.hi : h.volume.range[1], hist ? hist.counts : []);
+  S.currentTf = h.tf;
   S.slices = {};
   S.point = h.volume.dims.map((d) => Math.floor(d / 2));
   NAMES.split("").forEach((n, k) => {
@@ -513,6 +555,29 @@ function start() {
   });
   $("tf-edit").addEventListener("change", (e) => {
     S.tfEdit = e.target.checked;
+    // Start from the transfer function shown (a 2D one cannot be edited
+    // here: a grey ramp then).
+    if (S.tfEdit) {
+      S.tf.load(S.currentTf);
+      if (!S.currentTf) status("the transfer function shown is 2D: the editor starts from a grey ramp");
+    }
+    // The dropdown says the editor's function is in use, and gets its
+    // choice back when editing stops.
+    const tf = $("opt-tf");
+    if (tf) {
+      if (S.tfEdit) {
+        S.tfChoice = tf.value;
+        const o = document.createElement("option");
+        o.value = o.textContent = EDITED;
+        tf.append(o);
+        tf.value = EDITED;
+      } else {
+        for (const o of [...tf.options]) if (o.value === EDITED) o.remove();
+        if (S.tfChoice != null) tf.value = S.tfChoice;
+      }
+      tf.disabled = S.tfEdit;
+      tf.classList.toggle("edited", S.tfEdit);
+    }
     stopped();
   });
   cameraInput();

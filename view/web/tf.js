@@ -15,6 +15,11 @@ class TfEditor {
     this.lo = 0;
     this.hi = 1;
     this.counts = [];
+    // Kept as loaded: the domain and reference step the text states,
+    // and the constant ranges (drawn, not edited).
+    this.domain = null;
+    this.step = null;
+    this.ranges = [];
     canvas.addEventListener("pointerdown", (e) => this.down(e));
     canvas.addEventListener("pointermove", (e) => this.move(e));
     canvas.addEventListener("pointerup", () => this.up());
@@ -28,10 +33,29 @@ class TfEditor {
     this.lo = lo;
     this.hi = hi > lo ? hi : lo + 1;
     this.counts = counts || [];
-    this.points = [
-      { v: this.lo, a: 0, c: [255, 255, 255] },
-      { v: this.hi, a: 0.5, c: [255, 255, 255] },
-    ];
+    this.load(null);
+  }
+
+  // Start from transfer function `tf` as the server describes it
+  // (domain, step, points [v, r, g, b, a], ranges [lo, hi, r, g, b, a]);
+  // null: a grey ramp over the histogram's range.
+  load(tf) {
+    if (!tf) {
+      this.domain = null;
+      this.step = null;
+      this.ranges = [];
+      this.points = [
+        { v: this.lo, a: 0, c: [255, 255, 255] },
+        { v: this.hi, a: 0.5, c: [255, 255, 255] },
+      ];
+    } else {
+      this.domain = tf.domain;
+      this.step = tf.step;
+      this.ranges = tf.ranges.map((r) => r.slice());
+      this.points = tf.points.map(([v, r, g, b, a]) => ({ v, a, c: [r, g, b] }));
+    }
+    this.selected = -1;
+    this.drag = -1;
     this.draw();
   }
 
@@ -88,7 +112,7 @@ class TfEditor {
   }
   remove(e) {
     const i = this.nearest(this.at(e));
-    if (i >= 0 && this.points.length > 2) {
+    if (i >= 0 && this.points.length > (this.ranges.length ? 0 : 2)) {
       this.points.splice(i, 1);
       this.selected = -1;
       this.draw();
@@ -110,10 +134,20 @@ class TfEditor {
     this.drag = this.points.indexOf(drag);
   }
 
-  // vol-render's transfer function text for the points.
+  // vol-render's transfer function text: the domain, step and ranges as
+  // loaded, and the points. Loaded values are written as they came (the
+  // shortest text of each f32, read back to the same f32), so the text
+  // of an unedited function renders as the function did.
   text() {
-    const n = (v) => Number(v.toPrecision(6));
-    const lines = [`domain ${n(this.lo)} ${n(this.hi)}`];
+    // Six digits when they name the same f32, else all of them.
+    const n = (v) => {
+      const r = Number(v.toPrecision(6));
+      return Math.fround(r) === Math.fround(v) ? r : v;
+    };
+    const [lo, hi] = this.domain || [n(this.lo), n(this.hi)];
+    const lines = [`domain ${lo} ${hi}`];
+    if (this.step != null) lines.push(`step ${this.step}`);
+    for (const r of this.ranges) lines.push(`range ${r.join(" ")}`);
     for (const p of this.points) {
       lines.push(`point ${n(p.v)} ${p.c[0]} ${p.c[1]} ${p.c[2]} ${n(p.a)}`);
     }
@@ -132,6 +166,11 @@ class TfEditor {
         const bh = top > 0 ? (Math.log1p(c) / top) * h : 0;
         ctx.fillRect(i * bw, h - bh, Math.ceil(bw), bh);
       });
+    }
+    for (const [lo, hi, r, g, b, a] of this.ranges) {
+      ctx.fillStyle = `rgba(${r},${g},${b},0.6)`;
+      const x0 = this.x(lo), x1 = this.x(hi);
+      ctx.fillRect(x0, this.y(a), Math.max(1, x1 - x0), h - this.y(a));
     }
     ctx.strokeStyle = "#ddd";
     ctx.beginPath();

@@ -12,6 +12,7 @@
 //! place only when complete, so a failed conversion leaves nothing behind.
 
 pub mod choose;
+pub mod dropped;
 pub mod size;
 pub mod spool;
 pub mod stages;
@@ -604,6 +605,7 @@ fn plan_stages(
     let geometry = info.geometry.cropped(in_spacing, start, dims, plan.flip);
     let (spacing, geometry, mut notes) =
         units::resolve(in_spacing, geometry, plan, target).at(target.path())?;
+    notes.extend(dropped::note(spacing, &geometry, target));
     let dims = Dims::new(dims[0], dims[1], dims[2]).at(&info.path)?;
     let grid = Grid::new(dims, spacing, geometry);
     let stages = if plan.prep.is_empty() {

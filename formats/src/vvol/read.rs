@@ -1,5 +1,6 @@
 //! Opening `.vvol` files and streams.
 
+use super::trailer::FLAG_RANGE;
 use super::{decode_entry, Header, Trailer, BASE_HEADER_LEN, ENTRY_LEN, HEADER_LEN, TRAILER_LEN};
 use crate::error::{truncated, Error, Result};
 use memmap2::Mmap;
@@ -117,6 +118,9 @@ pub fn open_stored(path: &Path, opts: OpenOptions) -> Result<Stored> {
     } else {
         (unsafe { Mmap::map(&file)? }, Some(Arc::new(file)))
     };
+    if opts.verify {
+        check_reserved(&map, &h)?;
+    }
     let map = Arc::new(map);
     let source = MapSource { map, file };
     let mut meta = h.meta;
@@ -132,6 +136,9 @@ pub fn open_stored(path: &Path, opts: OpenOptions) -> Result<Stored> {
             let table = read_table(&h, g, raw)?;
             if opts.verify && crc32fast::hash(raw) != t.crc32 {
                 return Err(Error::Checksum("brick table is damaged".into()));
+            }
+            if opts.verify {
+                check_reserved_entries(raw)?;
             }
             table
         }
@@ -421,4 +428,57 @@ pub fn from_bytes<T: OpenSample>(meta: volcore::VolumeMeta, bytes: Vec<u8>) -> R
     T::slice_from_le(&mut v);
     let grid = TypedGrid::Sliced(SlicedGrid::new(meta.dims, Data::Owned(v))?);
     Ok(T::open_grid(meta, grid)?)
+}
+
+/// `--verify`: no flag bit this reader does not know and no reserved byte
+/// other than 0 (FORMAT.md), in the header and the trailer of the mapped
+/// file `map` (the brick table's: [`check_reserved_entries`]); the error
+/// names the field.
+fn check_reserved(map: &[u8], h: &Header) -> Result<()> {
+    let field = |at: usize, what: &str| -> Result<()> {
+        let flags = u32::from_le_bytes(map[at..at + 4].try_into().unwrap_or_default());
+        if flags & !FLAG_RANGE != 0 {
+            return Err(Error::invalid(format!(
+                "{what} flags {flags:#010x}: bits this reader does not know (only bit 0, the value range, is defined)"
+            )));
+        }
+        Ok(())
+    };
+    let zero = |range: std::ops::Range<usize>, what: &str| -> Result<()> {
+        match map[range.clone()].iter().position(|&b| b != 0) {
+            Some(i) => Err(Error::invalid(format!(
+                "{what} byte {} is {:#04x}: reserved bytes must be 0",
+                range.start + i,
+                map[range.start + i]
+            ))),
+            None => Ok(()),
+        }
+    };
+    field(12, "header")?;
+    zero(62..64, "header reserved")?;
+    zero(112..124, "header reserved")?;
+    let version = u16::from_le_bytes([map[8], map[9]]);
+    match version {
+        1 => {}
+        // Version 2 holds no unit: its byte is reserved too.
+        2 => zero(224..252, "header reserved")?,
+        _ => zero(225..252, "header reserved")?,
+    }
+    let trailer = (h.data_offset + h.data_len) as usize;
+    field(trailer + 12, "trailer")
+}
+
+/// `--verify`: the reserved bytes of every entry of the brick table `raw`
+/// (checked against the data section first, so a hostile table has
+/// failed before this pass) are 0.
+fn check_reserved_entries(raw: &[u8]) -> Result<()> {
+    match raw
+        .chunks_exact(ENTRY_LEN as usize)
+        .position(|entry| entry[20..24] != [0; 4])
+    {
+        Some(i) => Err(Error::invalid(format!(
+            "brick table entry {i}: its reserved bytes 20..24 must be 0"
+        ))),
+        None => Ok(()),
+    }
 }

@@ -756,3 +756,53 @@ fn png_garbage_truncation_and_huge_dims_fail_cleanly() {
     assert_eq!(code(&out), 1);
     no_control_bytes(&out.stderr);
 }
+
+/// Issue 53 §6: `--verify` refuses a flag bit it does not know and a
+/// reserved byte other than 0 (header, brick table, trailer), in one line
+/// naming the file and the field.
+#[test]
+fn vvol_unknown_flag_bits_and_reserved_bytes_fail_verify() {
+    let d = tmp();
+    for layout in ["sliced", "bricked:4"] {
+        let p = gen(
+            d.path(),
+            "f.vvol",
+            &[
+                "ramp", "--dims", "6,5,4", "--type", "u16", "--layout", layout,
+            ],
+        );
+        ok(bin("vol-info").arg("--verify").arg(&p));
+        let good = std::fs::read(&p).unwrap();
+        let n = good.len();
+        // Trailer flags: bit 1. Header flags: bit 3 (its CRC renewed).
+        // Header reserved byte 230 (its geometry CRC renewed).
+        let mut cases: Vec<(Vec<u8>, &str)> = Vec::new();
+        let mut b = good.clone();
+        b[n - 32 + 12] |= 2;
+        cases.push((b, "trailer flags"));
+        let mut b = good.clone();
+        b[12] |= 8;
+        let crc = crc32(&b[..124]);
+        b[124..128].copy_from_slice(&crc.to_le_bytes());
+        cases.push((b, "header flags"));
+        let mut b = good.clone();
+        b[230] = 7;
+        let crc = crc32(&b[128..252]);
+        b[252..256].copy_from_slice(&crc.to_le_bytes());
+        cases.push((b, "header reserved byte 230"));
+        if layout != "sliced" {
+            // The last entry's reserved bytes, the table's CRC renewed.
+            let mut b = good.clone();
+            let count = u64::from_le_bytes(b[96..104].try_into().unwrap()) as usize;
+            b[256 + 24 * (count - 1) + 20] = 1;
+            let crc = crc32(&b[256..256 + 24 * count]);
+            b[n - 24..n - 20].copy_from_slice(&crc.to_le_bytes());
+            cases.push((b, "brick table entry 3"));
+        }
+        for (bytes, field) in cases {
+            std::fs::write(&p, &bytes).unwrap();
+            let line = fails(bin("vol-info").arg("--verify").arg(&p), "f.vvol");
+            assert!(line.contains(field), "{layout}, {field}: {line}");
+        }
+    }
+}

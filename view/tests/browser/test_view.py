@@ -110,6 +110,42 @@ def pixels(page):
     return js(page, "document.getElementById('view').toDataURL()")
 
 
+def form(page):
+    """The option form: values as typed, headings as --help has them, the
+    overlay readable on any frame."""
+    check(page.input_value("#opt-ert") == "0.99", f"ert shows 0.99 ({page.input_value('#opt-ert')})")
+    groups = js(page, "[...document.querySelectorAll('#options .group')].map((g) => g.textContent)")
+    check(len(groups) == len(set(groups)) and "Path tracing (--mode path)" in groups
+          and "Input" not in groups, f"All options under their headings, each once ({groups})")
+    path_rows = js(page, "[...document.querySelectorAll('.opt[data-modes]')].length")
+    check(path_rows > 10, f"the path tracer's options know their mode ({path_rows})")
+    bg = js(page, "getComputedStyle(document.getElementById('overlay')).backgroundColor")
+    alpha = re.match(r"rgba?\((\d+), (\d+), (\d+)(?:, ([\d.]+))?\)", bg)
+    check(alpha and int(alpha.group(1)) < 64 and float(alpha.group(4) or 1) >= 0.5,
+          f"the overlay has a dark backdrop ({bg})")
+
+
+def crosshair(page):
+    """The slices' crosshair spans at least a screen pixel of the shrunk
+    slice: its vertical line measured across a row of the axial slice's
+    canvas."""
+    run = js(page, """() => {
+      const c = document.getElementById('slice-z');
+      const ratio = c.width / c.getBoundingClientRect().width;
+      // A row off the horizontal line: the vertical line's width.
+      const row = c.getContext('2d').getImageData(0, 2, c.width, 1).data;
+      let longest = 0, n = 0;
+      for (let x = 0; x < c.width; x++) {
+        const [r, g, b] = [row[4 * x], row[4 * x + 1], row[4 * x + 2]];
+        n = r > 120 && r - b > 80 && g - b > 50 ? n + 1 : 0;
+        longest = Math.max(longest, n);
+      }
+      return [longest, ratio];
+    }""")
+    check(run[1] > 1.2, f"the axial slice is shrunk ({run[1]:.2f} canvas pixels a screen pixel)")
+    check(run[0] >= run[1], f"the crosshair is {run[0]} canvas pixels wide, a screen pixel at least ({run[1]:.2f})")
+
+
 def run(page, url, work, bin_dir, figures, args):
     page.goto(url)
     page.wait_for_function("window.volview.stats.firstFull != null", timeout=20000)
@@ -120,6 +156,7 @@ def run(page, url, work, bin_dir, figures, args):
     figures["first_render"] = 1000 * js(page, "volview.last.header.cost.render_s")
     check(js(page, "volview.last.header.width") == 512, "the first frame is 512x512")
     before = pixels(page)
+    form(page)
 
     # Orbit: a drag of 30 moves over about a second, then release.
     box = page.locator("#view").bounding_box()
@@ -151,7 +188,9 @@ def run(page, url, work, bin_dir, figures, args):
     words = shlex.split(command)
     words[0] = str(bin_dir / "vol-render")
     subprocess.run(words + ["--quiet"], cwd=work, check=True)
-    check((work / "view.pfm").read_bytes() == saved.read_bytes(),
+    hdr = words[words.index("--hdr") + 1]
+    check(hdr == d.value.suggested_filename, f"the command writes the save's name ({hdr})")
+    check((work / hdr).read_bytes() == saved.read_bytes(),
           "the saved PFM equals vol-render --hdr for the same camera, bit for bit")
 
     # Mode and transfer function.
@@ -166,8 +205,15 @@ def run(page, url, work, bin_dir, figures, args):
     check(auto not in (after, mip), "the auto transfer function looks different")
     page.check("#tf-edit")
     wait_full(page)
+    check(js(page, "volview.last.header.command").count("--scene") == 1,
+          "the editor's function goes as tf-text (a scene file)")
+    check(pixels(page) == auto, "the editor starts from the transfer function shown")
+    check(page.input_value("#opt-tf").startswith("(the editor"), "the dropdown says the editor's is in use")
+    js(page, "volview.tf.points[0].a = 0.9; volview.tf.points[0].c = [255, 0, 0]; volview.tf.onChange(false)")
+    wait_full(page)
     check(pixels(page) != auto, "the edited transfer function (tf-text) renders")
     page.uncheck("#tf-edit")
+    check(page.input_value("#opt-tf") == "auto", "the dropdown gets its choice back")
     page.select_option("#opt-tf", "shapes")
     wait_full(page)
 
@@ -183,11 +229,14 @@ def run(page, url, work, bin_dir, figures, args):
         page.screenshot(path=str(args.screenshot), full_page=True)
         print(f"  screenshot: {args.screenshot}")
 
-    # Path tracing, 16 spp a pass at a time.
+    # Path tracing, 16 spp a pass at a time (spp is offered in path mode
+    # only).
+    check(page.is_hidden("#opt-spp"), "spp is not offered in DVR mode")
+    page.select_option("#opt-mode", "path")
+    check(page.is_visible("#opt-spp"), "spp is offered in path mode")
+    js(page, "volview.stats.passes = []")
     page.fill("#opt-spp", "16")
     page.dispatch_event("#opt-spp", "change")
-    js(page, "volview.stats.passes = []")
-    page.select_option("#opt-mode", "path")
     wait_full(page, timeout=120000)
     seq = js(page, "volview.seq")
     passes = [q for q in js(page, "volview.stats.passes") if q["seq"] == seq]
@@ -196,6 +245,8 @@ def run(page, url, work, bin_dir, figures, args):
     check(spp == list(range(1, 17)), f"the counter rises a pass at a time to 16 ({spp})")
     check(len(errs) >= 2 and errs[-1] < errs[0], f"the error falls ({errs[0]:.4f} -> {errs[-1]:.4f})")
     check("16 / 16 spp" in page.text_content("#cost-spp"), "the counter is shown")
+
+    crosshair(page)
 
     # The value under the cursor in a slice.
     sbox = page.locator("#slice-z").bounding_box()
