@@ -17,7 +17,10 @@ use volformats::tiff::ChannelSel;
 use volformats::ReadOptions;
 
 /// An open volume: its metadata, in numpy's axis order (z, y, x), and its
-/// samples through `array()`.
+/// samples through `array()` (a read-only view of a mapped file, else a new
+/// writable array). `affine` is the 4x4 index-to-world matrix; `v[z0:z1,
+/// y0:y1, x0:x1]` is a new Volume whose origin, spacing and direction
+/// follow the slices; an integer index gives the plain array.
 #[pyclass(name = "Volume", module = "volkit", frozen)]
 pub struct PyVolume {
     /// The volume.
@@ -428,10 +431,13 @@ pub fn read_options(sel: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
 /// `raw_skip`, `channel` or `luma` (colour TIFF, hyperstacks, OME),
 /// `time_point` (4D data), `series` (a DICOM series: number, UID or
 /// unique UID prefix), `level` (an OME-Zarr pyramid level: 0, the full
-/// resolution, by default; refused for other inputs), and
-/// `in_memory` (read a .vvol into memory instead of mapping it). A sliced
-/// uncompressed .vvol, an uncompressed .nii and a .raw file are
-/// memory-mapped: opening costs milliseconds whatever the size.
+/// resolution, by default), and
+/// `in_memory` (read a .vvol into memory instead of mapping it). A keyword
+/// the input has nothing to pick with (`channel` of a NIfTI file, `series`
+/// of anything but DICOM, `level` of anything but OME-Zarr) raises
+/// ValueError. A sliced uncompressed .vvol, an uncompressed .nii and a
+/// .raw file are memory-mapped: opening costs milliseconds whatever the
+/// size, and `array()` is a read-only view.
 #[pyfunction]
 #[pyo3(signature = (path, **selection))]
 pub fn open(
@@ -573,8 +579,11 @@ pub fn with_c_order<T: Element + Copy, R>(
 }
 
 /// A Volume in memory from a numpy array (z, y, x) of uint8, uint16,
-/// int16 or float32 (copied), with spacing, origin and direction in numpy
-/// order (z, y, x).
+/// int16 or float32 (copied in logical order, whatever the array's memory
+/// layout; a 2D array is one slice), with spacing, origin and direction in
+/// numpy order (z, y, x): unset, spacing 1, origin 0 and the identity
+/// (rows and columns z, y, x; column j is array axis j's direction).
+/// What render, save, index and psnr make of an array.
 #[pyfunction]
 #[pyo3(signature = (array, spacing=None, origin=None, direction=None))]
 pub fn from_array(

@@ -13,7 +13,8 @@ Vec3 = Tuple[float, float, float]
 Mat3 = Sequence[Sequence[float]]
 
 class Volume:
-    """An open volume. Geometry is in numpy's axis order (z, y, x)."""
+    """An open volume. Geometry is in numpy's axis order (z, y, x); slicing
+    with slices gives a Volume whose geometry follows."""
 
     @property
     def shape(self) -> Tuple[int, int, int]:
