@@ -22,42 +22,20 @@ const SAVE_KEYWORDS: [&str; 7] = [
     "ngff",
 ];
 
-/// Words that follow a flag in a message without being its value
-/// (`--iso needs --mode iso`).
-const NOT_VALUES: [&str; 27] = [
-    "needs",
-    "applies",
-    "asked",
-    "must",
-    "is",
-    "are",
-    "and",
-    "or",
-    "does",
-    "would",
-    "turns",
-    "relabels",
-    "read",
-    "reads",
-    "leaves",
-    "resamples",
-    "to",
-    "for",
-    "with",
-    "without",
-    "the",
-    "of",
-    "in",
-    "not",
-    "first",
-    "stores",
-    "takes",
-];
+/// Values of flags without a list of choices that messages quote after
+/// the flag (`--window auto`, `--compress gzip`, `--up patient`).
+const LITERAL_VALUES: [&str; 7] = ["auto", "full", "gzip", "zstd", "patient", "off", "none"];
 
-/// Every flag Python takes as a keyword (by its long name), and whether
-/// it takes a value.
-fn flags() -> &'static BTreeMap<String, bool> {
-    static FLAGS: OnceLock<BTreeMap<String, bool>> = OnceLock::new();
+/// A flag Python takes as a keyword: whether it takes a value, and its
+/// choices (`--mode`'s `dvr`, `iso`, ...).
+struct Flag {
+    takes_value: bool,
+    choices: Vec<String>,
+}
+
+/// Every flag Python takes as a keyword, by its long name.
+fn flags() -> &'static BTreeMap<String, Flag> {
+    static FLAGS: OnceLock<BTreeMap<String, Flag>> = OnceLock::new();
     FLAGS.get_or_init(|| {
         let mut out = BTreeMap::new();
         for cmd in [
@@ -67,15 +45,48 @@ fn flags() -> &'static BTreeMap<String, bool> {
         ] {
             for a in cmd.get_arguments() {
                 if let Some(long) = a.get_long() {
-                    out.insert(long.to_string(), a.get_action().takes_values());
+                    let choices = a
+                        .get_possible_values()
+                        .iter()
+                        .map(|v| v.get_name().to_string())
+                        .collect();
+                    let takes_value = a.get_action().takes_values();
+                    out.insert(
+                        long.to_string(),
+                        Flag {
+                            takes_value,
+                            choices,
+                        },
+                    );
                 }
             }
         }
         for k in SAVE_KEYWORDS {
-            out.insert(k.to_string(), true);
+            let flag = Flag {
+                takes_value: true,
+                choices: Vec::new(),
+            };
+            out.insert(k.to_string(), flag);
         }
         out
     })
+}
+
+/// Whether `word`, after `flag` in a message, is its value: a choice of
+/// the flag, a known literal, a placeholder in capitals (`T`, `X,Y,Z`),
+/// or anything with digits or punctuation (`lo:hi`, `i16`, `bricked:B`);
+/// an English word (`--iso needs`) is not.
+fn is_value(flag: &Flag, word: &str) -> bool {
+    let word = word.trim_end_matches([',', ';', ')', '.']);
+    if word.is_empty() || word.starts_with(['-', '(', '`']) {
+        return false;
+    }
+    flag.choices.iter().any(|c| c == word)
+        || LITERAL_VALUES.contains(&word)
+        || word.chars().all(|c| c.is_ascii_uppercase() || c == ',')
+        || word
+            .chars()
+            .any(|c| c.is_ascii_digit() || ":,=".contains(c))
 }
 
 /// `msg` with each flag Python takes (`--window`, `--time-point`) named
@@ -92,14 +103,14 @@ pub fn python_words(msg: &str) -> String {
             .find(|c: char| !(c.is_ascii_alphanumeric() || c == '-'))
             .unwrap_or(after.len());
         let name = &after[..end];
-        let Some(&takes_value) = flags().get(name) else {
+        let Some(flag) = flags().get(name) else {
             out.push_str("--");
             rest = after;
             continue;
         };
         out.push_str(&name.replace('-', "_"));
         rest = &after[end..];
-        if !takes_value {
+        if !flag.takes_value {
             continue;
         }
         if let Some(v) = rest.strip_prefix('=') {
@@ -108,13 +119,9 @@ pub fn python_words(msg: &str) -> String {
         } else if let Some(v) = rest.strip_prefix(' ') {
             let word_end = v.find([' ', '\'']).unwrap_or(v.len());
             let word = &v[..word_end];
-            let bare = word.trim_end_matches([',', ';', ')', '.', ':']);
             if word.starts_with('<') {
                 rest = &v[word_end..];
-            } else if !bare.is_empty()
-                && !bare.starts_with(['-', '(', '`', '{'])
-                && !NOT_VALUES.contains(&bare)
-            {
+            } else if is_value(flag, word) {
                 out.push('=');
                 rest = v;
             }

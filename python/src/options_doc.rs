@@ -44,12 +44,15 @@ pub fn render_options() -> Vec<(String, Option<String>, String, Option<String>)>
             let mut help = python_words(&a.get_help().map(|h| h.to_string()).unwrap_or_default());
             if ZYX_OPTIONS.contains(&id) {
                 help = help.replace("x,y,z", "(z, y, x)");
+                if !help.contains("(z, y, x)") {
+                    help.push_str("; a point (z, y, x)");
+                }
             }
             Some((
                 id.to_string(),
                 value,
                 help,
-                a.get_help_heading().map(str::to_string),
+                a.get_help_heading().map(python_words),
             ))
         })
         .collect()

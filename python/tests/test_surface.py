@@ -129,6 +129,24 @@ def test_messages_name_keywords_not_flags(tmp_path):
     assert "invalid value 'bogus' for 'mode'" in str(e.value), str(e.value)
 
 
+@pytest.mark.parametrize(
+    "flags, words",
+    [
+        ("--compress needs --layout bricked:B (compression is per brick)",
+         "compress needs layout=bricked:B (compression is per brick)"),
+        ("default 64 unless --seconds or --until-error decides", "default 64 unless seconds or until_error decides"),
+        ("pick one with --time-point T (0..3)", "pick one with time_point=T (0..3)"),
+        ("invalid value 'x' for '--mode <MODE>'", "invalid value 'x' for 'mode'"),
+        ("use --type i16 or f32; --window auto", "use type=i16 or f32; window=auto"),
+        ("--shard K/N is vol-convert's", "--shard K/N is vol-convert's"),  # not a keyword: kept
+    ],
+)
+def test_flags_become_keywords(flags, words):
+    from volkit._volkit import _python_words
+
+    assert _python_words(flags) == words
+
+
 # ---- docs
 
 
@@ -141,6 +159,9 @@ def test_render_docstring_lists_every_vol_render_option():
     assert len(flags) > 30, flags
     missing = [f for f in sorted(flags) if f"{f.replace('-', '_')}=" not in doc]
     assert not missing, missing
+    # In Python's words: keywords, and points in (z, y, x).
+    assert "Camera position (z, y, x) (world units); needs look_at" in doc
+    assert "--" not in doc.split("Options (")[1].replace("'--", "")
 
 
 def test_docs_name_every_public_call():
