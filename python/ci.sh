@@ -31,10 +31,15 @@ echo "== python: pip install ./python"
 start=$(date +%s)
 "$venv/bin/python" -m pip install -q ./python
 echo "python: installed in $(($(date +%s) - start)) s"
-"$venv/bin/python" -m pip install -q pytest numpy
+# nibabel: the reference the affine is checked against; mypy: the stubs
+# are checked against a typed example (examples/tour.py).
+"$venv/bin/python" -m pip install -q pytest numpy nibabel mypy
 echo "== python: pytest"
 # From the tests' folder: run from python/, `python -m pytest` would import
 # the source folder volkit/ (without its compiled module) instead of the
 # installed package.
 cd "$here/tests"
 VOLKIT_BIN_DIR="$CARGO_TARGET_DIR/release" "$venv/bin/python" -m pytest -q .
+echo "== python: the typed example, run and type-checked with mypy"
+"$venv/bin/python" "$here/examples/tour.py"
+"$venv/bin/python" -m mypy --strict "$here/examples/tour.py"

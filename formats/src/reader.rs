@@ -143,6 +143,12 @@ pub trait SliceReader: Send + Sync {
     fn notes(&self) -> Vec<String> {
         Vec::new()
     }
+    /// The type the file stores, when the slices handed out are of a
+    /// wider one (a DICOM series rescaled by its slope and intercept), so
+    /// messages name the file's type: None when they are the same.
+    fn stored_type(&self) -> Option<SliceType> {
+        None
+    }
 }
 
 /// A reader of samples a header describes (raw data at an offset, a

@@ -1,7 +1,10 @@
 //! Rust errors as Python exceptions, with the command-line tools' one-line
-//! messages: a bad option is a `ValueError`, a file problem an `OSError`,
-//! a cancelled render `KeyboardInterrupt`, anything else `RuntimeError`.
+//! messages in Python's words (flags named as keywords,
+//! [`crate::keywords::python_words`]): a bad option is a `ValueError`, a
+//! file problem an `OSError`, a cancelled render `KeyboardInterrupt`,
+//! anything else `RuntimeError`.
 
+use crate::keywords::python_words;
 use pyo3::exceptions::{
     PyFileNotFoundError, PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyValueError,
 };
@@ -22,7 +25,7 @@ pub fn internal(payload: &(dyn Any + Send)) -> PyErr {
 
 /// A render's error by its kind.
 pub fn scene(e: volscene::Error) -> PyErr {
-    let msg = e.message().to_string();
+    let msg = python_words(e.message());
     match e.kind() {
         ErrorKind::Usage | ErrorKind::Option => PyValueError::new_err(msg),
         ErrorKind::File => PyOSError::new_err(msg),
@@ -35,7 +38,7 @@ pub fn scene(e: volscene::Error) -> PyErr {
 /// vol-convert prints it: `FileNotFoundError` for a missing input,
 /// `KeyboardInterrupt` for an interrupted conversion, else `OSError`.
 pub fn convert(e: ConvertError) -> PyErr {
-    let msg = e.to_string();
+    let msg = python_words(&e.to_string());
     let missing = match &e.error {
         volformats::Error::Io(io) => io.kind() == std::io::ErrorKind::NotFound,
         volformats::Error::Invalid(m) => m == "no such file or directory",
@@ -52,10 +55,10 @@ pub fn convert(e: ConvertError) -> PyErr {
 
 /// A bad argument: `ValueError` with `msg`.
 pub fn value(msg: impl Into<String>) -> PyErr {
-    PyValueError::new_err(msg.into())
+    PyValueError::new_err(python_words(&msg.into()))
 }
 
 /// A file problem: `OSError` with `msg`.
 pub fn os(msg: impl Into<String>) -> PyErr {
-    PyOSError::new_err(msg.into())
+    PyOSError::new_err(python_words(&msg.into()))
 }

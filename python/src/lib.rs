@@ -11,10 +11,13 @@
 mod errors;
 mod generate;
 mod index;
+mod keywords;
+mod options_doc;
 mod prep;
 mod psnr;
 mod render;
 mod save;
+mod slicing;
 mod value;
 mod volume;
 
@@ -94,6 +97,8 @@ fn _volkit(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(save::save, m)?)?;
     m.add_function(wrap_pyfunction!(save::preprocess, m)?)?;
     m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_function(wrap_pyfunction!(options_doc::render_options, m)?)?;
+    m.add_function(wrap_pyfunction!(keywords::python_words_py, m)?)?;
     m.add_function(wrap_pyfunction!(psnr::psnr, m)?)?;
     m.add_function(wrap_pyfunction!(index::index, m)?)?;
     m.add_function(wrap_pyfunction!(generate::generate, m)?)?;

@@ -9,7 +9,7 @@ use pyo3::prelude::*;
 use volformats::PrepFlags;
 
 /// The preprocessing flags as a clap command.
-fn prep_command() -> clap::Command {
+pub fn prep_command() -> clap::Command {
     use clap::Args;
     PrepFlags::augment_args(clap::Command::new("save").no_binary_name(true))
 }

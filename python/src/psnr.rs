@@ -90,7 +90,43 @@ fn image_of(a: &Bound<'_, PyAny>, name: &str) -> PyResult<Image> {
         .map_err(|e| errors::value(format!("{name}: {e}")))
 }
 
-fn operand<'py>(v: &Bound<'py, PyAny>, name: &str, kind: Option<&str>) -> PyResult<Operand<'py>> {
+/// Whether an array of `shape` is an image (`Some(true)`), a volume
+/// (`Some(false)`), or could be either: (H, W) is an image; (N, M, 3) and
+/// (N, M, 4) are an RGB(A) image or a volume of 3 or 4 slices along x, so
+/// they need `kind` (or a Volume or path on the other side).
+fn array_kind(shape: &[usize]) -> Option<bool> {
+    match shape {
+        [_, _] => Some(true),
+        [_, _, 3 | 4] => None,
+        _ => Some(false),
+    }
+}
+
+/// What `v` is by itself: a path by its extension, a Volume a volume, an
+/// array by [`array_kind`]; None when that cannot tell.
+fn kind_of(v: &Bound<'_, PyAny>) -> PyResult<Option<bool>> {
+    if v.is_instance_of::<PyString>() || v.hasattr("__fspath__")? {
+        return Ok(Some(image_extension(&v.extract::<PathBuf>()?).is_some()));
+    }
+    if v.cast::<PyVolume>().is_ok() {
+        return Ok(Some(false));
+    }
+    Ok(
+        match v.getattr("shape").and_then(|s| s.extract::<Vec<usize>>()) {
+            Ok(shape) => array_kind(&shape),
+            Err(_) => None,
+        },
+    )
+}
+
+/// One side of the comparison. What an array is: `kind` when given, else
+/// its shape, else `other` (what the other side is).
+fn operand<'py>(
+    v: &Bound<'py, PyAny>,
+    name: &str,
+    kind: Option<bool>,
+    other: Option<bool>,
+) -> PyResult<Operand<'py>> {
     let py = v.py();
     if v.is_instance_of::<PyString>() || v.hasattr("__fspath__")? {
         return from_path(py, v.extract::<PathBuf>()?);
@@ -110,15 +146,10 @@ fn operand<'py>(v: &Bound<'py, PyAny>, name: &str, kind: Option<&str>) -> PyResu
             )))
         }
     };
-    let image = match kind {
-        Some("image") => true,
-        Some("volume") => false,
-        Some(other) => {
-            return Err(errors::value(format!(
-                "kind: '{other}' is not image or volume"
-            )))
-        }
-        None => shape.len() == 2 || (shape.len() == 3 && matches!(shape[2], 3 | 4)),
+    let Some(image) = kind.or_else(|| array_kind(&shape)).or(other) else {
+        return Err(errors::value(format!(
+            "{name}: a {shape:?} array is an RGB(A) image or a volume: pass kind='image' or kind='volume'"
+        )));
     };
     if image {
         Ok(Operand::Image(image_of(v, name)?, name.to_string()))
@@ -131,9 +162,11 @@ fn operand<'py>(v: &Bound<'py, PyAny>, name: &str, kind: Option<&str>) -> PyResu
 /// reference `a`, as vol-psnr computes them, as the dict `vol-psnr --json`
 /// prints (`psnr` is None when the inputs are identical). Each input is a
 /// path (images by their extension: .png, .pfm, .exr; anything else a
-/// volume), a Volume, or a numpy array: (H, W), (H, W, 3) and (H, W, 4)
-/// arrays are images (uint8, uint16 or float), others volumes; `kind`
-/// ("image" or "volume") decides instead. `range` is the peak, as
+/// volume), a Volume (a volume), or a numpy array: (H, W) is an image
+/// (uint8, uint16 or float), (Z, Y, X) a volume; an (N, M, 3) or (N, M, 4)
+/// array could be either, so it is what the other side is (a Volume or a
+/// path), else `kind` ("image" or "volume") must say, and `kind` decides
+/// for every array. `range` is the peak, as
 /// `--range`; `alpha` and `luma` as vol-psnr's.
 #[pyfunction]
 #[pyo3(signature = (a, b, *, range=None, alpha=false, luma=false, kind=None))]
@@ -154,7 +187,20 @@ pub fn psnr<'py>(
                 )));
             }
         }
-        let (oa, ob) = (operand(a, "A", kind)?, operand(b, "B", kind)?);
+        let image = match kind {
+            Some("image") => Some(true),
+            Some("volume") => Some(false),
+            Some(other) => {
+                return Err(errors::value(format!(
+                    "kind: '{other}' is not image or volume"
+                )))
+            }
+            None => None,
+        };
+        let (oa, ob) = (
+            operand(a, "A", image, kind_of(b)?)?,
+            operand(b, "B", image, kind_of(a)?)?,
+        );
         let mut json = match (&oa, &ob) {
             (Operand::Image(ia, _), Operand::Image(ib, _)) => {
                 let opts = ImageOptions {
@@ -174,7 +220,7 @@ pub fn psnr<'py>(
             }
             (Operand::Volume(va, _), Operand::Volume(vb, _)) => {
                 if alpha || luma {
-                    return Err(errors::value("--alpha and --luma apply to images only"));
+                    return Err(errors::value("alpha and luma apply to images only"));
                 }
                 let opts = VolumeOptions {
                     range,

@@ -46,6 +46,35 @@ fn typed<T: volcore::Sample>(g: &volcore::volume::TypedGrid<T>, d: volcore::Dims
     }
 }
 
+/// The options that are points or directions: given in numpy's order
+/// (z, y, x) from Python, as every other Python value is, and reversed
+/// here to the command line's x,y,z (issue 53 §2). Scene files keep
+/// their x,y,z.
+pub const ZYX_OPTIONS: [&str; 4] = ["eye", "look_at", "up", "light"];
+
+/// `pairs` with the [`ZYX_OPTIONS`] turned from (z, y, x) to x,y,z; such
+/// an option given as text is refused (it would be ambiguous), except
+/// `up="patient"`.
+fn zyx_to_xyz(pairs: &mut [(String, Value)]) -> PyResult<()> {
+    for (name, value) in pairs.iter_mut() {
+        let id = volscene::pairs::id_of(name);
+        if !ZYX_OPTIONS.contains(&id.as_str()) {
+            continue;
+        }
+        match value {
+            Value::Array(items) if items.len() == 3 => items.reverse(),
+            Value::String(t) if id == "up" && t.trim() == "patient" => {}
+            Value::Null => {}
+            other => {
+                return Err(errors::value(format!(
+                    "{id}={other}: give (z, y, x), a sequence of three numbers in numpy's order"
+                )))
+            }
+        }
+    }
+    Ok(())
+}
+
 /// What a render hands back from its worker thread.
 struct Output {
     /// Rows from the top, `channels` floats per pixel.
@@ -105,7 +134,9 @@ fn render_on(
 
 /// Render a volume with vol-render's options, by the same names (`look-at`
 /// as `look_at`; values as on the command line or as Python values:
-/// `size="700x700"` or `size=(700, 700)`, `eye=[1, 2, 3]`, `ortho=True`),
+/// `size="700x700"` or `size=(700, 700)`, `ortho=True`); points and
+/// directions (`eye`, `look_at`, `up`, `light`) are (z, y, x) sequences,
+/// numpy's order, where vol-render's flags take x,y,z,
 /// checked and defaulted by vol-render's own definition. `volume` is a
 /// path, a Volume or a (z, y, x) array; or leave it out and give
 /// `scene="file.toml"`, whose options the keywords override. Ray casting
@@ -131,6 +162,7 @@ pub fn render<'py>(
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>)> {
     crate::guard(|| {
         let mut pairs = crate::value::pairs(options)?;
+        zyx_to_xyz(&mut pairs)?;
         for (name, _) in &pairs {
             if matches!(name.as_str(), "volume" | "print_scene" | "print-scene") {
                 return Err(errors::value(format!(

@@ -1,7 +1,6 @@
 //! `volkit.open` and the `Volume` it returns: the metadata in numpy's axis
-//! order (z, y, x) and `.array()`, a read-only view of the samples where
-//! they are stored sliced (a memory-mapped file: no copy), else a decoded
-//! array.
+//! order (z, y, x) and `.array()`, a read-only view of a memory-mapped file
+//! (no copy), else a new writable array.
 
 use crate::errors;
 use numpy::ndarray::{ArrayView3, ShapeBuilder};
@@ -18,7 +17,10 @@ use volformats::tiff::ChannelSel;
 use volformats::ReadOptions;
 
 /// An open volume: its metadata, in numpy's axis order (z, y, x), and its
-/// samples through `array()`.
+/// samples through `array()` (a read-only view of a mapped file, else a new
+/// writable array). `affine` is the 4x4 index-to-world matrix; `v[z0:z1,
+/// y0:y1, x0:x1]` is a new Volume whose origin, spacing and direction
+/// follow the slices; an integer index gives the plain array.
 #[pyclass(name = "Volume", module = "volkit", frozen)]
 pub struct PyVolume {
     /// The volume.
@@ -38,6 +40,28 @@ impl PyVolume {
             }
             _ => None,
         }
+    }
+
+    /// Voxels per axis, (z, y, x).
+    pub fn shape_zyx(&self) -> (usize, usize, usize) {
+        self.shape()
+    }
+
+    /// Spacing, (z, y, x).
+    pub fn spacing_zyx(&self) -> [f64; 3] {
+        let s = self.spacing();
+        [s.0, s.1, s.2]
+    }
+
+    /// Origin, (z, y, x).
+    pub fn origin_zyx(&self) -> [f64; 3] {
+        let o = self.origin();
+        [o.0, o.1, o.2]
+    }
+
+    /// Direction cosines, rows and columns in (z, y, x) order.
+    pub fn direction_zyx(&self) -> [[f64; 3]; 3] {
+        self.direction()
     }
 
     /// The name messages give the volume: its file, or `<array>`.
@@ -136,12 +160,13 @@ impl PyVolume {
         sliced_data_mapped(&self.vol.data) == Some(true)
     }
 
-    /// The samples as a numpy array of shape (z, y, x). Where they are
-    /// stored sliced (a sliced uncompressed .vvol, an uncompressed .nii, a
-    /// .raw file, or a volume in memory) a read-only view without a copy:
-    /// for a file, of its memory map, so resident memory grows only with
-    /// what is read; `.copy()` it to change it. Bricked and compressed
-    /// volumes are decoded into a new array.
+    /// The samples as a numpy array of shape (z, y, x). A memory-mapped
+    /// file (a sliced uncompressed .vvol, an uncompressed .nii, a .raw
+    /// file: `mapped` is True) gives a read-only view of the map without a
+    /// copy, so resident memory grows only with what is read; `.copy()` it
+    /// to change it. Anything else (compressed, bricked and decoded
+    /// formats, volumes made in memory) gives a new writable array, a copy
+    /// that changing leaves the Volume as it was.
     fn array<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyAny>> {
         crate::guard(|| array_of(slf))
     }
@@ -161,6 +186,34 @@ impl PyVolume {
             a = a.call_method0("copy")?;
         }
         Ok(a)
+    }
+
+    /// The 4x4 affine from array index (z, y, x, 1) to world position
+    /// (LPS z, y, x, 1): `direction` scaled by `spacing` (column j times
+    /// spacing j), `origin` in the last column. napari's `affine`.
+    #[getter]
+    fn affine<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let (d, s, o) = (self.direction(), self.spacing_zyx(), self.origin_zyx());
+        let mut m = [[0.0; 4]; 4];
+        for r in 0..3 {
+            for j in 0..3 {
+                m[r][j] = d[r][j] * s[j];
+            }
+            m[r][3] = o[r];
+        }
+        m[3][3] = 1.0;
+        py.import("numpy")?.call_method1("array", (m,))
+    }
+
+    /// `v[z0:z1, y0:y1, x0:x1]`: slices (any steps; missing axes and `...`
+    /// are whole) give a new Volume in memory whose geometry follows
+    /// (see [`crate::slicing`]); any other key (an integer that drops an
+    /// axis, `None`, an index array) gives the plain numpy array.
+    fn __getitem__<'py>(
+        slf: &Bound<'py, Self>,
+        key: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        crate::guard(|| crate::slicing::get_item(slf, key))
     }
 
     fn __repr__(&self) -> String {
@@ -192,7 +245,8 @@ fn sliced_data_mapped(d: &VolumeData) -> Option<bool> {
     }
 }
 
-fn array_of<'py>(slf: &Bound<'py, PyVolume>) -> PyResult<Bound<'py, PyAny>> {
+/// The samples of `slf` as `array()` gives them.
+pub fn array_of<'py>(slf: &Bound<'py, PyVolume>) -> PyResult<Bound<'py, PyAny>> {
     let v = slf.get();
     match &v.vol.data {
         VolumeData::U8(g) => typed_array(slf, g),
@@ -219,8 +273,13 @@ fn typed_array<'py, T: Sample + Element>(
             // order (checked when it was made), so every index of the view
             // is inside `data`; the view's base is the Volume object, which
             // owns the grid (and its memory map) and is immutable, so the
-            // memory outlives the array and never changes under it.
+            // memory outlives the array and never changes under it; a
+            // mapped file's view is read-only.
             let view = unsafe { ArrayView3::from_shape_ptr(shape.strides(strides), data.as_ptr()) };
+            if !g.is_mapped() {
+                // Samples in memory: a new, writable array (issue 53 §2).
+                return Ok(PyArray3::from_array(py, &view).into_any());
+            }
             let arr = unsafe { PyArray3::borrow_from_array(&view, slf.clone().into_any()) };
             let kw = PyDict::new(py);
             kw.set_item("write", false)?;
@@ -275,7 +334,7 @@ const PYTHON_ONLY: [&str; 3] = ["shape", "luma", "in_memory"];
 
 /// The input-selection flags (`volformats::Selection`, the one definition
 /// every tool flattens into its command line) as a clap command.
-fn selection_command() -> clap::Command {
+pub fn selection_command() -> clap::Command {
     use clap::Args;
     volformats::Selection::augment_args(clap::Command::new("open").no_binary_name(true))
 }
@@ -372,10 +431,13 @@ pub fn read_options(sel: Option<&Bound<'_, PyDict>>) -> PyResult<ReadOptions> {
 /// `raw_skip`, `channel` or `luma` (colour TIFF, hyperstacks, OME),
 /// `time_point` (4D data), `series` (a DICOM series: number, UID or
 /// unique UID prefix), `level` (an OME-Zarr pyramid level: 0, the full
-/// resolution, by default; refused for other inputs), and
-/// `in_memory` (read a .vvol into memory instead of mapping it). A sliced
-/// uncompressed .vvol, an uncompressed .nii and a .raw file are
-/// memory-mapped: opening costs milliseconds whatever the size.
+/// resolution, by default), and
+/// `in_memory` (read a .vvol into memory instead of mapping it). A keyword
+/// the input has nothing to pick with (`channel` of a NIfTI file, `series`
+/// of anything but DICOM, `level` of anything but OME-Zarr) raises
+/// ValueError. A sliced uncompressed .vvol, an uncompressed .nii and a
+/// .raw file are memory-mapped: opening costs milliseconds whatever the
+/// size, and `array()` is a read-only view.
 #[pyfunction]
 #[pyo3(signature = (path, **selection))]
 pub fn open(
@@ -386,6 +448,7 @@ pub fn open(
     crate::guard(|| {
         let opts = read_options(selection)?;
         volformats::open::check_applies(&path, &opts).map_err(|e| errors::value(e.to_string()))?;
+        refuse_unused_selection(&path, &opts)?;
         let vol = crate::run(py, volformats::convert::request_stop, || {
             volformats::open(&path, &opts)
         });
@@ -397,6 +460,59 @@ pub fn open(
             file: Some((path, opts)),
         })
     })
+}
+
+/// Refuse a selection keyword the input cannot use (`channel` of a
+/// NIfTI file, `series` of anything but DICOM), as `time_point` past a
+/// 3D file's single volume and `level` of anything but OME-Zarr
+/// (`volformats::open::check_applies`) are refused, naming the keyword
+/// and the format.
+fn refuse_unused_selection(path: &Path, o: &ReadOptions) -> PyResult<()> {
+    use volformats::open::{input_kind, InputKind as K};
+    // A path that cannot be classified fails in `open` with its message.
+    let Ok(kind) = input_kind(path, o) else {
+        return Ok(());
+    };
+    let stack = matches!(kind, K::Tiff | K::TiffDir | K::TiffGlob | K::TiffList);
+    let (dicom, zarr, raw) = (
+        matches!(kind, K::Dicom | K::DicomDir),
+        kind == K::OmeZarr,
+        matches!(kind, K::Raw | K::Stdin),
+    );
+    let refuse = |given: String, takes: &str| {
+        Err(errors::value(format!(
+            "{given}: a {} input has none to pick ({takes})",
+            kind.name()
+        )))
+    };
+    if let Some(s) = &o.series {
+        if !dicom {
+            return refuse(format!("series={s:?}"), "series picks a DICOM series");
+        }
+    }
+    let channels = "channels: colour TIFF, ImageJ hyperstacks, OME-TIFF, OME-Zarr";
+    match o.channel {
+        ChannelSel::Channel(c) if !(stack || zarr) => {
+            return refuse(format!("channel={c}"), channels)
+        }
+        ChannelSel::Luma if !stack => return refuse("luma=True".into(), "luma reads colour TIFF"),
+        _ => {}
+    }
+    if let Some(t) = o.time {
+        if !(stack || zarr || kind == K::Nifti) {
+            return refuse(
+                format!("time_point={t}"),
+                "time points: 4D NIfTI, ImageJ hyperstacks, OME-TIFF, OME-Zarr",
+            );
+        }
+    }
+    if o.raw != RawSpec::default() && !raw {
+        return refuse(
+            "raw_dims/raw_type/raw_endian/raw_skip".into(),
+            "they describe headerless .raw data",
+        );
+    }
+    Ok(())
 }
 
 /// The geometry from numpy-ordered origin (z, y, x) and direction (rows
@@ -411,7 +527,9 @@ pub fn geometry_of(
         rev3([rev3(d[0]), rev3(d[1]), rev3(d[2])])
     });
     let axes = [0, 1, 2].map(|a| [direction[0][a], direction[1][a], direction[2][a]]);
-    Geometry::from_axes(origin, axes).map_err(|e| errors::value(format!("direction: {e}")))
+    Geometry::from_axes(origin, axes)
+        .map(|g| g.with_unit(base.unit))
+        .map_err(|e| errors::value(format!("direction: {e}")))
 }
 
 /// Spacing from numpy order (z, y, x) to volkit's (x, y, z), checked.
@@ -461,8 +579,11 @@ pub fn with_c_order<T: Element + Copy, R>(
 }
 
 /// A Volume in memory from a numpy array (z, y, x) of uint8, uint16,
-/// int16 or float32 (copied), with spacing, origin and direction in numpy
-/// order (z, y, x).
+/// int16 or float32 (copied in logical order, whatever the array's memory
+/// layout; a 2D array is one slice), with spacing, origin and direction in
+/// numpy order (z, y, x): unset, spacing 1, origin 0 and the identity
+/// (rows and columns z, y, x; column j is array axis j's direction).
+/// What render, save, index and psnr make of an array.
 #[pyfunction]
 #[pyo3(signature = (array, spacing=None, origin=None, direction=None))]
 pub fn from_array(

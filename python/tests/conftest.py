@@ -28,13 +28,16 @@ def cli(name, *args, check=True):
 
 
 def cli_message(name, stderr):
-    """The one-line message a tool printed, without its `name: ` prefix."""
+    """The one-line message a tool printed, without its `name: ` prefix,
+    in Python's words (flags named as keywords, as volkit raises it)."""
     lines = [l for l in stderr.splitlines() if l.strip()]
     assert lines, f"{name} printed nothing on stderr"
     last = lines[-1]
     prefix = f"{name}: "
     assert last.startswith(prefix), last
-    return last[len(prefix):]
+    from volkit._volkit import _python_words
+
+    return _python_words(last[len(prefix):])
 
 
 def read_pfm(path):

@@ -175,11 +175,11 @@ def test_psnr_volumes(dtype):
 def test_psnr_images(dtype, shape):
     a, arrays = each_layout(dtype, shape)
     other = logical(dtype, shape, seed=54)
-    ref = volkit.psnr(a, other)
+    ref = volkit.psnr(a, other, kind="image")
     assert ref["kind"] == "image" and not ref["identical"]
     for name, v in arrays.items():
-        assert volkit.psnr(a, v)["identical"], name
-        got = volkit.psnr(v, other)
+        assert volkit.psnr(a, v, kind="image")["identical"], name
+        got = volkit.psnr(v, other, kind="image")
         assert got["psnr"] == ref["psnr"] and got["mse"] == ref["mse"], name
 
 

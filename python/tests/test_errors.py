@@ -30,7 +30,7 @@ def test_bad_render_option_is_value_error(tmp_path, vols):
 
 
 def test_bad_render_value_and_unknown_option(vols):
-    with pytest.raises(ValueError, match="invalid value 'bogus' for '--mode"):
+    with pytest.raises(ValueError, match="invalid value 'bogus' for 'mode'"):
         volkit.render(vols["shapes"], mode="bogus")
     with pytest.raises(ValueError, match="unknown option `no_such`"):
         volkit.render(vols["shapes"], no_such=1)
@@ -53,7 +53,7 @@ def test_bad_output_name_is_value_error(tmp_path):
     with pytest.raises(ValueError) as e:
         volkit.save(a, tmp_path / "x.xyz")
     assert str(e.value) == cli_message("vol-convert", r.stderr)
-    with pytest.raises(ValueError, match="--compress needs --layout bricked"):
+    with pytest.raises(ValueError, match="compress needs layout=bricked"):
         volkit.save(a, tmp_path / "x.vvol", compress="zstd")
     assert not (tmp_path / "x.vvol").exists()
 

@@ -9,7 +9,9 @@ import pytest
 import volkit
 from conftest import cli, read_pfm
 
-# (volume, vol-render flags, the same as keyword arguments)
+# (volume, vol-render flags, the same as keyword arguments). Points and
+# directions are x,y,z on the command line and (z, y, x) in Python
+# (issue 53 §2): the same render either way.
 CASES = {
     "dvr-phong": (
         "shapes",
@@ -19,7 +21,7 @@ CASES = {
     "dvr-shadows-ao": (
         "shapes",
         ["--tf", "shapes", "--light", "1,2,3", "--shadows", "grid:2", "--ao", "4", "--size", "64x64"],
-        dict(tf="shapes", light=(1, 2, 3), shadows="grid:2", ao="4", size=(64, 64)),
+        dict(tf="shapes", light=(3, 2, 1), shadows="grid:2", ao="4", size=(64, 64)),
     ),
     "mip": (
         "sphere",
@@ -28,8 +30,9 @@ CASES = {
     ),
     "iso": (
         "sphere",
-        ["--mode", "iso", "--iso", "2000", "--size", "72x72", "--eye", "80,60,90", "--look-at", "20,20,20"],
-        dict(mode="iso", iso=2000, size="72x72", eye=[80, 60, 90], look_at=[20, 20, 20]),
+        ["--mode", "iso", "--iso", "2000", "--size", "72x72", "--eye", "80,60,90", "--look-at", "18,20,24",
+         "--up", "0.2,0,1"],
+        dict(mode="iso", iso=2000, size="72x72", eye=[90, 60, 80], look_at=[24, 20, 18], up=(1, 0, 0.2)),
     ),
     "compressed-noise": (
         "noise",
@@ -117,7 +120,7 @@ def test_psnr_matches_vol_psnr(tmp_path, vols):
         got = volkit.psnr(a, c)
         assert got["psnr"] == want["psnr"] and got["mse"] == want["mse"] and got["kind"] == "image"
     # The float image as arrays gives the same figures as the files.
-    arrays = volkit.psnr(read_pfm(tmp_path / "i0.pfm"), read_pfm(tmp_path / "i1.pfm"))
+    arrays = volkit.psnr(read_pfm(tmp_path / "i0.pfm"), read_pfm(tmp_path / "i1.pfm"), kind="image")
     want = json.loads(cli("vol-psnr", tmp_path / "i0.pfm", tmp_path / "i1.pfm", "--json").stdout)
     assert arrays["psnr"] == want["psnr"] and arrays["count"] == want["count"]
 

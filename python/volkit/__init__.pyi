@@ -1,7 +1,7 @@
 """Type stubs for volkit (the extension module volkit._volkit)."""
 
 import os
-from typing import Any, Callable, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -13,7 +13,8 @@ Vec3 = Tuple[float, float, float]
 Mat3 = Sequence[Sequence[float]]
 
 class Volume:
-    """An open volume. Geometry is in numpy's axis order (z, y, x)."""
+    """An open volume. Geometry is in numpy's axis order (z, y, x); slicing
+    with slices gives a Volume whose geometry follows."""
 
     @property
     def shape(self) -> Tuple[int, int, int]:
@@ -48,10 +49,24 @@ class Volume:
         """Smallest and largest sample (None when unknown or all NaN)."""
     @property
     def mapped(self) -> bool:
-        """Whether the samples are a memory map of the file."""
+        """Whether the samples are a memory map of the file (then
+        ``array()`` is a read-only view of it)."""
+    @property
+    def affine(self) -> npt.NDArray[np.float64]:
+        """4x4 affine from index (z, y, x, 1) to world (LPS z, y, x, 1):
+        direction times spacing, origin in the last column (napari's
+        ``affine``)."""
     def array(self) -> npt.NDArray[Any]:
-        """The samples, shape (z, y, x): a read-only view (no copy) where
-        they are stored sliced (a mapped file, or memory), else decoded."""
+        """The samples, shape (z, y, x): a read-only view of the memory map
+        when ``mapped`` (no copy), else a new writable array."""
+    @overload
+    def __getitem__(self, key: Union[slice, Tuple[slice, ...]]) -> "Volume":
+        """Slices: a new Volume in memory whose origin, spacing and
+        direction follow the slice (start, step, reversal)."""
+    @overload
+    def __getitem__(self, key: Any) -> npt.NDArray[Any]:
+        """Any other key (an integer dropping an axis, ...): the numpy
+        array's item, without geometry."""
     def __array__(self, dtype: Any = ..., copy: Optional[bool] = ...) -> npt.NDArray[Any]: ...
 
 class Index:
@@ -88,15 +103,17 @@ def open(
     raw_skip: Optional[int] = ...,
     channel: Optional[int] = ...,
     luma: bool = ...,
-    time: Optional[int] = ...,
-    series: Optional[str] = ...,
+    time_point: Optional[int] = ...,
+    series: Union[None, int, str] = ...,
     level: Optional[int] = ...,
     in_memory: bool = ...,
 ) -> Volume:
     """Open anything vol-convert reads, with its selection options
     (``raw_dims`` is vol-convert's text ``"X,Y,Z"``; ``shape`` the same in
-    numpy order; ``level`` a level of an OME-Zarr pyramid, 0 by default,
-    and ValueError for any other input)."""
+    numpy order; ``level`` a level of an OME-Zarr pyramid, 0 by default).
+    A keyword the input has nothing to pick with (``channel`` of a NIfTI,
+    ``series`` of anything but DICOM, ``level`` of anything but OME-Zarr)
+    raises ValueError."""
 
 def from_array(
     array: npt.ArrayLike,
@@ -104,8 +121,11 @@ def from_array(
     origin: Optional[Sequence[float]] = ...,
     direction: Optional[Mat3] = ...,
 ) -> Volume:
-    """A Volume in memory from a (z, y, x) array (a copy, in logical order
-    whatever the array's memory layout)."""
+    """A Volume in memory from a (z, y, x) array of uint8, uint16, int16 or
+    float32 (a copy, in logical order whatever the array's memory layout;
+    a 2D array is one slice), with ``spacing``, ``origin`` and
+    ``direction`` in numpy order (z, y, x); unset they are 1, 0 and the
+    identity."""
 
 def save(
     data: Union[Volume, npt.ArrayLike],
@@ -183,7 +203,9 @@ def psnr(
     luma: bool = ...,
     kind: Optional[str] = ...,
 ) -> dict[str, Any]:
-    """The figures of ``vol-psnr --json`` for images or volumes."""
+    """The figures of ``vol-psnr --json`` for images or volumes. A Volume
+    is a volume; an (N, M, 3) or (N, M, 4) array is what the other side
+    is, else ``kind`` ("image" or "volume") must say."""
 
 def render(
     volume: Union[None, PathLike, Volume, npt.ArrayLike] = ...,
@@ -193,4 +215,6 @@ def render(
 ) -> Tuple[npt.NDArray[np.float32], dict[str, Any]]:
     """Render with vol-render's options (by the same names; a ``scene``
     file gives the rest): the linear float image (H, W, 3), or (H, W, 4)
-    with ``alpha=True``, and the ``--json`` figures."""
+    with ``alpha=True``, and the ``--json`` figures. ``eye``, ``look_at``,
+    ``up`` and ``light`` are (z, y, x); ``help(volkit.render)`` lists
+    every option."""

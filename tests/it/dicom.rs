@@ -459,3 +459,28 @@ fn pydicoms_test_files_in_one_folder_are_listed_not_refused() {
     let uid = pick["uid"].as_str().unwrap();
     ok(tool("vol-info").arg(d.path()).args(["--series", uid]));
 }
+
+/// A signed CT series (i16 samples, rescaled to i32 values by its slope
+/// and intercept) that does not fit u8: the message names the type the
+/// files store, not the i32 the rescale widened it to (issue 53 §2).
+#[test]
+fn a_rescaled_series_that_does_not_fit_names_the_stored_type() {
+    let d = tempfile::tempdir().unwrap();
+    let dir = d.path().join("ct");
+    std::fs::create_dir_all(&dir).unwrap();
+    for z in 0..3 {
+        let slice = ct_slice(z).set(0x0028_0103, b"US", us(1));
+        std::fs::write(dir.join(format!("IM{z}.dcm")), slice.file(EXPLICIT_LE)).unwrap();
+    }
+    let err = fails(
+        tool("vol-convert")
+            .arg(&dir)
+            .args(["--type", "u8", "-o"])
+            .arg(d.path().join("o.raw")),
+        "i16 values rescaled to -1024..",
+    );
+    assert!(
+        err.contains("do not fit u8") && !err.contains("i32"),
+        "{err}"
+    );
+}

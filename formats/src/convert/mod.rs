@@ -540,7 +540,14 @@ pub fn convert(
     let map = if plan.sample_type.is_none() && asked.is_some() && plan.window.is_none() {
         ValueMap::Exact
     } else {
-        ValueMap::plan(from, out_type, plan.window, hist.as_ref()).at(&in_path)?
+        ValueMap::plan_stored(
+            from,
+            reader.stored_type(),
+            out_type,
+            plan.window,
+            hist.as_ref(),
+        )
+        .at(&in_path)?
     };
     // f64 stored as f32 without a window: say by how much the values
     // moved (nothing when every value is an f32).

@@ -173,6 +173,19 @@ impl ValueMap {
         window: Option<Window>,
         stats: Option<&Histogram>,
     ) -> Result<ValueMap> {
+        ValueMap::plan_stored(from, None, to, window, stats)
+    }
+
+    /// [`ValueMap::plan`] for values of type `from` that the file stores
+    /// as `stored` (a rescaled DICOM series: i16 samples, i32 values), so
+    /// its messages name the file's type.
+    pub fn plan_stored(
+        from: SliceType,
+        stored: Option<SliceType>,
+        to: SampleType,
+        window: Option<Window>,
+        stats: Option<&Histogram>,
+    ) -> Result<ValueMap> {
         let range = stats.and_then(|h| h.range());
         let (lo, hi) = match window {
             None if is_exact(from, to) => return Ok(ValueMap::Exact),
@@ -181,14 +194,22 @@ impl ValueMap {
             }
             None if by_value(from, to) && stats.is_some() => {
                 let (lo, hi) = range.unwrap_or((0.0, 0.0));
+                let values = match stored {
+                    Some(s) => format!("{s} values rescaled to"),
+                    None => format!("{from} values"),
+                };
                 return Err(Error::invalid(format!(
-                    "{from} values {lo}..{hi} do not fit {to}: pass --window lo:hi, --window auto or --window full"
+                    "{values} {lo}..{hi} do not fit {to}: pass --window lo:hi, --window auto or --window full"
                 )));
             }
             None => {
+                let from = match stored {
+                    Some(s) => format!("{s} (rescaled to {from})"),
+                    None => from.to_string(),
+                };
                 return Err(Error::invalid(format!(
                     "converting {from} to {to} loses values: pass --window lo:hi, --window auto or --window full"
-                )))
+                )));
             }
             Some(Window::Range(lo, hi)) => {
                 if !(lo.is_finite() && hi.is_finite()) || lo >= hi {
@@ -200,8 +221,9 @@ impl ValueMap {
             }
             Some(Window::Auto(p)) => {
                 let h = stats.ok_or_else(|| Error::invalid("auto window needs a histogram"))?;
-                h.percentiles(p)
-                    .ok_or_else(|| Error::invalid("auto window: the volume has no non-NaN sample"))?
+                h.percentiles(p).ok_or_else(|| {
+                    Error::invalid("auto window: the volume has no non-NaN sample")
+                })?
             }
             Some(Window::Full) => match from.integer_range() {
                 // 32-bit integers: the data's range, like floats (their

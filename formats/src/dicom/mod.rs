@@ -46,7 +46,7 @@ pub use skip::{shown, SkipReason, Skipped};
 
 use crate::error::Error;
 use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
-use crate::slice::SliceData;
+use crate::slice::{SliceData, SliceType};
 use pixels::{stored_type, widest};
 use series::SliceHeader;
 use skip::skipped_notes;
@@ -134,6 +134,8 @@ pub fn list_files(input: &Path, files: Option<Vec<PathBuf>>) -> CResult<Vec<Path
 /// A DICOM series, read slice by slice (any slice from any thread).
 pub struct DicomReader {
     info: InputInfo,
+    /// The type the files store (before the rescale widens it).
+    stored: SliceType,
     slices: Vec<SliceHeader>,
     bytes: u64,
     skipped: Vec<Skipped>,
@@ -240,6 +242,7 @@ impl DicomReader {
             .map(|s| std::fs::metadata(&s.path).map(|m| m.len()).unwrap_or(0))
             .sum();
         Ok(DicomReader {
+            stored,
             skipped: Vec::new(),
             info: InputInfo {
                 nifti_codes: None,
@@ -351,5 +354,8 @@ impl SliceReader for DicomReader {
     }
     fn notes(&self) -> Vec<String> {
         skipped_notes(&self.info.path, &self.skipped)
+    }
+    fn stored_type(&self) -> Option<SliceType> {
+        (self.stored != self.info.sample_type).then_some(self.stored)
     }
 }
