@@ -242,6 +242,7 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     // to `busy_until` (0: every sample).
     let strided = on && M::CACHE_BUSY && accel.strided();
     let mut stride = 0u32;
+    let (o, d) = (steps.ray.o.to_array(), steps.ray.d.to_array());
     // When a run of eight would cross the end of a busy cell, the loop
     // looks one sample ahead: if that sample's cell is busy too (and, with
     // adaptive steps, both take every sample), the busy stretch grows to
@@ -249,13 +250,16 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
     // the answer is kept for when the loop reaches it.
     let mut ahead: Option<(i64, Step)> = None;
     while k <= steps.k1 {
-        if batch {
-            if on
-                && stride == 0
-                && k <= busy_until
-                && busy_until < steps.k1
-                && k.saturating_add(7) > busy_until
-            {
+        if batch && stride != 0 {
+            if let Some(flow) = strided_run8(state, cur, k, stride, busy_until, steps) {
+                if flow == Flow::Stop {
+                    break;
+                }
+                k += 8 << stride;
+                continue;
+            }
+        } else if batch {
+            if on && k <= busy_until && busy_until < steps.k1 && k.saturating_add(7) > busy_until {
                 let next = busy_until + 1;
                 if ahead.is_none_or(|(at, _)| at != next) {
                     let step = accel.step(steps.at(steps.t(next)), &steps.ray, state.query());
@@ -272,12 +276,14 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
             } else {
                 steps.k1
             };
-            if let Some(flow) = run8(state, cur, k, stride, last, steps, strided) {
-                if flow == Flow::Stop {
-                    break;
+            if k.saturating_add(7) <= last {
+                if let Some(run) = cur.trilinear8(o, d, k, steps.step) {
+                    if state.sample8(cur, k, &run.t, &run.v, steps) == Flow::Stop {
+                        break;
+                    }
+                    k += 8;
+                    continue;
                 }
-                k += 8 << stride;
-                continue;
             }
         }
         let t = steps.t(k);
@@ -302,39 +308,51 @@ pub fn march<C: Cursor, M: RayMarch, A: Accel<M::Query>>(
                         continue;
                     }
                     cell = Some(c);
-                    stride = 0;
+                    if strided {
+                        stride = 0;
+                        state.stretch(1);
+                    }
                 }
                 Step::Busy { exit, cell: c } => {
-                    stride = accel.stride_log2(c);
-                    if M::CACHE_BUSY && stride != LOOK_UP {
+                    if strided {
+                        stride = accel.stride_log2(c);
+                        if stride == LOOK_UP {
+                            stride = 0;
+                        } else {
+                            busy_until = steps.last_before(exit);
+                        }
+                        if stride == 0 {
+                            state.stretch(1);
+                        }
+                    } else if M::CACHE_BUSY {
                         busy_until = steps.last_before(exit);
-                    } else {
-                        stride = 0;
                     }
                     cell = Some(c);
                     // A busy stretch's first eight samples go in lanes too
                     // (integrators that batch read no cell).
-                    if batch {
-                        let last = busy_until.min(steps.k1);
-                        if let Some(flow) = run8(state, cur, k, stride, last, steps, strided) {
-                            if flow == Flow::Stop {
+                    if batch && stride == 0 && k.saturating_add(7) <= busy_until.min(steps.k1) {
+                        if let Some(run) = cur.trilinear8(o, d, k, steps.step) {
+                            if state.sample8(cur, k, &run.t, &run.v, steps) == Flow::Stop {
                                 break;
                             }
-                            k += 8 << stride;
+                            k += 8;
                             continue;
                         }
                     }
                 }
             }
         }
-        let next = if stride == 0 || k > busy_until {
-            k + 1
-        } else {
-            strided_next(k, stride, busy_until.min(steps.last))
-        };
-        if strided {
+        // A strided stretch's sample stands for the steps to the next one
+        // (its stretch told each time: the last before a cell's exit is
+        // cut short); otherwise every sample is taken, each one step (told
+        // once, when the stretch began).
+        let next = if stride != 0 {
+            let next = strided_next(k, stride, busy_until.min(steps.last));
             state.stretch((next - k) as u32);
-        }
+            next
+        } else {
+            k + 1
+        };
         if state.sample(cur, k, t, p, cell) == Flow::Stop {
             break;
         }
@@ -357,35 +375,29 @@ fn strided_next(k: i64, log2: u32, last: i64) -> i64 {
     aligned.min(last.saturating_add(1)).max(k + 1)
 }
 
-/// Samples `k, k + 2^stride, …` (eight of them) read at once and taken,
-/// when they all lie in the stretch up to `last` (each standing for
-/// `2^stride` steps: the stretch holds the one after the eighth too) and
-/// the cursor reads them in lanes; `None` to take `k` alone.
+/// Samples `k, k + 2^stride, …` (eight of them) read at once and taken
+/// as eight consecutive samples of the step `2^stride·step`, when they all
+/// lie in the stretch up to `busy_until` (each standing for `2^stride`
+/// steps: the stretch holds the one after the eighth too) and the cursor
+/// reads them in lanes; `None` to take `k` alone.
 #[inline(always)]
-fn run8<C: Cursor, M: RayMarch>(
+fn strided_run8<C: Cursor, M: RayMarch>(
     state: &mut M,
     cur: &mut C,
     k: i64,
     stride: u32,
-    last: i64,
+    busy_until: i64,
     steps: &RaySteps,
-    strided: bool,
 ) -> Option<Flow> {
     let s = 1i64 << stride;
-    let fits = if stride == 0 {
-        k.saturating_add(7) <= last
-    } else {
-        k & (s - 1) == 0 && k.saturating_add(8 * s - 1) <= last.min(steps.last)
-    };
-    if !fits {
+    let last = busy_until.min(steps.last).min(steps.k1);
+    if k & (s - 1) != 0 || k.saturating_add(8 * s - 1) > last {
         return None;
     }
     let (o, d) = (steps.ray.o.to_array(), steps.ray.d.to_array());
     // `(k/s + i)·(s·step)` is `(k + i·s)·step` rounded once, as each
     // sample's own parameter is (`s` is a power of two).
     let run = cur.trilinear8(o, d, k >> stride, steps.step * s as f64)?;
-    if strided {
-        state.stretch(s as u32);
-    }
+    state.stretch(s as u32);
     Some(state.sample8(cur, k, &run.t, &run.v, steps))
 }

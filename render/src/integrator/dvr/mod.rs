@@ -242,8 +242,8 @@ where
         } else {
             (d.classifier.classify(v, 0.0), Vec3::ZERO, 0.0)
         };
-        let e = self.stretched(e);
         if e[3] > 0.0 {
+            let e = self.stretched(e);
             let mut c = Vec3::new(e[0], e[1], e[2]);
             if S::ON {
                 if !K::NEEDS_GRADIENT {
@@ -326,11 +326,13 @@ where
 
     /// Entry `e` for a sample that stands for [`Self::stretch`] steps:
     /// its opacity `1 − (1 − α)^n` (in f64: exact at 0 and 1, and
-    /// accurate for small α), the colour unchanged.
+    /// accurate for small α; never below α, so a visible sample stays
+    /// visible), the colour unchanged.
     #[inline(always)]
     fn stretched(&self, mut e: [f32; 4]) -> [f32; 4] {
         if self.stretch != 1 && e[3] > 0.0 {
-            e[3] = (1.0 - (1.0 - f64::from(e[3])).powi(self.stretch as i32)) as f32;
+            let a = (1.0 - (1.0 - f64::from(e[3])).powi(self.stretch as i32)) as f32;
+            e[3] = a.max(e[3]);
         }
         e
     }
@@ -364,10 +366,13 @@ where
         s: &RaySteps,
     ) -> Flow {
         let d = self.dvr;
-        let e = self.classify8(cur, k, v).map(|e| self.stretched(e));
+        let mut e = self.classify8(cur, k, v);
         if !e.iter().any(|e| e[3] > 0.0) {
             self.samples += 8;
             return Flow::Next;
+        }
+        if self.stretch != 1 {
+            e = e.map(|e| self.stretched(e));
         }
         // Visible samples' gradients: the run's blends where the cell is
         // interior, `central_gradient` elsewhere (what `take` reads).
