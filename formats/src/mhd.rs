@@ -398,7 +398,12 @@ mod tests {
             "x.zraw",
         );
         let (h, _) = parse(&text).unwrap();
-        assert_eq!(h.samples.geometry, g);
+        // MetaImage has no unit field: its lengths are millimetres.
+        let mm = Geometry {
+            unit: volcore::LengthUnit::Millimeter,
+            ..g
+        };
+        assert_eq!(h.samples.geometry, mm);
         assert_eq!(h.samples.spacing, Some([0.5, 0.75, 2.0]));
         assert!(h.compressed);
         let (h, _) = parse(
