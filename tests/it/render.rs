@@ -616,6 +616,22 @@ fn completions_and_man_page_come_from_the_command_line_definition() {
     assert_eq!(c.status().unwrap().code(), Some(2));
 }
 
+/// vol-render on `vol` with each case's arguments (and a small size,
+/// writing `out`): one line holding the case's needle, exit 2, and
+/// nothing written.
+fn usage_errors(vol: &std::path::Path, out: &std::path::Path, cases: &[(&[&str], &str)]) {
+    for (args, needle) in cases {
+        let mut c = tool("vol-render");
+        c.arg(vol)
+            .args(["--size", "24x24", "-o"])
+            .arg(out)
+            .args(*args);
+        fails(&mut c, needle);
+        assert_eq!(c.status().unwrap().code(), Some(2), "{args:?}");
+        assert!(!out.exists(), "{args:?}");
+    }
+}
+
 /// `--preintegrated`: where it does not apply, one line and exit 2 with
 /// nothing written; where it does, a frame whose --json states the
 /// table's cost and whose printed scene reads back the flag.
@@ -625,21 +641,22 @@ fn preintegration_is_refused_where_it_does_not_apply_and_costs_are_reported() {
     let d = dir.path();
     let vol = gen(d, "s.vvol", &["shapes", "--dims", "40,36,32"]);
     let out = d.join("x.png");
-    for (args, needle) in [
-        (&["--mode", "mip"][..], "--mode dvr"),
-        (&["--mode", "xray"][..], "--mode dvr"),
-        (&["--interp", "nearest", "--tf", "shapes"][..], "trilinear"),
-        (&["--tf", "boundary"][..], "1D transfer functions"),
-    ] {
-        let mut c = tool("vol-render");
-        c.arg(&vol)
-            .args(["--preintegrated", "--size", "24x24", "-o"])
-            .arg(&out)
-            .args(args);
-        fails(&mut c, needle);
-        assert_eq!(c.status().unwrap().code(), Some(2), "{args:?}");
-        assert!(!out.exists(), "{args:?}");
-    }
+    usage_errors(
+        &vol,
+        &out,
+        &[
+            (&["--preintegrated", "--mode", "mip"], "--mode dvr"),
+            (&["--preintegrated", "--mode", "xray"], "--mode dvr"),
+            (
+                &["--preintegrated", "--interp", "nearest", "--tf", "shapes"],
+                "trilinear",
+            ),
+            (
+                &["--preintegrated", "--tf", "boundary"],
+                "1D transfer functions",
+            ),
+        ],
+    );
     let report = |extra: &[&str]| {
         json(&ok(tool("vol-render")
             .arg(&vol)
@@ -668,31 +685,23 @@ fn adaptive_steps_are_refused_where_they_do_not_apply_and_read_the_index() {
     let d = dir.path();
     let vol = gen(d, "s.vvol", &["noise", "--dims", "48,40,36"]);
     let out = d.join("x.png");
-    for (args, needle) in [
-        (&["--adaptive", "0"][..], "positive number"),
-        (&["--adaptive", "-1"][..], "positive number"),
-        (&["--adaptive", "NaN"][..], "positive number"),
-        (&["--adaptive", "inf"][..], "positive number"),
-        (&["--adaptive", "0.01", "--mode", "mip"][..], "--mode dvr"),
-        (&["--adaptive", "0.01", "--mode", "path"][..], "--mode dvr"),
-        (
-            &["--adaptive", "0.01", "--preintegrated"][..],
-            "do not combine",
-        ),
-        (
-            &["--adaptive", "0.01", "--tf", "boundary"][..],
-            "1D transfer functions",
-        ),
-    ] {
-        let mut c = tool("vol-render");
-        c.arg(&vol)
-            .args(["--size", "24x24", "-o"])
-            .arg(&out)
-            .args(args);
-        fails(&mut c, needle);
-        assert_eq!(c.status().unwrap().code(), Some(2), "{args:?}");
-        assert!(!out.exists(), "{args:?}");
-    }
+    usage_errors(
+        &vol,
+        &out,
+        &[
+            (&["--adaptive", "0"], "positive number"),
+            (&["--adaptive", "-1"], "positive number"),
+            (&["--adaptive", "NaN"], "positive number"),
+            (&["--adaptive", "inf"], "positive number"),
+            (&["--adaptive", "0.01", "--mode", "mip"], "--mode dvr"),
+            (&["--adaptive", "0.01", "--mode", "path"], "--mode dvr"),
+            (&["--adaptive", "0.01", "--preintegrated"], "do not combine"),
+            (
+                &["--adaptive", "0.01", "--tf", "boundary"],
+                "1D transfer functions",
+            ),
+        ],
+    );
     // Empty below 110 (cells to skip), a ramp above.
     let tf = d.join("ramp.tf");
     std::fs::write(&tf, "point 110 0 0 0 0\npoint 200 250 200 150 0.4\n").unwrap();

@@ -264,21 +264,19 @@ impl DvrFrame<'_> {
             method: s.gradient,
             inv_spacing: self.inputs.geom.inv_spacing,
         };
+        let start = std::time::Instant::now();
         let skip = match s.adaptive {
-            Some(tol) => {
-                let start = std::time::Instant::now();
-                let cells = adaptive_cells(self.inputs, table, &gradients, tol)?;
-                let took = start.elapsed().as_secs_f64();
-                Some((cells, took))
-            }
-            None => transparent_cells(self.inputs.skip_index, table, &gradients)?.map(|c| (c, 0.0)),
+            Some(tol) => Some(adaptive_cells(self.inputs, table, &gradients, tol)?),
+            None => transparent_cells(self.inputs.skip_index, table, &gradients)?,
         };
-        let strides_s = skip.as_ref().map_or(0.0, |s| s.1);
-        let strides_bytes = skip
+        // Adaptive steps' strides count with the tables: what a change of
+        // transfer function or step costs.
+        let (strides_s, strides_bytes) = skip
             .as_ref()
-            .and_then(|s| s.0.strides())
-            .map_or(0, |s| s.len() as u64);
-        let skip = skip.map(|s| s.0);
+            .and_then(|c| c.strides())
+            .map_or((0.0, 0), |st| {
+                (start.elapsed().as_secs_f64(), st.len() as u64)
+            });
         // Pixel blocks whose rays meet no cell the rule keeps are not
         // traced (their pixels are empty either way).
         let tiles = self.inputs.tiles;
@@ -435,9 +433,7 @@ fn adaptive_cells<'a>(
     let variation = classifier.variation().ok_or_else(not_adaptive)?;
     let flags = classifier.transparent_cells(index, gradients)?;
     let finest = flags.first().map_or(&[][..], Vec::as_slice);
-    let spacing = inputs.vol.meta.spacing;
-    let shortest = spacing[0].min(spacing[1]).min(spacing[2]);
-    let cell_length = index.cell_edge() as f32 * shortest;
+    let cell_length = index.cell_edge() as f32 * inputs.vol.meta.min_spacing();
     let strides = stride_log2s(index, &variation, finest, tol, cell_length);
     let cells = if inputs.skip_index.is_some() {
         FixedCells::transparent(index, flags)
