@@ -6,8 +6,10 @@
 //! rounding margin of its face are not counted.
 //!
 //! Busy cells of one level of the index (the finest with at most
-//! [`MAX_CELLS`] cells, so the cost per frame stays bounded on dense
-//! volumes) are projected onto the image; a block of [`BLOCK`]² pixels no
+//! [`CELLS_PER_BLOCK`] cells per block of the image, at least
+//! [`MIN_CELLS`] and at most [`MAX_CELLS`], so the cost per frame stays
+//! bounded on dense volumes and small on small images) are projected onto
+//! the image, slabs of cells in parallel; a block of [`BLOCK`]² pixels no
 //! projection touches is culled. Blocks are fixed, not the render's
 //! tiles, so what is traced does not depend on the tile size. The test is
 //! conservative: each cell's box is widened by a voxel, its projection by
@@ -16,10 +18,18 @@
 
 use crate::camera::Camera;
 use glam::Vec3;
+use rayon::prelude::*;
 use volindex::MinMaxIndex;
 
 /// Most cells projected per frame.
 pub const MAX_CELLS: usize = 1 << 15;
+/// Cells projected per block of the image, at most (a 16x16 preview
+/// culls at a coarser level than a 512x512 frame: projecting 32768 cells
+/// cost a 256³ volume's 16x16 frame 4 ms, the rays 0.1 ms).
+pub const CELLS_PER_BLOCK: usize = 8;
+/// The fewest cells a level needs to be projected, when the index has
+/// that many.
+pub const MIN_CELLS: usize = 1 << 12;
 
 /// Edge of the square pixel blocks culled together.
 pub const BLOCK: u32 = 8;
@@ -57,18 +67,24 @@ pub fn busy_blocks(
     index: &MinMaxIndex,
     spacing: Vec3,
     within: Option<(Vec3, Vec3)>,
-    busy: impl Fn(usize, usize) -> bool,
+    busy: impl Fn(usize, usize) -> bool + Sync,
 ) -> Option<BlockMask> {
-    let levels = index.levels();
-    let level = levels.iter().position(|l| l.len() <= MAX_CELLS)?;
-    let l = &levels[level];
     let (w, h) = (camera.width(), camera.height());
     let (tx, ty) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
-    let mut mask = vec![false; (tx * ty) as usize];
+    let blocks = tx as usize * ty as usize;
+    let most = blocks
+        .saturating_mul(CELLS_PER_BLOCK)
+        .clamp(MIN_CELLS, MAX_CELLS);
+    let levels = index.levels();
+    let level = levels.iter().position(|l| l.len() <= most)?;
+    let l = &levels[level];
     let [nx, ny, nz] = l.cells();
     let d = index.dims().as_array();
     let edge = l.edge();
-    for cz in 0..nz {
+    // Each slab of cells marks its own mask; the masks are OR-ed. A cell
+    // not wholly in front of a perspective eye culls nothing (`None`).
+    let slab = |cz: u64| -> Option<Vec<bool>> {
+        let mut mask = vec![false; blocks];
         for cy in 0..ny {
             for cx in 0..nx {
                 if !busy(level, l.index(cx, cy, cz)) {
@@ -101,11 +117,19 @@ pub fn busy_blocks(
                 }
             }
         }
-    }
-    Some(BlockMask {
-        across: tx,
-        busy: mask,
-    })
+        Some(mask)
+    };
+    let busy = (0..nz)
+        .into_par_iter()
+        .map(slab)
+        .try_reduce(
+            || vec![false; blocks],
+            |mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(x, &y)| *x |= y);
+                Some(a)
+            },
+        )?;
+    Some(BlockMask { across: tx, busy })
 }
 
 #[cfg(test)]
