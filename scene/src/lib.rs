@@ -24,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod args;
+pub mod budget;
 pub mod choices;
 pub mod effective;
 pub mod error;

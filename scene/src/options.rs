@@ -15,7 +15,7 @@
 pub use crate::choices::{GradientArg, InterpArg, ModeArg, ShadingArg, TonemapArg, UpArg};
 use crate::lights::LightSpec;
 use crate::parse::{
-    parse_ao, parse_colour, parse_positive, parse_shadows, parse_size, parse_sun_arg, parse_up,
+    parse_ao, parse_colour, parse_positive, parse_positive_f64, parse_shadows, parse_size, parse_sun_arg, parse_up,
     parse_vec3,
 };
 use clap::Parser;
@@ -122,6 +122,16 @@ pub struct Options {
     /// --preintegrated; builds the index even with --no-ess.
     #[arg(long, value_name = "TOL", value_parser = parse_positive, allow_hyphen_values = true)]
     pub adaptive: Option<f32>,
+    /// Ray casting: a time budget for the frame, seconds. The step (a
+    /// multiple of --step or its default, 1/4x to 8x) and an image scale
+    /// (rendered smaller, then upsampled to --size) are picked for the
+    /// best expected PSNR that fits, from three small probe frames that
+    /// calibrate the cost and the error on this volume and machine (their
+    /// time counts in the budget). A budget below the coarsest setting's
+    /// cost gives the coarsest, with a note. --json states the choice, and
+    /// the expected and measured time, under `budget`.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_positive_f64, allow_hyphen_values = true)]
+    pub budget: Option<f64>,
     /// Early ray termination threshold (accumulated opacity).
     #[arg(long, default_value_t = 0.99)]
     pub ert: f32,
@@ -392,6 +402,7 @@ const EXAMPLES: &str = "Examples:
   vol-render noise.vvol --mode mip --ortho-height 300 -o mip300.png
   vol-render brain.nii.gz --tf auto -o brain.png
   vol-render ct.vvol --tf ct --shading phong --step 0.05 --adaptive 0.03 -o ct-fast.png
+  vol-render ct.vvol --tf ct --shading phong --budget 0.05 --json -o ct-50ms.png
   vol-render shapes.vvol --index shapes.vvol.vidx --no-ert --threads 1 -o a.png
 
   vol-render sphere.vvol --tf boundary --shading phong -o shell.png

@@ -14,6 +14,14 @@ pub fn parse_positive(s: &str) -> Result<f32, String> {
     }
 }
 
+/// A positive finite number in f64 (`--budget`'s seconds).
+pub fn parse_positive_f64(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("'{s}' is not a positive number")),
+    }
+}
+
 /// `WxH` within 1..=32768 per side.
 pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s

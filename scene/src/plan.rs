@@ -381,6 +381,12 @@ fn settings(
              between samples",
         ));
     }
+    if cli.budget.is_some() && cli.mode == ModeArg::Path {
+        return Err(Error::usage(
+            "--budget is the ray caster's frame time: path tracing spends its time with \
+             --seconds S",
+        ));
+    }
     if cli.adaptive.is_some() && cli.mode != ModeArg::Dvr {
         return Err(Error::usage(
             "--adaptive is for --mode dvr: the other modes integrate no transfer function \

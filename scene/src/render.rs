@@ -3,6 +3,7 @@
 //! saving an `--accumulate` state), stopping between tiles or passes
 //! when the caller raises a [`Cancel`] flag.
 
+use crate::budget::{self, Choice, Model};
 use crate::error::{Error, ErrorKind, Kind, Result};
 use crate::options::Options;
 use crate::plan::Plan;
@@ -19,6 +20,25 @@ pub struct Rendered {
     pub image: Image,
     /// How long each part took.
     pub times: Times,
+    /// What `--budget` chose, and what it cost.
+    pub budget: Option<Budgeted>,
+}
+
+/// What a frame-time budget chose and what it cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Budgeted {
+    /// The budget, seconds.
+    pub seconds: f64,
+    /// The step the choice's multiples are of.
+    pub base_step: f64,
+    /// The setting chosen.
+    pub choice: Choice,
+    /// Seconds of the probe frames (in the budget).
+    pub probe_s: f64,
+    /// Seconds of the upsampling (in `render_s`).
+    pub upsample_s: f64,
+    /// The model the choice came from.
+    pub model: Model,
 }
 
 /// The image of a render.
@@ -113,8 +133,71 @@ impl Rendered {
     }
 }
 
+/// The ray caster: within `--budget` when there is one, else
+/// [`cast_frames`].
+pub(crate) fn cast(
+    options: &Options,
+    source: &Source,
+    plan: &Plan,
+    cancel: &Cancel,
+) -> Result<Rendered> {
+    match options.budget {
+        Some(seconds) => cast_within(options, source, plan, cancel, seconds),
+        None => cast_frames(options, source, plan, cancel),
+    }
+}
+
+/// A frame within `seconds`: probe the view, choose the step and scale,
+/// render (`--repeat` times) and upsample to the size asked for.
+fn cast_within(
+    options: &Options,
+    source: &Source,
+    plan: &Plan,
+    cancel: &Cancel,
+    seconds: f64,
+) -> Result<Rendered> {
+    let base_step = f64::from(plan.settings.step);
+    let probed = budget::probe(options, source, plan, base_step, cancel)?;
+    let choice = budget::choose(
+        &probed.model,
+        base_step,
+        options.size,
+        seconds - probed.seconds,
+    );
+    let mut o = options.clone();
+    o.budget = None;
+    o.step = Some(choice.step as f32);
+    o.size = (choice.width, choice.height);
+    let chosen = Plan::for_source(&o, source)?;
+    let mut rendered = cast_frames(&o, source, &chosen, cancel)?;
+    let t = Instant::now();
+    if let Image::Frame(f) = rendered.image {
+        let (w, h) = options.size;
+        rendered.image = Image::Frame(budget::resize::upsample_frame(f, w, h));
+    }
+    let upsample_s = t.elapsed().as_secs_f64();
+    rendered.times.render_s += upsample_s;
+    for r in &mut rendered.times.runs {
+        *r += upsample_s;
+    }
+    rendered.budget = Some(Budgeted {
+        seconds,
+        base_step,
+        choice,
+        probe_s: probed.seconds,
+        upsample_s,
+        model: probed.model,
+    });
+    Ok(rendered)
+}
+
 /// The ray caster: `--repeat` frames, the last kept, the median timed.
-fn cast(options: &Options, source: &Source, plan: &Plan, cancel: &Cancel) -> Result<Rendered> {
+pub(crate) fn cast_frames(
+    options: &Options,
+    source: &Source,
+    plan: &Plan,
+    cancel: &Cancel,
+) -> Result<Rendered> {
     let name = source.name();
     let vol = &source.volume;
     let mut settings = plan.settings.clone();
@@ -143,6 +226,7 @@ fn cast(options: &Options, source: &Source, plan: &Plan, cancel: &Cancel) -> Res
             render_s,
             runs,
         },
+        budget: None,
     })
 }
 
@@ -263,6 +347,7 @@ fn trace(
             render_s,
             runs: vec![render_s],
         },
+        budget: None,
     })
 }
 

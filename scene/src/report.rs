@@ -3,7 +3,7 @@
 //! prints for people without `--json`.
 
 use crate::options::Options;
-use crate::render::{Image, Rendered, Times, Traced};
+use crate::render::{Budgeted, Image, Rendered, Times, Traced};
 use serde_json::{json, Value};
 use std::path::Path;
 use volrender::Frame;
@@ -50,10 +50,68 @@ impl Context<'_> {
 impl Rendered {
     /// The figures of this render.
     pub fn report(&self, cx: &Context) -> Report {
-        match &self.image {
+        let mut report = match &self.image {
             Image::Frame(f) => frame_report(cx, f, &self.times, None),
             Image::Path(t) => path_report(cx, t, &self.times),
+        };
+        if let Some(b) = &self.budget {
+            add_budget(&mut report, b, self.times.render_s);
         }
+        report
+    }
+}
+
+/// What `--budget` chose, in the JSON (`budget`) and as a line: the step
+/// and scale, the expected and measured seconds (the frame's with its
+/// upsampling; the probes' apart) and the expected PSNR.
+fn add_budget(report: &mut Report, b: &Budgeted, render_s: f64) {
+    let c = &b.choice;
+    let psnr = c.expected_psnr();
+    report.json["budget"] = json!({
+        "seconds": b.seconds,
+        "step": c.step,
+        "base_step": b.base_step,
+        "step_factor": c.step_factor,
+        "scale": c.scale,
+        "rendered_width": c.width,
+        "rendered_height": c.height,
+        "expected_s": c.expected_s,
+        "measured_s": render_s,
+        "probe_s": b.probe_s,
+        "upsample_s": b.upsample_s,
+        "expected_psnr": psnr,
+        "fits": c.fits,
+        "model": {
+            "fixed_s": b.model.cost.fixed_s,
+            "per_unit_s": b.model.cost.per_unit_s,
+            "samples_per_pixel": b.model.cost.samples_per_pixel,
+            "at_step": b.model.cost.at_step,
+            "step_order": b.model.error.order,
+            "step_c2": b.model.error.step_c2,
+            "scale_mse": b.model.error.scale_mse,
+        },
+    });
+    report.lines.push(format!(
+        "budget {} s: step {:.4} ({}x the base {:.4}), rendered {}x{} (scale {:.3}); expected {:.4} s, \
+         measured {:.4} s after {:.4} s of probes; expected PSNR {}",
+        b.seconds,
+        c.step,
+        c.step_factor,
+        b.base_step,
+        c.width,
+        c.height,
+        c.scale,
+        c.expected_s,
+        render_s,
+        b.probe_s,
+        psnr.map_or_else(|| "inf".to_string(), |p| format!("{p:.1} dB")),
+    ));
+    if !c.fits {
+        report.lines.push(format!(
+            "note: the budget is below the coarsest setting's expected {:.4} s with {:.4} s of \
+             probes: rendered the coarsest",
+            c.expected_s, b.probe_s
+        ));
     }
 }
 

@@ -190,6 +190,9 @@ fn refuse(cli: &Cli) -> Result<()> {
     if cli.ao.is_some() || cli.ao_field.is_some() {
         return no("ambient occlusion");
     }
+    if cli.budget.is_some() {
+        return no("--budget (its probe frames time one process)");
+    }
     if cli.in_memory {
         return no("--in-memory (each rank maps the volume and reads only its box)");
     }
@@ -320,6 +323,7 @@ fn job(world: &SimpleCommunicator, cli: &Cli, volume: &Path) -> Result<()> {
             render_s: frame_s,
             runs: frames.runs,
         },
+        budget: None,
     };
     rendered.write_files(cli, Some(output))?;
     let Image::Frame(frame) = &rendered.image else {

@@ -1,0 +1,288 @@
+//! What a ray-cast frame is expected to cost and how far it is expected
+//! to be from the exact image, as functions of its step and image scale:
+//! fitted to a few probe frames of the same view.
+//!
+//! Cost: `fixed + per_unit × pixels × (1 + samples per pixel)`, the
+//! samples per pixel scaling as 1/step (the march takes one sample per
+//! step along the same busy length), plus the upsampling's cost per
+//! output pixel. Error (mean squared error of the 8-bit sRGB image):
+//! the step's error `C·step^p` (p fitted to three steps an octave apart,
+//! the errors of two steps taken as uncorrelated) plus the scale's,
+//! measured as what a full-resolution crop loses when sampled 2x, 4x and
+//! 8x more coarsely and upsampled back, in proportion to the volume's
+//! coverage of the crop and of the whole image.
+
+/// One probe frame's figures.
+#[derive(Clone, Debug)]
+pub struct ProbeFrame {
+    /// Its step, world units.
+    pub step: f64,
+    /// Its pixels.
+    pub pixels: f64,
+    /// Samples its rays took.
+    pub samples: f64,
+    /// Its wall time, seconds.
+    pub seconds: f64,
+    /// The part of `seconds` that does not grow with pixels or samples
+    /// (the classifier's tables).
+    pub fixed_s: f64,
+    /// Its 8-bit sRGB pixels as floats, RGB.
+    pub srgb: Vec<f32>,
+    /// The fraction of its pixels the volume covers (coverage alpha).
+    pub coverage: f64,
+}
+
+/// The cost of a frame at a step and pixel count.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CostModel {
+    /// Seconds every frame costs (tables).
+    pub fixed_s: f64,
+    /// Seconds per pixel and per sample.
+    pub per_unit_s: f64,
+    /// Samples per pixel at `at_step`.
+    pub samples_per_pixel: f64,
+    /// The step `samples_per_pixel` was measured at.
+    pub at_step: f64,
+    /// Seconds per output pixel of upsampling.
+    pub upsample_s: f64,
+}
+
+/// The least cost per unit the model assumes (guards a probe timed at
+/// zero).
+const MIN_PER_UNIT_S: f64 = 1e-11;
+
+impl CostModel {
+    /// The model fitted to `probes` (at least one), with `upsample_s`
+    /// seconds per upsampled pixel.
+    pub fn fit(probes: &[ProbeFrame], upsample_s: f64) -> CostModel {
+        let (mut work, mut units, mut fixed) = (0.0, 0.0, 0.0f64);
+        for p in probes {
+            work += (p.seconds - p.fixed_s).max(0.0);
+            units += p.pixels + p.samples;
+            fixed = fixed.max(p.fixed_s);
+        }
+        let per_unit_s = if units > 0.0 {
+            (work / units).max(MIN_PER_UNIT_S)
+        } else {
+            MIN_PER_UNIT_S
+        };
+        // The finest probe's samples: the busy length per pixel.
+        let finest = probes
+            .iter()
+            .min_by(|a, b| a.step.total_cmp(&b.step))
+            .filter(|p| p.pixels > 0.0 && p.step > 0.0);
+        let (samples_per_pixel, at_step) = match finest {
+            Some(p) => (p.samples / p.pixels, p.step),
+            None => (0.0, 1.0),
+        };
+        CostModel {
+            fixed_s: fixed,
+            per_unit_s,
+            samples_per_pixel,
+            at_step,
+            upsample_s: upsample_s.max(0.0),
+        }
+    }
+
+    /// Expected samples per pixel at `step`.
+    pub fn samples_per_pixel(&self, step: f64) -> f64 {
+        if step > 0.0 {
+            self.samples_per_pixel * self.at_step / step
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// Expected seconds of a frame at `step` with `pixels` rendered and
+    /// `upsampled` output pixels (0 when it is not upsampled).
+    pub fn seconds(&self, step: f64, pixels: f64, upsampled: f64) -> f64 {
+        self.fixed_s
+            + self.per_unit_s * pixels * (1.0 + self.samples_per_pixel(step))
+            + self.upsample_s * upsampled
+    }
+
+    /// Calibrate by a frame rendered at `step` with `pixels` pixels that
+    /// took `samples` samples and `seconds`: the samples per pixel are
+    /// the frame's, and the cost per unit moves halfway to the frame's
+    /// (a frame timed once is noisy).
+    pub fn observe(&mut self, step: f64, pixels: f64, samples: f64, seconds: f64) {
+        if !(pixels > 0.0 && step > 0.0 && seconds.is_finite()) {
+            return;
+        }
+        self.samples_per_pixel = samples / pixels;
+        self.at_step = step;
+        let units = pixels + samples;
+        let measured = ((seconds - self.fixed_s).max(0.0) / units).max(MIN_PER_UNIT_S);
+        self.per_unit_s = (self.per_unit_s * measured).sqrt();
+    }
+}
+
+/// The expected squared error of a frame against the exact image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorModel {
+    /// `C²` of the step's error `C·step^p`.
+    pub step_c2: f64,
+    /// `p`.
+    pub order: f64,
+    /// The squared error of rendering 2, 4 and 8 times smaller and
+    /// upsampling, measured on a full-resolution crop.
+    pub scale_mse: [f64; 3],
+}
+
+/// The range the fitted step order is kept in (first order for a
+/// Riemann sum of optical depth; noise at the voxel scale lowers it,
+/// smooth data raises it).
+const ORDER: (f64, f64) = (0.5, 2.0);
+
+impl ErrorModel {
+    /// The model from three probes of one size at steps `s`, `2s`, `4s`
+    /// (`fine`, `mid`, `coarse`) and the squared errors of 2x, 4x and 8x
+    /// down-and-up sampling at full resolution (`scale_mse`).
+    pub fn fit(
+        fine: &ProbeFrame,
+        mid: &ProbeFrame,
+        coarse: &ProbeFrame,
+        scale_mse: [f64; 3],
+    ) -> ErrorModel {
+        let d1 = mse(&fine.srgb, &mid.srgb);
+        let d2 = mse(&mid.srgb, &coarse.srgb);
+        // d2 / d1 = 2^(2p) when the error is C·step^p.
+        let order = if d1 > 0.0 && d2 > 0.0 {
+            ((d2 / d1).log2() / 2.0).clamp(ORDER.0, ORDER.1)
+        } else {
+            1.0
+        };
+        // A step moves the samples along each ray, so two steps' errors
+        // are more alike in size than in sign: taken as uncorrelated,
+        // d1 = C² s^(2p) (1 + 2^(2p)) with s the fine step.
+        let spread = 1.0 + 2f64.powf(2.0 * order);
+        let step_c2 = if fine.step > 0.0 {
+            d1 / (fine.step.powf(2.0 * order) * spread)
+        } else {
+            0.0
+        };
+        // A coarser scale loses at least what a finer one does.
+        let [e2, e4, e8] = scale_mse.map(|e| if e.is_finite() { e.max(0.0) } else { 0.0 });
+        let e4 = e4.max(e2);
+        ErrorModel {
+            step_c2,
+            order,
+            scale_mse: [e2, e4, e8.max(e4)],
+        }
+    }
+
+    /// Expected squared error of the step alone.
+    pub fn step_mse(&self, step: f64) -> f64 {
+        self.step_c2 * step.max(0.0).powf(2.0 * self.order)
+    }
+
+    /// Expected squared error of rendering at `scale` (of each side, at
+    /// most 1) and upsampling: linear in octaves between the measured
+    /// 2x, 4x and 8x (and none at 1), extended past 8x by the last slope.
+    pub fn scale_mse(&self, scale: f64) -> f64 {
+        if scale >= 1.0 {
+            return 0.0;
+        }
+        let octaves = -scale.max(1e-3).log2();
+        let [e2, e4, e8] = self.scale_mse;
+        let points = [(0.0, 0.0), (1.0, e2), (2.0, e4), (3.0, e8)];
+        let i = (octaves.floor() as usize).min(2);
+        let ((x0, y0), (x1, y1)) = (points[i], points[i + 1]);
+        y0 + (y1 - y0) * (octaves - x0) / (x1 - x0)
+    }
+
+    /// Expected squared error at `step` and `scale`.
+    pub fn mse(&self, step: f64, scale: f64) -> f64 {
+        self.step_mse(step) + self.scale_mse(scale)
+    }
+}
+
+/// The mean squared difference of two equal-length pixel arrays (`0`
+/// when they are empty or differ in length).
+pub fn mse(a: &[f32], b: &[f32]) -> f64 {
+    if a.is_empty() || a.len() != b.len() {
+        return 0.0;
+    }
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(&x, &y)| {
+            let d = f64::from(x) - f64::from(y);
+            d * d
+        })
+        .sum();
+    sum / a.len() as f64
+}
+
+/// PSNR in dB of a squared error on 8-bit values (`None`: no error).
+pub fn psnr(mse: f64) -> Option<f64> {
+    (mse > 0.0).then(|| 10.0 * (255.0f64 * 255.0 / mse).log10())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn probe(step: f64, value: f32, samples: f64, seconds: f64) -> ProbeFrame {
+        ProbeFrame {
+            step,
+            pixels: 100.0,
+            samples,
+            seconds,
+            fixed_s: 0.0,
+            srgb: vec![value; 300],
+            coverage: 1.0,
+        }
+    }
+
+    #[test]
+    fn the_order_follows_the_probes() {
+        // Errors 1·s², uncorrelated: steps 1 and 2 differ by √17 (errors
+        // 1 and 4 at right angles), steps 2 and 4 by 4√17: values
+        // (√17 / 3)·s² have those differences.
+        let p: Vec<ProbeFrame> = [1.0, 2.0, 4.0]
+            .iter()
+            .map(|&s: &f64| probe(s, (17f64.sqrt() / 3.0 * s * s) as f32, 100.0, 0.01))
+            .collect();
+        let m = ErrorModel::fit(&p[0], &p[1], &p[2], [1.0, 3.0, 2.0]);
+        assert!((m.order - 2.0).abs() < 1e-5, "{m:?}");
+        assert!((m.step_mse(1.0) - 1.0).abs() < 1e-4, "{m:?}");
+        assert!((m.step_mse(0.5) - 1.0 / 16.0).abs() < 1e-5);
+        // The scale's errors as measured, monotone, linear in octaves.
+        assert_eq!(m.scale_mse, [1.0, 3.0, 3.0]);
+        assert_eq!(m.scale_mse(1.0), 0.0);
+        assert!((m.scale_mse(0.5) - 1.0).abs() < 1e-12);
+        assert!((m.scale_mse(0.25) - 3.0).abs() < 1e-12);
+        assert!((m.scale_mse(0.5f64.powf(1.5)) - 2.0).abs() < 1e-12);
+        assert!((m.scale_mse(0.0625) - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn cost_grows_with_pixels_and_shrinks_with_the_step() {
+        let p = [probe(1.0, 0.0, 1000.0, 0.011), probe(2.0, 0.0, 500.0, 0.006)];
+        let c = CostModel::fit(&p, 0.0);
+        assert!((c.samples_per_pixel(1.0) - 10.0).abs() < 1e-9);
+        assert!((c.samples_per_pixel(4.0) - 2.5).abs() < 1e-9);
+        assert!(c.seconds(1.0, 400.0, 0.0) > c.seconds(1.0, 100.0, 0.0));
+        assert!(c.seconds(2.0, 100.0, 0.0) < c.seconds(1.0, 100.0, 0.0));
+        // 0.017 s over 1700 units.
+        assert!((c.per_unit_s - 1e-5).abs() < 1e-12, "{c:?}");
+        let mut d = c;
+        d.observe(1.0, 100.0, 1000.0, 0.044);
+        assert!((d.per_unit_s - 2e-5).abs() < 1e-12, "{d:?}");
+        d.observe(1.0, 0.0, 0.0, f64::NAN);
+        assert!((d.per_unit_s - 2e-5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn flat_probes_expect_no_error() {
+        let p: Vec<ProbeFrame> = [1.0, 2.0, 4.0]
+            .iter()
+            .map(|&s| probe(s, 7.0, 100.0, 0.01))
+            .collect();
+        let m = ErrorModel::fit(&p[0], &p[1], &p[2], [0.0; 3]);
+        assert_eq!(m.mse(8.0, 0.125), 0.0);
+        assert_eq!(psnr(0.0), None);
+        assert!((psnr(255.0 * 255.0).unwrap_or(1.0)).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,143 @@
+//! The probe frames a budget is calibrated by, in samples about 6% of a
+//! full frame at the base step for a 512² image:
+//! - the whole view at a sixth of each side (at least
+//!   [`PROBE_MIN_SIDE`] pixels) at 1, 2 and 4 times the base step: their
+//!   times fit the cost model, their differences the step's error;
+//! - the centre of the view at full resolution, as large as those (the
+//!   same camera, its field of view narrowed), at twice the base step:
+//!   what it loses when sampled 2x, 4x and 8x more coarsely and upsampled
+//!   back is the scale's error.
+
+use super::model::{CostModel, ErrorModel, ProbeFrame};
+use super::resize::down_up_mse;
+use super::{scaled, Model};
+use crate::error::{Error, Result};
+use crate::options::Options;
+use crate::render::{cast_frames, Image};
+use crate::source::Source;
+use crate::Plan;
+use std::time::Instant;
+use volrender::camera::Projection;
+use volrender::Cancel;
+
+/// The probes' scale of each side.
+pub const PROBE_SCALE: f64 = 1.0 / 6.0;
+/// The fewest pixels on a probe's shorter side (a smaller image is probed
+/// at its own size).
+pub const PROBE_MIN_SIDE: u32 = 48;
+/// The probes' steps, as multiples of the base step: an octave apart.
+pub const PROBE_STEPS: [f64; 3] = [1.0, 2.0, 4.0];
+
+/// The most the crop's scale errors are raised by when the volume covers
+/// more of the whole image than of the crop.
+const MAX_SPREAD: f64 = 4.0;
+
+/// A view's fitted models and what fitting them cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probed {
+    /// The models.
+    pub model: Model,
+    /// Wall seconds of the probes and the fit.
+    pub seconds: f64,
+}
+
+/// Probe the view `options` asks for (its size is the full frame's;
+/// `base_step` is the step the budget's multiples are of) as `plan`
+/// resolves it.
+pub fn probe(
+    options: &Options,
+    source: &Source,
+    plan: &Plan,
+    base_step: f64,
+    cancel: &Cancel,
+) -> Result<Probed> {
+    let t = Instant::now();
+    let (w, h) = options.size;
+    let short = w.min(h).max(1);
+    let q = PROBE_SCALE
+        .max(f64::from(PROBE_MIN_SIDE) / f64::from(short))
+        .min(1.0);
+    let size = (scaled(w, q), scaled(h, q));
+    let mut probes = Vec::with_capacity(PROBE_STEPS.len());
+    for f in PROBE_STEPS {
+        let mut o = options.clone();
+        o.size = size;
+        probes.push(frame(o, source, base_step * f, cancel)?);
+    }
+    let [fine, mid, coarse] = &probes[..] else {
+        return Err(Error::option("--budget: the probes did not render"));
+    };
+    let crop = frame(centre(options, plan, size), source, base_step * 2.0, cancel)?;
+    let r = Instant::now();
+    // The crop's errors where the volume is, spread over the whole
+    // image's coverage.
+    let spread = if crop.coverage > 0.0 {
+        (fine.coverage / crop.coverage).min(MAX_SPREAD)
+    } else {
+        1.0
+    };
+    let scale_mse = [2, 4, 8].map(|factor| spread * down_up_mse(&crop.srgb, size, factor));
+    // Each upsampling wrote a crop of three channels; a frame's has four
+    // and three figures per pixel: about twice the time per pixel.
+    let crop_pixels = f64::from(size.0) * f64::from(size.1);
+    let upsample_s = 2.0 * r.elapsed().as_secs_f64() / (3.0 * crop_pixels);
+    let model = Model {
+        cost: CostModel::fit(&probes, upsample_s),
+        error: ErrorModel::fit(fine, mid, coarse, scale_mse),
+    };
+    Ok(Probed {
+        model,
+        seconds: t.elapsed().as_secs_f64(),
+    })
+}
+
+/// The options of the centre `size` pixels of the view `plan` resolves
+/// `options` to, at full resolution: the same camera with its field of
+/// view (or orthographic height) narrowed in proportion.
+fn centre(options: &Options, plan: &Plan, size: (u32, u32)) -> Options {
+    let mut o = options.clone();
+    let part = f64::from(size.1) / f64::from(options.size.1.max(1));
+    match plan.camera.projection() {
+        Projection::Perspective(fov) => {
+            let half = (f64::from(fov).to_radians() / 2.0).tan() * part;
+            o.fov = (2.0 * half.atan()).to_degrees() as f32;
+        }
+        Projection::Orthographic(height) => {
+            o.ortho = None;
+            o.ortho_height = Some((f64::from(height) * part) as f32);
+        }
+    }
+    o.size = size;
+    o
+}
+
+/// One probe frame of `options` at `step`.
+fn frame(mut o: Options, source: &Source, step: f64, cancel: &Cancel) -> Result<ProbeFrame> {
+    o.budget = None;
+    o.repeat = 1;
+    o.step = Some(step as f32);
+    let plan = Plan::for_source(&o, source)?;
+    let rendered = cast_frames(&o, source, &plan, cancel)?;
+    let Image::Frame(frame) = rendered.image else {
+        return Err(Error::option("--budget is for ray-cast frames"));
+    };
+    Ok(ProbeFrame {
+        step: f64::from(plan.settings.step),
+        pixels: f64::from(frame.width) * f64::from(frame.height),
+        samples: frame.stats.samples as f64 + frame.stats.effects.shadow_samples as f64,
+        seconds: frame.stats.render_s,
+        fixed_s: frame.stats.table_s,
+        srgb: frame.srgb8(false).into_iter().map(f32::from).collect(),
+        coverage: coverage(&frame.rgba),
+    })
+}
+
+/// The fraction of pixels with a coverage alpha of at least half an
+/// 8-bit step.
+fn coverage(rgba: &[[f32; 4]]) -> f64 {
+    if rgba.is_empty() {
+        return 0.0;
+    }
+    let covered = rgba.iter().filter(|p| p[3] >= 0.5 / 255.0).count();
+    covered as f64 / rgba.len() as f64
+}
