@@ -15,8 +15,8 @@
 pub use crate::choices::{GradientArg, InterpArg, ModeArg, ShadingArg, TonemapArg, UpArg};
 use crate::lights::LightSpec;
 use crate::parse::{
-    parse_ao, parse_colour, parse_positive, parse_positive_f64, parse_shadows, parse_size, parse_sun_arg, parse_up,
-    parse_vec3,
+    parse_ao, parse_colour, parse_positive, parse_positive_f64, parse_shadows, parse_size,
+    parse_sun_arg, parse_up, parse_vec3,
 };
 use clap::Parser;
 use glam::Vec3;

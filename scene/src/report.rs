@@ -83,7 +83,7 @@ fn add_budget(report: &mut Report, b: &Budgeted, render_s: f64) {
         "fits": c.fits,
         "model": {
             "fixed_s": b.model.cost.fixed_s,
-            "per_unit_s": b.model.cost.per_unit_s,
+            "per_sample_s": b.model.cost.per_sample_s,
             "samples_per_pixel": b.model.cost.samples_per_pixel,
             "at_step": b.model.cost.at_step,
             "step_order": b.model.error.order,

@@ -19,8 +19,10 @@ fn parse_csv(text: &str) -> Rows {
         let f: Vec<&str> = line.split(',').collect();
         assert_eq!(f.len(), 9, "bad row: {line}");
         let build: f64 = f[8].parse().expect("build_s");
-        // Only an AO field is precomputed outside the frame.
-        assert_eq!(build > 0.0, f[1].starts_with("AO field"), "build_s: {line}");
+        // Only an AO field (and a budget's probe frames) is computed
+        // outside the frame.
+        let built = f[1].starts_with("AO field") || f[1] == "budget";
+        assert_eq!(build > 0.0, built, "build_s: {line}");
         let median: f64 = f[3].parse().expect("median_s");
         let min: f64 = f[4].parse().expect("min_s");
         let max: f64 = f[5].parse().expect("max_s");
@@ -70,6 +72,7 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     let expected: &[(&str, &[&str])] = &[
         ("reference", &["0.02"]),
         ("step", &["0.05", "0.2", "0.8", "1.6"]),
+        ("budget", &["0.01", "0.04"]),
         ("ert", &["0.9", "0.99", "off"]),
         ("interp", &["nearest", "trilinear"]),
         ("gradient", &["central", "analytic"]),
@@ -155,6 +158,15 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
             "{scene}: PSNR at step 0.05 ({fine}) <= at 1.6 ({coarse})"
         );
         assert!(fine_samples > coarse_samples, "{scene}: samples");
+        // A frame-time budget's frames are measured against the
+        // reference (which one they pick depends on the machine's speed).
+        let (_, tight_samples, tight) = get("budget", "0.01");
+        let (_, _, loose) = get("budget", "0.04");
+        assert!(
+            tight.is_finite() && loose.is_finite(),
+            "{scene}: budget PSNR"
+        );
+        assert!(tight_samples > 0, "{scene}: budget samples");
         if pre_scenes.contains(&scene) {
             let (_, _, pre_fine) = get("preintegrated", "0.05");
             let (_, _, pre_coarse) = get("preintegrated", "1.6");
@@ -176,7 +188,7 @@ fn quick_study_writes_rows_and_error_falls_with_step() {
     // Time to each PSNR per method and scene.
     let methods = std::fs::read_to_string(out.join("methods.md")).unwrap();
     for scene in pre_scenes {
-        for method in ["step", "pre-integrated", "adaptive"] {
+        for method in ["step", "pre-integrated", "adaptive", "budget"] {
             assert!(
                 methods.contains(&format!("| {scene} | {method} |")),
                 "{methods}"

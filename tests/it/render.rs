@@ -735,3 +735,84 @@ fn adaptive_steps_are_refused_where_they_do_not_apply_and_read_the_index() {
     );
     assert_eq!(adaptive["scene"]["adaptive"], serde_json::json!(0.05));
 }
+
+/// `--budget SECONDS`: refused with one line and exit 2 where it cannot
+/// apply; where it does, the frame has the size asked for and --json
+/// states the choice. A budget nothing fits gives the coarsest setting
+/// with a note; one everything fits gives the finest, the same image as
+/// that step alone.
+#[test]
+fn a_frame_budget_states_its_choice_and_keeps_the_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol = gen(d, "s.vvol", &["shapes", "--dims", "96,96,96"]);
+    let out = d.join("x.png");
+    usage_errors(
+        &vol,
+        &out,
+        &[
+            (&["--budget", "0"], "positive number"),
+            (&["--budget", "-1"], "positive number"),
+            (&["--budget", "NaN"], "positive number"),
+            (&["--budget", "inf"], "positive number"),
+            (&["--budget", "1", "--mode", "path"], "--seconds"),
+        ],
+    );
+    let run = |extra: &[&str]| {
+        let mut c = tool("vol-render");
+        c.arg(&vol)
+            .args(["--tf", "shapes", "--size", "200x160", "--json", "-o"])
+            .arg(&out)
+            .args(extra);
+        let report = json(&ok(&mut c));
+        let png = volcompare::image::Image::load(&out).unwrap();
+        assert_eq!((png.width, png.height), (200, 160), "{extra:?}");
+        (report, png.samples)
+    };
+    // Nothing fits a nanosecond: the coarsest, said so.
+    let (tight, _) = run(&["--budget", "1e-9"]);
+    let b = &tight["budget"];
+    assert_eq!(b["fits"], false, "{b}");
+    assert_eq!(b["step_factor"], 8.0, "{b}");
+    assert_eq!(
+        (b["rendered_width"].as_u64(), b["rendered_height"].as_u64()),
+        (Some(25), Some(20))
+    );
+    assert!(tight["width"] == 200 && tight["height"] == 160, "{tight}");
+    let mut c = tool("vol-render");
+    c.arg(&vol)
+        .args([
+            "--tf", "shapes", "--size", "200x160", "--budget", "1e-9", "-o",
+        ])
+        .arg(&out);
+    let stderr = String::from_utf8(c.output().unwrap().stderr).unwrap();
+    assert!(stderr.contains("below the coarsest"), "{stderr}");
+    // Everything fits an hour: a quarter of the step at full size, the
+    // image of that step alone.
+    let (loose, image) = run(&["--budget", "3600"]);
+    let b = &loose["budget"];
+    assert_eq!(
+        (b["fits"].as_bool(), b["step_factor"].as_f64()),
+        (Some(true), Some(0.25)),
+        "{b}"
+    );
+    assert_eq!(b["scale"], 1.0, "{b}");
+    let base = b["base_step"].as_f64().unwrap();
+    assert_eq!(base, 0.5, "half the voxel spacing");
+    for key in ["expected_s", "measured_s", "probe_s"] {
+        assert!(
+            b[key].as_f64().is_some_and(|s| s > 0.0 && s.is_finite()),
+            "{key}: {b}"
+        );
+    }
+    assert!(
+        b["expected_psnr"].as_f64().is_some_and(f64::is_finite),
+        "{b}"
+    );
+    let (_, plain) = run(&["--step", "0.125"]);
+    assert!(
+        image == plain,
+        "the finest choice differs from --step 0.125 alone"
+    );
+    assert_eq!(loose["scene"]["budget"], 3600.0);
+}

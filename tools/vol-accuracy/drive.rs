@@ -60,7 +60,8 @@ pub struct Timing {
     pub max_s: f64,
     /// Samples taken.
     pub samples: u64,
-    /// Precomputation outside the frame time (`ao_field_s`), seconds.
+    /// Precomputation outside the frame time (`ao_field_s`, or a
+    /// budget's `probe_s`), seconds.
     pub build_s: f64,
 }
 
@@ -108,7 +109,11 @@ pub fn render(
         min_s: min,
         max_s: max,
         samples,
-        build_s: v["ao_field_s"].as_f64().unwrap_or(0.0),
+        // An AO field's precomputation, or a budget's probe frames.
+        build_s: v["ao_field_s"]
+            .as_f64()
+            .or_else(|| v["budget"]["probe_s"].as_f64())
+            .unwrap_or(0.0),
     })
 }
 

@@ -43,6 +43,13 @@ struct Args {
     /// it the server writes no file (saves go to the browser only).
     #[arg(long, value_name = "DIR")]
     save_dir: Option<PathBuf>,
+    /// Seconds a ray-cast preview aims at while the camera moves, its
+    /// transfer to the page included: the step and image scale are
+    /// picked for the best expected PSNR within it (as vol-render
+    /// --budget does), from probe frames and the previews before.
+    #[arg(long, value_name = "SECONDS", default_value_t = volview::viewer::PREVIEW_BUDGET_S,
+          value_parser = volscene::parse::parse_positive_f64)]
+    preview_budget: f64,
 }
 
 const EXAMPLES: &str = "Examples:
@@ -50,6 +57,7 @@ const EXAMPLES: &str = "Examples:
   vol-view shapes.vvol --open --port 8700
   vol-view --scene thesis.toml
   vol-view ct.nii.gz --save-dir renders/
+  vol-view big.vvol --preview-budget 0.1
   vol-view shapes.vvol --listen 0.0.0.0:8700 --allow-host workstation.lan
 
 The page: drag to orbit, shift-drag (or right-drag) to pan, wheel to zoom;
@@ -87,7 +95,7 @@ fn run(args: &Args) -> Result<(), (u8, String)> {
         }
         config.save_dir = Some(dir.clone());
     }
-    let viewer = Viewer::open(args.volume.as_deref(), args.scene.as_deref()).map_err(|e| {
+    let mut viewer = Viewer::open(args.volume.as_deref(), args.scene.as_deref()).map_err(|e| {
         let code = if e.kind() == volscene::ErrorKind::Usage {
             2
         } else {
@@ -95,6 +103,7 @@ fn run(args: &Args) -> Result<(), (u8, String)> {
         };
         (code, e.message().to_string())
     })?;
+    viewer.preview_budget_s = args.preview_budget;
     let name = viewer.volume.display().to_string();
     let server = Server::bind(&config, viewer)
         .map_err(|e| (1, format!("cannot listen on {}: {e}", config.addr)))?;

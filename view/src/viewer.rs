@@ -22,7 +22,13 @@ pub struct Viewer {
     pub startup: Options,
     /// Held while a frame renders: one frame at a time, whoever asks.
     render_lock: Mutex<()>,
+    /// The seconds a ray-cast preview aims at, its transfer to the page
+    /// included.
+    pub preview_budget_s: f64,
 }
+
+/// The default preview budget: 30 previews per second.
+pub const PREVIEW_BUDGET_S: f64 = 1.0 / 30.0;
 
 impl Viewer {
     /// Open `volume` (or the `volume` of the `scene` file) with the
@@ -53,6 +59,7 @@ impl Viewer {
             scene,
             startup,
             render_lock: Mutex::new(()),
+            preview_budget_s: PREVIEW_BUDGET_S,
         })
     }
 
@@ -92,6 +99,20 @@ impl Viewer {
             return Err(Error::cancelled());
         }
         volscene::render_from(options, &self.source, plan, cancel, prior, |_| {})
+    }
+
+    /// Fit the frame-time models of the view `options` asks for (as
+    /// `plan` resolves it) with probe frames, after any other frame of
+    /// the server has finished.
+    pub fn probe(
+        &self,
+        options: &Options,
+        plan: &Plan,
+        cancel: &Cancel,
+    ) -> Result<volscene::budget::Probed, Error> {
+        let _one_at_a_time = self.lock();
+        let base_step = f64::from(plan.settings.step);
+        volscene::budget::probe(options, &self.source, plan, base_step, cancel)
     }
 
     /// The render lock (a panic elsewhere does not stop the server).

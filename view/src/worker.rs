@@ -17,6 +17,7 @@ use std::time::Instant;
 use volcompare::{Depth, Image as CmpImage, ImageOptions};
 use volrender::film::PathFilm;
 use volrender::path::{Budget, MAX_SPP};
+use volscene::budget::{self, Choice, Model};
 use volscene::{Cancel, Error, ErrorKind, Options, Plan, Rendered};
 
 /// A render the page asked for.
@@ -114,6 +115,10 @@ struct View {
     plan: Plan,
     /// The options of the full view (the reference starts from them).
     full: Options,
+    /// The full view's plan.
+    full_plan: Plan,
+    /// What the preview budget chose (a ray-cast preview).
+    choice: Option<Choice>,
     cancel: Cancel,
     passes: Option<Passes>,
     /// The page's pairs for the full view.
@@ -121,8 +126,8 @@ struct View {
     command: String,
     toml: String,
     note: Option<String>,
-    /// The last frame's 8-bit image and its channels.
-    shown: Option<(usize, Vec<u8>)>,
+    /// The last frame's 8-bit image, its channels and size.
+    shown: Option<Shown>,
     psnr_wanted: bool,
     /// Whether the reference has been rendered and the PSNR sent.
     referenced: bool,
@@ -135,7 +140,24 @@ pub struct Worker {
     out: Sender<Out>,
     snapshot: Arc<Mutex<Option<Snapshot>>>,
     view: Option<View>,
+    /// The frame-time models of the last view previewed, under the key
+    /// of its options without the camera ([`model_key`]).
+    models: Option<(String, Model)>,
+    /// Seconds a preview takes beyond its render (encoding, sending),
+    /// averaged over the previews so far.
+    send_s: f64,
 }
+
+/// An 8-bit frame as the page got it.
+struct Shown {
+    channels: usize,
+    pixels: Vec<u8>,
+    width: u32,
+    height: u32,
+}
+
+/// The least render time a preview is given, however long sending takes.
+const MIN_PREVIEW_RENDER_S: f64 = 0.005;
 
 impl Worker {
     /// A worker for one page.
@@ -151,6 +173,8 @@ impl Worker {
             out,
             snapshot,
             view: None,
+            models: None,
+            send_s: 0.0,
         }
     }
 
@@ -181,15 +205,6 @@ impl Worker {
             if let Some(v) = self.view.as_mut() {
                 if p.psnr.is_some_and(|s| s == v.seq) {
                     p.psnr = None;
-                    if v.preview {
-                        drop(p);
-                        send(
-                            &self.out,
-                            Out::error(Some(v.seq), "the PSNR is for full frames, not previews"),
-                        );
-                        p = queue.lock();
-                        continue;
-                    }
                     v.psnr_wanted = true;
                     // Asked again: measured again.
                     v.referenced = false;
@@ -224,16 +239,16 @@ impl Worker {
     }
 
     /// The view `job` asks for, ready to render.
-    fn prepare(&self, job: &Job, cancel: Cancel) -> Result<View, Error> {
-        let viewer = &self.viewer;
+    fn prepare(&mut self, job: &Job, cancel: Cancel) -> Result<View, Error> {
+        let viewer = Arc::clone(&self.viewer);
         let full = viewer.options(&job.pairs)?;
         let full_plan = viewer.plan(&full)?;
         let toml = volscene::file::to_toml(&full_plan.scene)?;
         let command = viewer.command(&job.pairs, &stem(job.seq, None))?;
-        let (options, plan, note) = if job.preview {
-            preview(viewer, &full, &full_plan)?
+        let (options, plan, note, choice) = if job.preview {
+            self.preview(&full, &full_plan, &cancel)?
         } else {
-            (full.clone(), full_plan, None)
+            (full.clone(), full_plan.clone(), None, None)
         };
         let passes = match &plan.path {
             Some((_, budget)) => {
@@ -261,6 +276,8 @@ impl Worker {
             options,
             plan,
             full,
+            full_plan,
+            choice,
             cancel,
             passes,
             pairs: job.pairs.clone(),
@@ -273,11 +290,84 @@ impl Worker {
         })
     }
 
-    /// Render the view's ray-cast frame and send it.
+    /// Render the view's ray-cast frame and send it; a preview
+    /// calibrates the models' cost and the time sending takes.
     fn cast(&mut self) {
         let Some(v) = self.view.as_ref() else { return };
+        let started = Instant::now();
         let result = self.viewer.render(&v.options, &v.plan, &v.cancel, None);
+        let rendered_s = match (&result, v.choice, self.models.as_mut()) {
+            (Ok(r), Some(c), Some((_, model))) => {
+                if let volscene::Image::Frame(f) = &r.image {
+                    let pixels = f64::from(f.width) * f64::from(f.height);
+                    model
+                        .cost
+                        .observe(c.step, pixels, f.stats.samples as f64, r.times.render_s);
+                }
+                Some(r.times.render_s)
+            }
+            _ => None,
+        };
         self.deliver(result, true);
+        if let Some(render_s) = rendered_s {
+            let sending = (started.elapsed().as_secs_f64() - render_s).max(0.0);
+            self.send_s = 0.5 * (self.send_s + sending);
+        }
+    }
+
+    /// The preview of a full view while the camera moves, with a line
+    /// saying what it is. Ray casting: the step and image scale of best
+    /// expected PSNR within the preview budget less what sending takes,
+    /// from the view's models (probed when its options other than the
+    /// camera change, calibrated by each preview since). Path tracing:
+    /// half the image size while that leaves at least 256 pixels a side,
+    /// one sample per pixel.
+    fn preview(
+        &mut self,
+        full: &Options,
+        full_plan: &Plan,
+        cancel: &Cancel,
+    ) -> Result<(Options, Plan, Option<String>, Option<Choice>), Error> {
+        let viewer = Arc::clone(&self.viewer);
+        let mut o = full.clone();
+        o.budget = None;
+        let (w, h) = full.size;
+        if full_plan.path.is_some() {
+            if w >= 512 && h >= 512 {
+                o.size = (w / 2, h / 2);
+            }
+            let plan = viewer.plan(&o)?;
+            let note = format!("preview: {}x{}, one sample per pixel", o.size.0, o.size.1);
+            return Ok((o, plan, Some(note), None));
+        }
+        let key = model_key(full);
+        let model = match &self.models {
+            Some((k, m)) if *k == key => *m,
+            _ => {
+                let probed = viewer.probe(full, full_plan, cancel)?;
+                self.models = Some((key, probed.model));
+                probed.model
+            }
+        };
+        let seconds = (viewer.preview_budget_s - self.send_s).max(MIN_PREVIEW_RENDER_S);
+        let base = f64::from(full_plan.settings.step);
+        let c = budget::choose(&model, base, full.size, seconds);
+        o.step = Some(c.step as f32);
+        o.size = (c.width, c.height);
+        let plan = viewer.plan(&o)?;
+        let note = format!(
+            "preview: {}x{} ({:.0}% of the side), step {} ({}x the full {}); expected {:.0} ms, {}",
+            c.width,
+            c.height,
+            c.scale * 100.0,
+            plan.resolved.step,
+            c.step_factor,
+            full_plan.resolved.step,
+            c.expected_s * 1e3,
+            c.expected_psnr()
+                .map_or_else(|| "no error".to_string(), |p| format!("{p:.1} dB"))
+        );
+        Ok((o, plan, Some(note), Some(c)))
     }
 
     /// Add one pass of one sample to the path-traced view and send it.
@@ -383,6 +473,16 @@ impl Worker {
             "preview": v.preview,
             "final": last,
             "note": v.note,
+            "preview_choice": v.choice.map(|c| json!({
+                "step": c.step,
+                "step_factor": c.step_factor,
+                "scale": c.scale,
+                "width": c.width,
+                "height": c.height,
+                "expected_s": c.expected_s,
+                "expected_psnr": c.expected_psnr(),
+                "render_s": rendered.times.render_s,
+            })),
             "cost": cost,
             "target_spp": target,
             "notes": v.plan.notes,
@@ -404,7 +504,12 @@ impl Worker {
             };
             *self.snapshot.lock().unwrap_or_else(|p| p.into_inner()) = Some(snap);
         }
-        v.shown = Some((channels, pixels));
+        v.shown = Some(Shown {
+            channels,
+            pixels,
+            width: w,
+            height: h,
+        });
         if let Some(ps) = v.passes.as_mut() {
             ps.acc = rendered.into_passes();
         }
@@ -447,10 +552,9 @@ impl Worker {
         match result {
             Ok((rendered, options, what)) => {
                 let (c, pixels) = rendered.display8(&options);
+                let (w, h) = (rendered.width(), rendered.height());
                 let db = match &v.shown {
-                    Some((sc, shown)) => {
-                        psnr(rendered.width(), rendered.height(), *sc, shown, c, &pixels)
-                    }
+                    Some(s) => psnr(w, h, s.channels, &s.at_size(w, h), c, &pixels),
                     None => Err("no frame shown yet".to_string()),
                 };
                 v.referenced = true;
@@ -485,41 +589,39 @@ fn send(out: &Sender<Out>, message: Out) {
     let _ = out.send(message);
 }
 
-/// The preview of a full view while the camera moves: half the image
-/// size while that leaves at least 256 pixels a side, and (ray casting)
-/// twice the step; with a line saying so.
-fn preview(
-    viewer: &Viewer,
-    full: &Options,
-    full_plan: &Plan,
-) -> Result<(Options, Plan, Option<String>), Error> {
-    let mut o = full.clone();
-    let (w, h) = full.size;
-    if w >= 512 && h >= 512 {
-        o.size = (w / 2, h / 2);
+/// The key of the models `options` were probed for: the options
+/// without the camera's position (a drag changes only those).
+fn model_key(options: &Options) -> String {
+    let mut v = serde_json::to_value(options).unwrap_or(Value::Null);
+    if let Some(o) = v.as_object_mut() {
+        for k in ["eye", "look_at", "up", "orbit"] {
+            o.remove(k);
+        }
     }
-    let ray_cast = full_plan.path.is_none();
-    if ray_cast {
-        o.step = Some(full_plan.resolved.step * 2.0);
+    v.to_string()
+}
+
+impl Shown {
+    /// The pixels at `w` x `h`: as shown, or (a preview) upsampled as
+    /// the page stretches it, rounded to 8 bits.
+    fn at_size(&self, w: u32, h: u32) -> Vec<u8> {
+        if (self.width, self.height) == (w, h) {
+            return self.pixels.clone();
+        }
+        let f: Vec<f32> = self.pixels.iter().map(|&p| f32::from(p)).collect();
+        budget::resize::bilinear(&f, self.channels, (self.width, self.height), (w, h))
+            .iter()
+            .map(|&p| (p + 0.5).clamp(0.0, 255.0) as u8)
+            .collect()
     }
-    let plan = viewer.plan(&o)?;
-    let note = if ray_cast {
-        format!(
-            "preview: {}x{}, step {} (2x the full {})",
-            o.size.0, o.size.1, plan.resolved.step, full_plan.resolved.step
-        )
-    } else {
-        format!("preview: {}x{}, one sample per pixel", o.size.0, o.size.1)
-    };
-    Ok((o, plan, Some(note)))
 }
 
 /// The reference render of view `v`, its options and what it is.
 fn reference(viewer: &Viewer, v: &View) -> Result<(Rendered, Options, String), Error> {
     let mut o = v.full.clone();
-    match &v.plan.path {
+    match &v.full_plan.path {
         None => {
-            let step = v.plan.resolved.step;
+            let step = v.full_plan.resolved.step;
             o.no_ert = true;
             // The finest of a quarter, a half and the same step that the
             // volume allows.

@@ -367,6 +367,53 @@ fn path_tracing_refines_a_pass_at_a_time_to_the_cli_image() {
 }
 
 #[test]
+fn previews_fit_their_budget_and_have_a_psnr_on_request() {
+    let (addr, _dir, _) = start(Config::loopback(0));
+    let (mut ws, _) = connect(addr, "");
+    let pairs = json!({"tf": "shapes", "size": [256, 192], "orbit": [30, 20, 150]});
+    let mut choices = Vec::new();
+    for seq in 1..=3u64 {
+        let msg = json!({"type": "render", "seq": seq, "pairs": pairs, "preview": true});
+        ws.send(Message::Text(msg.to_string().into())).unwrap();
+        let (f, _) = until(&mut ws, "frame", Some(seq));
+        assert_eq!(f.header["preview"], true);
+        let c = f.header["preview_choice"].clone();
+        let (w, h) = (c["width"].as_u64().unwrap(), c["height"].as_u64().unwrap());
+        // The image sent is the size chosen, within the full view's.
+        assert_eq!(
+            (f.header["width"].as_u64(), f.header["height"].as_u64()),
+            (Some(w), Some(h))
+        );
+        assert!(w <= 256 && h <= 192 && w >= 8, "{c}");
+        let factor = c["step_factor"].as_f64().unwrap();
+        assert!((0.25..=8.0).contains(&factor), "{c}");
+        assert!(c["expected_s"].as_f64().unwrap() > 0.0, "{c}");
+        let note = f.header["note"].as_str().unwrap_or_default().to_string();
+        assert!(
+            note.starts_with(&format!("preview: {w}x{h}")) && note.contains("expected"),
+            "the overlay states the choice: {note}"
+        );
+        choices.push(c);
+    }
+    // The PSNR of the preview shown, against the full view's reference.
+    ws.send(Message::Text(r#"{"type":"psnr","seq":3}"#.into()))
+        .unwrap();
+    let (p, _) = until(&mut ws, "psnr", Some(3));
+    assert!(
+        p.header["identical"] == true || p.header["db"].as_f64().is_some_and(|db| db > 5.0),
+        "{}",
+        p.header
+    );
+    assert!(
+        p.header["reference"]
+            .as_str()
+            .is_some_and(|r| r.contains("without early ray termination")),
+        "{}",
+        p.header
+    );
+}
+
+#[test]
 fn saves_go_to_the_page_and_to_save_dir_only_when_given() {
     let out = tempfile::tempdir().unwrap();
     let mut config = Config::loopback(0);

@@ -312,7 +312,7 @@ function showFrame(h) {
 }
 
 function psnr(h) {
-  if (h.seq !== S.viewSeq) return;
+  if (h.seq !== S.viewSeq && h.seq !== S.shownSeq) return;
   const db = h.identical ? "identical" : `${h.db.toFixed(2)} dB`;
   $("psnr").textContent = `${db} vs ${h.reference} (${h.reference_s.toFixed(2)} s)`;
   S.lastPsnr = h;
@@ -585,7 +585,8 @@ function start() {
   $("reset-camera").onclick = () => { resetCamera(); stopped(); };
   $("psnr-button").onclick = () => {
     $("psnr").textContent = "rendering the reference…";
-    send({ type: "psnr", seq: S.viewSeq });
+    // The frame shown: the full view's, or a preview's while one is.
+    send({ type: "psnr", seq: S.shownSeq || S.viewSeq });
   };
   for (const what of ["png", "pfm", "scene"]) $("save-" + what).onclick = () => send({ type: "save", what });
   const copy = (id) => () => navigator.clipboard && navigator.clipboard.writeText($(id).textContent);

@@ -128,7 +128,7 @@ mod tests {
         Model {
             cost: CostModel {
                 fixed_s: 0.001,
-                per_unit_s: 1e-8,
+                per_sample_s: 1e-8,
                 samples_per_pixel: 400.0,
                 at_step: 0.5,
                 upsample_s: 1e-9,

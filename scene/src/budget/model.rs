@@ -23,9 +23,6 @@ pub struct ProbeFrame {
     pub samples: f64,
     /// Its wall time, seconds.
     pub seconds: f64,
-    /// The part of `seconds` that does not grow with pixels or samples
-    /// (the classifier's tables).
-    pub fixed_s: f64,
     /// Its 8-bit sRGB pixels as floats, RGB.
     pub srgb: Vec<f32>,
     /// The fraction of its pixels the volume covers (coverage alpha).
@@ -35,10 +32,11 @@ pub struct ProbeFrame {
 /// The cost of a frame at a step and pixel count.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CostModel {
-    /// Seconds every frame costs (tables).
+    /// Seconds every frame costs whatever its size and step (set-up:
+    /// tables, skipping flags, culling, threads).
     pub fixed_s: f64,
-    /// Seconds per pixel and per sample.
-    pub per_unit_s: f64,
+    /// Seconds per sample.
+    pub per_sample_s: f64,
     /// Samples per pixel at `at_step`.
     pub samples_per_pixel: f64,
     /// The step `samples_per_pixel` was measured at.
@@ -47,25 +45,39 @@ pub struct CostModel {
     pub upsample_s: f64,
 }
 
-/// The least cost per unit the model assumes (guards a probe timed at
+/// What upsampling a frame costs per output pixel, in samples (a 512²
+/// frame took 8.7 ms where a sample took 33 ns of the frame's wall time
+/// on two cores: about half a sample per pixel, rounded up).
+pub const UPSAMPLE_SAMPLES: f64 = 0.5;
+
+/// What a ray costs before its samples, in samples (its camera ray, box
+/// clipping, first cell and pixel write).
+pub const RAY_SAMPLES: f64 = 2.0;
+
+/// The least cost per sample the model assumes (guards probes timed at
 /// zero).
-const MIN_PER_UNIT_S: f64 = 1e-11;
+const MIN_PER_SAMPLE_S: f64 = 1e-11;
 
 impl CostModel {
-    /// The model fitted to `probes` (at least one), with `upsample_s`
-    /// seconds per upsampled pixel.
-    pub fn fit(probes: &[ProbeFrame], upsample_s: f64) -> CostModel {
-        let (mut work, mut units, mut fixed) = (0.0, 0.0, 0.0f64);
-        for p in probes {
-            work += (p.seconds - p.fixed_s).max(0.0);
-            units += p.pixels + p.samples;
-            fixed = fixed.max(p.fixed_s);
-        }
-        let per_unit_s = if units > 0.0 {
-            (work / units).max(MIN_PER_UNIT_S)
-        } else {
-            MIN_PER_UNIT_S
-        };
+    /// The model fitted to `probes` (of one size, at different steps):
+    /// the cost per sample
+    /// is the slope of time over samples, within a factor of 4 of the
+    /// mean time per sample (a slope of noisy timings can be anything);
+    /// what the slope leaves at zero samples, less the rays' share, is
+    /// the fixed cost.
+    pub fn fit(probes: &[ProbeFrame]) -> CostModel {
+        let n = probes.len().max(1) as f64;
+        let mean = |f: &dyn Fn(&ProbeFrame) -> f64| probes.iter().map(f).sum::<f64>() / n;
+        let units = |p: &ProbeFrame| p.samples + RAY_SAMPLES * p.pixels;
+        let (mu, mt) = (mean(&units), mean(&|p| p.seconds));
+        let cov = mean(&|p| (units(p) - mu) * (p.seconds - mt));
+        let var = mean(&|p| (units(p) - mu).powi(2));
+        let average = if mu > 0.0 { mt / mu } else { 0.0 };
+        let slope = if var > 0.0 { cov / var } else { average };
+        let per_sample_s = slope
+            .clamp(average / 4.0, average * 4.0)
+            .max(MIN_PER_SAMPLE_S);
+        let fixed_s = (mt - per_sample_s * mu).max(0.0);
         // The finest probe's samples: the busy length per pixel.
         let finest = probes
             .iter()
@@ -76,11 +88,11 @@ impl CostModel {
             None => (0.0, 1.0),
         };
         CostModel {
-            fixed_s: fixed,
-            per_unit_s,
+            fixed_s,
+            per_sample_s,
             samples_per_pixel,
             at_step,
-            upsample_s: upsample_s.max(0.0),
+            upsample_s: UPSAMPLE_SAMPLES * per_sample_s,
         }
     }
 
@@ -97,23 +109,23 @@ impl CostModel {
     /// `upsampled` output pixels (0 when it is not upsampled).
     pub fn seconds(&self, step: f64, pixels: f64, upsampled: f64) -> f64 {
         self.fixed_s
-            + self.per_unit_s * pixels * (1.0 + self.samples_per_pixel(step))
+            + self.per_sample_s * pixels * (RAY_SAMPLES + self.samples_per_pixel(step))
             + self.upsample_s * upsampled
     }
 
     /// Calibrate by a frame rendered at `step` with `pixels` pixels that
-    /// took `samples` samples and `seconds`: the samples per pixel are
-    /// the frame's, and the cost per unit moves halfway to the frame's
-    /// (a frame timed once is noisy).
+    /// took `samples` samples and `seconds`: the samples per pixel become
+    /// the frame's, and the cost per sample moves halfway (geometrically)
+    /// to the frame's (a frame timed once is noisy).
     pub fn observe(&mut self, step: f64, pixels: f64, samples: f64, seconds: f64) {
         if !(pixels > 0.0 && step > 0.0 && seconds.is_finite()) {
             return;
         }
         self.samples_per_pixel = samples / pixels;
         self.at_step = step;
-        let units = pixels + samples;
-        let measured = ((seconds - self.fixed_s).max(0.0) / units).max(MIN_PER_UNIT_S);
-        self.per_unit_s = (self.per_unit_s * measured).sqrt();
+        let units = samples + RAY_SAMPLES * pixels;
+        let measured = ((seconds - self.fixed_s).max(0.0) / units).max(MIN_PER_SAMPLE_S);
+        self.per_sample_s = (self.per_sample_s * measured).sqrt();
     }
 }
 
@@ -229,7 +241,6 @@ mod tests {
             pixels: 100.0,
             samples,
             seconds,
-            fixed_s: 0.0,
             srgb: vec![value; 300],
             coverage: 1.0,
         }
@@ -259,19 +270,33 @@ mod tests {
 
     #[test]
     fn cost_grows_with_pixels_and_shrinks_with_the_step() {
-        let p = [probe(1.0, 0.0, 1000.0, 0.011), probe(2.0, 0.0, 500.0, 0.006)];
-        let c = CostModel::fit(&p, 0.0);
+        // 1 ms fixed, 1 µs per sample (a ray 2 samples): 100 rays.
+        let t = |samples: f64| 0.001 + 1e-6 * (samples + 200.0);
+        let p = [
+            probe(1.0, 0.0, 1000.0, t(1000.0)),
+            probe(2.0, 0.0, 500.0, t(500.0)),
+            probe(4.0, 0.0, 250.0, t(250.0)),
+        ];
+        let c = CostModel::fit(&p);
+        assert!((c.per_sample_s - 1e-6).abs() < 1e-12, "{c:?}");
+        assert!((c.fixed_s - 0.001).abs() < 1e-9, "{c:?}");
         assert!((c.samples_per_pixel(1.0) - 10.0).abs() < 1e-9);
         assert!((c.samples_per_pixel(4.0) - 2.5).abs() < 1e-9);
-        assert!(c.seconds(1.0, 400.0, 0.0) > c.seconds(1.0, 100.0, 0.0));
-        assert!(c.seconds(2.0, 100.0, 0.0) < c.seconds(1.0, 100.0, 0.0));
-        // 0.017 s over 1700 units.
-        assert!((c.per_unit_s - 1e-5).abs() < 1e-12, "{c:?}");
+        assert!((c.seconds(1.0, 100.0, 0.0) - t(1000.0)).abs() < 1e-9);
+        assert!((c.seconds(0.5, 400.0, 0.0) - (0.001 + 1e-6 * 8800.0)).abs() < 1e-9);
+        // A frame twice as slow per sample moves the cost halfway.
         let mut d = c;
-        d.observe(1.0, 100.0, 1000.0, 0.044);
-        assert!((d.per_unit_s - 2e-5).abs() < 1e-12, "{d:?}");
+        d.observe(1.0, 100.0, 1000.0, 0.001 + 4e-6 * 1200.0);
+        assert!((d.per_sample_s - 2e-6).abs() < 1e-12, "{d:?}");
         d.observe(1.0, 0.0, 0.0, f64::NAN);
-        assert!((d.per_unit_s - 2e-5).abs() < 1e-12);
+        assert!((d.per_sample_s - 2e-6).abs() < 1e-12);
+        // Timings that fall with more samples: the mean cost, no less.
+        let q = [
+            probe(1.0, 0.0, 1000.0, 0.001),
+            probe(2.0, 0.0, 500.0, 0.002),
+        ];
+        let e = CostModel::fit(&q);
+        assert!(e.per_sample_s > 0.0 && e.per_sample_s.is_finite(), "{e:?}");
     }
 
     #[test]

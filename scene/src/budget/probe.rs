@@ -68,7 +68,6 @@ pub fn probe(
         return Err(Error::option("--budget: the probes did not render"));
     };
     let crop = frame(centre(options, plan, size), source, base_step * 2.0, cancel)?;
-    let r = Instant::now();
     // The crop's errors where the volume is, spread over the whole
     // image's coverage.
     let spread = if crop.coverage > 0.0 {
@@ -77,12 +76,8 @@ pub fn probe(
         1.0
     };
     let scale_mse = [2, 4, 8].map(|factor| spread * down_up_mse(&crop.srgb, size, factor));
-    // Each upsampling wrote a crop of three channels; a frame's has four
-    // and three figures per pixel: about twice the time per pixel.
-    let crop_pixels = f64::from(size.0) * f64::from(size.1);
-    let upsample_s = 2.0 * r.elapsed().as_secs_f64() / (3.0 * crop_pixels);
     let model = Model {
-        cost: CostModel::fit(&probes, upsample_s),
+        cost: CostModel::fit(&probes),
         error: ErrorModel::fit(fine, mid, coarse, scale_mse),
     };
     Ok(Probed {
@@ -126,7 +121,6 @@ fn frame(mut o: Options, source: &Source, step: f64, cancel: &Cancel) -> Result<
         pixels: f64::from(frame.width) * f64::from(frame.height),
         samples: frame.stats.samples as f64 + frame.stats.effects.shadow_samples as f64,
         seconds: frame.stats.render_s,
-        fixed_s: frame.stats.table_s,
         srgb: frame.srgb8(false).into_iter().map(f32::from).collect(),
         coverage: coverage(&frame.rgba),
     })

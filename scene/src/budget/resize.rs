@@ -35,8 +35,8 @@ pub fn upsample_frame(frame: Frame, width: u32, height: u32) -> Frame {
 /// Where output pixel `i` of `n` falls among `src` source pixels: the
 /// lower neighbour, the upper one, and the upper one's weight.
 fn taps(i: u32, n: u32, src: u32) -> (usize, usize, f32) {
-    let x = ((f64::from(i) + 0.5) * f64::from(src) / f64::from(n) - 0.5)
-        .clamp(0.0, f64::from(src - 1));
+    let x =
+        ((f64::from(i) + 0.5) * f64::from(src) / f64::from(n) - 0.5).clamp(0.0, f64::from(src - 1));
     let lo = x.floor() as u32;
     let hi = (lo + 1).min(src - 1);
     (lo as usize, hi as usize, (x - f64::from(lo)) as f32)
@@ -97,7 +97,9 @@ pub fn centre_samples(rgb: &[f32], (w, h): (u32, u32), factor: u32) -> (Vec<f32>
     let (sw, sh) = ((w / f).max(1), (h / f).max(1));
     // The pixels either side of a smaller pixel's centre.
     let around = |i: usize, n: usize| {
-        let lo = (i * f + f / 2).saturating_sub(usize::from(f > 1)).min(n - 1);
+        let lo = (i * f + f / 2)
+            .saturating_sub(usize::from(f > 1))
+            .min(n - 1);
         (lo, (i * f + f / 2).min(n - 1))
     };
     let mut out = vec![0.0f32; sw * sh * 3];

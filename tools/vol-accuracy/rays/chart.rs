@@ -2,7 +2,7 @@
 //! knob, as PNG and SVG.
 
 use super::frontier::frontier;
-use super::measure::{Row, ADAPTIVE, PREINTEGRATED};
+use super::measure::{Row, ADAPTIVE, BUDGET, PREINTEGRATED};
 use super::setup::{BASE_ERT, BASE_STEP};
 use crate::plot::{drawing_error, grid_size, seconds, titled_grid, write_png_svg, Chart, COLOURS};
 use anyhow::{bail, Result};
@@ -48,10 +48,11 @@ struct RayChart<'a> {
 }
 
 /// The curves drawn in `knob`'s panel: its own, and for the step the
-/// same steps pre-integrated and adaptive steps' tolerances.
+/// same steps pre-integrated, adaptive steps' tolerances and frame-time
+/// budgets.
 fn curves(knob: &'static str) -> Vec<&'static str> {
     match knob {
-        "step" => vec!["step", PREINTEGRATED, ADAPTIVE],
+        "step" => vec!["step", PREINTEGRATED, ADAPTIVE, BUDGET],
         k => vec![k],
     }
 }
@@ -60,7 +61,7 @@ fn curves(knob: &'static str) -> Vec<&'static str> {
 fn knobs_of(rows: &[Row]) -> Vec<&'static str> {
     let mut knobs: Vec<&'static str> = Vec::new();
     for r in rows.iter().filter(|r| r.psnr_db.is_some()) {
-        if !matches!(r.knob, PREINTEGRATED | ADAPTIVE) && !knobs.contains(&r.knob) {
+        if !matches!(r.knob, PREINTEGRATED | ADAPTIVE | BUDGET) && !knobs.contains(&r.knob) {
             knobs.push(r.knob);
         }
     }

@@ -2,17 +2,18 @@
 //! scene's settings (the fastest at each PSNR), and the time a method's
 //! curve needs for a PSNR, written as `methods.md`.
 
-use super::measure::{Row, ADAPTIVE, PREINTEGRATED};
+use super::measure::{Row, ADAPTIVE, BUDGET, PREINTEGRATED};
 use crate::files::write_via_temp;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
 /// The methods compared: (knob, name in tables).
-pub const METHODS: [(&str, &str); 3] = [
+pub const METHODS: [(&str, &str); 4] = [
     ("step", "step"),
     (PREINTEGRATED, "pre-integrated"),
     (ADAPTIVE, "adaptive"),
+    (BUDGET, "budget"),
 ];
 
 /// PSNR levels the table reports the time for.

@@ -17,6 +17,10 @@ pub const PREINTEGRATED: &str = "preintegrated";
 /// [`ADAPTIVE_STEP`]).
 pub const ADAPTIVE: &str = "adaptive";
 
+/// The knob of frame-time budgets (`--budget SECONDS` at
+/// [`BASE_STEP`]).
+pub const BUDGET: &str = "budget";
+
 /// One measured setting: a row of the CSV.
 pub struct Row {
     /// Scene (or effect study) name.
@@ -86,6 +90,10 @@ pub fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
             settings.push((ADAPTIVE, tol.to_string(), args));
         }
     }
+    for b in &sweep.budget {
+        let args = strs(&["--step", BASE_STEP, "--budget", b]);
+        settings.push((BUDGET, b.to_string(), args));
+    }
     for e in &sweep.ert {
         let a = if *e == "off" {
             strs(&["--no-ert"])
@@ -113,7 +121,7 @@ pub fn run_scene(ctx: &Ctx, scene: &Scene, sweep: &Sweep) -> Result<Vec<Row>> {
     for (knob, value, args) in settings {
         // The base settings, except for the knob being swept.
         let mut all = Vec::new();
-        if !matches!(knob, "step" | PREINTEGRATED | ADAPTIVE) {
+        if !matches!(knob, "step" | PREINTEGRATED | ADAPTIVE | BUDGET) {
             all.extend(strs(&["--step", BASE_STEP]));
         }
         if knob != "ert" {

@@ -30,6 +30,9 @@ pub struct Sweep {
     /// Tolerances of adaptive steps (`--adaptive`), each at
     /// [`ADAPTIVE_STEP`] (scenes with a 1D transfer function).
     pub adaptive: Vec<&'static str>,
+    /// Frame-time budgets, seconds (`--budget`, at base step
+    /// [`BASE_STEP`]: steps from a quarter to 8 times it).
+    pub budget: Vec<&'static str>,
     pub ert: Vec<&'static str>,
     pub cell: Vec<&'static str>,
     pub tile: Vec<&'static str>,
@@ -214,6 +217,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         Sweep {
             step: vec!["0.05", "0.2", "0.8", "1.6"],
             adaptive: vec!["0.01", "0.1"],
+            budget: vec!["0.01", "0.04"],
             ert: vec!["0.9", "0.99", "off"],
             cell: vec!["4", "16"],
             tile: vec!["8", "32"],
@@ -228,6 +232,7 @@ pub fn study(quick: bool) -> (Vec<Scene>, Sweep) {
         Sweep {
             step: vec!["0.05", "0.1", "0.2", "0.4", "0.8", "1.6"],
             adaptive: vec!["0.001", "0.003", "0.01", "0.03", "0.1", "0.3"],
+            budget: vec!["0.005", "0.01", "0.02", "0.04", "0.08", "0.16"],
             ert: vec!["0.9", "0.95", "0.99", "0.999", "off"],
             cell: vec!["4", "8", "16", "32"],
             tile: vec!["8", "16", "32", "64"],
