@@ -119,16 +119,13 @@ pub fn busy_blocks(
         }
         Some(mask)
     };
-    let busy = (0..nz)
-        .into_par_iter()
-        .map(slab)
-        .try_reduce(
-            || vec![false; blocks],
-            |mut a, b| {
-                a.iter_mut().zip(&b).for_each(|(x, &y)| *x |= y);
-                Some(a)
-            },
-        )?;
+    let busy = (0..nz).into_par_iter().map(slab).try_reduce(
+        || vec![false; blocks],
+        |mut a, b| {
+            a.iter_mut().zip(&b).for_each(|(x, &y)| *x |= y);
+            Some(a)
+        },
+    )?;
     Some(BlockMask { across: tx, busy })
 }
 
