@@ -138,3 +138,17 @@ def test_index_matches_vol_index(tmp_path, vols):
     # An index file vol-render accepts.
     img, _ = volkit.render(vols["shapes"], tf="shapes", size="16x16", index=tmp_path / "py.vidx")
     assert img.shape == (16, 16, 3)
+
+
+def test_a_frame_budget_keeps_the_size_and_states_its_choice(vols):
+    # Nothing fits a nanosecond: the coarsest setting, upsampled to the
+    # size asked for; an hour fits the finest.
+    img, report = volkit.render(vols["shapes"], tf="shapes", size="80x64", budget=1e-9)
+    assert img.shape == (64, 80, 3) and np.isfinite(img).all()
+    b = report["budget"]
+    assert b["fits"] is False and b["step_factor"] == 8.0
+    assert (b["rendered_width"], b["rendered_height"]) == (10, 8)
+    _, report = volkit.render(vols["shapes"], tf="shapes", size="80x64", budget=3600)
+    assert report["budget"]["fits"] is True and report["budget"]["scale"] == 1.0
+    with pytest.raises(ValueError, match="budget"):
+        volkit.render(vols["shapes"], tf="shapes", budget=0)

@@ -135,12 +135,7 @@ impl Rendered {
 
 /// The ray caster: within `--budget` when there is one, else
 /// [`cast_frames`].
-pub(crate) fn cast(
-    options: &Options,
-    source: &Source,
-    plan: &Plan,
-    cancel: &Cancel,
-) -> Result<Rendered> {
+fn cast(options: &Options, source: &Source, plan: &Plan, cancel: &Cancel) -> Result<Rendered> {
     match options.budget {
         Some(seconds) => cast_within(options, source, plan, cancel, seconds),
         None => cast_frames(options, source, plan, cancel),
@@ -157,7 +152,7 @@ fn cast_within(
     seconds: f64,
 ) -> Result<Rendered> {
     let base_step = f64::from(plan.settings.step);
-    let probed = budget::probe(options, source, plan, base_step, cancel)?;
+    let probed = probe(options, source, plan, cancel)?;
     let choice = budget::choose(
         &probed.model,
         base_step,
@@ -191,8 +186,27 @@ fn cast_within(
     Ok(rendered)
 }
 
+/// Fit the frame-time models of the view `options` asks for (as `plan`
+/// resolves it; the budget's base step is its step) with probe frames of
+/// `source` ([`budget::probe`]).
+pub fn probe(
+    options: &Options,
+    source: &Source,
+    plan: &Plan,
+    cancel: &Cancel,
+) -> Result<budget::Probed> {
+    let base_step = f64::from(plan.settings.step);
+    budget::probe(options, plan, base_step, |o| {
+        let plan = Plan::for_source(o, source)?;
+        match cast_frames(o, source, &plan, cancel)?.image {
+            Image::Frame(f) => Ok((f, f64::from(plan.settings.step))),
+            Image::Path(_) => Err(Error::option("--budget is for ray-cast frames")),
+        }
+    })
+}
+
 /// The ray caster: `--repeat` frames, the last kept, the median timed.
-pub(crate) fn cast_frames(
+fn cast_frames(
     options: &Options,
     source: &Source,
     plan: &Plan,

@@ -111,8 +111,7 @@ impl Viewer {
         cancel: &Cancel,
     ) -> Result<volscene::budget::Probed, Error> {
         let _one_at_a_time = self.lock();
-        let base_step = f64::from(plan.settings.step);
-        volscene::budget::probe(options, &self.source, plan, base_step, cancel)
+        volscene::render::probe(options, &self.source, plan, cancel)
     }
 
     /// The render lock (a panic elsewhere does not stop the server).

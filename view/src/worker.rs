@@ -234,6 +234,11 @@ impl Worker {
                     self.cast();
                 }
             }
+            // A newer request stopped the preview's probe frames.
+            Err(e) if e.kind() == ErrorKind::Cancelled => send(
+                &self.out,
+                Out::json(json!({"type": "cancelled", "seq": job.seq})),
+            ),
             Err(e) => send(&self.out, Out::error(Some(job.seq), e.message())),
         }
     }

@@ -13,12 +13,10 @@ use super::resize::down_up_mse;
 use super::{scaled, Model};
 use crate::error::{Error, Result};
 use crate::options::Options;
-use crate::render::{cast_frames, Image};
-use crate::source::Source;
-use crate::Plan;
+use crate::plan::Plan;
 use std::time::Instant;
 use volrender::camera::Projection;
-use volrender::Cancel;
+use volrender::Frame;
 
 /// The probes' scale of each side.
 pub const PROBE_SCALE: f64 = 1.0 / 6.0;
@@ -43,13 +41,13 @@ pub struct Probed {
 
 /// Probe the view `options` asks for (its size is the full frame's;
 /// `base_step` is the step the budget's multiples are of) as `plan`
-/// resolves it.
+/// resolves it; `render` renders one frame of the options it is given
+/// (without a budget), and says the step it resolved them to.
 pub fn probe(
     options: &Options,
-    source: &Source,
     plan: &Plan,
     base_step: f64,
-    cancel: &Cancel,
+    mut render: impl FnMut(&Options) -> Result<(Frame, f64)>,
 ) -> Result<Probed> {
     let t = Instant::now();
     let (w, h) = options.size;
@@ -62,12 +60,12 @@ pub fn probe(
     for f in PROBE_STEPS {
         let mut o = options.clone();
         o.size = size;
-        probes.push(frame(o, source, base_step * f, cancel)?);
+        probes.push(frame(o, base_step * f, &mut render)?);
     }
     let [fine, mid, coarse] = &probes[..] else {
         return Err(Error::option("--budget: the probes did not render"));
     };
-    let crop = frame(centre(options, plan, size), source, base_step * 2.0, cancel)?;
+    let crop = frame(centre(options, plan, size), base_step * 2.0, &mut render)?;
     // The crop's errors where the volume is, spread over the whole
     // image's coverage.
     let spread = if crop.coverage > 0.0 {
@@ -106,18 +104,18 @@ fn centre(options: &Options, plan: &Plan, size: (u32, u32)) -> Options {
     o
 }
 
-/// One probe frame of `options` at `step`.
-fn frame(mut o: Options, source: &Source, step: f64, cancel: &Cancel) -> Result<ProbeFrame> {
+/// One probe frame of `o` at `step`, rendered by `render`.
+fn frame(
+    mut o: Options,
+    step: f64,
+    render: &mut impl FnMut(&Options) -> Result<(Frame, f64)>,
+) -> Result<ProbeFrame> {
     o.budget = None;
     o.repeat = 1;
     o.step = Some(step as f32);
-    let plan = Plan::for_source(&o, source)?;
-    let rendered = cast_frames(&o, source, &plan, cancel)?;
-    let Image::Frame(frame) = rendered.image else {
-        return Err(Error::option("--budget is for ray-cast frames"));
-    };
+    let (frame, step) = render(&o)?;
     Ok(ProbeFrame {
-        step: f64::from(plan.settings.step),
+        step,
         pixels: f64::from(frame.width) * f64::from(frame.height),
         samples: frame.stats.samples as f64 + frame.stats.effects.shadow_samples as f64,
         seconds: frame.stats.render_s,
