@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Benchmark: vol-view's interactivity in Chromium (Playwright), on the
-# issue's volumes: a dense 512³ `vol-gen shapes` (tf shapes, Phong) and the
-# MNI brain (Debian mricron-data's ch2.nii.gz, tf auto), a 512x512 view.
+# issue's volumes: a dense 512³ `vol-gen shapes` (tf grey) and the
+# MNI brain (Debian mricron-data's ch2.nii.gz, tf auto), a 512x512 view,
+# Phong shading.
 # Per volume and build: the first full frame, previews per second of a 1 s
 # drag, input-to-pixels while dragging (median) and the full frame after
 # the release, medians of REPEAT rounds alternating between the builds.
@@ -37,9 +38,12 @@ bins=(--bin "new=$B")
 for v in $VOLUMES; do
     case $v in
     shapes512)
+        # Dense: 600 objects of 140 voxels fill most of the volume, seen
+        # through the translucent grey ramp (no ray ends early).
         [ -f "$DIR/shapes512.vvol" ] ||
-            "$B/vol-gen" shapes --dims 512,512,512 -o "$DIR/shapes512.vvol" --quiet
-        printf 'volume = "shapes512.vvol"\ntf = "shapes"\nshading = "phong"\nsize = [512, 512]\n' \
+            "$B/vol-gen" shapes --dims 512,512,512 --count 600 --size 140 \
+                -o "$DIR/shapes512.vvol" --quiet
+        printf 'volume = "shapes512.vvol"\ntf = "grey"\nshading = "phong"\nsize = [512, 512]\n' \
             >"$DIR/shapes512.toml" ;;
     brain)
         cp /usr/share/mricron/templates/ch2.nii.gz "$DIR/ch2.nii.gz"

@@ -152,11 +152,24 @@ pub(super) fn check_lengths(path: &Path) -> Result<String, String> {
 /// refuses the file itself), an error when an element runs past the end
 /// of the file.
 fn meta_group(w: &mut FileWalk) -> Result<Option<String>, String> {
-    let mut head = [0u8; 12];
-    if w.read_exact(&mut head).is_err() || head[..8] != [2, 0, 0, 0, b'U', b'L', 4, 0] {
+    // (0002,0000) with a length of 4, whatever its VR: dicom-rs takes any
+    // (a fuzzed file's `UI` group length of 16 MB made it reserve and
+    // zero-fill values for seconds where a `UL` check let it pass).
+    let mut head = [0u8; 8];
+    if w.read_exact(&mut head).is_err() || head[..4] != [2, 0, 0, 0] {
         return Ok(None);
     }
-    let group_len = u64::from(u32::from_le_bytes([head[8], head[9], head[10], head[11]]));
+    let four = if short_length_vr(&[head[4], head[5]]) {
+        head[6..8] == [4, 0]
+    } else {
+        let mut l = [0u8; 4];
+        w.read_exact(&mut l).is_ok() && l == [4, 0, 0, 0]
+    };
+    let mut value = [0u8; 4];
+    if !four || w.read_exact(&mut value).is_err() {
+        return Ok(None);
+    }
+    let group_len = u64::from(u32::from_le_bytes(value));
     let mut ts = None;
     let mut read = 0u64;
     while read < group_len {
@@ -273,6 +286,18 @@ mod tests {
         let start = std::time::Instant::now();
         let e = check_lengths(&repo("fuzz/regressions/dicom/f43f9f4edf6e29e6")).unwrap_err();
         assert!(e.contains("claims 1073747968 bytes"), "{e}");
+        assert!(start.elapsed().as_secs_f64() < 0.5, "{:?}", start.elapsed());
+    }
+
+    /// The second round's hang: a group length (0002,0000) of VR `UI`
+    /// (16 MB), which dicom-rs takes as a `UL`; the check gave up on it
+    /// and dicom-rs then zero-filled the group's claimed values for
+    /// seconds. Read as dicom-rs reads it, an element past the end shows.
+    #[test]
+    fn a_group_length_of_another_vr_is_walked_as_dicom_rs_walks_it() {
+        let start = std::time::Instant::now();
+        let e = check_lengths(&repo("fuzz/regressions/dicom/0a2a9cbdc20dbdcf")).unwrap_err();
+        assert!(e.contains("past the end of the file"), "{e}");
         assert!(start.elapsed().as_secs_f64() < 0.5, "{:?}", start.elapsed());
     }
 

@@ -45,7 +45,8 @@ def wait_full(page, timeout=60000):
 def one_round(browser, bin_dir, scene):
     proc, url = start(bin_dir, scene)
     try:
-        ctx = browser.new_context(viewport={"width": 1000, "height": 960}, device_scale_factor=1)
+        ctx = browser.new_context(viewport={"width": 1000, "height": 960}, device_scale_factor=1,
+                                  bypass_csp=True)
         page = ctx.new_page()
         page.goto(url)
         page.wait_for_function("window.volview.stats.firstFull != null", timeout=60000)
