@@ -1,12 +1,13 @@
-//! The probe frames a budget is calibrated by, in samples about 6% of a
-//! full frame at the base step for a 512² image:
+//! The probe frames a budget is calibrated by, in samples 3-6% of a full
+//! frame at the base step (a CT head at 256², where the centre is three
+//! times as dense as the whole: 5%):
 //! - the whole view at a sixth of each side (at least
-//!   [`PROBE_MIN_SIDE`] pixels) at 1, 2 and 4 times the base step: their
+//!   [`PROBE_MIN_SIDE`] pixels) at 2, 4 and 8 times the base step: their
 //!   times fit the cost model, their differences the step's error;
 //! - the centre of the view at full resolution, as large as those (the
-//!   same camera, its field of view narrowed), at twice the base step:
-//!   what it loses when sampled 2x, 4x and 8x more coarsely and upsampled
-//!   back is the scale's error.
+//!   same camera, its field of view narrowed), at [`CROP_STEP`] times the
+//!   base step: what it loses when sampled 2x, 4x and 8x more coarsely
+//!   and upsampled back is the scale's error.
 
 use super::model::{CostModel, ErrorModel, ProbeFrame};
 use super::resize::down_up_mse;
@@ -24,7 +25,11 @@ pub const PROBE_SCALE: f64 = 1.0 / 6.0;
 /// at its own size).
 pub const PROBE_MIN_SIDE: u32 = 48;
 /// The probes' steps, as multiples of the base step: an octave apart.
-pub const PROBE_STEPS: [f64; 3] = [1.0, 2.0, 4.0];
+pub const PROBE_STEPS: [f64; 3] = [2.0, 4.0, 8.0];
+/// The centre's step, as a multiple of the base step (the centre is the
+/// densest part of most views: at the base step it alone cost a CT head
+/// 10% of a frame).
+pub const CROP_STEP: f64 = 4.0;
 
 /// The most the crop's scale errors are raised by when the volume covers
 /// more of the whole image than of the crop.
@@ -65,7 +70,7 @@ pub fn probe(
     let [fine, mid, coarse] = &probes[..] else {
         return Err(Error::option("--budget: the probes did not render"));
     };
-    let crop = frame(centre(options, plan, size), base_step * 2.0, &mut render)?;
+    let crop = frame(centre(options, plan, size), base_step * CROP_STEP, &mut render)?;
     // The crop's errors where the volume is, spread over the whole
     // image's coverage.
     let spread = if crop.coverage > 0.0 {
