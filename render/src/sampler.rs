@@ -4,18 +4,105 @@
 //! the thread count, tile size or order in which pixels are computed, and
 //! a render can be resumed at any sample index. The ray caster takes no
 //! random numbers (one ray through each pixel centre).
+//!
+//! Two kinds ([`SamplerKind`]):
+//! - `Hash`: every number is a hash of its key (independent samples).
+//! - `Sobol`: the numbers a path tracer draws at fixed places of a path
+//!   (the pixel position, and per scattering event up to [`QMC_EVENTS`]
+//!   its structured draws: the first free-flight step, the shadow ray's
+//!   first step, the environment-map sample, roulette and the scattered
+//!   direction; see [`Slot`]) come from an Owen-scrambled Sobol sequence
+//!   (the `sobol_burley` crate, Burley's hash-based nested uniform
+//!   scrambling), padded: each pair of slots is its own 2D sequence with
+//!   its own scramble and shuffle, so the first 2^k samples of a pixel
+//!   hit every elementary interval of area 2^-k of any pair's square. The
+//!   pixel's scramble seed is a hash of (seed, pixel, sample index /
+//!   2^16). Numbers drawn a variable number of times (every tentative
+//!   collision after the first) stay hashed, on their own dimensions.
 
-/// The frame's sampler: a seed.
+/// Which random numbers a sampler gives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    /// Independent hashed numbers for every dimension.
+    Hash,
+    /// Owen-scrambled Sobol points for the structured slots, hashes for
+    /// the rest.
+    #[default]
+    Sobol,
+}
+
+impl SamplerKind {
+    /// The kind a name (`hash` or `sobol`) stands for.
+    pub fn from_name(name: &str) -> Option<SamplerKind> {
+        match name {
+            "hash" => Some(SamplerKind::Hash),
+            "sobol" => Some(SamplerKind::Sobol),
+            _ => None,
+        }
+    }
+
+    /// The name of the kind (`hash` or `sobol`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerKind::Hash => "hash",
+            SamplerKind::Sobol => "sobol",
+        }
+    }
+}
+
+/// Scattering events (the camera segment counting as event 0) whose
+/// structured draws come from the Sobol sequence; later events' come from
+/// the hash.
+pub const QMC_EVENTS: u32 = 4;
+
+/// A structured draw's place in an event's block of Sobol dimensions (the
+/// pixel position takes the two dimensions before the first block). Slots
+/// `2k` and `2k + 1` form one padded 2D sequence.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum Slot {
+    /// The first exponential step of the event's free flight.
+    Flight = 0,
+    /// The hybrid surface-or-phase choice.
+    Surface = 1,
+    /// The environment map's direction, first coordinate.
+    EnvU = 2,
+    /// The environment map's direction, second coordinate.
+    EnvV = 3,
+    /// The first shadow ray's first exponential step.
+    Shadow = 4,
+    /// Russian roulette on the throughput.
+    Roulette = 5,
+    /// The scattered direction, first coordinate.
+    DirU = 6,
+    /// The scattered direction, second coordinate.
+    DirV = 7,
+}
+
+/// Sobol dimensions per event block.
+const SLOTS: u32 = 8;
+
+/// Sample indices one Sobol sequence serves (`sobol_burley`'s limit); a
+/// pixel's later samples start a fresh scramble every 2^16 samples.
+const SOBOL_SPAN: u64 = 1 << 16;
+
+/// The frame's sampler: a seed and a kind.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct HashSampler {
     seed: u64,
+    kind: SamplerKind,
 }
 
-/// The random stream of one pixel's sample: successive dimensions.
+/// The random stream of one pixel's sample: successive hashed dimensions,
+/// and (Sobol) the structured slots.
 #[derive(Clone, Copy, Debug)]
 pub struct PixelSampler {
     key: u64,
     dimension: u32,
+    /// The Sobol index and the pixel's scramble seed (`None`: hashes only).
+    sobol: Option<(u32, u32)>,
+    /// The first Sobol dimension of the current event's block.
+    base: u32,
 }
 
 /// A 64-bit mix with full avalanche (SplitMix64's finaliser).
@@ -27,17 +114,36 @@ pub(crate) fn mix(mut z: u64) -> u64 {
 }
 
 impl HashSampler {
-    /// A sampler with `seed`.
+    /// A hash sampler with `seed`.
     pub fn new(seed: u64) -> HashSampler {
-        HashSampler { seed }
+        HashSampler::with_kind(seed, SamplerKind::Hash)
+    }
+
+    /// A sampler of `kind` with `seed`.
+    pub fn with_kind(seed: u64, kind: SamplerKind) -> HashSampler {
+        HashSampler { seed, kind }
     }
 
     /// The stream of sample `index` of pixel `(x, y)`.
     #[inline]
     pub fn pixel(&self, x: u32, y: u32, index: u64) -> PixelSampler {
         let pixel = (u64::from(y) << 32) | u64::from(x);
-        let key = mix(mix(self.seed ^ mix(pixel)).wrapping_add(index));
-        PixelSampler { key, dimension: 0 }
+        let pixel_key = mix(self.seed ^ mix(pixel));
+        let key = mix(pixel_key.wrapping_add(index));
+        let sobol = match self.kind {
+            SamplerKind::Hash => None,
+            SamplerKind::Sobol => {
+                let span = index / SOBOL_SPAN;
+                let seed = mix(pixel_key ^ mix(span ^ 0x5851_f42d_4c95_7f2d));
+                Some(((index % SOBOL_SPAN) as u32, (seed >> 32) as u32))
+            }
+        };
+        PixelSampler {
+            key,
+            dimension: 0,
+            sobol,
+            base: 2,
+        }
     }
 }
 
@@ -67,6 +173,49 @@ impl PixelSampler {
     /// The dimension the next number comes from.
     pub fn dimension(&self) -> u32 {
         self.dimension
+    }
+
+    /// Sobol dimension `d` of this sample: padded, each pair `(2k, 2k + 1)`
+    /// a 2D Owen-scrambled Sobol sequence of its own.
+    #[inline(always)]
+    fn sobol_at(index: u32, seed: u32, d: u32) -> f32 {
+        let pair = (seed ^ (d >> 1).wrapping_mul(0x9e37_79b9)).rotate_left(7);
+        sobol_burley::sample(index, d & 1, pair)
+    }
+
+    /// The pixel position's two numbers (Sobol dimensions 0 and 1, or the
+    /// next two hashed ones).
+    #[inline(always)]
+    pub fn pixel_2d(&mut self) -> (f32, f32) {
+        match self.sobol {
+            Some((i, seed)) => (Self::sobol_at(i, seed, 0), Self::sobol_at(i, seed, 1)),
+            None => self.next_2d(),
+        }
+    }
+
+    /// Start the structured draws of scattering event `event` (0: the
+    /// camera segment).
+    #[inline(always)]
+    pub fn event(&mut self, event: u32) {
+        self.base = if event < QMC_EVENTS {
+            2 + event * SLOTS
+        } else {
+            u32::MAX
+        };
+    }
+
+    /// The number of `slot` in the current event: from the Sobol sequence
+    /// when this is one and the event is among the first [`QMC_EVENTS`],
+    /// else the next hashed dimension's (so a hash sampler draws exactly
+    /// the numbers of [`PixelSampler::next_1d`]).
+    #[inline(always)]
+    pub fn slot(&mut self, slot: Slot) -> f32 {
+        match self.sobol {
+            Some((i, seed)) if self.base != u32::MAX => {
+                Self::sobol_at(i, seed, self.base + slot as u32)
+            }
+            _ => self.next_1d(),
+        }
     }
 }
 
@@ -144,5 +293,108 @@ mod tests {
             .sum();
         // 63 degrees of freedom: the 99.9% point is about 104.
         assert!(chi2 < 104.0, "chi-square {chi2}");
+    }
+
+    /// Whether the points `(u, v)` (2^k of them) put exactly one point in
+    /// every elementary interval `[i/2^a, (i+1)/2^a) × [j/2^b, (j+1)/2^b)`
+    /// with `a + b = k`: the (0, k, 2)-net property.
+    fn is_net(points: &[(f32, f32)], k: u32) -> bool {
+        (0..=k).all(|a| {
+            let b = k - a;
+            let mut hit = vec![false; 1 << k];
+            points.iter().all(|&(u, v)| {
+                let i = (u * (1u32 << a) as f32) as usize;
+                let j = (v * (1u32 << b) as f32) as usize;
+                !std::mem::replace(&mut hit[(i << b) | j], true)
+            })
+        })
+    }
+
+    /// The Sobol sampler's structured pairs are (0, k, 2)-nets for every
+    /// power of two of a pixel's first samples, and each slot alone hits
+    /// every interval of 1/2^k once; the hash sampler's numbers are not
+    /// (the property is the sampler's, not the test's).
+    #[test]
+    fn sobol_pairs_are_stratified_and_hashes_are_not() {
+        let sobol = HashSampler::with_kind(3, SamplerKind::Sobol);
+        let hash = HashSampler::new(3);
+        for (x, y) in [(0, 0), (5, 9), (200, 17)] {
+            for k in [2, 4, 6, 8] {
+                let n = 1u64 << k;
+                let pairs = |s: &HashSampler, event: u32, a: Slot, b: Slot| -> Vec<(f32, f32)> {
+                    (0..n)
+                        .map(|i| {
+                            let mut p = s.pixel(x, y, i);
+                            if event == u32::MAX {
+                                return p.pixel_2d();
+                            }
+                            p.event(event);
+                            (p.slot(a), p.slot(b))
+                        })
+                        .collect()
+                };
+                for (event, a, b) in [
+                    (u32::MAX, Slot::DirU, Slot::DirV),
+                    (1, Slot::DirU, Slot::DirV),
+                    (3, Slot::EnvU, Slot::EnvV),
+                    (0, Slot::Flight, Slot::Surface),
+                    (2, Slot::Shadow, Slot::Roulette),
+                ] {
+                    let p = pairs(&sobol, event, a, b);
+                    assert!(is_net(&p, k), "pixel {x},{y} event {event} {a:?} k {k}");
+                    let h = pairs(&hash, event, a, b);
+                    if k >= 4 {
+                        assert!(!is_net(&h, k), "hash: pixel {x},{y} event {event} k {k}");
+                    }
+                }
+            }
+        }
+        // Past the Sobol events, and past 2^16 samples (a fresh
+        // scramble), numbers are still in [0, 1) and deterministic.
+        let mut p = sobol.pixel(1, 2, (1 << 16) + 5);
+        p.event(QMC_EVENTS);
+        let u = p.slot(Slot::DirU);
+        assert!((0.0..1.0).contains(&u));
+        let mut q = sobol.pixel(1, 2, (1 << 16) + 5);
+        q.event(QMC_EVENTS);
+        assert_eq!(q.slot(Slot::DirU), u);
+        assert_ne!(
+            sobol.pixel(1, 2, 1 << 16).pixel_2d(),
+            sobol.pixel(1, 2, 0).pixel_2d()
+        );
+    }
+
+    /// A hash sampler's slots and pixel position are its plain stream, in
+    /// call order (images rendered with `--sampler hash` are what they
+    /// were before the Sobol sampler came).
+    #[test]
+    fn hash_slots_are_the_plain_stream() {
+        let s = HashSampler::new(11);
+        let mut a = s.pixel(4, 5, 6);
+        let mut b = s.pixel(4, 5, 6);
+        let mut got = vec![a.pixel_2d().0];
+        a.event(2);
+        got.push(a.slot(Slot::DirV));
+        got.push(a.next_1d());
+        got.push(a.slot(Slot::Flight));
+        let want: Vec<f32> = (0..5).map(|_| b.next_1d()).collect();
+        assert_eq!(got, [want[0], want[2], want[3], want[4]]);
+    }
+
+    /// Different pixels and seeds get different scrambles of the Sobol
+    /// sequence (no two pixels see the same points).
+    #[test]
+    fn sobol_scrambles_differ_between_pixels_and_seeds() {
+        let s = HashSampler::with_kind(1, SamplerKind::Sobol);
+        let base = s.pixel(0, 0, 3).pixel_2d();
+        for other in [
+            s.pixel(1, 0, 3).pixel_2d(),
+            s.pixel(0, 1, 3).pixel_2d(),
+            HashSampler::with_kind(2, SamplerKind::Sobol)
+                .pixel(0, 0, 3)
+                .pixel_2d(),
+        ] {
+            assert_ne!(base, other);
+        }
     }
 }

@@ -220,6 +220,8 @@ mod tests {
         ("env_map", "/d/e.exr"),
         ("majorant", "global"),
         ("seed", "7"),
+        ("sampler", "hash"),
+        ("transmittance", "ratio"),
         ("exposure", "2"),
         ("tonemap", "aces"),
         ("ortho", "0"),

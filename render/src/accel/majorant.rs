@@ -15,6 +15,9 @@ pub const MAX_SIGMA_T: f32 = 1e6;
 pub struct MajorantGrid {
     level: usize,
     values: Vec<f32>,
+    /// Per cell, a control extinction for residual ratio tracking (empty:
+    /// none, every control 0).
+    controls: Vec<f32>,
     global: f32,
 }
 
@@ -52,8 +55,48 @@ impl MajorantGrid {
         MajorantGrid {
             level,
             values,
+            controls: Vec::new(),
             global,
         }
+    }
+
+    /// The grid with a control extinction per cell from `control(lo, hi)`
+    /// over the cell's value range, for residual ratio tracking: a value
+    /// near the smallest extinction in the cell (the residual majorant is
+    /// the cell's majorant less it). Controls are clamped to `[0, majorant]`
+    /// (a NaN control is 0), so the residual majorant is never negative.
+    pub fn with_controls(
+        mut self,
+        index: &MinMaxIndex,
+        control: impl Fn(f32, f32) -> f32,
+    ) -> MajorantGrid {
+        let l = index.level(self.level);
+        self.controls = l
+            .min()
+            .iter()
+            .zip(l.max())
+            .zip(&self.values)
+            .map(|((&lo, &hi), &m)| {
+                if lo > hi || m <= 0.0 {
+                    return 0.0;
+                }
+                let c = control(lo, hi);
+                // NaN fails the comparison: 0.
+                if c > 0.0 {
+                    c.min(m)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        self
+    }
+
+    /// The control extinction of the cell with linear index `cell` (0
+    /// without controls).
+    #[inline(always)]
+    pub fn control(&self, cell: usize) -> f32 {
+        self.controls.get(cell).copied().unwrap_or(0.0)
     }
 
     /// Majorants from a table of extinction per value bin: each cell's
