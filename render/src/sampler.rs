@@ -79,6 +79,29 @@ pub enum Slot {
     DirV = 7,
 }
 
+/// Sobol dimensions 0 and 1 of a reversed-bit index by two byte tables
+/// each: the generator is linear over GF(2), so the value is the XOR of
+/// the values of the index's top and second bytes (the 16 bits
+/// `sobol_burley` uses), two loads instead of a loop over the set bits.
+static SOBOL_BYTES: std::sync::OnceLock<[[[u32; 256]; 2]; 2]> = std::sync::OnceLock::new();
+
+/// `sobol_burley::parts::sobol_rev(rev, k)` for `k` 0 or 1, through
+/// [`SOBOL_BYTES`].
+#[inline(always)]
+fn sobol_rev(rev: u32, k: u32) -> u32 {
+    let t = SOBOL_BYTES.get_or_init(|| {
+        std::array::from_fn(|k| {
+            std::array::from_fn(|byte| {
+                std::array::from_fn(|b| {
+                    sobol_burley::parts::sobol_rev((b as u32) << (24 - 8 * byte), k as u32)
+                })
+            })
+        })
+    });
+    let t = &t[k as usize & 1];
+    t[0][(rev >> 24) as usize] ^ t[1][((rev >> 16) & 0xff) as usize]
+}
+
 /// Sobol dimensions per event block.
 const SLOTS: u32 = 8;
 
@@ -100,7 +123,7 @@ pub struct PixelSampler {
     key: u64,
     dimension: u32,
     /// The Sobol index and the pixel's scramble seed (`None`: hashes only).
-    sobol: Option<(u32, u32)>,
+    sobol: Option<(u32, u64)>,
     /// The first Sobol dimension of the current event's block.
     base: u32,
 }
@@ -135,7 +158,7 @@ impl HashSampler {
             SamplerKind::Sobol => {
                 let span = index / SOBOL_SPAN;
                 let seed = mix(pixel_key ^ mix(span ^ 0x5851_f42d_4c95_7f2d));
-                Some(((index % SOBOL_SPAN) as u32, (seed >> 32) as u32))
+                Some(((index % SOBOL_SPAN) as u32, seed))
             }
         };
         PixelSampler {
@@ -175,20 +198,47 @@ impl PixelSampler {
         self.dimension
     }
 
-    /// Sobol dimension `d` of this sample: padded, each pair `(2k, 2k + 1)`
-    /// a 2D Owen-scrambled Sobol sequence of its own.
+    /// Pair `pair`'s shuffled (reversed-bit) Sobol index and the
+    /// scrambles of its two coordinates: each pair of the padded sequence
+    /// has its own, from one 64-bit hash of the pixel's seed and the pair.
     #[inline(always)]
-    fn sobol_at(index: u32, seed: u32, d: u32) -> f32 {
-        let pair = (seed ^ (d >> 1).wrapping_mul(0x9e37_79b9)).rotate_left(7);
-        sobol_burley::sample(index, d & 1, pair)
+    fn shuffle(index: u32, seed: u64, pair: u32) -> (u32, [u32; 2]) {
+        let h = mix(seed ^ u64::from(pair).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        let (lo, hi) = (h as u32, (h >> 32) as u32);
+        let rev = sobol_burley::parts::owen_scramble_rev(index.reverse_bits(), lo);
+        (rev, [hi, hi ^ lo.rotate_left(16)])
     }
 
-    /// The pixel position's two numbers (Sobol dimensions 0 and 1, or the
-    /// next two hashed ones).
+    /// Coordinate `k` (0 or 1) of a shuffled index: Sobol dimension `k`,
+    /// Owen-scrambled by its own scramble.
+    #[inline(always)]
+    fn coordinate((rev, scrambles): (u32, [u32; 2]), k: u32) -> f32 {
+        use sobol_burley::parts::{owen_scramble_rev, u32_to_f32_norm};
+        let k = k & 1;
+        let x = owen_scramble_rev(sobol_rev(rev, k), scrambles[k as usize]);
+        u32_to_f32_norm(x.reverse_bits())
+    }
+
+    /// The point of the padded 2D Owen-scrambled Sobol sequence `pair`.
+    #[inline(always)]
+    fn sobol_2d(index: u32, seed: u64, pair: u32) -> (f32, f32) {
+        let s = Self::shuffle(index, seed, pair);
+        (Self::coordinate(s, 0), Self::coordinate(s, 1))
+    }
+
+    /// Sobol dimension `d` of this sample: coordinate `d % 2` of pair
+    /// `d / 2`.
+    #[inline(always)]
+    fn sobol_at(index: u32, seed: u64, d: u32) -> f32 {
+        Self::coordinate(Self::shuffle(index, seed, d >> 1), d & 1)
+    }
+
+    /// The pixel position's two numbers (Sobol pair 0, or the next two
+    /// hashed dimensions).
     #[inline(always)]
     pub fn pixel_2d(&mut self) -> (f32, f32) {
         match self.sobol {
-            Some((i, seed)) => (Self::sobol_at(i, seed, 0), Self::sobol_at(i, seed, 1)),
+            Some((i, seed)) => Self::sobol_2d(i, seed, 0),
             None => self.next_2d(),
         }
     }
@@ -215,6 +265,20 @@ impl PixelSampler {
                 Self::sobol_at(i, seed, self.base + slot as u32)
             }
             _ => self.next_1d(),
+        }
+    }
+
+    /// The numbers of slots `first` and `first + 1` (a pair: `first` even)
+    /// in the current event, as two calls of [`PixelSampler::slot`] give,
+    /// at the cost of one Sobol index shuffle.
+    #[inline(always)]
+    pub fn slot_2d(&mut self, first: Slot) -> (f32, f32) {
+        debug_assert!(first as u32 % 2 == 0);
+        match self.sobol {
+            Some((i, seed)) if self.base != u32::MAX => {
+                Self::sobol_2d(i, seed, (self.base + first as u32) >> 1)
+            }
+            _ => self.next_2d(),
         }
     }
 }
@@ -358,10 +422,31 @@ mod tests {
         let mut q = sobol.pixel(1, 2, (1 << 16) + 5);
         q.event(QMC_EVENTS);
         assert_eq!(q.slot(Slot::DirU), u);
+        // A pair at once is its two slots.
+        let mut a = sobol.pixel(7, 8, 9);
+        let mut b = a;
+        a.event(1);
+        b.event(1);
+        assert_eq!(
+            a.slot_2d(Slot::DirU),
+            (b.slot(Slot::DirU), b.slot(Slot::DirV))
+        );
         assert_ne!(
             sobol.pixel(1, 2, 1 << 16).pixel_2d(),
             sobol.pixel(1, 2, 0).pixel_2d()
         );
+    }
+
+    /// The byte tables give the crate's Sobol values for every 16-bit
+    /// index.
+    #[test]
+    fn sobol_byte_tables_match_the_crate() {
+        for i in 0..1u32 << 16 {
+            let rev = i.reverse_bits();
+            for k in 0..2 {
+                assert_eq!(sobol_rev(rev, k), sobol_burley::parts::sobol_rev(rev, k));
+            }
+        }
     }
 
     /// A hash sampler's slots and pixel position are its plain stream, in

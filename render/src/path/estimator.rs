@@ -155,7 +155,7 @@ impl<M: Medium> Estimator<'_, M> {
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> Vec3 {
-        let (u, v) = (rng.slot(Slot::EnvU), rng.slot(Slot::EnvV));
+        let (u, v) = rng.slot_2d(Slot::EnvU);
         let Some(e) = map.sample(u, v) else {
             return Vec3::ZERO;
         };
@@ -413,7 +413,7 @@ impl<M: Medium> Estimator<'_, M> {
                 }
                 beta /= q;
             }
-            let (u, v) = (rng.slot(Slot::DirU), rng.slot(Slot::DirV));
+            let (u, v) = rng.slot_2d(Slot::DirU);
             let dir = match lobe {
                 Lobe::Phase => {
                     let dir = self.phase.sample(ray.dir, u, v);

@@ -270,9 +270,12 @@ impl<M: Medium> Tracker<'_, M> {
     /// `first`, uniform in `[0, 1)`, the rest from `rng`) and spent across
     /// the cells at their rates (`RESIDUAL`: the majorant less the cell's
     /// control, whose optical depth is added to `control_depth`; else the
-    /// majorant); where it runs out, `at(t, m, c, d, rng, n)` (`d`: the
-    /// control's optical depth to the end of the current cell) is asked whether
-    /// to stop there (`Some`) or to go on with a fresh depth. The walk is
+    /// majorant); where it runs out, `at(Some(t), m, c, d, rng, n)` (`d`:
+    /// the control's optical depth to the end of the current cell) is asked
+    /// whether to stop there (`Some`) or to go on with a fresh depth;
+    /// `RESIDUAL` also asks `at(None, m, c, d, rng, n)` on entering each
+    /// cell (where the control alone can make the estimate small enough
+    /// for roulette). The walk is
     /// memoryless, so this is the same process as restarting in every
     /// cell, at one random number and one logarithm per collision instead
     /// of per cell. Past [`MAX_COLLISIONS`] it stops with `truncated`.
@@ -289,7 +292,7 @@ impl<M: Medium> Tracker<'_, M> {
         truncated: R,
         mut at: impl FnMut(
             &mut C,
-            f64,
+            Option<f64>,
             f32,
             f32,
             f64,
@@ -304,6 +307,9 @@ impl<M: Medium> Tracker<'_, M> {
         self.walk(cur, ray, t0, t1, n, |cur, m, c, a, b, n| {
             let rate = if RESIDUAL {
                 *control_depth += c as f64 * (b - a);
+                if let Some(r) = at(cur, None, m, c, *control_depth, rng, n) {
+                    return Some(r);
+                }
                 (m - c) as f64
             } else {
                 m as f64
@@ -325,7 +331,7 @@ impl<M: Medium> Tracker<'_, M> {
                     return truncated.take();
                 }
                 budget -= 1;
-                if let Some(r) = at(cur, t, m, c, *control_depth, rng, n) {
+                if let Some(r) = at(cur, Some(t), m, c, *control_depth, rng, n) {
                     return Some(r);
                 }
                 tau = exp(rng.next_1d());
@@ -353,6 +359,7 @@ impl<M: Medium> Tracker<'_, M> {
             &mut 0.0,
             Flight::Truncated,
             |cur, t, m, _, _, rng, n| {
+                let t = t?;
                 n.density_lookups += 1;
                 let (s, v) = self.sigma_at(cur, ray, t, m);
                 n.capped += u64::from(s >= MAX_SIGMA_T);
@@ -393,6 +400,11 @@ impl<M: Medium> Tracker<'_, M> {
         n: &mut PathCounters,
     ) -> f32 {
         let mut tr = 1.0f32;
+        // The control's optical depth past which the estimate,
+        // tr × exp(−depth), is below the roulette's threshold (recomputed
+        // when tr changed and a depth is there to compare).
+        let mut beyond = 0.0f64;
+        let mut stale = true;
         let mut control = 0.0f64;
         let stop = self.collisions::<C, (), true>(
             cur,
@@ -403,16 +415,38 @@ impl<M: Medium> Tracker<'_, M> {
             &mut control,
             (),
             |cur, t, m, c, depth, rng, n| {
-                n.density_lookups += 1;
-                let (s, _) = self.sigma_at(cur, ray, t, m);
-                n.capped += u64::from(s >= MAX_SIGMA_T);
-                tr *= (1.0 - (s - c) / (m - c)).max(0.0);
-                let now = tr * (-depth).exp() as f32;
-                if now < ROULETTE_BELOW {
-                    if now <= 0.0 || rng.next_1d() < ROULETTE_KILL {
+                match t {
+                    Some(t) => {
+                        n.density_lookups += 1;
+                        let (s, _) = self.sigma_at(cur, ray, t, m);
+                        n.capped += u64::from(s >= MAX_SIGMA_T);
+                        tr *= (1.0 - (s - c) / (m - c)).max(0.0);
+                        if tr <= 0.0 {
+                            return Some(());
+                        }
+                        stale = true;
+                    }
+                    // Entering a cell: only its control can have made the
+                    // estimate small.
+                    None if c <= 0.0 => return None,
+                    None => {}
+                }
+                let below = if depth > 0.0 {
+                    if stale {
+                        beyond = (tr / ROULETTE_BELOW).ln() as f64;
+                        stale = false;
+                    }
+                    depth > beyond
+                } else {
+                    // No control yet: plain ratio tracking's test.
+                    tr < ROULETTE_BELOW
+                };
+                if below {
+                    if rng.next_1d() < ROULETTE_KILL {
                         return Some(());
                     }
                     tr /= 1.0 - ROULETTE_KILL;
+                    stale = true;
                 }
                 None
             },
