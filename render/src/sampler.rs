@@ -273,7 +273,7 @@ impl PixelSampler {
     /// at the cost of one Sobol index shuffle.
     #[inline(always)]
     pub fn slot_2d(&mut self, first: Slot) -> (f32, f32) {
-        debug_assert!(first as u32 % 2 == 0);
+        debug_assert!((first as u32).is_multiple_of(2));
         match self.sobol {
             Some((i, seed)) if self.base != u32::MAX => {
                 Self::sobol_2d(i, seed, (self.base + first as u32) >> 1)
