@@ -21,6 +21,23 @@ pub struct MajorantGrid {
     global: f32,
 }
 
+/// The value range `(min, max)` of every cell of `index`'s level `level`,
+/// in cell order.
+fn ranges(index: &MinMaxIndex, level: usize) -> impl Iterator<Item = (f32, f32)> + '_ {
+    let l = index.level(level);
+    l.min().iter().copied().zip(l.max().iter().copied())
+}
+
+/// `b` clamped to `[0, cap]`, NaN taken as 0.
+fn clamp_positive(b: f32, cap: f32) -> f32 {
+    // NaN fails the comparison: 0.
+    if b > 0.0 {
+        b.min(cap)
+    } else {
+        0.0
+    }
+}
+
 impl MajorantGrid {
     /// Majorants of `index`'s level `level` from `bound(lo, hi)`, which
     /// must bound the extinction of every value in `[lo, hi]` (cells whose
@@ -32,22 +49,12 @@ impl MajorantGrid {
         level: usize,
         bound: impl Fn(f32, f32) -> f32,
     ) -> MajorantGrid {
-        let l = index.level(level);
-        let values: Vec<f32> = l
-            .min()
-            .iter()
-            .zip(l.max())
-            .map(|(&lo, &hi)| {
+        let values: Vec<f32> = ranges(index, level)
+            .map(|(lo, hi)| {
                 if lo > hi {
                     0.0
                 } else {
-                    // NaN fails the comparison: 0.
-                    let b = bound(lo, hi);
-                    if b > 0.0 {
-                        b.min(MAX_SIGMA_T)
-                    } else {
-                        0.0
-                    }
+                    clamp_positive(bound(lo, hi), MAX_SIGMA_T)
                 }
             })
             .collect();
@@ -70,22 +77,13 @@ impl MajorantGrid {
         index: &MinMaxIndex,
         control: impl Fn(f32, f32) -> f32,
     ) -> MajorantGrid {
-        let l = index.level(self.level);
-        self.controls = l
-            .min()
-            .iter()
-            .zip(l.max())
+        self.controls = ranges(index, self.level)
             .zip(&self.values)
-            .map(|((&lo, &hi), &m)| {
+            .map(|((lo, hi), &m)| {
                 if lo > hi || m <= 0.0 {
-                    return 0.0;
-                }
-                let c = control(lo, hi);
-                // NaN fails the comparison: 0.
-                if c > 0.0 {
-                    c.min(m)
-                } else {
                     0.0
+                } else {
+                    clamp_positive(control(lo, hi), m)
                 }
             })
             .collect();
