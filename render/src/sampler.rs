@@ -450,8 +450,8 @@ mod tests {
     }
 
     /// A hash sampler's slots and pixel position are its plain stream, in
-    /// call order (images rendered with `--sampler hash` are what they
-    /// were before the Sobol sampler came).
+    /// call order (`--sampler hash` draws independent numbers exactly as
+    /// before the Sobol sampler came).
     #[test]
     fn hash_slots_are_the_plain_stream() {
         let s = HashSampler::new(11);
