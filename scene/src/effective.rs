@@ -164,7 +164,7 @@ mod tests {
     /// A value other than the default for every option a scene prints
     /// (empty: a flag without a value). An option missing here fails
     /// [`every_printed_option_reads_back`]: add it, and it is tested.
-    const SAMPLES: [(&str, &str); 60] = [
+    const SAMPLES: [(&str, &str); 62] = [
         ("volume", "/d/v.raw"),
         ("raw_dims", "4x5x6"),
         ("raw_type", "u16"),
@@ -221,6 +221,8 @@ mod tests {
         ("env_map", "/d/e.exr"),
         ("majorant", "global"),
         ("seed", "7"),
+        ("sampler", "hash"),
+        ("transmittance", "ratio"),
         ("exposure", "2"),
         ("tonemap", "aces"),
         ("ortho", "0"),

@@ -307,6 +307,18 @@ pub struct Options {
     /// Path tracing: the sampler's seed.
     #[arg(long, default_value_t = 0, help_heading = PATH_HEADING)]
     pub seed: u64,
+    /// Path tracing: the sampler: `sobol` (Owen-scrambled Sobol points for
+    /// the pixel position and the first bounces' draws, lower error per
+    /// sample) or `hash` (independent samples).
+    #[arg(long, default_value = "sobol", value_parser = ["sobol", "hash"],
+          help_heading = PATH_HEADING)]
+    pub sampler: String,
+    /// Path tracing: shadow rays' transmittance: `residual` (residual
+    /// ratio tracking: each macrocell's smallest extinction in closed form)
+    /// or `ratio` (ratio tracking against the majorant).
+    #[arg(long, default_value = "residual", value_parser = ["residual", "ratio"],
+          help_heading = PATH_HEADING)]
+    pub transmittance: String,
     /// Path tracing: keep the per-pixel sums in this state file and
     /// continue from it when it exists (64 samples, then 64 more, equal
     /// 128 at once, bit for bit); a state from another scene is refused.

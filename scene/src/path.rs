@@ -8,7 +8,9 @@ use crate::parse::sun_spec;
 use glam::Vec3;
 use std::path::Path;
 use volrender::classify::srgb_to_linear;
-use volrender::path::{Budget, EnvMap, MajorantMode, MediumSpec, PathLights, PathSettings};
+use volrender::path::{
+    Budget, EnvMap, MajorantMode, MediumSpec, PathLights, PathSettings, SamplerKind, Transmittance,
+};
 use volrender::tf::Tf;
 use volrender::Light;
 
@@ -118,6 +120,18 @@ pub fn settings(
             )))
         }
     };
+    let sampler = SamplerKind::from_name(&cli.sampler).ok_or_else(|| {
+        Error::option(format!(
+            "sampler `{}`: expected sobol or hash",
+            volcore::text::clip(&volcore::text::escape(&cli.sampler), 40)
+        ))
+    })?;
+    let transmittance = Transmittance::from_name(&cli.transmittance).ok_or_else(|| {
+        Error::option(format!(
+            "transmittance `{}`: expected residual or ratio",
+            volcore::text::clip(&volcore::text::escape(&cli.transmittance), 40)
+        ))
+    })?;
     if let Some(t) = cli.seconds {
         if !(t.is_finite() && t >= 0.0) {
             return Err(Error::option(format!(
@@ -181,6 +195,8 @@ pub fn settings(
             .background
             .map(|b| (b / 255.0).to_array().map(srgb_to_linear).into()),
         seed: cli.seed,
+        sampler,
+        transmittance,
     };
     Ok((settings, budget))
 }

@@ -268,6 +268,8 @@ pub fn path_report(cx: &Context, traced: &Traced, t: &Times) -> Report {
         "truncated": n.truncated,
         "non_finite": n.non_finite,
         "majorant": cli.majorant,
+        "sampler": cli.sampler,
+        "transmittance": cli.transmittance,
         "empty_cell_fraction": traced.empty_fraction,
         "load_s": t.load_s,
         "index_s": t.index_s,

@@ -298,9 +298,13 @@ fn quick_path_study_converges() {
     for scene in ["dense", "sparse"] {
         for d in ["1", "8"] {
             let end = |m: &str| runs[&(scene.into(), d.into(), m.into())][5].2;
+            // Both majorants converge to one answer; the grid's cells
+            // also give residual ratio tracking a control extinction per
+            // cell (the global one has only the volume's least), so the
+            // grid may be better by more than noise, never worse.
             let (grid, global) = (end("grid"), end("global"));
             assert!(
-                (grid - global).abs() < 3.0,
+                grid > global - 3.0 && grid < global + 8.0,
                 "{scene} D={d}: {grid} vs {global}"
             );
         }

@@ -182,6 +182,8 @@ fn path_options_are_checked() {
             "ray caster's effects",
         ),
         (&["--mode", "path", "--until-error", "0"], "above 0"),
+        (&["--mode", "path", "--sampler", "halton"], "halton"),
+        (&["--mode", "path", "--transmittance", "exact"], "exact"),
         (
             &["--mode", "path", "--repeat", "3"],
             "--repeat times the ray caster",
@@ -207,7 +209,7 @@ fn scene_files_hold_the_path_keys() {
         format!(
             "volume = {:?}\nmode = \"path\"\ndensity-scale = 0.5\nalbedo = [0.9, 0.8, 0.7]\n\
              sun = [\"-1,-1.2,0.4:4\"]\nenv = 0.1\nspp = 3\nbounces = 2\ng = 0.5\n\
-             size = [16, 12]\nmajorant = \"global\"\n",
+             size = [16, 12]\nmajorant = \"global\"\nsampler = \"hash\"\ntransmittance = \"ratio\"\n",
             vol.to_str().unwrap()
         ),
     )
@@ -221,6 +223,8 @@ fn scene_files_hold_the_path_keys() {
         "bounces = 2",
         "g = 0.5",
         "majorant = \"global\"",
+        "sampler = \"hash\"",
+        "transmittance = \"ratio\"",
         "density-scale = 0.5",
     ] {
         assert!(printed.contains(key), "{key}:\n{printed}");
@@ -236,6 +240,10 @@ fn scene_files_hold_the_path_keys() {
         (Some(2), Some(16))
     );
     assert_eq!(v["majorant"], "global");
+    assert_eq!(
+        (&v["sampler"], &v["transmittance"]),
+        (&"hash".into(), &"ratio".into())
+    );
     std::fs::write(&scene, "mode = \"path\"\nmajorant = \"fine\"\n").unwrap();
     fails(
         tool("vol-render")

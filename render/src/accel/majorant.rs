@@ -15,7 +15,27 @@ pub const MAX_SIGMA_T: f32 = 1e6;
 pub struct MajorantGrid {
     level: usize,
     values: Vec<f32>,
+    /// Per cell, a control extinction for residual ratio tracking (empty:
+    /// none, every control 0).
+    controls: Vec<f32>,
     global: f32,
+}
+
+/// The value range `(min, max)` of every cell of `index`'s level `level`,
+/// in cell order.
+fn ranges(index: &MinMaxIndex, level: usize) -> impl Iterator<Item = (f32, f32)> + '_ {
+    let l = index.level(level);
+    l.min().iter().copied().zip(l.max().iter().copied())
+}
+
+/// `b` clamped to `[0, cap]`, NaN taken as 0.
+fn clamp_positive(b: f32, cap: f32) -> f32 {
+    // NaN fails the comparison: 0.
+    if b > 0.0 {
+        b.min(cap)
+    } else {
+        0.0
+    }
 }
 
 impl MajorantGrid {
@@ -29,22 +49,12 @@ impl MajorantGrid {
         level: usize,
         bound: impl Fn(f32, f32) -> f32,
     ) -> MajorantGrid {
-        let l = index.level(level);
-        let values: Vec<f32> = l
-            .min()
-            .iter()
-            .zip(l.max())
-            .map(|(&lo, &hi)| {
+        let values: Vec<f32> = ranges(index, level)
+            .map(|(lo, hi)| {
                 if lo > hi {
                     0.0
                 } else {
-                    // NaN fails the comparison: 0.
-                    let b = bound(lo, hi);
-                    if b > 0.0 {
-                        b.min(MAX_SIGMA_T)
-                    } else {
-                        0.0
-                    }
+                    clamp_positive(bound(lo, hi), MAX_SIGMA_T)
                 }
             })
             .collect();
@@ -52,8 +62,39 @@ impl MajorantGrid {
         MajorantGrid {
             level,
             values,
+            controls: Vec::new(),
             global,
         }
+    }
+
+    /// The grid with a control extinction per cell from `control(lo, hi)`
+    /// over the cell's value range, for residual ratio tracking: a value
+    /// near the smallest extinction in the cell (the residual majorant is
+    /// the cell's majorant less it). Controls are clamped to `[0, majorant]`
+    /// (a NaN control is 0), so the residual majorant is never negative.
+    pub fn with_controls(
+        mut self,
+        index: &MinMaxIndex,
+        control: impl Fn(f32, f32) -> f32,
+    ) -> MajorantGrid {
+        self.controls = ranges(index, self.level)
+            .zip(&self.values)
+            .map(|((lo, hi), &m)| {
+                if lo > hi || m <= 0.0 {
+                    0.0
+                } else {
+                    clamp_positive(control(lo, hi), m)
+                }
+            })
+            .collect();
+        self
+    }
+
+    /// The control extinction of the cell with linear index `cell` (0
+    /// without controls).
+    #[inline(always)]
+    pub fn control(&self, cell: usize) -> f32 {
+        self.controls.get(cell).copied().unwrap_or(0.0)
     }
 
     /// Majorants from a table of extinction per value bin: each cell's

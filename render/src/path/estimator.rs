@@ -36,7 +36,7 @@ use crate::accel::VoxelRay;
 use crate::camera::Camera;
 use crate::light::MIN_DISTANCE2;
 use crate::ray::{intersect_box, Ray};
-use crate::sampler::{HashSampler, PixelSampler};
+use crate::sampler::{HashSampler, PixelSampler, Slot};
 use glam::Vec3;
 use volcore::Cursor;
 
@@ -100,20 +100,25 @@ impl<M: Medium> Estimator<'_, M> {
         })
     }
 
-    /// The transmittance from `p` along unit `dir` up to `t_max`.
+    /// The transmittance from `p` along unit `dir` up to `t_max`, its
+    /// first exponential step from `first` (uniform in `[0, 1)`).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn transmittance<C: Cursor>(
         &self,
         cur: &mut C,
         p: Vec3,
         dir: Vec3,
         t_max: f32,
+        first: f32,
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> f32 {
         n.shadow_rays += 1;
         match self.inside(&Ray { origin: p, dir }, t_max) {
-            Some(s) => self.tracker.transmittance(cur, &s.ray, s.t0, s.t1, rng, n),
+            Some(s) => self
+                .tracker
+                .transmittance(cur, &s.ray, s.t0, s.t1, first, rng, n),
             None => 1.0,
         }
     }
@@ -150,7 +155,7 @@ impl<M: Medium> Estimator<'_, M> {
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> Vec3 {
-        let (u, v) = rng.next_2d();
+        let (u, v) = rng.slot_2d(Slot::EnvU);
         let Some(e) = map.sample(u, v) else {
             return Vec3::ZERO;
         };
@@ -162,7 +167,8 @@ impl<M: Medium> Estimator<'_, M> {
         if f.max_element() <= 0.0 || e.radiance == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let tr = self.transmittance(cur, p, e.dir, f32::INFINITY, rng, n);
+        let first = rng.next_1d();
+        let tr = self.transmittance(cur, p, e.dir, f32::INFINITY, first, rng, n);
         if tr <= 0.0 {
             return Vec3::ZERO;
         }
@@ -193,12 +199,20 @@ impl<M: Medium> Estimator<'_, M> {
         n: &mut PathCounters,
     ) -> Vec3 {
         let mut l = Vec3::ZERO;
+        // The first shadow ray's first step is the event's structured
+        // draw; the others are hashed.
+        let mut shadow = Some(Slot::Shadow);
+        let mut first = |rng: &mut PixelSampler| match shadow.take() {
+            Some(s) => rng.slot(s),
+            None => rng.next_1d(),
+        };
         for (towards, irradiance) in self.lights.directional() {
             let f = self.lobe_f(lobe, d, towards);
             if f.max_element() <= 0.0 {
                 continue;
             }
-            let tr = self.transmittance(cur, p, towards, f32::INFINITY, rng, n);
+            let u = first(rng);
+            let tr = self.transmittance(cur, p, towards, f32::INFINITY, u, rng, n);
             if tr > 0.0 {
                 l += irradiance * (f * tr);
             }
@@ -214,7 +228,8 @@ impl<M: Medium> Estimator<'_, M> {
             if f.max_element() <= 0.0 {
                 continue;
             }
-            let tr = self.transmittance(cur, p, wi, dist, rng, n);
+            let u = first(rng);
+            let tr = self.transmittance(cur, p, wi, dist, u, rng, n);
             if tr > 0.0 {
                 l += intensity * (f * tr / d2);
             }
@@ -233,7 +248,7 @@ impl<M: Medium> Estimator<'_, M> {
         n: &mut PathCounters,
     ) -> Vec3 {
         let mut rng = self.sampler.pixel(x, y, index);
-        let (jx, jy) = rng.next_2d();
+        let (jx, jy) = rng.pixel_2d();
         // Free flights have no sample grid: a voxel is the unit that
         // says how far is far for the eye (`EyeRay::near`).
         let voxel = 1.0 / self.inv_spacing.max_element();
@@ -269,7 +284,13 @@ impl<M: Medium> Estimator<'_, M> {
             return Vec3::ZERO;
         }
         match self.inside(&ray, f32::INFINITY) {
-            Some(s) => seen * self.tracker.transmittance(cur, &s.ray, s.t0, s.t1, rng, n),
+            Some(s) => {
+                rng.event(0);
+                let first = rng.slot(Slot::Flight);
+                seen * self
+                    .tracker
+                    .transmittance(cur, &s.ray, s.t0, s.t1, first, rng, n)
+            }
             None => seen,
         }
     }
@@ -289,7 +310,7 @@ impl<M: Medium> Estimator<'_, M> {
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> Option<Surface> {
-        let u = rng.next_1d();
+        let u = rng.slot(Slot::Surface);
         let grad = self.tracker.gradient(cur, p * self.inv_spacing);
         n.density_lookups += 6;
         let top = self.tracker.grid.global();
@@ -340,20 +361,27 @@ impl<M: Medium> Estimator<'_, M> {
                 l += beta * escape(&ray);
                 break;
             };
-            let (t, value) = match self.tracker.free_flight(cur, &s.ray, s.t0, s.t1, rng, n) {
-                Flight::Escaped => {
-                    l += beta * escape(&ray);
-                    break;
-                }
-                Flight::Truncated => break,
-                Flight::Collision { t, value } => (t, value),
-            };
+            rng.event(depth);
+            let first = rng.slot(Slot::Flight);
+            let (t, value) =
+                match self
+                    .tracker
+                    .free_flight(cur, &s.ray, (s.t0, s.t1), first, rng, n)
+                {
+                    Flight::Escaped => {
+                        l += beta * escape(&ray);
+                        break;
+                    }
+                    Flight::Truncated => break,
+                    Flight::Collision { t, value } => (t, value),
+                };
             if depth == self.bounces {
                 // The continuation after the last event: it reached no
                 // light.
                 break;
             }
             depth += 1;
+            rng.event(depth);
             n.scatter_events += 1;
             let p = ray.origin + ray.dir * t;
             let lobe = match self.hybrid {
@@ -380,12 +408,12 @@ impl<M: Medium> Estimator<'_, M> {
             }
             if depth > ROULETTE_DEPTH {
                 let q = beta.max_element().min(1.0);
-                if rng.next_1d() >= q {
+                if rng.slot(Slot::Roulette) >= q {
                     break;
                 }
                 beta /= q;
             }
-            let (u, v) = rng.next_2d();
+            let (u, v) = rng.slot_2d(Slot::DirU);
             let dir = match lobe {
                 Lobe::Phase => {
                     let dir = self.phase.sample(ray.dir, u, v);

@@ -37,6 +37,14 @@ pub trait Medium: Sync {
     /// majorant grid's cells take from their value ranges, and tracking
     /// from a voxel cell's eight values inside a cell at the cap.
     fn majorant_over(&self, lo: f32, hi: f32) -> f32;
+    /// A control extinction for values in `[lo, hi]`, for residual ratio
+    /// tracking: at most the smallest extinction of any value in the range
+    /// (any value keeps the estimate unbiased; one that bounds from below
+    /// keeps every factor in `[0, 1]`). The default, 0, is plain ratio
+    /// tracking.
+    fn control_over(&self, _lo: f32, _hi: f32) -> f32 {
+        0.0
+    }
     /// Majorants of `index`'s level `level`.
     fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError> {
         Ok(MajorantGrid::from_ranges(index, level, |lo, hi| {
@@ -125,6 +133,11 @@ impl Medium for DensityMedium {
             0.0
         }
     }
+
+    fn control_over(&self, lo: f32, _: f32) -> f32 {
+        // σt rises with the value: the smallest value's, narrowed by a hair.
+        self.sigma_t(lo) * (1.0 - 4.0 * f32::EPSILON)
+    }
 }
 
 /// A transfer function as a medium: per value bin, extinction and albedo.
@@ -136,6 +149,9 @@ pub struct TableMedium {
     /// The largest σt over any range of bins (an error when the bins'
     /// domain makes no table: then [`Medium::majorants`] reports it).
     range_max: Result<RangeMaxTable, String>,
+    /// The largest −σt over any range of bins (the smallest σt, negated),
+    /// for the controls of residual ratio tracking.
+    range_min: Option<RangeMaxTable>,
     max_albedo: f32,
 }
 
@@ -162,10 +178,13 @@ impl TableMedium {
         let (lo, hi) = bins.domain();
         let maxima = entries.iter().map(|e| e[3]).collect();
         let range_max = RangeMaxTable::from_bin_maxima(lo, hi, maxima).map_err(|e| e.to_string());
+        let negated = entries.iter().map(|e| -e[3]).collect();
+        let range_min = RangeMaxTable::from_bin_maxima(lo, hi, negated).ok();
         TableMedium {
             bins,
             entries,
             range_max,
+            range_min,
             max_albedo,
         }
     }
@@ -202,6 +221,11 @@ impl Medium for TableMedium {
             // all the same.
             Err(_) => self.entries.iter().map(|e| e[3]).fold(0.0, f32::max),
         }
+    }
+
+    fn control_over(&self, lo: f32, hi: f32) -> f32 {
+        // A NaN or negative bound is taken as 0 by the grid.
+        self.range_min.as_ref().map_or(0.0, |t| -t.max_over(lo, hi))
     }
 
     fn majorants(&self, index: &MinMaxIndex, level: usize) -> Result<MajorantGrid, RenderError> {

@@ -28,6 +28,7 @@ pub mod phase;
 pub mod surface;
 pub mod tracking;
 
+pub use crate::sampler::SamplerKind;
 pub use envmap::EnvMap;
 pub use medium::{DensityMedium, Medium, TableMedium};
 pub use tracking::MajorantMode;
@@ -104,8 +105,43 @@ pub struct PathSettings {
     /// Radiance seen directly where camera rays leave the volume without
     /// scattering (`None`: the environment).
     pub background: Option<Vec3>,
-    /// Seed of the hashed sampler.
+    /// Seed of the sampler.
     pub seed: u64,
+    /// The sampler: Owen-scrambled Sobol points or independent hashes.
+    pub sampler: SamplerKind,
+    /// How shadow rays estimate transmittance.
+    pub transmittance: Transmittance,
+}
+
+/// How shadow rays (and the camera rays of a medium that only absorbs)
+/// estimate transmittance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Transmittance {
+    /// Ratio tracking against each cell's majorant.
+    Ratio,
+    /// Residual ratio tracking: each cell's smallest extinction in closed
+    /// form, ratio tracking of the rest.
+    #[default]
+    Residual,
+}
+
+impl Transmittance {
+    /// The estimator a name (`ratio` or `residual`) stands for.
+    pub fn from_name(name: &str) -> Option<Transmittance> {
+        match name {
+            "ratio" => Some(Transmittance::Ratio),
+            "residual" => Some(Transmittance::Residual),
+            _ => None,
+        }
+    }
+
+    /// The estimator's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Transmittance::Ratio => "ratio",
+            Transmittance::Residual => "residual",
+        }
+    }
 }
 
 /// Most scattering events a path may be allowed.
@@ -305,9 +341,10 @@ impl<'a> PathTracer<'a> {
                 AnyMedium::Table(TableMedium::new(tf, lo, hi))
             }
         };
+        let residual = settings.transmittance == Transmittance::Residual;
         let (grid, max_albedo) = match &medium {
-            AnyMedium::Density(m) => (m.majorants(index, GRID_LEVEL)?, m.max_albedo()),
-            AnyMedium::Table(m) => (m.majorants(index, GRID_LEVEL)?, m.max_albedo()),
+            AnyMedium::Density(m) => (controls(m, index, residual)?, m.max_albedo()),
+            AnyMedium::Table(m) => (controls(m, index, residual)?, m.max_albedo()),
         };
         Ok(PathTracer {
             vol,
@@ -402,7 +439,10 @@ impl<'a> PathTracer<'a> {
             bounces: self.settings.bounces,
             hybrid: self.settings.hybrid,
             scatters: self.scatters,
-            sampler: crate::sampler::HashSampler::new(self.settings.seed),
+            sampler: crate::sampler::HashSampler::with_kind(
+                self.settings.seed,
+                self.settings.sampler,
+            ),
         };
         let width = acc.width() as usize;
         let (rows, start) = acc.rows_mut();
@@ -475,6 +515,20 @@ impl<'a> PathTracer<'a> {
         }
         Ok(total)
     }
+}
+
+/// The medium's majorant grid, with its controls when `residual`.
+fn controls<M: Medium>(
+    medium: &M,
+    index: &MinMaxIndex,
+    residual: bool,
+) -> Result<MajorantGrid, RenderError> {
+    let grid = medium.majorants(index, GRID_LEVEL)?;
+    Ok(if residual {
+        grid.with_controls(index, |lo, hi| medium.control_over(lo, hi))
+    } else {
+        grid
+    })
 }
 
 /// One pass over every row: the rows in parallel (compiled once), each

@@ -109,8 +109,10 @@ pub enum Flight {
 
 impl<M: Medium> Tracker<'_, M> {
     /// Walk the segments of `ray` over `[t0, t1]`, calling
-    /// `visit(cur, m, a, b, n)` for each stretch `[a, b]` with a nonzero
-    /// majorant `m`, until it returns `Some`. A macrocell at the cap
+    /// `visit(cur, m, c, a, b, n)` for each stretch `[a, b]` with a nonzero
+    /// majorant `m` and control extinction `c` (0 without controls, under
+    /// the global majorant and inside cells at the cap), until it returns
+    /// `Some`. A macrocell at the cap
     /// ([`MAX_SIGMA_T`]) is walked voxel cell by voxel cell, each with the
     /// bound of its own eight values ([`Tracker::voxel_majorant`]).
     #[inline(always)]
@@ -121,14 +123,14 @@ impl<M: Medium> Tracker<'_, M> {
         t0: f32,
         t1: f32,
         n: &mut PathCounters,
-        mut visit: impl FnMut(&mut C, f32, f64, f64, &mut PathCounters) -> Option<R>,
+        mut visit: impl FnMut(&mut C, f32, f32, f64, f64, &mut PathCounters) -> Option<R>,
     ) -> Option<R> {
         match self.mode {
             MajorantMode::Global => {
                 let m = self.grid.global();
                 if m > 0.0 && t0 <= t1 {
                     n.majorant_cells += 1;
-                    return visit(cur, m, t0 as f64, t1 as f64, n);
+                    return visit(cur, m, 0.0, t0 as f64, t1 as f64, n);
                 }
                 None
             }
@@ -148,7 +150,8 @@ impl<M: Medium> Tracker<'_, M> {
                         }
                         continue;
                     }
-                    if let Some(r) = visit(cur, m, seg.t0 as f64, seg.t1 as f64, n) {
+                    let c = self.grid.control(seg.index);
+                    if let Some(r) = visit(cur, m, c, seg.t0 as f64, seg.t1 as f64, n) {
                         return Some(r);
                     }
                 }
@@ -174,7 +177,7 @@ impl<M: Medium> Tracker<'_, M> {
         t1: f32,
         m: f32,
         n: &mut PathCounters,
-        visit: &mut impl FnMut(&mut C, f32, f64, f64, &mut PathCounters) -> Option<R>,
+        visit: &mut impl FnMut(&mut C, f32, f32, f64, f64, &mut PathCounters) -> Option<R>,
     ) -> Option<R> {
         for seg in voxel_segments(self.dims, self.hi, ray, t0, t1) {
             let [i, j, k] = seg.cell;
@@ -183,7 +186,7 @@ impl<M: Medium> Tracker<'_, M> {
             if v <= 0.0 {
                 continue;
             }
-            if let Some(r) = visit(cur, v, seg.t0 as f64, seg.t1 as f64, n) {
+            if let Some(r) = visit(cur, v, 0.0, seg.t0 as f64, seg.t1 as f64, n) {
                 return Some(r);
             }
         }
@@ -263,34 +266,63 @@ impl<M: Medium> Tracker<'_, M> {
     }
 
     /// The tentative collisions along `ray` over `[t0, t1]`, in order:
-    /// an optical depth is drawn (exponential, mean 1) and spent across
-    /// the cells at their majorants; where it runs out, `at(t, m, rng, n)`
-    /// is asked whether to stop there (`Some`) or to go on with a fresh
-    /// depth. The walk is memoryless, so this is the same process as
-    /// restarting in every cell, at one random number and one logarithm
-    /// per collision instead of per cell. Past [`MAX_COLLISIONS`] it stops
-    /// with `truncated`.
+    /// an optical depth is drawn (exponential, mean 1; the first from
+    /// `first`, uniform in `[0, 1)`, the rest from `rng`) and spent across
+    /// the cells at their rates (`RESIDUAL`: the majorant less the cell's
+    /// control, whose optical depth is added to `control_depth`; else the
+    /// majorant); where it runs out, `at(Some(t), m, c, d, rng, n)` (`d`:
+    /// the control's optical depth to the end of the current cell) is asked
+    /// whether to stop there (`Some`) or to go on with a fresh depth;
+    /// `RESIDUAL` also asks `at(None, m, c, d, rng, n)` on entering each
+    /// cell (where the control alone can make the estimate small enough
+    /// for roulette). The walk is
+    /// memoryless, so this is the same process as restarting in every
+    /// cell, at one random number and one logarithm per collision instead
+    /// of per cell. Past [`MAX_COLLISIONS`] it stops with `truncated`.
     #[inline(always)]
-    fn collisions<C: Cursor, R>(
+    #[allow(clippy::too_many_arguments)]
+    fn collisions<C: Cursor, R, const RESIDUAL: bool>(
         &self,
         cur: &mut C,
         (ray, t0, t1): (&VoxelRay, f32, f32),
+        first: f32,
         rng: &mut PixelSampler,
         n: &mut PathCounters,
+        control_depth: &mut f64,
         truncated: R,
-        mut at: impl FnMut(&mut C, f64, f32, &mut PixelSampler, &mut PathCounters) -> Option<R>,
+        mut at: impl FnMut(
+            &mut C,
+            Option<f64>,
+            f32,
+            f32,
+            f64,
+            &mut PixelSampler,
+            &mut PathCounters,
+        ) -> Option<R>,
     ) -> Option<R> {
-        let exp = |rng: &mut PixelSampler| -(-(rng.next_1d() as f64)).ln_1p();
-        let mut tau = exp(rng);
+        let exp = |u: f32| -(-(u as f64)).ln_1p();
+        let mut tau = exp(first);
         let mut budget = MAX_COLLISIONS;
         let mut truncated = Some(truncated);
-        self.walk(cur, ray, t0, t1, n, |cur, m, a, b, n| {
-            let m64 = m as f64;
+        self.walk(cur, ray, t0, t1, n, |cur, m, c, a, b, n| {
+            let rate = if RESIDUAL {
+                *control_depth += c as f64 * (b - a);
+                if let Some(r) = at(cur, None, m, c, *control_depth, rng, n) {
+                    return Some(r);
+                }
+                (m - c) as f64
+            } else {
+                m as f64
+            };
+            if rate <= 0.0 {
+                // A cell whose extinction is its control: nothing to track.
+                return None;
+            }
             let mut t = a;
             loop {
-                let need = tau / m64;
+                let need = tau / rate;
                 if t + need >= b {
-                    tau = (tau - (b - t) * m64).max(0.0);
+                    tau = (tau - (b - t) * rate).max(0.0);
                     return None;
                 }
                 t += need;
@@ -299,10 +331,10 @@ impl<M: Medium> Tracker<'_, M> {
                     return truncated.take();
                 }
                 budget -= 1;
-                if let Some(r) = at(cur, t, m, rng, n) {
+                if let Some(r) = at(cur, Some(t), m, c, *control_depth, rng, n) {
                     return Some(r);
                 }
-                tau = exp(rng);
+                tau = exp(rng.next_1d());
             }
         })
     }
@@ -313,18 +345,21 @@ impl<M: Medium> Tracker<'_, M> {
         &self,
         cur: &mut C,
         ray: &VoxelRay,
-        t0: f32,
-        t1: f32,
+        (t0, t1): (f32, f32),
+        first: f32,
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> Flight {
-        self.collisions(
+        self.collisions::<C, Flight, false>(
             cur,
             (ray, t0, t1),
+            first,
             rng,
             n,
+            &mut 0.0,
             Flight::Truncated,
-            |cur, t, m, rng, n| {
+            |cur, t, m, _, _, rng, n| {
+                let t = t?;
                 n.density_lookups += 1;
                 let (s, v) = self.sigma_at(cur, ray, t, m);
                 n.capped += u64::from(s >= MAX_SIGMA_T);
@@ -343,36 +378,83 @@ impl<M: Medium> Tracker<'_, M> {
         .unwrap_or(Flight::Escaped)
     }
 
-    /// Ratio tracking along `ray` over `[t0, t1]`: an unbiased estimate of
-    /// the transmittance, in `[0, 1 / (1 − ROULETTE_KILL)]`, with Russian
-    /// roulette below [`ROULETTE_BELOW`].
+    /// Residual ratio tracking (Novák et al. 2014) along `ray` over
+    /// `[t0, t1]`: an unbiased estimate of the transmittance, in
+    /// `[0, 1 / (1 − ROULETTE_KILL)]`, with Russian roulette below
+    /// [`ROULETTE_BELOW`]. Each cell's control extinction `c` (see
+    /// [`crate::accel::majorant::MajorantGrid::with_controls`]) is
+    /// integrated in closed form (`exp(−∫c)`) and only the residual
+    /// `σt − c` is tracked, at the rate `majorant − c`: a cell whose
+    /// extinction varies little costs few lookups however dense it is.
+    /// Without controls (all 0) this is plain ratio tracking. The first
+    /// exponential step comes from `first`.
+    #[allow(clippy::too_many_arguments)]
     pub fn transmittance<C: Cursor>(
         &self,
         cur: &mut C,
         ray: &VoxelRay,
         t0: f32,
         t1: f32,
+        first: f32,
         rng: &mut PixelSampler,
         n: &mut PathCounters,
     ) -> f32 {
         let mut tr = 1.0f32;
-        let stop = self.collisions(cur, (ray, t0, t1), rng, n, (), |cur, t, m, rng, n| {
-            n.density_lookups += 1;
-            let (s, _) = self.sigma_at(cur, ray, t, m);
-            n.capped += u64::from(s >= MAX_SIGMA_T);
-            tr *= (1.0 - s / m).max(0.0);
-            if tr < ROULETTE_BELOW {
-                if tr <= 0.0 || rng.next_1d() < ROULETTE_KILL {
-                    return Some(());
+        // The control's optical depth past which the estimate,
+        // tr × exp(−depth), is below the roulette's threshold (recomputed
+        // when tr changed and a depth is there to compare).
+        let mut beyond = 0.0f64;
+        let mut stale = true;
+        let mut control = 0.0f64;
+        let stop = self.collisions::<C, (), true>(
+            cur,
+            (ray, t0, t1),
+            first,
+            rng,
+            n,
+            &mut control,
+            (),
+            |cur, t, m, c, depth, rng, n| {
+                match t {
+                    Some(t) => {
+                        n.density_lookups += 1;
+                        let (s, _) = self.sigma_at(cur, ray, t, m);
+                        n.capped += u64::from(s >= MAX_SIGMA_T);
+                        tr *= (1.0 - (s - c) / (m - c)).max(0.0);
+                        if tr <= 0.0 {
+                            return Some(());
+                        }
+                        stale = true;
+                    }
+                    // Entering a cell: only its control can have made the
+                    // estimate small.
+                    None if c <= 0.0 => return None,
+                    None => {}
                 }
-                tr /= 1.0 - ROULETTE_KILL;
-            }
-            None
-        });
+                let below = if depth > 0.0 {
+                    if stale {
+                        beyond = (tr / ROULETTE_BELOW).ln() as f64;
+                        stale = false;
+                    }
+                    depth > beyond
+                } else {
+                    // No control yet: plain ratio tracking's test.
+                    tr < ROULETTE_BELOW
+                };
+                if below {
+                    if rng.next_1d() < ROULETTE_KILL {
+                        return Some(());
+                    }
+                    tr /= 1.0 - ROULETTE_KILL;
+                    stale = true;
+                }
+                None
+            },
+        );
         if stop.is_some() {
             0.0
         } else {
-            tr
+            tr * (-control).exp() as f32
         }
     }
 }

@@ -59,6 +59,8 @@ fn a_flag_raised_after_a_pass_stops_the_path_tracer_there() {
         },
         background: None,
         seed: 3,
+        sampler: Default::default(),
+        transmittance: Default::default(),
     };
     let cancel = Cancel::new();
     let pt = PathTracer::new(&v, &ix, &cam, &s)

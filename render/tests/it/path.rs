@@ -12,6 +12,7 @@ use volindex::{BuildOptions, MinMaxIndex};
 use volrender::film::PathFilm;
 use volrender::path::{
     Budget, EnvMap, MajorantMode, MediumSpec, PathCounters, PathLights, PathSettings, PathTracer,
+    SamplerKind, Transmittance,
 };
 use volrender::{Camera, Light, Projection};
 
@@ -32,6 +33,8 @@ fn settings(scale: f32, albedo: f32, lights: PathLights) -> PathSettings {
         lights,
         background: None,
         seed: 1,
+        sampler: SamplerKind::default(),
+        transmittance: Transmittance::default(),
     }
 }
 
@@ -144,16 +147,23 @@ fn absorption_matches_beer_lambert() {
     )
     .unwrap();
     let expect = (-0.05f64 * 31.0).exp();
-    for mode in [MajorantMode::Grid, MajorantMode::Global] {
+    for (mode, tr) in [
+        (MajorantMode::Grid, Transmittance::Residual),
+        (MajorantMode::Grid, Transmittance::Ratio),
+        (MajorantMode::Global, Transmittance::Residual),
+    ] {
         let mut s = settings(0.05, 0.0, env(1.0));
         s.majorant = mode;
+        s.transmittance = tr;
         let (acc, n) = render(&v, &ix, &cam, &s, 64);
         let (mean, se) = image_mean(&acc);
+        // Residual tracking integrates a constant medium in closed form
+        // (to f32 rounding: hence the 1e-6).
         assert!(
-            (mean - expect).abs() < 4.0 * se + 1e-9,
-            "{mode:?}: {mean} vs {expect} (se {se})"
+            (mean - expect).abs() < 4.0 * se + 1e-6,
+            "{mode:?} {tr:?}: {mean} vs {expect} (se {se})"
         );
-        assert!(se < 0.02 * expect, "{mode:?}: se {se}");
+        assert!(se < 0.02 * expect, "{mode:?} {tr:?}: se {se}");
         // No scattering code ran.
         assert_eq!((n.scatter_events, n.bounce_rays), (0, 0), "{n:?}");
     }
@@ -222,13 +232,32 @@ fn images_are_bit_identical_across_threads_and_resumes() {
     let v = shapes(40);
     let ix = index(&v);
     let cam = outside(40.0, 20);
-    let s = settings(0.5, 0.8, sun_and_env());
+    for sampler in [SamplerKind::Sobol, SamplerKind::Hash] {
+        let mut s = settings(0.5, 0.8, sun_and_env());
+        s.sampler = sampler;
+        bit_identical_across_threads_and_resumes(&v, &ix, &cam, &s);
+    }
+    // The two samplers draw different numbers.
+    let mut h = settings(0.5, 0.8, sun_and_env());
+    h.sampler = SamplerKind::Hash;
+    assert_ne!(render(&v, &ix, &cam, &h, 2).0, {
+        h.sampler = SamplerKind::Sobol;
+        render(&v, &ix, &cam, &h, 2).0
+    });
+}
+
+fn bit_identical_across_threads_and_resumes(
+    v: &Volume,
+    ix: &MinMaxIndex,
+    cam: &Camera,
+    s: &PathSettings,
+) {
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap();
-        pool.install(|| render(&v, &ix, &cam, &s, 8))
+        pool.install(|| render(v, ix, cam, s, 8))
     };
     let (one, n1) = run(1);
     for t in [2, 7] {
@@ -236,7 +265,7 @@ fn images_are_bit_identical_across_threads_and_resumes() {
         assert_eq!(other, one, "{t} threads");
         assert_eq!(n, n1);
     }
-    let pt = PathTracer::new(&v, &ix, &cam, &s).unwrap();
+    let pt = PathTracer::new(v, ix, cam, s).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let state = dir.path().join("s.state");
     let mut a = PathFilm::new(20, 20, pt.key(0));
@@ -256,7 +285,7 @@ fn images_are_bit_identical_across_threads_and_resumes() {
     assert_eq!(b, one);
     // Another scene's key is refused.
     let other = settings(0.6, 0.8, sun_and_env());
-    let key = PathTracer::new(&v, &ix, &cam, &other).unwrap().key(0);
+    let key = PathTracer::new(v, ix, cam, &other).unwrap().key(0);
     assert_ne!(key, pt.key(0));
     assert!(PathFilm::load(&state, 20, 20, key).is_err());
 }
@@ -697,4 +726,54 @@ fn white_furnace_holds_for_every_scattering_option() {
         ok &= se < 0.01 / 8.0 && (mean - 1.0).abs() < 0.01;
     }
     assert!(ok, "{means:#?}");
+}
+
+/// Issue 54: residual ratio tracking is unbiased and, on a dense medium
+/// whose extinction varies little inside a macrocell, has far less
+/// variance than ratio tracking at fewer lookups. The medium ramps along
+/// the view axis (σt = 0.05 × (0.5 + z / 63), exact under trilinear
+/// interpolation), so every ray's transmittance is exp(−∫σt) =
+/// exp(−0.05 × 63).
+#[test]
+fn residual_ratio_tracking_matches_the_closed_form_with_less_variance() {
+    let dims = Dims::new(16, 16, 64).unwrap();
+    let samples: Vec<f32> = (0..dims.count())
+        .map(|i| 0.5 + (i / 256) as f32 / 63.0)
+        .collect();
+    let v = Volume::from_samples(dims, samples).unwrap();
+    let ix = index(&v);
+    let cam = Camera::look_at(
+        Vec3::new(7.5, 7.5, 200.0),
+        Vec3::new(7.5, 7.5, 0.0),
+        Vec3::Y,
+        Projection::Orthographic(10.0),
+        12,
+        12,
+    )
+    .unwrap();
+    let expect = (-0.05f64 * 63.0).exp();
+    let mut figures = Vec::new();
+    for tr in [Transmittance::Residual, Transmittance::Ratio] {
+        let mut s = settings(0.05, 0.0, env(1.0));
+        s.transmittance = tr;
+        let (acc, n) = render(&v, &ix, &cam, &s, 256);
+        let (mean, se) = image_mean(&acc);
+        assert!(
+            (mean - expect).abs() < 4.0 * se + 1e-6,
+            "{tr:?}: {mean} vs {expect} (se {se})"
+        );
+        figures.push((se, n.density_lookups));
+    }
+    eprintln!("(standard error, lookups): residual, ratio: {figures:?}");
+    let [(res_se, res_lookups), (ratio_se, ratio_lookups)] = figures[..] else {
+        unreachable!()
+    };
+    assert!(
+        res_se * 4.0 < ratio_se,
+        "standard errors: residual {res_se}, ratio {ratio_se}"
+    );
+    assert!(
+        res_lookups * 3 < ratio_lookups,
+        "lookups: residual {res_lookups}, ratio {ratio_lookups}"
+    );
 }
