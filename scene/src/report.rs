@@ -84,6 +84,8 @@ fn add_budget(report: &mut Report, b: &Budgeted, render_s: f64) {
         "model": {
             "fixed_s": b.model.cost.fixed_s,
             "per_sample_s": b.model.cost.per_sample_s,
+            "probe_scale": b.model.cost.probe_scale,
+            "dense_factor": b.model.cost.dense_factor,
             "samples_per_pixel": b.model.cost.samples_per_pixel,
             "at_step": b.model.cost.at_step,
             "step_order": b.model.error.order,

@@ -305,9 +305,13 @@ impl Worker {
             (Ok(r), Some(c), Some((_, model))) => {
                 if let volscene::Image::Frame(f) = &r.image {
                     let pixels = f64::from(f.width) * f64::from(f.height);
-                    model
-                        .cost
-                        .observe(c.step, pixels, f.stats.samples as f64, r.times.render_s);
+                    model.cost.observe(
+                        c.step,
+                        pixels,
+                        c.scale,
+                        f.stats.samples as f64,
+                        r.times.render_s,
+                    );
                 }
                 Some(r.times.render_s)
             }

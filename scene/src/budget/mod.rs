@@ -87,7 +87,9 @@ pub fn choose(model: &Model, base_step: f64, size: (u32, u32), seconds: f64) -> 
                 scale: (pixels / full).sqrt(),
                 width: w,
                 height: h,
-                expected_s: model.cost.seconds(step, pixels, upsampled),
+                expected_s: model
+                    .cost
+                    .seconds(step, pixels, (pixels / full).sqrt(), upsampled),
                 expected_mse: model.error.mse(step, (pixels / full).sqrt()),
                 fits: true,
             };
@@ -129,6 +131,8 @@ mod tests {
             cost: CostModel {
                 fixed_s: 0.001,
                 per_sample_s: 1e-8,
+                probe_scale: 1.0 / 6.0,
+                dense_factor: 0.5,
                 samples_per_pixel: 400.0,
                 at_step: 0.5,
                 upsample_s: 1e-9,

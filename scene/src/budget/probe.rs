@@ -70,7 +70,11 @@ pub fn probe(
     let [fine, mid, coarse] = &probes[..] else {
         return Err(Error::option("--budget: the probes did not render"));
     };
-    let crop = frame(centre(options, plan, size), base_step * CROP_STEP, &mut render)?;
+    let crop = frame(
+        centre(options, plan, size),
+        base_step * CROP_STEP,
+        &mut render,
+    )?;
     // The crop's errors where the volume is, spread over the whole
     // image's coverage.
     let spread = if crop.coverage > 0.0 {
@@ -80,7 +84,7 @@ pub fn probe(
     };
     let scale_mse = [2, 4, 8].map(|factor| spread * down_up_mse(&crop.srgb, size, factor));
     let model = Model {
-        cost: CostModel::fit(&probes),
+        cost: CostModel::fit(&probes, q, &crop),
         error: ErrorModel::fit(fine, mid, coarse, scale_mse),
     };
     Ok(Probed {
