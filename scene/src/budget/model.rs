@@ -67,10 +67,11 @@ pub const RAY_SAMPLES: f64 = 2.0;
 /// zero).
 const MIN_PER_SAMPLE_S: f64 = 1e-11;
 
-/// The range the density factor is kept in (one frame timed once is
-/// noisy; denser rays were never measured to cost more than 1.2x, nor
-/// less than a third).
-const DENSE_FACTOR: (f64, f64) = (0.25, 1.5);
+/// The range the density factor is kept in: denser rays never cost more
+/// per sample (a centre that costs more per sample holds costlier
+/// content, such as more shaded samples, not denser rays), nor were they
+/// measured to cost less than a third.
+const DENSE_FACTOR: (f64, f64) = (0.25, 1.0);
 
 impl CostModel {
     /// The model fitted to `probes` (of one size, at different steps,

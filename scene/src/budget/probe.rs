@@ -2,17 +2,22 @@
 //! frame at the base step (a CT head at 256², where the centre is three
 //! times as dense as the whole: 5%):
 //! - the whole view at a sixth of each side (at least
-//!   [`PROBE_MIN_SIDE`] pixels) at 2, 4 and 8 times the base step: their
-//!   times fit the cost model, their differences the step's error;
+//!   [`PROBE_MIN_SIDE`] pixels, doubled while the coarsest takes under
+//!   [`PROBE_MIN_S`]) at 2, 4 and 8 times the base step: their times fit
+//!   the cost model, their differences the step's error;
 //! - the centre of the view at full resolution, as large as those (the
 //!   same camera, its field of view narrowed), at [`CROP_STEP`] times the
 //!   base step: what it loses when sampled 2x, 4x and 8x more coarsely
-//!   and upsampled back is the scale's error.
+//!   and upsampled back is the scale's error, and its cost per sample
+//!   against the whole view's is what denser rays save.
+//!
+//! A probe under [`PROBE_RERUN_BELOW_S`] is timed by its fastest of
+//! [`PROBE_RUNS`] runs.
 
 use super::model::{CostModel, ErrorModel, ProbeFrame};
 use super::resize::down_up_mse;
 use super::{scaled, Model};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::options::Options;
 use crate::plan::Plan;
 use std::time::Instant;
@@ -30,6 +35,21 @@ pub const PROBE_STEPS: [f64; 3] = [2.0, 4.0, 8.0];
 /// densest part of most views: at the base step it alone cost a CT head
 /// 10% of a frame).
 pub const CROP_STEP: f64 = 4.0;
+
+/// The least time of the coarsest probe: below it the probes' side is
+/// doubled (up to [`PROBE_MAX_SCALE`]), since a frame's fixed part
+/// (about 0.8 ms on two cores) would hide its samples' cost.
+pub const PROBE_MIN_S: f64 = 0.002;
+/// The largest probe scale the doubling reaches.
+pub const PROBE_MAX_SCALE: f64 = 0.5;
+
+/// A probe faster than this is rendered again, up to [`PROBE_RUNS`]
+/// times, and its fastest run kept: a millisecond frame's first run is
+/// often twice its time (threads waking), which the fit would read as a
+/// cost per sample several times too high.
+pub const PROBE_RERUN_BELOW_S: f64 = 0.005;
+/// The most runs of one probe.
+pub const PROBE_RUNS: u32 = 3;
 
 /// The most the crop's scale errors are raised by when the volume covers
 /// more of the whole image than of the crop.
@@ -57,19 +77,27 @@ pub fn probe(
     let t = Instant::now();
     let (w, h) = options.size;
     let short = w.min(h).max(1);
-    let q = PROBE_SCALE
+    let mut q = PROBE_SCALE
         .max(f64::from(PROBE_MIN_SIDE) / f64::from(short))
         .min(1.0);
-    let size = (scaled(w, q), scaled(h, q));
-    let mut probes = Vec::with_capacity(PROBE_STEPS.len());
-    for f in PROBE_STEPS {
+    let sized = |q: f64| {
         let mut o = options.clone();
-        o.size = size;
-        probes.push(frame(o, base_step * f, &mut render)?);
-    }
-    let [fine, mid, coarse] = &probes[..] else {
-        return Err(Error::option("--budget: the probes did not render"));
+        o.size = (scaled(w, q), scaled(h, q));
+        o
     };
+    let [s_fine, s_mid, s_coarse] = PROBE_STEPS.map(|f| base_step * f);
+    // The coarsest first: it sets the probes' size (at most a few
+    // doublings, each bounded by PROBE_MAX_SCALE).
+    let mut coarse = frame(sized(q), s_coarse, &mut render)?;
+    while coarse.seconds < PROBE_MIN_S && q * 2.0 <= PROBE_MAX_SCALE {
+        q *= 2.0;
+        coarse = frame(sized(q), s_coarse, &mut render)?;
+    }
+    let fine = frame(sized(q), s_fine, &mut render)?;
+    let mid = frame(sized(q), s_mid, &mut render)?;
+    let size = sized(q).size;
+    let probes = [fine, mid, coarse];
+    let [fine, mid, coarse] = &probes;
     let crop = frame(
         centre(options, plan, size),
         base_step * CROP_STEP,
@@ -123,11 +151,18 @@ fn frame(
     o.repeat = 1;
     o.step = Some(step as f32);
     let (frame, step) = render(&o)?;
+    let mut seconds = frame.stats.render_s;
+    for _ in 1..PROBE_RUNS {
+        if seconds >= PROBE_RERUN_BELOW_S {
+            break;
+        }
+        seconds = seconds.min(render(&o)?.0.stats.render_s);
+    }
     Ok(ProbeFrame {
         step,
         pixels: f64::from(frame.width) * f64::from(frame.height),
         samples: frame.stats.samples as f64 + frame.stats.effects.shadow_samples as f64,
-        seconds: frame.stats.render_s,
+        seconds,
         srgb: frame.srgb8(false).into_iter().map(f32::from).collect(),
         coverage: coverage(&frame.rgba),
     })
