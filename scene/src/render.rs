@@ -152,7 +152,13 @@ fn cast_within(
     seconds: f64,
 ) -> Result<Rendered> {
     let base_step = f64::from(plan.settings.step);
-    let probed = probe(options, source, plan, cancel)?;
+    let probed = probe(
+        options,
+        source,
+        plan,
+        seconds * budget::probe::PROBE_SHARE,
+        cancel,
+    )?;
     let choice = budget::choose(
         &probed.model,
         base_step,
@@ -188,15 +194,17 @@ fn cast_within(
 
 /// Fit the frame-time models of the view `options` asks for (as `plan`
 /// resolves it; the budget's base step is its step) with probe frames of
-/// `source` ([`budget::probe`]).
+/// `source` ([`budget::probe`]) that grow only while they take at most
+/// `limit_s` seconds in all.
 pub fn probe(
     options: &Options,
     source: &Source,
     plan: &Plan,
+    limit_s: f64,
     cancel: &Cancel,
 ) -> Result<budget::Probed> {
     let base_step = f64::from(plan.settings.step);
-    budget::probe(options, plan, base_step, |o| {
+    budget::probe(options, plan, base_step, limit_s, |o| {
         let plan = Plan::for_source(o, source)?;
         match cast_frames(o, source, &plan, cancel)?.image {
             Image::Frame(f) => Ok((f, f64::from(plan.settings.step))),

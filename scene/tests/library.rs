@@ -295,3 +295,46 @@ fn path_tracing_continues_from_earlier_passes_in_memory() {
     );
     assert_eq!(e.err().unwrap().kind(), ErrorKind::Option);
 }
+
+/// Probes of a 512² view whose frames each take 2 ms of wall time and
+/// report 0.1 ms: the probes' scale of each side, and the renders made.
+fn probe_growth(limit_s: f64) -> (f64, usize) {
+    let request = Request::parse(["shapes.vvol", "--tf", "shapes", "--size", "512x512"]).unwrap();
+    let options = request.options();
+    let source = Source::from_volume(options, shapes(), Path::new("shapes.vvol")).unwrap();
+    let plan = Plan::for_source(options, &source).unwrap();
+    let mut renders = 0;
+    let probed = volscene::budget::probe(options, &plan, 0.5, limit_s, |o| {
+        renders += 1;
+        std::thread::sleep(std::time::Duration::from_millis(2));
+        let n = (o.size.0 * o.size.1) as usize;
+        let mut frame = volrender::Frame {
+            width: o.size.0,
+            height: o.size.1,
+            rgba: vec![[0.5, 0.5, 0.5, 1.0]; n],
+            value: vec![0.0; n],
+            depth: vec![f32::NAN; n],
+            samples: vec![4; n],
+            stats: Default::default(),
+        };
+        frame.stats.samples = 4 * n as u64;
+        frame.stats.render_s = 1e-4;
+        Ok((frame, f64::from(o.step.unwrap_or(0.5))))
+    })
+    .unwrap();
+    (probed.model.cost.probe_scale, renders)
+}
+
+#[test]
+fn probes_grow_only_within_the_time_they_are_given() {
+    // Unlimited, probes that seem to take 0.1 ms double their side up to
+    // a third (twice a sixth; two thirds would pass a half), each fast
+    // one run three times.
+    let (scale, renders) = probe_growth(f64::INFINITY);
+    assert!((scale - 1.0 / 3.0).abs() < 0.01, "{scale}");
+    assert_eq!(renders, 3 + 3 * 4, "{renders}");
+    // With no time to spare: the four smallest probes, once each.
+    let (scale, renders) = probe_growth(1e-6);
+    assert!((scale - 1.0 / 6.0).abs() < 0.01, "{scale}");
+    assert_eq!(renders, 4);
+}

@@ -103,7 +103,8 @@ impl Viewer {
 
     /// Fit the frame-time models of the view `options` asks for (as
     /// `plan` resolves it) with probe frames, after any other frame of
-    /// the server has finished.
+    /// the server has finished. The probes grow as they need: they run
+    /// once per view, and every preview after them calibrates the cost.
     pub fn probe(
         &self,
         options: &Options,
@@ -111,7 +112,7 @@ impl Viewer {
         cancel: &Cancel,
     ) -> Result<volscene::budget::Probed, Error> {
         let _one_at_a_time = self.lock();
-        volscene::render::probe(options, &self.source, plan, cancel)
+        volscene::render::probe(options, &self.source, plan, f64::INFINITY, cancel)
     }
 
     /// The render lock (a panic elsewhere does not stop the server).

@@ -12,7 +12,10 @@
 //!   against the whole view's is what denser rays save.
 //!
 //! A probe under [`PROBE_RERUN_BELOW_S`] is timed by its fastest of
-//! [`PROBE_RUNS`] runs.
+//! [`PROBE_RUNS`] runs. Neither the doubling nor the reruns go past the
+//! seconds the caller allows the probes (a one-shot `--budget` frame
+//! gives them [`PROBE_SHARE`] of its budget): a sharper model is worth
+//! less than the frame it would leave no time for.
 
 use super::model::{CostModel, ErrorModel, ProbeFrame};
 use super::resize::down_up_mse;
@@ -51,6 +54,15 @@ pub const PROBE_RERUN_BELOW_S: f64 = 0.005;
 /// The most runs of one probe.
 pub const PROBE_RUNS: u32 = 3;
 
+/// The share of a one-shot budget its probes may grow to (by doubling
+/// their side and rerunning fast ones); the smallest probes run whatever
+/// the budget.
+pub const PROBE_SHARE: f64 = 0.25;
+
+/// The probes' cost in units of the coarsest one's: the two finer steps
+/// take 4 and 2 times its samples, the centre about 2 times.
+const PROBES_PER_COARSE: f64 = 9.0;
+
 /// The most the crop's scale errors are raised by when the volume covers
 /// more of the whole image than of the crop.
 const MAX_SPREAD: f64 = 4.0;
@@ -66,15 +78,19 @@ pub struct Probed {
 
 /// Probe the view `options` asks for (its size is the full frame's;
 /// `base_step` is the step the budget's multiples are of) as `plan`
-/// resolves it; `render` renders one frame of the options it is given
-/// (without a budget), and says the step it resolved them to.
+/// resolves it, growing the probes only while the whole stays within
+/// `limit_s` seconds (infinite: no limit); `render` renders one frame of
+/// the options it is given (without a budget), and says the step it
+/// resolved them to.
 pub fn probe(
     options: &Options,
     plan: &Plan,
     base_step: f64,
+    limit_s: f64,
     mut render: impl FnMut(&Options) -> Result<(Frame, f64)>,
 ) -> Result<Probed> {
     let t = Instant::now();
+    let clock = Clock { start: t, limit_s };
     let (w, h) = options.size;
     let short = w.min(h).max(1);
     let mut q = PROBE_SCALE
@@ -88,20 +104,25 @@ pub fn probe(
     let [s_fine, s_mid, s_coarse] = PROBE_STEPS.map(|f| base_step * f);
     // The coarsest first: it sets the probes' size (at most a few
     // doublings, each bounded by PROBE_MAX_SCALE).
-    let mut coarse = frame(sized(q), s_coarse, &mut render)?;
-    while coarse.seconds < PROBE_MIN_S && q * 2.0 <= PROBE_MAX_SCALE {
+    let (mut coarse, mut coarse_wall) = frame(sized(q), s_coarse, &mut render, &clock)?;
+    // Doubled, the side quadruples every probe's pixels.
+    while coarse.seconds < PROBE_MIN_S
+        && q * 2.0 <= PROBE_MAX_SCALE
+        && clock.allows(4.0 * PROBES_PER_COARSE * coarse_wall)
+    {
         q *= 2.0;
-        coarse = frame(sized(q), s_coarse, &mut render)?;
+        (coarse, coarse_wall) = frame(sized(q), s_coarse, &mut render, &clock)?;
     }
-    let fine = frame(sized(q), s_fine, &mut render)?;
-    let mid = frame(sized(q), s_mid, &mut render)?;
+    let (fine, _) = frame(sized(q), s_fine, &mut render, &clock)?;
+    let (mid, _) = frame(sized(q), s_mid, &mut render, &clock)?;
     let size = sized(q).size;
     let probes = [fine, mid, coarse];
     let [fine, mid, coarse] = &probes;
-    let crop = frame(
+    let (crop, _) = frame(
         centre(options, plan, size),
         base_step * CROP_STEP,
         &mut render,
+        &clock,
     )?;
     // The crop's errors where the volume is, spread over the whole
     // image's coverage.
@@ -141,31 +162,49 @@ fn centre(options: &Options, plan: &Plan, size: (u32, u32)) -> Options {
     o
 }
 
-/// One probe frame of `o` at `step`, rendered by `render`.
+/// The probes' time so far and the most they may take.
+struct Clock {
+    start: Instant,
+    limit_s: f64,
+}
+
+impl Clock {
+    /// Whether `more` seconds still fit the limit.
+    fn allows(&self, more: f64) -> bool {
+        self.start.elapsed().as_secs_f64() + more <= self.limit_s
+    }
+}
+
+/// One probe frame of `o` at `step`, rendered by `render`, and the wall
+/// seconds of its first run.
 fn frame(
     mut o: Options,
     step: f64,
     render: &mut impl FnMut(&Options) -> Result<(Frame, f64)>,
-) -> Result<ProbeFrame> {
+    clock: &Clock,
+) -> Result<(ProbeFrame, f64)> {
     o.budget = None;
     o.repeat = 1;
     o.step = Some(step as f32);
+    let t = Instant::now();
     let (frame, step) = render(&o)?;
+    let wall = t.elapsed().as_secs_f64();
     let mut seconds = frame.stats.render_s;
     for _ in 1..PROBE_RUNS {
-        if seconds >= PROBE_RERUN_BELOW_S {
+        if seconds >= PROBE_RERUN_BELOW_S || !clock.allows(wall) {
             break;
         }
         seconds = seconds.min(render(&o)?.0.stats.render_s);
     }
-    Ok(ProbeFrame {
+    let probe = ProbeFrame {
         step,
         pixels: f64::from(frame.width) * f64::from(frame.height),
         samples: frame.stats.samples as f64 + frame.stats.effects.shadow_samples as f64,
         seconds,
         srgb: frame.srgb8(false).into_iter().map(f32::from).collect(),
         coverage: coverage(&frame.rgba),
-    })
+    };
+    Ok((probe, wall))
 }
 
 /// The fraction of pixels with a coverage alpha of at least half an
