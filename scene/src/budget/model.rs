@@ -134,7 +134,8 @@ impl CostModel {
     /// at full resolution, geometric in between.
     pub fn per_sample_at(&self, scale: f64) -> f64 {
         let span = -self.probe_scale.ln();
-        if !(scale > self.probe_scale) || span <= 0.0 {
+        // A NaN scale is not above the probes' either.
+        if scale.is_nan() || scale <= self.probe_scale || span <= 0.0 {
             return self.per_sample_s;
         }
         let t = (scale.min(1.0) / self.probe_scale).ln() / span;
