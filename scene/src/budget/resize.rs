@@ -9,25 +9,56 @@ use rayon::prelude::*;
 use volrender::Frame;
 
 /// `frame` resampled to `width` x `height` (itself when the size is the
-/// same); its totals stay those of the frame rendered.
+/// same); its totals stay those of the frame rendered. Each output row is
+/// made in one pass straight into the new frame's buffers, rows in
+/// parallel: a 700² frame from 88² had taken 17-25 ms through a flat
+/// copy and a table of nearest pixels, most of it faulting in buffers
+/// it then copied.
 pub fn upsample_frame(frame: Frame, width: u32, height: u32) -> Frame {
     let (sw, sh) = (frame.width, frame.height);
     if (sw, sh) == (width, height) || sw == 0 || sh == 0 || width == 0 || height == 0 {
         return frame;
     }
-    let flat: Vec<f32> = frame.rgba.iter().flatten().copied().collect();
-    let rgba = bilinear(&flat, 4, (sw, sh), (width, height))
-        .chunks_exact(4)
-        .map(|c| [c[0], c[1], c[2], c[3]])
-        .collect();
-    let near = nearest_index((sw, sh), (width, height));
+    let (w, row) = (width as usize, sw as usize);
+    let xs: Vec<(usize, usize, f32)> = (0..width).map(|x| taps(x, width, sw)).collect();
+    let near_x: Vec<usize> = (0..width).map(|x| nearest(x, width, sw)).collect();
+    let n = w * height as usize;
+    let mut rgba = vec![[0.0f32; 4]; n];
+    let mut value = vec![0.0f64; n];
+    let mut depth = vec![0.0f32; n];
+    let mut samples = vec![0u32; n];
+    rgba.par_chunks_mut(w)
+        .zip(value.par_chunks_mut(w))
+        .zip(depth.par_chunks_mut(w).zip(samples.par_chunks_mut(w)))
+        .enumerate()
+        .for_each(|(y, ((rgba, value), (depth, samples)))| {
+            let y = y as u32;
+            let (y0, y1, fy) = taps(y, height, sh);
+            let (r0, r1) = (
+                &frame.rgba[y0 * row..][..row],
+                &frame.rgba[y1 * row..][..row],
+            );
+            for (px, &(x0, x1, fx)) in rgba.iter_mut().zip(&xs) {
+                for (c, v) in px.iter_mut().enumerate() {
+                    let top = r0[x0][c] * (1.0 - fx) + r0[x1][c] * fx;
+                    let bottom = r1[x0][c] * (1.0 - fx) + r1[x1][c] * fx;
+                    *v = top * (1.0 - fy) + bottom * fy;
+                }
+            }
+            let start = nearest(y, height, sh) * row;
+            for (i, &x) in near_x.iter().enumerate() {
+                value[i] = frame.value[start + x];
+                depth[i] = frame.depth[start + x];
+                samples[i] = frame.samples[start + x];
+            }
+        });
     Frame {
         width,
         height,
         rgba,
-        value: near.iter().map(|&i| frame.value[i]).collect(),
-        depth: near.iter().map(|&i| frame.depth[i]).collect(),
-        samples: near.iter().map(|&i| frame.samples[i]).collect(),
+        value,
+        depth,
+        samples,
         stats: frame.stats,
     }
 }
@@ -69,22 +100,11 @@ pub fn bilinear(src: &[f32], channels: usize, from: (u32, u32), to: (u32, u32)) 
     out
 }
 
-/// For each pixel of a `to` image, the index of the nearest pixel
-/// (centre to centre) of a `from` one.
-fn nearest_index(from: (u32, u32), to: (u32, u32)) -> Vec<usize> {
-    let ((sw, sh), (w, h)) = (from, to);
-    let map = |i: u32, n: u32, sn: u32| {
-        let c = ((f64::from(i) + 0.5) * f64::from(sn) / f64::from(n)).floor() as u32;
-        c.min(sn - 1) as usize
-    };
-    let mut out = Vec::with_capacity(w as usize * h as usize);
-    for y in 0..h {
-        let row = map(y, h, sh) * sw as usize;
-        for x in 0..w {
-            out.push(row + map(x, w, sw));
-        }
-    }
-    out
+/// The source pixel (of `src`) nearest, centre to centre, to pixel `i`
+/// of `n`.
+fn nearest(i: u32, n: u32, src: u32) -> usize {
+    let c = ((f64::from(i) + 0.5) * f64::from(src) / f64::from(n)).floor() as u32;
+    c.min(src - 1) as usize
 }
 
 /// What rendering RGB pixels (`w` x `h`) `factor` (even, or 1) times
@@ -156,6 +176,41 @@ mod tests {
         assert_eq!(&g.value[..4], &[0.0, 0.0, 1.0, 1.0]);
         assert_eq!(g.value[8], 0.0);
         assert_eq!(g.value[24], 4.0);
+    }
+
+    #[test]
+    fn a_frame_upsamples_as_its_colours_do_and_takes_the_nearest_figures() {
+        let (sw, sh) = (7u32, 5u32);
+        let n = (sw * sh) as usize;
+        // Uneven colours, from a multiplicative hash of the channel.
+        let c = |k: usize| ((k as u64 * 2_654_435_761) % 1000) as f32 / 1000.0;
+        let f = Frame {
+            width: sw,
+            height: sh,
+            rgba: (0..n)
+                .map(|i| [c(4 * i), c(4 * i + 1), c(4 * i + 2), c(4 * i + 3)])
+                .collect(),
+            value: (0..n).map(|i| i as f64).collect(),
+            depth: (0..n).map(|i| i as f32 * 0.5).collect(),
+            samples: (0..n as u32).collect(),
+            stats: Default::default(),
+        };
+        let flat: Vec<f32> = f.rgba.iter().flatten().copied().collect();
+        let want = bilinear(&flat, 4, (sw, sh), (19, 11));
+        let g = upsample_frame(f, 19, 11);
+        let got: Vec<f32> = g.rgba.iter().flatten().copied().collect();
+        assert_eq!(got, want);
+        for y in 0..11u32 {
+            for x in 0..19u32 {
+                let i = (y * 19 + x) as usize;
+                let src = nearest(y, 11, sh) * sw as usize + nearest(x, 19, sw);
+                assert_eq!(g.value[i], src as f64);
+                assert_eq!(g.depth[i], src as f32 * 0.5);
+                assert_eq!(g.samples[i], src as u32);
+            }
+        }
+        // Pixel (18, 10) is the bottom-right corner's.
+        assert_eq!(g.value[11 * 19 - 1], (n - 1) as f64);
     }
 
     #[test]
