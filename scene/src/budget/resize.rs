@@ -9,43 +9,36 @@ use rayon::prelude::*;
 use volrender::Frame;
 
 /// `frame` resampled to `width` x `height` (itself when the size is the
-/// same); its totals stay those of the frame rendered. Each output row is
-/// made in one pass straight into the new frame's buffers, rows in
-/// parallel: a 700² frame from 88² had taken 17-25 ms through a flat
-/// copy and a table of nearest pixels, most of it faulting in buffers
-/// it then copied.
+/// same); its totals stay those of the frame rendered. The colours go
+/// straight into the new frame's buffer ([`bilinear_into`]) and the
+/// per-pixel figures are gathered row by row, rows in parallel: a 700²
+/// frame from 88² had taken 17-25 ms through a flat copy and a table of
+/// nearest pixels, most of it faulting in buffers it then copied.
 pub fn upsample_frame(frame: Frame, width: u32, height: u32) -> Frame {
     let (sw, sh) = (frame.width, frame.height);
     if (sw, sh) == (width, height) || sw == 0 || sh == 0 || width == 0 || height == 0 {
         return frame;
     }
     let (w, row) = (width as usize, sw as usize);
-    let xs: Vec<(usize, usize, f32)> = (0..width).map(|x| taps(x, width, sw)).collect();
-    let near_x: Vec<usize> = (0..width).map(|x| nearest(x, width, sw)).collect();
     let n = w * height as usize;
     let mut rgba = vec![[0.0f32; 4]; n];
+    bilinear_into(
+        frame.rgba.as_flattened(),
+        4,
+        (sw, sh),
+        (width, height),
+        rgba.as_flattened_mut(),
+    );
+    let near_x: Vec<usize> = (0..width).map(|x| nearest(x, width, sw)).collect();
     let mut value = vec![0.0f64; n];
     let mut depth = vec![0.0f32; n];
     let mut samples = vec![0u32; n];
-    rgba.par_chunks_mut(w)
-        .zip(value.par_chunks_mut(w))
+    value
+        .par_chunks_mut(w)
         .zip(depth.par_chunks_mut(w).zip(samples.par_chunks_mut(w)))
         .enumerate()
-        .for_each(|(y, ((rgba, value), (depth, samples)))| {
-            let y = y as u32;
-            let (y0, y1, fy) = taps(y, height, sh);
-            let (r0, r1) = (
-                &frame.rgba[y0 * row..][..row],
-                &frame.rgba[y1 * row..][..row],
-            );
-            for (px, &(x0, x1, fx)) in rgba.iter_mut().zip(&xs) {
-                for (c, v) in px.iter_mut().enumerate() {
-                    let top = r0[x0][c] * (1.0 - fx) + r0[x1][c] * fx;
-                    let bottom = r1[x0][c] * (1.0 - fx) + r1[x1][c] * fx;
-                    *v = top * (1.0 - fy) + bottom * fy;
-                }
-            }
-            let start = nearest(y, height, sh) * row;
+        .for_each(|(y, (value, (depth, samples)))| {
+            let start = nearest(y as u32, height, sh) * row;
             for (i, &x) in near_x.iter().enumerate() {
                 value[i] = frame.value[start + x];
                 depth[i] = frame.depth[start + x];
@@ -78,26 +71,48 @@ fn taps(i: u32, n: u32, src: u32) -> (usize, usize, f32) {
 /// Empty when `src` does not hold the image or a size is zero.
 pub fn bilinear(src: &[f32], channels: usize, from: (u32, u32), to: (u32, u32)) -> Vec<f32> {
     let ((sw, sh), (w, h)) = (from, to);
-    let row = sw as usize * channels;
-    if sw == 0 || sh == 0 || w == 0 || h == 0 || src.len() != row * sh as usize {
+    if sw == 0 || sh == 0 || w == 0 || h == 0 || src.len() != sw as usize * sh as usize * channels {
         return Vec::new();
     }
-    let xs: Vec<(usize, usize, f32)> = (0..w).map(|x| taps(x, w, sw)).collect();
     let mut out = vec![0.0f32; w as usize * h as usize * channels];
-    out.par_chunks_mut(w as usize * channels)
-        .enumerate()
-        .for_each(|(y, line)| {
-            let (y0, y1, fy) = taps(y as u32, h, sh);
-            let (r0, r1) = (&src[y0 * row..][..row], &src[y1 * row..][..row]);
-            for (px, &(x0, x1, fx)) in line.chunks_exact_mut(channels).zip(&xs) {
-                for (c, v) in px.iter_mut().enumerate() {
-                    let top = r0[x0 * channels + c] * (1.0 - fx) + r0[x1 * channels + c] * fx;
-                    let bottom = r1[x0 * channels + c] * (1.0 - fx) + r1[x1 * channels + c] * fx;
-                    *v = top * (1.0 - fy) + bottom * fy;
-                }
-            }
-        });
+    bilinear_into(src, channels, from, to, &mut out);
     out
+}
+
+/// [`bilinear`] into `out` (`to` pixels of `channels` floats), rows in
+/// parallel; nothing is written when a size is zero or a buffer does not
+/// hold its image.
+pub fn bilinear_into(
+    src: &[f32],
+    channels: usize,
+    from: (u32, u32),
+    to: (u32, u32),
+    out: &mut [f32],
+) {
+    let ((sw, sh), (w, h)) = (from, to);
+    let row = sw as usize * channels;
+    let line = w as usize * channels;
+    if sw == 0
+        || sh == 0
+        || w == 0
+        || h == 0
+        || src.len() != row * sh as usize
+        || out.len() != line * h as usize
+    {
+        return;
+    }
+    let xs: Vec<(usize, usize, f32)> = (0..w).map(|x| taps(x, w, sw)).collect();
+    out.par_chunks_mut(line).enumerate().for_each(|(y, line)| {
+        let (y0, y1, fy) = taps(y as u32, h, sh);
+        let (r0, r1) = (&src[y0 * row..][..row], &src[y1 * row..][..row]);
+        for (px, &(x0, x1, fx)) in line.chunks_exact_mut(channels).zip(&xs) {
+            for (c, v) in px.iter_mut().enumerate() {
+                let top = r0[x0 * channels + c] * (1.0 - fx) + r0[x1 * channels + c] * fx;
+                let bottom = r1[x0 * channels + c] * (1.0 - fx) + r1[x1 * channels + c] * fx;
+                *v = top * (1.0 - fy) + bottom * fy;
+            }
+        }
+    });
 }
 
 /// The source pixel (of `src`) nearest, centre to centre, to pixel `i`
