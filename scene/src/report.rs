@@ -260,6 +260,7 @@ pub fn path_report(cx: &Context, traced: &Traced, t: &Times) -> Report {
         "null_collisions": n.null_collisions,
         "majorant_cells": n.majorant_cells,
         "empty_cells": n.empty_cells,
+        "empty_jumps": n.empty_jumps,
         "voxel_cells": n.voxel_cells,
         "density_lookups": n.density_lookups,
         "shadow_rays": n.shadow_rays,

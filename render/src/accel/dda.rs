@@ -34,6 +34,10 @@ pub struct Segments {
     edge: f64,
     cell: [i64; 3],
     step: [i64; 3],
+    /// Per axis, the ray parameter at which the ray leaves `cell` along it
+    /// ([`Segments::exit_of`] of the cell; kept, since a step changes one
+    /// axis's cell and so one exit).
+    exits: [f64; 3],
     t: f64,
     t_end: f64,
     done: bool,
@@ -61,7 +65,8 @@ impl Segments {
         let p = ray.at(t0);
         let cell = std::array::from_fn(|a| {
             let c = if p[a] > 0.0 { p[a].min(hi[a]) } else { 0.0 };
-            ((c as f64 / edge).floor() as i64).clamp(0, cells[a] as i64 - 1)
+            // c is 0 or more (NaN fails the test): truncation is the floor.
+            ((c as f64 / edge) as i64).clamp(0, cells[a] as i64 - 1)
         });
         let step = std::array::from_fn(|a| {
             if ray.d[a] > 0.0 {
@@ -72,27 +77,111 @@ impl Segments {
                 0
             }
         });
-        Segments {
+        let mut s = Segments {
             cells,
             ray: *ray,
             edge,
             cell,
             step,
+            exits: [f64::INFINITY; 3],
             t: t0 as f64,
             t_end: t1 as f64,
             done: t0 > t1 || t0.is_nan() || t1.is_nan(),
-        }
+        };
+        s.exits = std::array::from_fn(|a| s.exit_of(a, s.cell[a]));
+        s
     }
 
-    /// Ray parameter at which the ray leaves the current cell along axis
-    /// `a` (infinite if it does not move along it).
-    fn exit(&self, a: usize) -> f64 {
+    /// Ray parameter at which the ray leaves cell `c` of axis `a` along
+    /// that axis (infinite if it does not move along it).
+    #[inline(always)]
+    fn exit_of(&self, a: usize, c: i64) -> f64 {
         let face = match self.step[a] {
-            1 => (self.cell[a] + 1) as f64 * self.edge,
-            -1 => self.cell[a] as f64 * self.edge,
+            1 => (c + 1) as f64 * self.edge,
+            -1 => c as f64 * self.edge,
             _ => return f64::INFINITY,
         };
         (face - self.ray.o[a] as f64) * self.ray.inv_d[a]
+    }
+
+    /// The linear index of the cell the next segment is in (`None` once
+    /// the walk is over).
+    #[inline(always)]
+    pub fn upcoming(&self) -> Option<usize> {
+        if self.done {
+            return None;
+        }
+        let [x, y, z] = self.cell.map(|c| c as u64);
+        let n = self.cells;
+        Some((x + n[0] * (y + n[1] * z)) as usize)
+    }
+
+    /// Pass over the `d × d × d` block of cells that starts at the
+    /// upcoming cell and extends `d − 1` cells ahead along each axis the
+    /// ray moves along (the block [`super::distance::ahead`] measures):
+    /// the segments after it are the very ones [`Iterator::next`] would
+    /// have given after the block's own, the same `t` and cells bit for
+    /// bit, since the exit is taken from the same cell faces and the cells
+    /// along the other axes are found by the same (time, axis) order in
+    /// which the step-by-step walk crosses faces. The caller vouches that
+    /// the block holds nothing it needs (its cells are empty).
+    pub fn jump(&mut self, d: u64) {
+        if self.done || d == 0 {
+            return;
+        }
+        let k = (d - 1).min(i64::MAX as u64 / 2) as i64;
+        // The block's exit: the first of its far faces the ray meets (the
+        // lowest axis on a tie, as `next` picks).
+        let mut axis = 0;
+        let mut t_exit = f64::INFINITY;
+        for a in 0..3 {
+            let e = self.exit_of(a, self.cell[a] + k * self.step[a]);
+            if e < t_exit {
+                t_exit = e;
+                axis = a;
+            }
+        }
+        let next = self.cell[axis] + (k + 1) * self.step[axis];
+        if t_exit >= self.t_end || next < 0 || next >= self.cells[axis] as i64 {
+            // The rest of the range lies in the block (or past the grid).
+            self.done = true;
+            return;
+        }
+        for b in 0..3 {
+            if b == axis || self.step[b] == 0 {
+                continue;
+            }
+            // Faces of axis b inside the block that the walk crosses before
+            // the block's exit (earlier, or at the same time on a lower
+            // axis): a guess from the point, then the faces themselves.
+            let (c, s) = (self.cell[b], self.step[b]);
+            let crossed = |m: i64| {
+                let f = self.exit_of(b, c + m * s);
+                f < t_exit || (f == t_exit && b < axis)
+            };
+            let p = self.ray.o[b] as f64 + self.ray.d[b] as f64 * t_exit;
+            // (Truncation: a guess, which the faces then correct.)
+            let guess = ((p / self.edge) as i64 - c) * s;
+            let mut m = guess.clamp(0, k);
+            while m < k && crossed(m) {
+                m += 1;
+            }
+            while m > 0 && !crossed(m - 1) {
+                m -= 1;
+            }
+            let cb = c + m * s;
+            if cb < 0 || cb >= self.cells[b] as i64 {
+                // The walk left the grid along b inside the block (a face
+                // rounded a hair before the range's end): it ends there.
+                self.done = true;
+                return;
+            }
+            self.cell[b] = cb;
+            self.exits[b] = self.exit_of(b, cb);
+        }
+        self.cell[axis] = next;
+        self.exits[axis] = self.exit_of(axis, next);
+        self.t = t_exit.max(self.t);
     }
 }
 
@@ -103,7 +192,7 @@ impl Iterator for Segments {
         if self.done {
             return None;
         }
-        let exits = [self.exit(0), self.exit(1), self.exit(2)];
+        let exits = self.exits;
         let mut axis = 0;
         for a in 1..3 {
             if exits[a] < exits[axis] {
@@ -128,6 +217,7 @@ impl Iterator for Segments {
             index: (c[0] + cells[0] * (c[1] + cells[1] * c[2])) as usize,
         };
         self.cell[axis] = next;
+        self.exits[axis] = self.exit_of(axis, next);
         self.t = end;
         if last || end >= self.t_end {
             self.done = true;
@@ -210,6 +300,90 @@ mod tests {
             }
         }
         assert!(checked > 20_000, "{checked}");
+    }
+
+    /// Jumping across the blocks the octant distances measure leaves
+    /// every kept cell's segment as the cell-by-cell walk gives it, bit for
+    /// bit and in order: random rays from near and far, axis-parallel rays
+    /// on cell planes, and diagonals through cell corners (ties on two and
+    /// three axes), on a grid whose last cells are partial.
+    #[test]
+    fn jumps_keep_every_kept_cells_segment_bit_for_bit() {
+        let dims = Dims::new(83, 70, 61).unwrap();
+        let v = volcore::Volume::from_samples(
+            dims,
+            pack_sliced(&SceneSource::<u8>::new(&ShapesScene::new(
+                dims, 3, 10, 12, 100.0,
+            ))),
+        )
+        .unwrap();
+        let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+        let level = ix.level(0);
+        let cells = level.cells().map(|n| n as usize);
+        let clear: Vec<u8> = level.max().iter().map(|&m| u8::from(m <= 0.0)).collect();
+        assert!(clear.iter().filter(|&&c| c == 1).count() * 2 > clear.len());
+        let tables: Vec<Vec<u8>> = (0..8)
+            .map(|o| crate::accel::distance::ahead(cells, &clear, o))
+            .collect();
+        let hi = [82.0, 69.0, 60.0];
+        let mut rng = fastrand::Rng::with_seed(3);
+        let (mut jumps, mut kept) = (0u64, 0u64);
+        for n in 0..6000 {
+            let radius = [120.0, 3000.0][n % 2];
+            let around = Vec3::new(rng.f32() - 0.5, rng.f32() - 0.5, rng.f32() - 0.5);
+            let mut origin = Vec3::from(hi) * 0.5 + around.normalize_or_zero() * radius;
+            let target = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * Vec3::from(hi);
+            let mut dir = (target - origin).normalize();
+            match n % 7 {
+                0 => {
+                    let a = n % 3;
+                    dir = Vec3::ZERO;
+                    dir[a] = if n % 2 == 0 { 1.0 } else { -1.0 };
+                    origin = (target / 8.0).floor() * 8.0 - dir * 50.0;
+                }
+                1 => {
+                    // Through cell corners: every axis crosses a face at once.
+                    let s = |b: bool| if b { 1.0 } else { -1.0 };
+                    dir = Vec3::new(s(n % 2 == 0), s(n % 3 == 0), s(n % 5 == 0)).normalize();
+                    origin = Vec3::new(8.0, 16.0, 24.0) * (n % 4) as f32 - dir * 40.0;
+                }
+                2 => {
+                    // Two axes tie, the third moves slowly.
+                    dir = Vec3::new(1.0, -1.0, 0.05 * (rng.f32() - 0.5)).normalize();
+                    origin = Vec3::new(16.0, 64.0, 8.0 * (n % 7) as f32) - dir * 30.0;
+                }
+                _ => {}
+            }
+            let ray = Ray { origin, dir };
+            let Some((t0, t1)) = intersect_box(&ray, Vec3::ZERO, Vec3::from(hi)) else {
+                continue;
+            };
+            let vr = VoxelRay::new(ray.origin, ray.dir);
+            let busy = |s: &Segment| clear[s.index] == 0;
+            let plain: Vec<Segment> = segments(level, hi, &vr, t0, t1).filter(busy).collect();
+            let table = &tables[vr.octant];
+            let mut segs = segments(level, hi, &vr, t0, t1);
+            let mut jumped = Vec::new();
+            loop {
+                if let Some(i) = segs.upcoming() {
+                    if table[i] > 1 {
+                        segs.jump(u64::from(table[i]));
+                        jumps += 1;
+                        continue;
+                    }
+                }
+                let Some(s) = segs.next() else { break };
+                if busy(&s) {
+                    jumped.push(s);
+                }
+            }
+            assert_eq!(plain, jumped, "ray {n}: {origin} along {dir}");
+            kept += plain.len() as u64;
+        }
+        assert!(
+            jumps > 10_000 && kept > 10_000,
+            "{jumps} jumps, {kept} kept"
+        );
     }
 
     #[test]

@@ -33,7 +33,7 @@ pub use envmap::EnvMap;
 pub use medium::{DensityMedium, Medium, TableMedium};
 pub use tracking::MajorantMode;
 
-use crate::accel::majorant::MajorantGrid;
+use crate::accel::majorant::{EmptyBlocks, MajorantGrid};
 use crate::camera::Camera;
 use crate::error::RenderError;
 use crate::film::{luminance, PathFilm};
@@ -159,8 +159,11 @@ pub struct PathCounters {
     pub null_collisions: u64,
     /// Macrocells (with a majorant above 0) a tracking call walked.
     pub majorant_cells: u64,
-    /// Macrocells crossed without a sample (majorant 0).
+    /// Macrocells crossed one by one without a sample (majorant 0).
     pub empty_cells: u64,
+    /// Jumps across blocks of empty macrocells (one each, however many
+    /// cells the block holds).
+    pub empty_jumps: u64,
     /// Voxel cells walked inside macrocells at the extinction cap (each
     /// with its own majorant; see [`tracking`]).
     pub voxel_cells: u64,
@@ -192,6 +195,7 @@ impl std::ops::AddAssign for PathCounters {
         self.null_collisions += o.null_collisions;
         self.majorant_cells += o.majorant_cells;
         self.empty_cells += o.empty_cells;
+        self.empty_jumps += o.empty_jumps;
         self.voxel_cells += o.voxel_cells;
         self.capped += o.capped;
         self.density_lookups += o.density_lookups;
@@ -257,12 +261,18 @@ pub struct PathTracer<'a> {
     settings: &'a PathSettings,
     medium: AnyMedium,
     grid: MajorantGrid,
+    blocks: Option<EmptyBlocks>,
     scatters: bool,
     cancel: crate::settings::Cancel,
 }
 
 /// The majorant grid's level: the index's finest.
 const GRID_LEVEL: usize = 0;
+
+/// The most grid cells whose empty blocks are measured (a byte per cell
+/// and per octant a ray travels in); past it rays cross empty cells one
+/// by one.
+const MAX_BLOCK_CELLS: u64 = 1 << 26;
 
 impl<'a> PathTracer<'a> {
     /// Check the frame's memory ([`PATH_BYTES_PER_PIXEL`] per pixel of the
@@ -346,6 +356,10 @@ impl<'a> PathTracer<'a> {
             AnyMedium::Density(m) => (controls(m, index, residual)?, m.max_albedo()),
             AnyMedium::Table(m) => (controls(m, index, residual)?, m.max_albedo()),
         };
+        let cells = index.level(GRID_LEVEL).cells();
+        let blocks = (settings.majorant == MajorantMode::Grid
+            && cells.iter().product::<u64>() <= MAX_BLOCK_CELLS)
+            .then(|| EmptyBlocks::new(&grid, cells));
         Ok(PathTracer {
             vol,
             index,
@@ -353,6 +367,7 @@ impl<'a> PathTracer<'a> {
             settings,
             medium,
             grid,
+            blocks,
             scatters: max_albedo > 0.0,
             cancel: crate::settings::Cancel::default(),
         })
@@ -363,6 +378,16 @@ impl<'a> PathTracer<'a> {
     /// film, whole).
     pub fn with_cancel(self, cancel: crate::settings::Cancel) -> Self {
         PathTracer { cancel, ..self }
+    }
+
+    /// The same tracer crossing empty macrocells one by one instead of
+    /// jumping whole empty blocks: the same image bit for bit, slower; what
+    /// the jumps save is measured against it.
+    pub fn without_jumps(self) -> Self {
+        PathTracer {
+            blocks: None,
+            ..self
+        }
     }
 
     /// The fraction of majorant-grid cells that are empty (majorant 0).
@@ -423,6 +448,7 @@ impl<'a> PathTracer<'a> {
                 hi: d.map(|n| n.saturating_sub(1) as f32),
                 dims: self.vol.dims(),
                 mode: self.settings.majorant,
+                blocks: self.blocks.as_ref(),
             },
             camera: self.camera,
             inv_spacing: Vec3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2]),

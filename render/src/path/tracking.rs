@@ -23,7 +23,7 @@
 use super::medium::Medium;
 use super::PathCounters;
 use crate::accel::dda::{segments, voxel_segments};
-use crate::accel::majorant::{MajorantGrid, MAX_SIGMA_T};
+use crate::accel::majorant::{EmptyBlocks, MajorantGrid, MAX_SIGMA_T};
 use crate::accel::VoxelRay;
 use crate::sampler::PixelSampler;
 use volcore::Cursor;
@@ -90,6 +90,9 @@ pub struct Tracker<'a, M: Medium> {
     pub dims: volcore::Dims,
     /// Grid or global.
     pub mode: MajorantMode,
+    /// The grid's empty blocks, crossed in one jump each (`None`: cell by
+    /// cell). The same collisions either way: empty cells take none.
+    pub blocks: Option<&'a EmptyBlocks>,
 }
 
 /// Where a free flight ended.
@@ -135,7 +138,19 @@ impl<M: Medium> Tracker<'_, M> {
                 None
             }
             MajorantMode::Grid => {
-                for seg in segments(self.level, self.hi, ray, t0, t1) {
+                let mut segs = segments(self.level, self.hi, ray, t0, t1);
+                loop {
+                    if let (Some(blocks), Some(i)) = (self.blocks, segs.upcoming()) {
+                        let d = blocks.ahead(ray.octant, i);
+                        if d > 1 {
+                            n.empty_jumps += 1;
+                            segs.jump(u64::from(d));
+                            continue;
+                        }
+                    }
+                    let Some(seg) = segs.next() else {
+                        break;
+                    };
                     let m = self.grid.get(seg.index);
                     if m <= 0.0 {
                         n.empty_cells += 1;

@@ -70,6 +70,41 @@ fn render(
     (acc, n)
 }
 
+/// Jumping across blocks of empty macrocells changes no sample: on a
+/// sparse volume with a sun, an environment and several bounces (camera,
+/// shadow and continuation rays in every octant), the film is the same bit
+/// for bit with and without jumps, as is every counter but the empty
+/// crossings, which the jumps cut.
+#[test]
+fn jumps_across_empty_blocks_change_no_sample() {
+    let dims = Dims::new(72, 64, 56).unwrap();
+    let scene = ShapesScene::new(dims, 5, 6, 10, 200.0);
+    let v = Volume::from_samples(dims, pack_sliced(&SceneSource::<u8>::new(&scene))).unwrap();
+    let ix = index(&v);
+    let cam = outside(64.0, 40);
+    let mut s = settings(2.0, 0.8, sun_and_env());
+    s.bounces = 6;
+    let run = |jumps: bool| {
+        let pt = PathTracer::new(&v, &ix, &cam, &s).unwrap();
+        let pt = if jumps { pt } else { pt.without_jumps() };
+        let mut acc = PathFilm::new(cam.width(), cam.height(), pt.key(0));
+        let n = pt.pass(&mut acc, 16).unwrap();
+        (acc, n)
+    };
+    let (a, na) = run(true);
+    let (b, nb) = run(false);
+    assert!(a == b, "the films differ");
+    assert!(na.empty_jumps > 1000 && nb.empty_jumps == 0, "{na:?}");
+    assert!(na.empty_cells * 3 < nb.empty_cells, "{na:?} {nb:?}");
+    let strip = |n: PathCounters| PathCounters {
+        empty_cells: 0,
+        empty_jumps: 0,
+        ..n
+    };
+    assert_eq!(strip(na), strip(nb));
+    assert!(na.scatter_events > 1000 && na.shadow_rays > 1000, "{na:?}");
+}
+
 /// The image mean and its standard error (pixels independent).
 fn image_mean(acc: &PathFilm) -> (f64, f64) {
     let rgb = acc.mean_rgb();
@@ -218,7 +253,7 @@ fn an_empty_medium_shows_the_background_exactly() {
         (n.density_lookups, n.shadow_rays, n.majorant_cells),
         (0, 0, 0)
     );
-    assert!(n.empty_cells > 0);
+    assert!(n.empty_cells + n.empty_jumps > 0);
     let mut s = settings(1.0, 0.8, sun_and_env());
     s.background = Some(Vec3::new(0.0, 0.5, 1.0));
     let (acc, _) = render(&v, &ix, &cam, &s, 2);
