@@ -165,7 +165,10 @@ impl EyeRay {
             .max(self.origin - hi64)
             .max(DVec3::ZERO);
         let step = f64::from(step);
-        if outside.length() < NEAR_STEPS * step {
+        // The square root only near the threshold: well inside it, the
+        // squared length answers the same.
+        let limit = NEAR_STEPS * step;
+        if outside.length_squared() < 0.99 * limit * limit || outside.length() < limit {
             return (self.rounded(), 0.0);
         }
         let d = dir.as_dvec3();

@@ -261,6 +261,7 @@ pub fn path_report(cx: &Context, traced: &Traced, t: &Times) -> Report {
         "majorant_cells": n.majorant_cells,
         "empty_cells": n.empty_cells,
         "empty_jumps": n.empty_jumps,
+        "culled_paths": n.culled_paths,
         "voxel_cells": n.voxel_cells,
         "density_lookups": n.density_lookups,
         "shadow_rays": n.shadow_rays,

@@ -32,6 +32,8 @@ pub struct Segments {
     cells: [u64; 3],
     ray: VoxelRay,
     edge: f64,
+    /// `1 / edge`, for guesses (exact where a cell is decided).
+    inv_edge: f64,
     cell: [i64; 3],
     step: [i64; 3],
     /// Per axis, the ray parameter at which the ray leaves `cell` along it
@@ -61,12 +63,18 @@ pub fn voxel_segments(dims: Dims, hi: [f32; 3], ray: &VoxelRay, t0: f32, t1: f32
 
 impl Segments {
     fn new(cells: [u64; 3], edge: u64, hi: [f32; 3], ray: &VoxelRay, t0: f32, t1: f32) -> Segments {
+        // A power-of-two edge divides exactly as its reciprocal multiplies.
+        let inv_edge = edge.is_power_of_two().then(|| 1.0 / edge as f64);
         let edge = edge as f64;
         let p = ray.at(t0);
         let cell = std::array::from_fn(|a| {
             let c = if p[a] > 0.0 { p[a].min(hi[a]) } else { 0.0 };
+            let q = match inv_edge {
+                Some(r) => c as f64 * r,
+                None => c as f64 / edge,
+            };
             // c is 0 or more (NaN fails the test): truncation is the floor.
-            ((c as f64 / edge) as i64).clamp(0, cells[a] as i64 - 1)
+            (q as i64).clamp(0, cells[a] as i64 - 1)
         });
         let step = std::array::from_fn(|a| {
             if ray.d[a] > 0.0 {
@@ -81,6 +89,7 @@ impl Segments {
             cells,
             ray: *ray,
             edge,
+            inv_edge: 1.0 / edge,
             cell,
             step,
             exits: [f64::INFINITY; 3],
@@ -161,7 +170,7 @@ impl Segments {
             };
             let p = self.ray.o[b] as f64 + self.ray.d[b] as f64 * t_exit;
             // (Truncation: a guess, which the faces then correct.)
-            let guess = ((p / self.edge) as i64 - c) * s;
+            let guess = ((p * self.inv_edge) as i64 - c) * s;
             let mut m = guess.clamp(0, k);
             while m < k && crossed(m) {
                 m += 1;

@@ -71,6 +71,10 @@ pub struct Estimator<'a, M: Medium> {
     pub scatters: bool,
     /// The frame's random numbers.
     pub sampler: HashSampler,
+    /// The image blocks whose camera rays may meet a cell with extinction
+    /// (`None`: all may); a sample elsewhere is what its camera ray sees
+    /// behind the volume, as tracing it would find.
+    pub visible: Option<&'a crate::accel::cull::BlockMask>,
 }
 
 /// How light scatters at an event: the medium's phase function, or a
@@ -247,6 +251,13 @@ impl<M: Medium> Estimator<'_, M> {
         index: u64,
         n: &mut PathCounters,
     ) -> Vec3 {
+        let culled = self.visible.is_some_and(|m| !m.may_see(x, y));
+        if culled && self.env_map.is_none() {
+            // What every ray of the block sees: no direction needed.
+            n.paths += 1;
+            n.culled_paths += 1;
+            return self.background.unwrap_or(self.lights.env);
+        }
         let mut rng = self.sampler.pixel(x, y, index);
         let (jx, jy) = rng.pixel_2d();
         // Free flights have no sample grid: a voxel is the unit that
@@ -257,6 +268,10 @@ impl<M: Medium> Estimator<'_, M> {
                 .ray_at(x as f32 + jx, y as f32 + jy)
                 .near(Vec3::ZERO, self.extent, voxel);
         n.paths += 1;
+        if culled {
+            n.culled_paths += 1;
+            return self.seen(ray.dir);
+        }
         let l = if self.scatters {
             self.path(cur, ray, &mut rng, n)
         } else {

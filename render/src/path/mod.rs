@@ -33,6 +33,7 @@ pub use envmap::EnvMap;
 pub use medium::{DensityMedium, Medium, TableMedium};
 pub use tracking::MajorantMode;
 
+use crate::accel::cull::{busy_blocks, BlockMask};
 use crate::accel::majorant::{EmptyBlocks, MajorantGrid};
 use crate::camera::Camera;
 use crate::error::RenderError;
@@ -164,6 +165,9 @@ pub struct PathCounters {
     /// Jumps across blocks of empty macrocells (one each, however many
     /// cells the block holds).
     pub empty_jumps: u64,
+    /// Of the camera samples, those in image blocks whose rays meet only
+    /// empty cells: the background, not traced.
+    pub culled_paths: u64,
     /// Voxel cells walked inside macrocells at the extinction cap (each
     /// with its own majorant; see [`tracking`]).
     pub voxel_cells: u64,
@@ -196,6 +200,7 @@ impl std::ops::AddAssign for PathCounters {
         self.majorant_cells += o.majorant_cells;
         self.empty_cells += o.empty_cells;
         self.empty_jumps += o.empty_jumps;
+        self.culled_paths += o.culled_paths;
         self.voxel_cells += o.voxel_cells;
         self.capped += o.capped;
         self.density_lookups += o.density_lookups;
@@ -262,6 +267,7 @@ pub struct PathTracer<'a> {
     medium: AnyMedium,
     grid: MajorantGrid,
     blocks: Option<EmptyBlocks>,
+    visible: Option<BlockMask>,
     scatters: bool,
     cancel: crate::settings::Cancel,
 }
@@ -357,9 +363,17 @@ impl<'a> PathTracer<'a> {
             AnyMedium::Table(m) => (controls(m, index, residual)?, m.max_albedo()),
         };
         let cells = index.level(GRID_LEVEL).cells();
-        let blocks = (settings.majorant == MajorantMode::Grid
-            && cells.iter().product::<u64>() <= MAX_BLOCK_CELLS)
+        let grid_mode = settings.majorant == MajorantMode::Grid;
+        let blocks = (grid_mode && cells.iter().product::<u64>() <= MAX_BLOCK_CELLS)
             .then(|| EmptyBlocks::new(&grid, cells));
+        let visible = if grid_mode {
+            match &medium {
+                AnyMedium::Density(m) => camera_blocks(m, index, camera, vol),
+                AnyMedium::Table(m) => camera_blocks(m, index, camera, vol),
+            }
+        } else {
+            None
+        };
         Ok(PathTracer {
             vol,
             index,
@@ -368,6 +382,7 @@ impl<'a> PathTracer<'a> {
             medium,
             grid,
             blocks,
+            visible,
             scatters: max_albedo > 0.0,
             cancel: crate::settings::Cancel::default(),
         })
@@ -380,12 +395,14 @@ impl<'a> PathTracer<'a> {
         PathTracer { cancel, ..self }
     }
 
-    /// The same tracer crossing empty macrocells one by one instead of
-    /// jumping whole empty blocks: the same image bit for bit, slower; what
-    /// the jumps save is measured against it.
-    pub fn without_jumps(self) -> Self {
+    /// The same tracer without its empty-space shortcuts: empty macrocells
+    /// crossed one by one instead of in blocks, and every camera ray traced
+    /// (none known to meet only empty cells). The same image bit for bit,
+    /// slower; what the shortcuts save is measured against it.
+    pub fn without_shortcuts(self) -> Self {
         PathTracer {
             blocks: None,
+            visible: None,
             ..self
         }
     }
@@ -450,6 +467,7 @@ impl<'a> PathTracer<'a> {
                 mode: self.settings.majorant,
                 blocks: self.blocks.as_ref(),
             },
+            visible: self.visible.as_ref(),
             camera: self.camera,
             inv_spacing: Vec3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2]),
             extent: Vec3::from(self.vol.meta.world_extent()),
@@ -541,6 +559,27 @@ impl<'a> PathTracer<'a> {
         }
         Ok(total)
     }
+}
+
+/// The blocks of `camera`'s image whose camera rays may meet a cell with
+/// extinction ([`busy_blocks`], on the medium's bound over each cell's
+/// range): the others' rays cross only empty cells and leave unscattered,
+/// so their samples are the background, known without tracing. `None`:
+/// every block is traced.
+fn camera_blocks<M: Medium>(
+    medium: &M,
+    index: &MinMaxIndex,
+    camera: &Camera,
+    vol: &Volume,
+) -> Option<BlockMask> {
+    let busy = |level: usize, cell: usize| {
+        let l = index.level(level);
+        let (lo, hi) = (l.min()[cell], l.max()[cell]);
+        // NaN fails the comparison: a cell of NaN is empty, as in the grid.
+        lo <= hi && medium.majorant_over(lo, hi) > 0.0
+    };
+    let spacing = Vec3::from(vol.meta.spacing);
+    busy_blocks(camera, index, spacing, None, busy).filter(|m| m.culled() > 0)
 }
 
 /// The medium's majorant grid, with its controls when `residual`.

@@ -316,7 +316,11 @@ impl<M: Medium> Tracker<'_, M> {
         ) -> Option<R>,
     ) -> Option<R> {
         let exp = |u: f32| -(-(u as f64)).ln_1p();
-        let mut tau = exp(first);
+        // The optical depth to the next collision, its logarithm taken in
+        // the first cell with anything to track (NaN until then: a ray that
+        // meets only empty cells, as most camera rays of a sparse volume
+        // do, never pays for it).
+        let mut tau = f64::NAN;
         let mut budget = MAX_COLLISIONS;
         let mut truncated = Some(truncated);
         self.walk(cur, ray, t0, t1, n, |cur, m, c, a, b, n| {
@@ -332,6 +336,9 @@ impl<M: Medium> Tracker<'_, M> {
             if rate <= 0.0 {
                 // A cell whose extinction is its control: nothing to track.
                 return None;
+            }
+            if tau.is_nan() {
+                tau = exp(first);
             }
             let mut t = a;
             loop {
