@@ -72,6 +72,8 @@ fn path_mode_reports_figures_and_writes_its_outputs() {
         "real_collisions",
         "null_collisions",
         "majorant_cells",
+        "empty_jumps",
+        "culled_paths",
         "density_lookups",
         "shadow_rays",
         "render_s",
