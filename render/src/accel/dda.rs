@@ -170,7 +170,9 @@ impl Segments {
             };
             let p = self.ray.o[b] as f64 + self.ray.d[b] as f64 * t_exit;
             // (Truncation: a guess, which the faces then correct.)
-            let guess = ((p * self.inv_edge) as i64 - c) * s;
+            let guess = ((p * self.inv_edge) as i64)
+                .saturating_sub(c)
+                .saturating_mul(s);
             let mut m = guess.clamp(0, k);
             while m < k && crossed(m) {
                 m += 1;
