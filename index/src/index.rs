@@ -4,6 +4,7 @@
 use crate::error::IndexError;
 use crate::histogram::Histogram;
 use crate::level::{level_shapes, Level};
+use crate::memo::Memo;
 use volcore::{Dims, SampleType};
 
 /// Min/max macrocell pyramid of one volume, plus its value range and
@@ -16,6 +17,8 @@ pub struct MinMaxIndex {
     range: (f32, f32),
     histogram: Histogram,
     levels: Vec<Level>,
+    /// A value a renderer derived from the index (see [`Memo`]).
+    memo: Memo,
 }
 
 /// Summary figures of an index.
@@ -67,6 +70,7 @@ impl MinMaxIndex {
             range,
             histogram,
             levels,
+            memo: Memo::default(),
         })
     }
 
@@ -79,8 +83,22 @@ impl MinMaxIndex {
         MinMaxIndex {
             dims: Dims::new(d.z, d.y, d.x).unwrap_or(d),
             levels: self.levels.iter().map(Level::transposed_xz).collect(),
+            memo: Memo::default(),
             ..self
         }
+    }
+
+    /// The value `make` derives from this index under `key` (see [`Memo`]:
+    /// kept from the last call with the same key and type, so a renderer's
+    /// set-up for one transfer function is done once across frames). The
+    /// key must name everything besides the index that the value depends
+    /// on.
+    pub fn memo<T: std::any::Any + Send + Sync, E>(
+        &self,
+        key: u64,
+        make: impl FnOnce() -> Result<T, E>,
+    ) -> Result<std::sync::Arc<T>, E> {
+        self.memo.get_or_try(key, make)
     }
 
     /// Dimensions of the indexed volume.

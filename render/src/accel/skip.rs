@@ -5,6 +5,7 @@
 use super::distance::OctantDistances;
 use super::{Accel, Hierarchy, Step, VoxelRay};
 use glam::Vec3;
+use std::sync::Arc;
 use volindex::MinMaxIndex;
 
 /// A flag per cell of every level, from a per-cell test of its range, in
@@ -24,16 +25,51 @@ fn flags_of(index: &MinMaxIndex, f: impl Fn(f32, f32) -> u8) -> Vec<u8> {
 /// nothing to the sum).
 pub struct FixedCells<'a> {
     h: Hierarchy<'a>,
+    /// The flags and their distances (shared with the index's memo when a
+    /// later frame may use them again).
+    cells: Arc<SkipFlags>,
+    /// With adaptive steps: per level-0 cell, `log2` of the steps one
+    /// sample there stands for ([`super::strides`]).
+    strides: Option<Vec<u8>>,
+}
+
+/// What a fixed rule decides for one index: the flags and the distances
+/// made from them, kept whole so that frames with the same rule can share
+/// them ([`volindex::MinMaxIndex::memo`]).
+pub struct SkipFlags {
     /// Per cell of every level (flat order): 1 when the cell may be
     /// skipped.
     flags: Vec<u8>,
     /// Per octant and level-0 cell: the chessboard distance, in cells, to
     /// the nearest level-0 cell ahead that may not be skipped (0 on those;
-    /// see [`super::distance`]).
+    /// see [`super::distance`]; each octant's table made on first use).
     distance: OctantDistances,
-    /// With adaptive steps: per level-0 cell, `log2` of the steps one
-    /// sample there stands for ([`super::strides`]).
-    strides: Option<Vec<u8>>,
+}
+
+impl SkipFlags {
+    /// The transparent-cell flags of `index` from per-level, per-cell
+    /// flags (`true`: every sample the cell can produce has zero
+    /// opacity), as a classifier computes them.
+    pub fn transparent(index: &MinMaxIndex, transparent: Vec<Vec<bool>>) -> SkipFlags {
+        // Level by level: a flattening iterator would go cell by cell.
+        let mut flags = Vec::with_capacity(transparent.iter().map(Vec::len).sum());
+        for level in &transparent {
+            flags.extend(level.iter().map(|&t| u8::from(t)));
+        }
+        SkipFlags::new(index, flags)
+    }
+
+    /// Flags in flat order, with empty distance tables.
+    fn new(index: &MinMaxIndex, flags: Vec<u8>) -> SkipFlags {
+        let n = index
+            .levels()
+            .first()
+            .map_or([0; 3], |l| l.cells().map(|c| c as usize));
+        SkipFlags {
+            flags,
+            distance: OctantDistances::new(n),
+        }
+    }
 }
 
 impl<'a> FixedCells<'a> {
@@ -41,12 +77,17 @@ impl<'a> FixedCells<'a> {
     /// every sample the cell can produce has zero opacity), as a
     /// classifier computes them.
     pub fn transparent(index: &'a MinMaxIndex, transparent: Vec<Vec<bool>>) -> Self {
-        // Level by level: a flattening iterator would go cell by cell.
-        let mut flags = Vec::with_capacity(transparent.iter().map(Vec::len).sum());
-        for level in &transparent {
-            flags.extend(level.iter().map(|&t| u8::from(t)));
+        Self::shared(index, Arc::new(SkipFlags::transparent(index, transparent)))
+    }
+
+    /// The rule over `index` from flags made for it (and perhaps already
+    /// used by an earlier frame, with the distance tables it made).
+    pub fn shared(index: &'a MinMaxIndex, cells: Arc<SkipFlags>) -> Self {
+        FixedCells {
+            h: Hierarchy::new(index),
+            cells,
+            strides: None,
         }
-        Self::with_flags(index, flags)
     }
 
     /// The zero-cell rule: cells holding only zeros (or only NaN).
@@ -60,16 +101,7 @@ impl<'a> FixedCells<'a> {
     /// The rule from its flags (flat order), with the level-0 distances
     /// computed from them.
     fn with_flags(index: &'a MinMaxIndex, flags: Vec<u8>) -> Self {
-        let n = index
-            .levels()
-            .first()
-            .map_or([0; 3], |l| l.cells().map(|c| c as usize));
-        FixedCells {
-            h: Hierarchy::new(index),
-            distance: OctantDistances::new(n),
-            flags,
-            strides: None,
-        }
+        Self::shared(index, Arc::new(SkipFlags::new(index, flags)))
     }
 
     /// The same rule with adaptive steps: `log2_strides` per level-0 cell
@@ -93,7 +125,7 @@ impl<'a> FixedCells<'a> {
 
     /// Boxes made only of cells this rule skips.
     pub fn clear_boxes(&self) -> ClearBoxes<'_> {
-        ClearBoxes::new(self.h.index(), &self.flags, |f| f != 0)
+        ClearBoxes::new(self.h.index(), &self.cells.flags, |f| f != 0)
     }
 
     /// The index the rule flags.
@@ -107,19 +139,19 @@ impl<'a> FixedCells<'a> {
             .iter()
             .map(|l| l.len())
             .sum();
-        self.flags[below + cell] != 0
+        self.cells.flags[below + cell] != 0
     }
 
     /// Whether the rule may skip level-0 cell `cell` (linear index).
     #[inline]
     pub fn skippable_finest(&self, cell: usize) -> bool {
-        self.flags.get(cell).is_some_and(|&f| f != 0)
+        self.cells.flags.get(cell).is_some_and(|&f| f != 0)
     }
 
     /// The fraction of level-0 cells that may be skipped.
     pub fn skippable_fraction(&self) -> f64 {
         let n = self.h.index().levels().first().map_or(0, |l| l.len());
-        let f = &self.flags[..n];
+        let f = &self.cells.flags[..n];
         f.iter().filter(|&&x| x != 0).count() as f64 / n.max(1) as f64
     }
 }
@@ -128,7 +160,7 @@ impl Accel<()> for FixedCells<'_> {
     const ON: bool = true;
     #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, _: ()) -> Step {
-        let table = self.distance.table(ray.octant, &self.flags);
+        let table = self.cells.distance.table(ray.octant, &self.cells.flags);
         self.h.step_ahead(p, ray, |c| table[c])
     }
     #[inline(always)]
@@ -382,9 +414,9 @@ mod tests {
                 // jumps whole clear blocks by the chessboard distances ahead.
                 let finest = n % 3 == 1;
                 let qualifies =
-                    |l: usize, _: usize, f: usize| zero.flags[f] != 0 && (l == 0 || !finest);
+                    |l: usize, _: usize, f: usize| zero.cells.flags[f] != 0 && (l == 0 || !finest);
                 let step = if n % 3 == 2 {
-                    let table = zero.distance.table(w.ray.octant, &zero.flags);
+                    let table = zero.cells.distance.table(w.ray.octant, &zero.cells.flags);
                     zero.h.step_ahead(p, &w.ray, |c| table[c])
                 } else {
                     zero.h.step(p, &w.ray, qualifies)
@@ -404,7 +436,7 @@ mod tests {
                             // Stronger, and independent of the data near the
                             // faces: the sample's own cell qualifies.
                             assert_ne!(
-                                zero.flags[zero.h.cell_at(q)],
+                                zero.cells.flags[zero.h.cell_at(q)],
                                 0,
                                 "ray {n}: sample {j} at {q}"
                             );

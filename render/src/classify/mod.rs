@@ -105,6 +105,15 @@ pub trait Classifier: Sync {
         index: &MinMaxIndex,
         gradients: &GradientBound,
     ) -> Result<Vec<Vec<bool>>, RenderError>;
+
+    /// A key naming everything besides the index that
+    /// [`Classifier::transparent_cells`] depends on, so that frames with
+    /// the same key share its result (and the skipping distances made
+    /// from it) through the index's memo; `None`, the default: every frame
+    /// classifies afresh.
+    fn cells_key(&self, _gradients: &GradientBound) -> Option<u64> {
+        None
+    }
 }
 
 /// Step-corrected opacity `1 − (1 − α)^ratio`, computed as

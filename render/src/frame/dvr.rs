@@ -11,6 +11,7 @@
 
 use super::effects::{ao_parts, light_grids, open_skies, shadow_geometry};
 use super::FrameInputs;
+use crate::accel::skip::SkipFlags;
 use crate::accel::strides::stride_log2s;
 use crate::accel::{cull, FixedCells};
 use crate::classify::pairs::DEFAULT_PAIR_BINS;
@@ -409,9 +410,19 @@ pub fn transparent_cells<'a>(
 ) -> Result<Option<FixedCells<'a>>, RenderError> {
     index
         .map(|ix| {
-            classifier
-                .transparent_cells(ix, gradients)
-                .map(|flags| FixedCells::transparent(ix, flags))
+            let classify = || {
+                classifier
+                    .transparent_cells(ix, gradients)
+                    .map(|flags| SkipFlags::transparent(ix, flags))
+            };
+            let cells = match classifier.cells_key(gradients) {
+                // Kept with the index: the next frame with the same table
+                // (a viewer's, a probe's, `--repeat`'s) reuses the flags
+                // and the distance tables they made.
+                Some(key) => ix.memo(key, classify)?,
+                None => std::sync::Arc::new(classify()?),
+            };
+            Ok(FixedCells::shared(ix, cells))
         })
         .transpose()
 }

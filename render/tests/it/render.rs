@@ -457,6 +457,39 @@ fn skipping_never_changes_the_image() {
     }
 }
 
+/// The transparent cells and skipping distances a frame derives from its
+/// transfer function are kept with the index for the next frame with the
+/// same table: frames that alternate transfer functions and steps on one
+/// index render what each renders on an index of its own, bit for bit,
+/// and what they render without skipping.
+#[test]
+fn frames_sharing_an_index_keep_each_transfer_functions_cells() {
+    let (v, ix) = shapes_scene();
+    let shapes = TransferFunction::preset("shapes", (0.0, 255.0)).unwrap();
+    let upper =
+        volrender::tf::parse::parse("point 150 0 0 0 0\npoint 220 255 200 100 0.5").unwrap();
+    let lower = volrender::tf::parse::parse("point 0 255 255 255 0.3\npoint 60 0 0 0 0").unwrap();
+    let cam = orbit(&v, 35.0, 25.0, 48);
+    let dvr = |step: f32| RenderSettings {
+        step,
+        ..Default::default()
+    };
+    let mut seen = 0;
+    for round in 0..2 {
+        for (tf, step) in [(&shapes, 0.3), (&upper, 0.3), (&shapes, 0.7), (&lower, 0.3)] {
+            let s = dvr(step);
+            let shared = render(&v, Some(&ix), Some(tf), &cam, &s).unwrap();
+            let own = render(&v, Some(&ix.clone()), Some(tf), &cam, &s).unwrap();
+            assert_eq!(bits(&shared), bits(&own), "round {round}, step {step}");
+            let (_, off) = with_and_without_skipping(&v, &ix, tf, &cam, &s);
+            assert_eq!(bits(&shared), bits(&off), "round {round}, step {step}");
+            assert!(shared.stats.samples < off.stats.samples);
+            seen += 1;
+        }
+    }
+    assert_eq!(seen, 8);
+}
+
 /// Skips end a margin before cell faces; far from the volume, ray
 /// parameters are large and their rounding is coarse, so check that the
 /// margin still covers it: a distant eye (t ≈ 4000 for a 96-voxel volume,
