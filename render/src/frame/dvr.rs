@@ -401,8 +401,15 @@ impl DvrFrame<'_> {
     }
 }
 
+/// The most level-0 cells whose transparent flags and distances an index
+/// keeps between frames (at most about 10 bytes a cell for each of
+/// [`volindex::memo::SLOTS`] tables; a 1280³ volume's 4 M cells of edge
+/// 8): past it every frame classifies afresh, as it did before.
+pub const MEMO_MAX_CELLS: usize = 1 << 22;
+
 /// The cells `classifier` makes transparent, as a skipping rule, when
-/// skipping is on.
+/// skipping is on (kept with the index for the next frame with the same
+/// table: see [`MEMO_MAX_CELLS`]).
 pub fn transparent_cells<'a>(
     index: Option<&'a MinMaxIndex>,
     classifier: &impl Classifier,
@@ -415,7 +422,11 @@ pub fn transparent_cells<'a>(
                     .transparent_cells(ix, gradients)
                     .map(|flags| SkipFlags::transparent(ix, flags))
             };
-            let cells = match classifier.cells_key(gradients) {
+            let small = ix
+                .levels()
+                .first()
+                .is_some_and(|l| l.len() <= MEMO_MAX_CELLS);
+            let cells = match classifier.cells_key(gradients).filter(|_| small) {
                 // Kept with the index: the next frame with the same table
                 // (a viewer's, a probe's, `--repeat`'s) reuses the flags
                 // and the distance tables they made.
