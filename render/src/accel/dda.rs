@@ -248,20 +248,22 @@ mod tests {
     use volcore::Dims;
     use volindex::{BuildOptions, MinMaxIndex};
 
+    /// The index of a `vol-gen shapes`-like volume: `count` shapes of
+    /// size `size`, from `seed`.
+    fn shapes_index(dims: Dims, seed: u64, count: usize, size: u64) -> MinMaxIndex {
+        let scene = ShapesScene::new(dims, seed, count, size, 100.0);
+        let v = volcore::Volume::from_samples(dims, pack_sliced(&SceneSource::<u8>::new(&scene)))
+            .unwrap();
+        MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap()
+    }
+
     /// Segments tile the ray's range in order, and every point inside a
     /// segment (away from its ends by more than rounding) is in the
     /// segment's cell as the sampler finds cells.
     #[test]
     fn segments_tile_the_ray_and_name_the_sampler_cell() {
         let dims = Dims::new(61, 40, 33).unwrap();
-        let v = volcore::Volume::from_samples(
-            dims,
-            pack_sliced(&SceneSource::<u8>::new(&ShapesScene::new(
-                dims, 1, 5, 10, 100.0,
-            ))),
-        )
-        .unwrap();
-        let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+        let ix = shapes_index(dims, 1, 5, 10);
         let loc = Locator::new(dims);
         let hi = [60.0, 39.0, 32.0];
         let mut rng = fastrand::Rng::with_seed(7);
@@ -321,14 +323,7 @@ mod tests {
     #[test]
     fn jumps_keep_every_kept_cells_segment_bit_for_bit() {
         let dims = Dims::new(83, 70, 61).unwrap();
-        let v = volcore::Volume::from_samples(
-            dims,
-            pack_sliced(&SceneSource::<u8>::new(&ShapesScene::new(
-                dims, 3, 10, 12, 100.0,
-            ))),
-        )
-        .unwrap();
-        let ix = MinMaxIndex::build_volume(&v, &BuildOptions::default(), 0).unwrap();
+        let ix = shapes_index(dims, 3, 10, 12);
         let level = ix.level(0);
         let cells = level.cells().map(|n| n as usize);
         let clear: Vec<u8> = level.max().iter().map(|&m| u8::from(m <= 0.0)).collect();
