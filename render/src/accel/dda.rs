@@ -64,14 +64,16 @@ pub fn voxel_segments(dims: Dims, hi: [f32; 3], ray: &VoxelRay, t0: f32, t1: f32
 impl Segments {
     fn new(cells: [u64; 3], edge: u64, hi: [f32; 3], ray: &VoxelRay, t0: f32, t1: f32) -> Segments {
         // A power-of-two edge divides exactly as its reciprocal multiplies.
-        let inv_edge = edge.is_power_of_two().then(|| 1.0 / edge as f64);
+        let exact_inverse = edge.is_power_of_two();
         let edge = edge as f64;
+        let inv_edge = 1.0 / edge;
         let p = ray.at(t0);
         let cell = std::array::from_fn(|a| {
             let c = if p[a] > 0.0 { p[a].min(hi[a]) } else { 0.0 };
-            let q = match inv_edge {
-                Some(r) => c as f64 * r,
-                None => c as f64 / edge,
+            let q = if exact_inverse {
+                c as f64 * inv_edge
+            } else {
+                c as f64 / edge
             };
             // c is 0 or more (NaN fails the test): truncation is the floor.
             (q as i64).clamp(0, cells[a] as i64 - 1)
@@ -89,7 +91,7 @@ impl Segments {
             cells,
             ray: *ray,
             edge,
-            inv_edge: 1.0 / edge,
+            inv_edge,
             cell,
             step,
             exits: [f64::INFINITY; 3],

@@ -3,7 +3,6 @@
 //! index's value ranges go through a function of the range (a transfer
 //! function's range-maximum table, or a density mapping), once per frame.
 
-use super::distance::OctantDistances;
 use volindex::{MinMaxIndex, RangeMaxTable};
 
 /// The largest extinction a medium takes, per world unit: a transfer
@@ -120,39 +119,17 @@ impl MajorantGrid {
         self.global
     }
 
+    /// Per cell, 1 where the majorant is 0 (a sample there has no
+    /// extinction).
+    pub fn empty_flags(&self) -> Vec<u8> {
+        self.values.iter().map(|&m| u8::from(m <= 0.0)).collect()
+    }
+
     /// The fraction of cells whose majorant is 0 (crossed without a
     /// sample).
     pub fn empty_fraction(&self) -> f64 {
         let n = self.values.iter().filter(|&&m| m == 0.0).count();
         n as f64 / self.values.len().max(1) as f64
-    }
-}
-
-/// The empty cells of a majorant grid as blocks a ray crosses in one
-/// jump: per octant of directions, each cell's chessboard distance to the
-/// nearest cell ahead with a majorant above 0 ([`super::distance`]), the
-/// tables made when a ray first travels that way.
-pub struct EmptyBlocks {
-    /// Per cell, 1 where the majorant is 0.
-    empty: Vec<u8>,
-    distances: OctantDistances,
-}
-
-impl EmptyBlocks {
-    /// The blocks of `grid`, whose cells number `cells` per axis.
-    pub fn new(grid: &MajorantGrid, cells: [u64; 3]) -> EmptyBlocks {
-        EmptyBlocks {
-            empty: grid.values.iter().map(|&m| u8::from(m <= 0.0)).collect(),
-            distances: OctantDistances::new(cells.map(|n| n as usize)),
-        }
-    }
-
-    /// For a ray in octant `octant` ([`super::distance::octant`]), the
-    /// edge of the block of empty cells that starts at cell `cell` and
-    /// extends ahead of it (0: the cell is not empty).
-    #[inline(always)]
-    pub fn ahead(&self, octant: usize, cell: usize) -> u8 {
-        self.distances.table(octant, &self.empty)[cell]
     }
 }
 

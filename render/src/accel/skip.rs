@@ -61,14 +61,26 @@ impl SkipFlags {
 
     /// Flags in flat order, with empty distance tables.
     fn new(index: &MinMaxIndex, flags: Vec<u8>) -> SkipFlags {
-        let n = index
-            .levels()
-            .first()
-            .map_or([0; 3], |l| l.cells().map(|c| c as usize));
+        let n = index.levels().first().map_or([0; 3], |l| l.cells());
+        SkipFlags::finest(n, flags)
+    }
+
+    /// Flags of a grid of `cells` level-0 cells alone (x fastest; any
+    /// flags past them are ignored), with empty distance tables: a
+    /// majorant grid's empty cells, which path tracing jumps in blocks.
+    pub fn finest(cells: [u64; 3], flags: Vec<u8>) -> SkipFlags {
         SkipFlags {
             flags,
-            distance: OctantDistances::new(n),
+            distance: OctantDistances::new(cells.map(|c| c as usize)),
         }
+    }
+
+    /// For a ray in octant `octant` ([`super::distance::octant`]), the
+    /// edge of the block of skipped level-0 cells that starts at cell
+    /// `cell` and extends ahead of it (0: the cell is kept).
+    #[inline(always)]
+    pub fn ahead(&self, octant: usize, cell: usize) -> u8 {
+        self.distance.table(octant, &self.flags)[cell]
     }
 }
 
@@ -160,8 +172,8 @@ impl Accel<()> for FixedCells<'_> {
     const ON: bool = true;
     #[inline(always)]
     fn step(&self, p: Vec3, ray: &VoxelRay, _: ()) -> Step {
-        let table = self.cells.distance.table(ray.octant, &self.cells.flags);
-        self.h.step_ahead(p, ray, |c| table[c])
+        self.h
+            .step_ahead(p, ray, |c| self.cells.ahead(ray.octant, c))
     }
     #[inline(always)]
     fn strided(&self) -> bool {

@@ -34,7 +34,8 @@ pub use medium::{DensityMedium, Medium, TableMedium};
 pub use tracking::MajorantMode;
 
 use crate::accel::cull::{busy_blocks, BlockMask};
-use crate::accel::majorant::{EmptyBlocks, MajorantGrid};
+use crate::accel::majorant::MajorantGrid;
+use crate::accel::skip::SkipFlags;
 use crate::camera::Camera;
 use crate::error::RenderError;
 use crate::film::{luminance, PathFilm};
@@ -266,7 +267,7 @@ pub struct PathTracer<'a> {
     settings: &'a PathSettings,
     medium: AnyMedium,
     grid: MajorantGrid,
-    blocks: Option<EmptyBlocks>,
+    blocks: Option<SkipFlags>,
     visible: Option<BlockMask>,
     scatters: bool,
     cancel: crate::settings::Cancel,
@@ -365,7 +366,7 @@ impl<'a> PathTracer<'a> {
         let cells = index.level(GRID_LEVEL).cells();
         let grid_mode = settings.majorant == MajorantMode::Grid;
         let blocks = (grid_mode && cells.iter().product::<u64>() <= MAX_BLOCK_CELLS)
-            .then(|| EmptyBlocks::new(&grid, cells));
+            .then(|| SkipFlags::finest(cells, grid.empty_flags()));
         let visible = if grid_mode {
             match &medium {
                 AnyMedium::Density(m) => camera_blocks(m, index, camera, vol),

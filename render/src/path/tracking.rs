@@ -23,7 +23,8 @@
 use super::medium::Medium;
 use super::PathCounters;
 use crate::accel::dda::{segments, voxel_segments};
-use crate::accel::majorant::{EmptyBlocks, MajorantGrid, MAX_SIGMA_T};
+use crate::accel::majorant::{MajorantGrid, MAX_SIGMA_T};
+use crate::accel::skip::SkipFlags;
 use crate::accel::VoxelRay;
 use crate::sampler::PixelSampler;
 use volcore::Cursor;
@@ -92,7 +93,7 @@ pub struct Tracker<'a, M: Medium> {
     pub mode: MajorantMode,
     /// The grid's empty blocks, crossed in one jump each (`None`: cell by
     /// cell). The same collisions either way: empty cells take none.
-    pub blocks: Option<&'a EmptyBlocks>,
+    pub blocks: Option<&'a SkipFlags>,
 }
 
 /// Where a free flight ended.
