@@ -37,6 +37,7 @@
 //! included).
 
 mod guard;
+mod header;
 mod pixels;
 mod series;
 mod skip;
@@ -47,8 +48,8 @@ pub use skip::{shown, SkipReason, Skipped};
 use crate::error::Error;
 use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
 use crate::slice::{SliceData, SliceType};
+use header::SliceHeader;
 use pixels::{stored_type, widest};
-use series::SliceHeader;
 use skip::skipped_notes;
 use std::path::{Path, PathBuf};
 use volcore::{Dims, Geometry};

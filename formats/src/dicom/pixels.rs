@@ -3,7 +3,7 @@
 //! stored bits, rescaled and widened to the series' sample type.
 
 use super::bad;
-use super::series::SliceHeader;
+use super::header::{SliceHeader, Tile};
 use crate::reader::CResult;
 use crate::slice::{SliceData, SliceType};
 use dicom_dictionary_std::tags;
@@ -55,8 +55,29 @@ pub(super) fn decode(s: &SliceHeader, out: SliceType) -> CResult<SliceData> {
         px = obj
             .decode_pixel_data()
             .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?;
-        px.frame_data(0)
+        px.frame_data(s.pixels.frame)
             .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?
+    };
+    let tiled;
+    let bytes: &[u8] = match s.pixels.tile {
+        Some(tile) => {
+            tiled = cut_tile(bytes, tile, s.rows as usize, s.cols as usize, t.size()).ok_or_else(
+                || {
+                    bad(
+                        &s.path,
+                        format!(
+                            "mosaic frame of {} bytes holds no tile {} of {}x{} pixels",
+                            bytes.len(),
+                            tile.index,
+                            s.cols,
+                            s.rows
+                        ),
+                    )
+                },
+            )?;
+            &tiled
+        }
+        None => bytes,
     };
     if bytes.len() < n * t.size() {
         return Err(bad(
@@ -79,6 +100,29 @@ pub(super) fn decode(s: &SliceHeader, out: SliceType) -> CResult<SliceData> {
         s.rescale.apply(&d)
     };
     Ok(to_type(d, out))
+}
+
+/// Tile `tile` of a mosaic `frame` (rows of `tile.frame_cols` samples of
+/// `size` bytes), each tile `rows` x `cols`: its rows copied out, or
+/// `None` when the frame is too small to hold it.
+fn cut_tile(frame: &[u8], tile: Tile, rows: usize, cols: usize, size: usize) -> Option<Vec<u8>> {
+    let across = tile.across as usize;
+    let (ty, tx) = (
+        tile.index as usize / across.max(1),
+        tile.index as usize % across.max(1),
+    );
+    let stride = (tile.frame_cols as usize).checked_mul(size)?;
+    let row_bytes = cols.checked_mul(size)?;
+    if across == 0 || across.checked_mul(row_bytes)? > stride {
+        return None;
+    }
+    let mut out = Vec::with_capacity(rows.checked_mul(row_bytes)?);
+    for r in 0..rows {
+        let y = ty.checked_mul(rows)?.checked_add(r)?;
+        let start = y.checked_mul(stride)?.checked_add(tx * row_bytes)?;
+        out.extend_from_slice(frame.get(start..start.checked_add(row_bytes)?)?);
+    }
+    Some(out)
 }
 
 /// The RLE Lossless transfer syntax.
@@ -214,5 +258,37 @@ mod tests {
         let mut d = SliceData::U16(vec![0xf0ff]);
         mask_bits(&mut d, 12);
         assert_eq!(d, SliceData::U16(vec![0x00ff]));
+    }
+
+    #[test]
+    fn mosaic_tiles_are_cut_row_major_and_bounded() {
+        // A 6x4 frame of u8, tiles of 3x2: two across, two down.
+        let frame: Vec<u8> = (0..24).collect();
+        let tile = |index| Tile {
+            index,
+            across: 2,
+            frame_cols: 6,
+        };
+        assert_eq!(
+            cut_tile(&frame, tile(0), 2, 3, 1),
+            Some(vec![0, 1, 2, 6, 7, 8])
+        );
+        assert_eq!(
+            cut_tile(&frame, tile(1), 2, 3, 1),
+            Some(vec![3, 4, 5, 9, 10, 11])
+        );
+        assert_eq!(
+            cut_tile(&frame, tile(3), 2, 3, 1),
+            Some(vec![15, 16, 17, 21, 22, 23])
+        );
+        // Past the frame's end, or wider than a row: none.
+        assert_eq!(cut_tile(&frame, tile(4), 2, 3, 1), None);
+        assert_eq!(cut_tile(&frame, tile(0), 2, 4, 1), None);
+        // 16-bit samples: two bytes each.
+        let wide: Vec<u8> = (0..48).collect();
+        assert_eq!(
+            cut_tile(&wide, tile(1), 1, 3, 2),
+            Some(vec![6, 7, 8, 9, 10, 11])
+        );
     }
 }

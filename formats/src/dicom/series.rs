@@ -3,211 +3,12 @@
 //! grouped by series and each series checked as a volume, and one series
 //! picked by `--series`.
 
-use super::guard::check_lengths;
+use super::header::{read_file, SliceHeader};
 use super::skip::{skipped_brief, SkipReason, Skipped};
 use super::{bad, DicomReader};
 use crate::reader::{CResult, ConvertError};
-use crate::rescale::Rescale;
-use dicom_dictionary_std::tags;
-use dicom_object::{DefaultDicomObject, OpenFileOptions};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// What one file of a series says about its slice.
-#[derive(Clone, Debug)]
-pub(super) struct SliceHeader {
-    pub(super) path: PathBuf,
-    pub(super) series: String,
-    pub(super) series_number: Option<i64>,
-    pub(super) description: String,
-    pub(super) modality: String,
-    pub(super) rows: u16,
-    pub(super) cols: u16,
-    pub(super) position: [f64; 3],
-    pub(super) orientation: [f64; 6],
-    pub(super) pixel_spacing: [f64; 2],
-    pub(super) rescale: Rescale,
-    pub(super) bits_allocated: u16,
-    pub(super) bits_stored: u16,
-    pub(super) signed: bool,
-}
-
-fn text(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<String> {
-    obj.element_opt(tag)
-        .ok()
-        .flatten()
-        .and_then(|e| e.to_str().ok())
-        .map(|s| s.trim().trim_end_matches('\0').to_string())
-}
-
-fn floats(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<Vec<f64>> {
-    obj.element_opt(tag)
-        .ok()
-        .flatten()
-        .and_then(|e| e.to_multi_float64().ok())
-}
-
-fn int(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<i64> {
-    obj.element_opt(tag)
-        .ok()
-        .flatten()
-        .and_then(|e| e.to_int::<i64>().ok())
-}
-
-/// The Media Storage Directory (`DICOMDIR`) SOP class.
-const DICOMDIR_CLASS: &str = "1.2.840.10008.1.3.10";
-
-/// What `obj` holds when it is no image, `None` for an image: a DICOMDIR
-/// (by its SOP class or its name), or an object without Rows and Columns
-/// whose SOP class is not an image storage class. An image class without
-/// Rows stays an image, to be skipped as one without Rows and Columns.
-fn non_image(path: &Path, obj: &DefaultDicomObject) -> Option<String> {
-    use dicom_core::dictionary::UidDictionary;
-    let class = text(obj, tags::SOP_CLASS_UID)
-        .filter(|c| !c.is_empty())
-        .unwrap_or_else(|| {
-            obj.meta()
-                .media_storage_sop_class_uid()
-                .trim_end_matches(['\0', ' '])
-                .to_string()
-        });
-    let named_dicomdir = path
-        .file_name()
-        .is_some_and(|n| n.eq_ignore_ascii_case("DICOMDIR"));
-    if class == DICOMDIR_CLASS || named_dicomdir {
-        return Some("DICOMDIR".into());
-    }
-    let name = dicom_dictionary_std::StandardSopClassDictionary
-        .by_uid(&class)
-        .map(|e| e.name.to_string());
-    let has_size = int(obj, tags::ROWS).is_some() && int(obj, tags::COLUMNS).is_some();
-    let image_class = name.as_deref().is_some_and(|n| n.contains("Image"));
-    if has_size || image_class {
-        return None;
-    }
-    Some(name.unwrap_or_else(|| {
-        if class.is_empty() {
-            "an object without SOP class".into()
-        } else {
-            format!("SOP class {}", volcore::text::excerpt(&class))
-        }
-    }))
-}
-
-/// Whether the file starts like a DICOM Part 10 file; an error when it
-/// cannot be read at all.
-fn sniff_file(path: &Path) -> Result<bool, SkipReason> {
-    use std::io::Read;
-    let mut head = Vec::with_capacity(132);
-    std::fs::File::open(path)
-        .and_then(|f| f.take(132).read_to_end(&mut head))
-        .map_err(|e| SkipReason::Unreadable(e.to_string()))?;
-    Ok(super::sniff(&head))
-}
-
-/// Read one file's header (its data set up to, not including, its pixel
-/// data) as a slice of a series, or say why it can be none. The checks
-/// run from the most to the least fundamental: a multi-frame or colour
-/// image is named so even when it lacks ImagePositionPatient too.
-fn read_header(path: &Path) -> Result<SliceHeader, SkipReason> {
-    use dicom_transfer_syntax_registry::{TransferSyntaxIndex, TransferSyntaxRegistry};
-    if !sniff_file(path)? {
-        return Err(SkipReason::NotDicom);
-    }
-    let ts = check_lengths(path).map_err(SkipReason::Damaged)?;
-    let unsupported_ts = |name: Option<&str>| SkipReason::TransferSyntax {
-        uid: volcore::text::excerpt(&ts),
-        name: name.map(str::to_string),
-    };
-    let syntax = TransferSyntaxRegistry.get(&ts);
-    if !ts.is_empty() && syntax.is_none() {
-        return Err(unsupported_ts(None));
-    }
-    let obj = OpenFileOptions::new()
-        .read_until(tags::PIXEL_DATA)
-        .open_file(path)
-        .map_err(|e| SkipReason::Damaged(super::chain(&e)))?;
-    if let Some(what) = non_image(path, &obj) {
-        return Err(SkipReason::NoImage(what));
-    }
-    let frames = int(&obj, tags::NUMBER_OF_FRAMES).unwrap_or(1);
-    if frames > 1 {
-        return Err(SkipReason::MultiFrame(
-            u32::try_from(frames).unwrap_or(u32::MAX),
-        ));
-    }
-    if let Some(syntax) = syntax.filter(|s| !s.can_decode_all()) {
-        return Err(unsupported_ts(Some(syntax.name())));
-    }
-    let spp = int(&obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1);
-    if spp != 1 {
-        return Err(SkipReason::Colour(format!("{spp} samples per pixel")));
-    }
-    let photometric = text(&obj, tags::PHOTOMETRIC_INTERPRETATION).unwrap_or_default();
-    if !matches!(photometric.as_str(), "" | "MONOCHROME1" | "MONOCHROME2") {
-        return Err(SkipReason::Colour(format!(
-            "PhotometricInterpretation {}",
-            volcore::text::excerpt(&photometric)
-        )));
-    }
-    let series = text(&obj, tags::SERIES_INSTANCE_UID)
-        .filter(|s| !s.is_empty())
-        .ok_or(SkipReason::Missing("SeriesInstanceUID"))?;
-    let rows = int(&obj, tags::ROWS).unwrap_or(0);
-    let cols = int(&obj, tags::COLUMNS).unwrap_or(0);
-    if !(1..=65535).contains(&rows) || !(1..=65535).contains(&cols) {
-        return Err(SkipReason::Missing("Rows and Columns"));
-    }
-    let need = |tag, name| floats(&obj, tag).ok_or(SkipReason::Missing(name));
-    let p = need(tags::IMAGE_POSITION_PATIENT, "ImagePositionPatient")?;
-    let o = need(tags::IMAGE_ORIENTATION_PATIENT, "ImageOrientationPatient")?;
-    let s = floats(&obj, tags::PIXEL_SPACING).unwrap_or_else(|| vec![1.0, 1.0]);
-    if p.len() != 3 || o.len() != 6 || s.len() != 2 {
-        return Err(SkipReason::Unsupported(
-            "ImagePositionPatient, ImageOrientationPatient or PixelSpacing has the wrong number of values".into(),
-        ));
-    }
-    if p.iter().chain(&o).chain(&s).any(|v| !v.is_finite()) || s.iter().any(|v| *v <= 0.0) {
-        return Err(SkipReason::Unsupported(
-            "position, orientation or spacing is not finite and positive".into(),
-        ));
-    }
-    let bits_allocated = int(&obj, tags::BITS_ALLOCATED).unwrap_or(16) as u16;
-    if !matches!(bits_allocated, 8 | 16 | 32) {
-        return Err(SkipReason::Unsupported(format!(
-            "BitsAllocated {bits_allocated} is not supported (8, 16 or 32)"
-        )));
-    }
-    let bits_stored = (int(&obj, tags::BITS_STORED).unwrap_or(bits_allocated as i64) as u16)
-        .clamp(1, bits_allocated);
-    let slope = floats(&obj, tags::RESCALE_SLOPE)
-        .and_then(|v| v.first().copied())
-        .unwrap_or(1.0);
-    let intercept = floats(&obj, tags::RESCALE_INTERCEPT)
-        .and_then(|v| v.first().copied())
-        .unwrap_or(0.0);
-    if !(slope.is_finite() && intercept.is_finite()) || slope == 0.0 {
-        return Err(SkipReason::Unsupported(
-            "RescaleSlope or RescaleIntercept is not usable".into(),
-        ));
-    }
-    Ok(SliceHeader {
-        path: path.to_path_buf(),
-        series,
-        series_number: int(&obj, tags::SERIES_NUMBER),
-        description: text(&obj, tags::SERIES_DESCRIPTION).unwrap_or_default(),
-        modality: text(&obj, tags::MODALITY).unwrap_or_default(),
-        rows: rows as u16,
-        cols: cols as u16,
-        position: [p[0], p[1], p[2]],
-        orientation: [o[0], o[1], o[2], o[3], o[4], o[5]],
-        pixel_spacing: [s[0], s[1]],
-        rescale: Rescale { slope, intercept },
-        bits_allocated,
-        bits_stored,
-        signed: int(&obj, tags::PIXEL_REPRESENTATION) == Some(1),
-    })
-}
 
 /// One series of a DICOM input, as listed.
 #[derive(Clone, Debug, PartialEq)]
@@ -264,13 +65,17 @@ impl Scan {
     /// none of whose files joins one is an error naming the first.
     pub fn new(input: &Path, files: &[PathBuf]) -> CResult<Scan> {
         use rayon::prelude::*;
-        let headers: Vec<(&PathBuf, Result<SliceHeader, SkipReason>)> =
-            files.par_iter().map(|f| (f, read_header(f))).collect();
+        let headers: Vec<(&PathBuf, Result<Vec<SliceHeader>, SkipReason>)> =
+            files.par_iter().map(|f| (f, read_file(f))).collect();
         let mut by_series: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
         let mut skipped = Vec::new();
         for (path, h) in headers {
             match h {
-                Ok(h) => by_series.entry(h.series.clone()).or_default().push(h),
+                Ok(slices) => {
+                    for h in slices {
+                        by_series.entry(h.series.clone()).or_default().push(h);
+                    }
+                }
                 Err(reason) => skipped.push(Skipped {
                     path: path.clone(),
                     reason,
