@@ -30,6 +30,9 @@ pub struct ReadOptions {
     /// DICOM: the series to read when the input holds several: its
     /// SeriesNumber, its SeriesInstanceUID or a unique prefix of it.
     pub series: Option<String>,
+    /// DICOM: the echo to read of a series whose echoes are an axis of
+    /// their own (multi-echo), from 0; refused for every other input.
+    pub echo: Option<u64>,
     /// OME-Zarr: the pyramid level to read (`None`: level 0, the full
     /// resolution); refused for every other input.
     pub level: Option<u32>,
@@ -262,12 +265,21 @@ fn level_refusal(kind: InputKind, level: u32) -> String {
     )
 }
 
-/// `--level` given for an input of `kind` that has no levels: an error.
+/// `--level` given for an input of `kind` that has no levels, or
+/// `--echo` for one that has no echoes (only DICOM has): an error.
 fn refuse_level(path: &Path, kind: InputKind, opts: &ReadOptions) -> CResult<()> {
-    match opts.level {
-        Some(n) if kind != InputKind::OmeZarr => Err(ConvertError::new(
+    let dicom = matches!(kind, InputKind::DicomDir | InputKind::Dicom);
+    match (opts.level, opts.echo) {
+        (Some(n), _) if kind != InputKind::OmeZarr => Err(ConvertError::new(
             path,
             Error::invalid(level_refusal(kind, n)),
+        )),
+        (_, Some(e)) if !dicom => Err(ConvertError::new(
+            path,
+            Error::invalid(format!(
+                "--echo {e}: a {} input has no echo axis (--echo picks an echo of a multi-echo DICOM series)",
+                kind.name()
+            )),
         )),
         _ => Ok(()),
     }
@@ -279,7 +291,7 @@ fn refuse_level(path: &Path, kind: InputKind, opts: &ReadOptions) -> CResult<()>
 /// A path whose kind cannot be told is left to the open that follows,
 /// which says why.
 pub fn check_applies(path: &Path, opts: &ReadOptions) -> CResult<()> {
-    if opts.level.is_none() {
+    if opts.level.is_none() && opts.echo.is_none() {
         return Ok(());
     }
     match input_kind(path, opts) {
@@ -309,7 +321,13 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
         }
         InputKind::DicomDir | InputKind::Dicom => {
             let files = dicom_files(path, kind)?;
-            Box::new(crate::dicom::open(path, files, opts.series.as_deref())?)
+            Box::new(crate::dicom::open(
+                path,
+                files,
+                opts.series.as_deref(),
+                opts.echo,
+                opts.time,
+            )?)
         }
         InputKind::OmeZarr => {
             let c = match opts.channel {

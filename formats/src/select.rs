@@ -1,7 +1,7 @@
 //! What to read from an input that holds more than one volume, or cannot
 //! describe itself: the one definition of the input-selection flags every
 //! tool that opens a volume takes (`--raw-*`, `--series`, `--channel`,
-//! `--time-point`, `--level`), flattened into each tool's command line, so an error
+//! `--time-point`, `--echo`, `--level`), flattened into each tool's command line, so an error
 //! that names one of these flags names a flag the tool has.
 
 use crate::open::ReadOptions;
@@ -27,9 +27,14 @@ pub struct Selection {
     #[cfg_attr(feature = "clap", arg(long, value_name = "C"))]
     pub channel: Option<u16>,
     /// Input with a time axis (4D NIfTI, ImageJ hyperstack, OME-TIFF,
-    /// OME-Zarr): the time point to read, from 0.
+    /// OME-Zarr, a DICOM time series: fMRI, diffusion, cardiac phases):
+    /// the time point to read, from 0.
     #[cfg_attr(feature = "clap", arg(long = "time-point", value_name = "T"))]
     pub time_point: Option<u64>,
+    /// Multi-echo DICOM series: the echo to read, from 0 (`vol-info`
+    /// lists the echoes); other inputs have no echo axis and refuse it.
+    #[cfg_attr(feature = "clap", arg(long, value_name = "E"))]
+    pub echo: Option<u64>,
     /// OME-Zarr pyramid: the level to read, 0 (full resolution, the
     /// default) to the coarsest; other inputs have no levels and refuse it.
     #[cfg_attr(feature = "clap", arg(long, value_name = "N"))]
@@ -66,6 +71,7 @@ impl Selection {
             channel: self.channel.map_or(ChannelSel::Single, ChannelSel::Channel),
             time: self.time_point,
             series: self.series.clone(),
+            echo: self.echo,
             level: self.level,
             ..ReadOptions::default()
         })
@@ -77,6 +83,7 @@ impl Selection {
             || self.series.is_some()
             || self.channel.is_some()
             || self.time_point.is_some()
+            || self.echo.is_some()
             || self.level.is_some()
             || self.old_time.is_some()
     }

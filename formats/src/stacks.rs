@@ -14,6 +14,8 @@ pub struct Stacks {
     pub channels: u64,
     /// Time points.
     pub time_points: u64,
+    /// Echoes (a multi-echo DICOM series; 1 for every other input).
+    pub echoes: u64,
     /// Time between two time points, in `time_unit`, when the file states
     /// it (and has more than one time point).
     pub time_step: Option<f64>,
@@ -27,6 +29,7 @@ impl Default for Stacks {
         Stacks {
             channels: 1,
             time_points: 1,
+            echoes: 1,
             time_step: None,
             time_unit: None,
         }

@@ -123,6 +123,8 @@ fn info(cli: &Cli) -> Result<()> {
     }
     // A DICOM input's skipped files, listed after the description.
     let mut skipped = None;
+    // A DICOM series' time points and echoes, from its scan.
+    let mut dicom_sizes = None;
     // The format named as vol-convert names it (the reader's words:
     // "dicom series (CT, 120 images)", "nifti-1 (nii, gzip)").
     let (vol, format) = if matches!(kind, Some(InputKind::DicomDir | InputKind::Dicom)) {
@@ -136,7 +138,19 @@ fn info(cli: &Cli) -> Result<()> {
             return Ok(());
         }
         skipped = Some(scan.skipped().to_vec());
-        let reader = scan.open(cli.input_sel.series.as_deref())?;
+        // A series of several volumes: the first is described, with the
+        // sizes of its axes.
+        let series = scan.info(sel.series.as_deref())?;
+        dicom_sizes = Some(Stacks {
+            time_points: series.time_points,
+            echoes: series.echoes,
+            time_step: series.time_step,
+            time_unit: series.time_step.map(|_| volformats::stacks::TimeUnit::Second),
+            ..Stacks::default()
+        });
+        let echo = sel.echo.or((series.echoes > 1).then_some(0));
+        let time = sel.time_point.or((series.time_points > 1).then_some(0));
+        let reader = scan.open(sel.series.as_deref(), echo, time)?;
         let format = reader.info().format.clone();
         (volformats::open::load(Box::new(reader), None)?, format)
     } else {
@@ -155,7 +169,10 @@ fn info(cli: &Cli) -> Result<()> {
     }
     // The reader's error, when there is one, came first: it says more.
     // Along an axis of one, any pick the reader let pass read the one.
-    let sizes = stacks?;
+    let sizes = match dicom_sizes {
+        Some(s) => s,
+        None => stacks?,
+    };
     let described = Described {
         sizes,
         channel: sel
@@ -166,8 +183,10 @@ fn info(cli: &Cli) -> Result<()> {
             .time_point
             .unwrap_or(0)
             .min(sizes.time_points.saturating_sub(1)),
+        echo: sel.echo.unwrap_or(0).min(sizes.echoes.saturating_sub(1)),
         channel_given: sel.channel.is_some(),
         time_point_given: sel.time_point.is_some(),
+        echo_given: sel.echo.is_some(),
     };
     let levels = match kind {
         Some(InputKind::OmeZarr) => Some(levels::Levels {
@@ -201,28 +220,32 @@ struct Described {
     sizes: Stacks,
     channel: u64,
     time_point: u64,
+    echo: u64,
     channel_given: bool,
     time_point_given: bool,
+    echo_given: bool,
 }
 
 impl Described {
     /// Whether the input holds more than one volume.
     fn several(&self) -> bool {
-        self.sizes.channels > 1 || self.sizes.time_points > 1
+        self.sizes.channels > 1 || self.sizes.time_points > 1 || self.sizes.echoes > 1
     }
 
-    /// The `channels`, `time_points`, `time_step`, `time_unit`, `channel`
-    /// and `time_point` keys: present for every input (1, 1, null, null,
-    /// 0, 0 for a single volume).
+    /// The `channels`, `time_points`, `echoes`, `time_step`, `time_unit`,
+    /// `channel`, `time_point` and `echo` keys: present for every input
+    /// (1, 1, 1, null, null, 0, 0, 0 for a single volume).
     fn json(&self) -> serde_json::Value {
         let s = &self.sizes;
         json!({
             "channels": s.channels,
             "time_points": s.time_points,
+            "echoes": s.echoes,
             "time_step": s.time_step,
             "time_unit": s.time_unit.map(|u| u.ngff_name()),
             "channel": self.channel,
             "time_point": self.time_point,
+            "echo": self.echo,
         })
     }
 
@@ -253,20 +276,33 @@ impl Described {
                 flags.push("--time-point T");
             }
         }
+        if s.echoes > 1 {
+            which.push(format!("echo {}", self.echo));
+            if !self.echo_given {
+                flags.push("--echo E");
+            }
+        }
         let mut described = format!("described: {}", which.join(", "));
         if !flags.is_empty() {
             described.push_str(&format!("; pick another with {}", flags.join(", ")));
         }
-        vec![
+        let mut lines = vec![
             format!("channels: {}", s.channels),
             format!("time points: {}{step}", s.time_points),
-            described,
-        ]
+        ];
+        if s.echoes > 1 {
+            lines.push(format!("echoes: {}", s.echoes));
+        }
+        lines.push(described);
+        lines
     }
 
-    /// Volumes the file holds (C x T), saturating.
+    /// Volumes the file holds (C x T x E), saturating.
     fn volumes(&self) -> u64 {
-        self.sizes.channels.saturating_mul(self.sizes.time_points)
+        self.sizes
+            .channels
+            .saturating_mul(self.sizes.time_points)
+            .saturating_mul(self.sizes.echoes)
     }
 }
 
@@ -393,12 +429,18 @@ fn list_series(cli: &Cli, scan: &Scan, seconds: f64) -> std::io::Result<()> {
             .iter()
             .map(|s| {
                 json!({
+                    "id": s.id,
                     "uid": s.uid,
                     "number": s.number,
+                    "sub": s.sub,
                     "description": s.description,
                     "modality": s.modality,
                     "images": s.images,
                     "dims": s.dims,
+                    "time_points": s.time_points,
+                    "echoes": s.echoes,
+                    "time_step": s.time_step,
+                    "volumes": s.volumes,
                     "problem": s.problem,
                 })
             })
@@ -414,7 +456,7 @@ fn list_series(cli: &Cli, scan: &Scan, seconds: f64) -> std::io::Result<()> {
         return outln!("{v}");
     }
     outln!(
-        "{}: {} DICOM series; pick one with --series NUMBER or a unique UID prefix",
+        "{}: {} DICOM series; pick one with --series ID (or its UID, or a unique UID prefix)",
         cli.input.display(),
         series.len()
     )?;
@@ -445,15 +487,18 @@ fn series_table(series: &[SeriesInfo]) -> Vec<String> {
             .collect()
     };
     let mut rows = vec![[
-        "UID".to_string(),
+        "ID".to_string(),
+        "UID".into(),
         "NUMBER".into(),
         "DESCRIPTION".into(),
         "MODALITY".into(),
         "IMAGES".into(),
         "DIMS".into(),
+        "VOLUMES".into(),
     ]];
     for s in series {
         rows.push([
+            clean(&s.id),
             clean(&s.uid),
             s.number
                 .map(|n| n.to_string())
@@ -470,6 +515,11 @@ fn series_table(series: &[SeriesInfo]) -> Vec<String> {
             },
             s.images.to_string(),
             format!("{}x{}x{}", s.dims[0], s.dims[1], s.dims[2]),
+            if s.volumes.is_empty() {
+                "1".into()
+            } else {
+                s.volumes.clone()
+            },
         ]);
     }
     listing::columns(&rows)

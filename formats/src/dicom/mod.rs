@@ -41,6 +41,7 @@ mod header;
 mod pixels;
 mod series;
 mod skip;
+mod volumes;
 
 pub use series::{Scan, SeriesInfo};
 pub use skip::{shown, SkipReason, Skipped};
@@ -142,53 +143,24 @@ pub struct DicomReader {
     skipped: Vec<Skipped>,
 }
 
-/// Open the series in `files` (from `input`): the one `series` names
-/// (see [`Scan`]), or the only one.
-pub fn open(input: &Path, files: Vec<PathBuf>, series: Option<&str>) -> CResult<DicomReader> {
-    Scan::new(input, &files)?.open(series)
+/// Open a volume of the series in `files` (from `input`): the series
+/// `series` names (see [`Scan`]), or the only one; the volume `echo` and
+/// `time` pick where it has several.
+pub fn open(
+    input: &Path,
+    files: Vec<PathBuf>,
+    series: Option<&str>,
+    echo: Option<u64>,
+    time: Option<u64>,
+) -> CResult<DicomReader> {
+    Scan::new(input, &files)?.open(series, echo, time)
 }
 
 impl DicomReader {
     fn new(input: &Path, mut slices: Vec<SliceHeader>) -> CResult<DicomReader> {
+        // One size, orientation and pixel type: the scan's sub-series
+        // (series.rs) hold nothing else.
         let first = slices[0].clone();
-        for s in &slices {
-            if (s.rows, s.cols) != (first.rows, first.cols) {
-                return Err(bad(
-                    &s.path,
-                    format!(
-                        "image is {}x{} but {} is {}x{}: mixed sizes in one series",
-                        s.cols,
-                        s.rows,
-                        first.path.display(),
-                        first.cols,
-                        first.rows
-                    ),
-                ));
-            }
-            for (differs, what) in [
-                (
-                    differ(&s.orientation, &first.orientation),
-                    "ImageOrientationPatient",
-                ),
-                (
-                    differ(&s.pixel_spacing, &first.pixel_spacing),
-                    "PixelSpacing",
-                ),
-            ] {
-                if differs {
-                    return Err(bad(
-                        &s.path,
-                        format!("{what} differs from the rest of the series"),
-                    ));
-                }
-            }
-            if (s.bits_allocated, s.signed) != (first.bits_allocated, first.signed) {
-                return Err(bad(
-                    &s.path,
-                    "pixel type differs from the rest of the series",
-                ));
-            }
-        }
         let o = first.orientation;
         let row = [o[0], o[1], o[2]];
         let col = [o[3], o[4], o[5]];

@@ -5,38 +5,63 @@
 
 use super::header::{read_file, SliceHeader};
 use super::skip::{skipped_brief, SkipReason, Skipped};
+use super::volumes::{self, Volumes};
 use super::{bad, DicomReader};
 use crate::reader::{CResult, ConvertError};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// One series of a DICOM input, as listed.
+/// One series of a DICOM input, as listed: a SeriesInstanceUID with
+/// its SeriesNumber, or a sub-series of one (images of one size,
+/// orientation and pixel type, where the series mixes several: a
+/// localizer beside the scan).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SeriesInfo {
+    /// What `--series` takes to pick this one alone: the SeriesNumber
+    /// (or the UID where no number, or the number of several UIDs), with
+    /// `-K` for sub-series K (from 1) of a mixed series.
+    pub id: String,
     /// SeriesInstanceUID.
     pub uid: String,
     /// SeriesNumber, when the files give one.
     pub number: Option<i64>,
+    /// The sub-series (from 1), when the series mixes images that cannot
+    /// share a volume.
+    pub sub: Option<usize>,
     /// SeriesDescription (empty when none).
     pub description: String,
     /// Modality (empty when none).
     pub modality: String,
-    /// Image files.
+    /// Images (slices: a mosaic file holds several, as does a
+    /// multi-frame one).
     pub images: usize,
-    /// Columns, rows and images.
+    /// Columns, rows and slices of one volume.
     pub dims: [u64; 3],
-    /// Why the series cannot be read as one volume (mixed sizes, missing
-    /// slices, gantry tilt, ...), the error opening it gives; `None` when
-    /// it can.
+    /// Echoes (1 when echoes are no axis of their own).
+    pub echoes: u64,
+    /// Time points (volumes per echo).
+    pub time_points: u64,
+    /// Seconds between time points (RepetitionTime of a time series).
+    pub time_step: Option<f64>,
+    /// What the volumes are, `120 time points (by AcquisitionNumber), TR
+    /// 2 s`; empty for one volume.
+    pub volumes: String,
+    /// Why the series cannot be read as volumes (missing slices, gantry
+    /// tilt, slices no attribute tells apart, ...), the error opening it
+    /// gives; `None` when it can.
     pub problem: Option<String>,
 }
 
 impl SeriesInfo {
-    /// `#N UID (CT, 10 images of 16x12)`, for messages.
+    /// `3 UID (CT, 10 images of 16x12)`, for messages: the id first.
     pub fn describe(&self) -> String {
         format!(
-            "{}{} ({}{} images of {}x{})",
-            self.number.map(|n| format!("#{n} ")).unwrap_or_default(),
+            "{}{} ({}{} images of {}x{}{})",
+            if self.id == self.uid {
+                String::new()
+            } else {
+                format!("#{} ", self.id)
+            },
             self.uid,
             if self.modality.is_empty() {
                 String::new()
@@ -45,18 +70,57 @@ impl SeriesInfo {
             },
             self.images,
             self.dims[0],
-            self.dims[1]
+            self.dims[1],
+            if self.volumes.is_empty() {
+                String::new()
+            } else {
+                format!(", {}", self.volumes)
+            }
         )
     }
 }
 
+/// Whether two slices can share a volume: one size, orientation, pixel
+/// spacing and pixel type.
+fn same_shape(a: &SliceHeader, b: &SliceHeader) -> bool {
+    (a.rows, a.cols, a.bits_allocated, a.signed) == (b.rows, b.cols, b.bits_allocated, b.signed)
+        && !super::differ(&a.orientation, &b.orientation)
+        && !super::differ(&a.pixel_spacing, &b.pixel_spacing)
+}
+
+/// `slices` of one series split into groups that can each share a
+/// volume, the largest first (the scan before its localizer).
+fn sub_series(slices: Vec<SliceHeader>) -> Vec<Vec<SliceHeader>> {
+    let mut groups: Vec<Vec<SliceHeader>> = Vec::new();
+    for s in slices {
+        match groups.iter_mut().find(|g| same_shape(&g[0], &s)) {
+            Some(g) => g.push(s),
+            None => groups.push(vec![s]),
+        }
+    }
+    // Stable: equal sizes keep the order of their first file.
+    groups.sort_by_key(|g| std::cmp::Reverse(g.len()));
+    groups
+}
+
 /// The files of a DICOM input read up to their pixel data: the images
-/// grouped by series (in order of SeriesNumber, then UID), each series
-/// checked as a volume, and the files skipped with their reasons.
+/// grouped by series (SeriesInstanceUID and SeriesNumber; in order of
+/// SeriesNumber, then UID), split into sub-series and volumes, each
+/// checked, and the files skipped with their reasons.
 pub struct Scan {
     input: PathBuf,
-    series: Vec<(SeriesInfo, CResult<DicomReader>)>,
+    series: Vec<(SeriesInfo, CResult<Volumes>)>,
     skipped: Vec<Skipped>,
+}
+
+/// An error about the input as a whole.
+fn problem_text(input: &Path, e: &ConvertError) -> String {
+    // The input is named once, by whoever prints the problem.
+    if e.path == input {
+        e.error.to_string()
+    } else {
+        e.to_string()
+    }
 }
 
 impl Scan {
@@ -67,13 +131,16 @@ impl Scan {
         use rayon::prelude::*;
         let headers: Vec<(&PathBuf, Result<Vec<SliceHeader>, SkipReason>)> =
             files.par_iter().map(|f| (f, read_file(f))).collect();
-        let mut by_series: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
+        let mut by_series: BTreeMap<(String, Option<i64>), Vec<SliceHeader>> = BTreeMap::new();
         let mut skipped = Vec::new();
         for (path, h) in headers {
             match h {
                 Ok(slices) => {
                     for h in slices {
-                        by_series.entry(h.series.clone()).or_default().push(h);
+                        by_series
+                            .entry((h.series.clone(), h.series_number))
+                            .or_default()
+                            .push(h);
                     }
                 }
                 Err(reason) => skipped.push(Skipped {
@@ -92,32 +159,67 @@ impl Scan {
                 ),
             ));
         }
-        let mut series: Vec<(SeriesInfo, CResult<DicomReader>)> = by_series
-            .into_iter()
-            .map(|(uid, v)| {
+        // A number names a series alone only when no other UID has it.
+        let mut uids_of_number: BTreeMap<i64, usize> = BTreeMap::new();
+        for (_, n) in by_series.keys() {
+            if let Some(n) = n {
+                *uids_of_number.entry(*n).or_default() += 1;
+            }
+        }
+        let mut series: Vec<(SeriesInfo, CResult<Volumes>)> = Vec::new();
+        for ((uid, number), v) in by_series {
+            let base = match number {
+                Some(n) if uids_of_number.get(&n) == Some(&1) => n.to_string(),
+                _ => uid.clone(),
+            };
+            let subs = sub_series(v);
+            let several = subs.len() > 1;
+            for (k, v) in subs.into_iter().enumerate() {
                 let first = &v[0];
                 let mut info = SeriesInfo {
-                    number: v.iter().find_map(|h| h.series_number),
+                    id: if several {
+                        format!("{base}-{}", k + 1)
+                    } else {
+                        base.clone()
+                    },
+                    sub: several.then_some(k + 1),
+                    number,
                     description: first.description.clone(),
                     modality: first.modality.clone(),
                     images: v.len(),
                     dims: [first.cols as u64, first.rows as u64, v.len() as u64],
-                    uid,
+                    echoes: 1,
+                    time_points: 1,
+                    time_step: None,
+                    volumes: String::new(),
+                    uid: uid.clone(),
                     problem: None,
                 };
-                let reader = DicomReader::new(input, v);
-                // The input is named once, by whoever prints the problem.
-                info.problem = reader.as_ref().err().map(|e| {
-                    if e.path == input {
-                        e.error.to_string()
-                    } else {
-                        e.to_string()
-                    }
+                let split = volumes::split(v).map_err(|e| bad(input, e));
+                // The first volume stands for all: they cover the same
+                // positions.
+                let checked = split.and_then(|vols| {
+                    DicomReader::new(input, vols.volumes[0].clone())?;
+                    Ok(vols)
                 });
-                (info, reader)
-            })
-            .collect();
-        series.sort_by(|a, b| (a.0.number, &a.0.uid).cmp(&(b.0.number, &b.0.uid)));
+                match &checked {
+                    Ok(vols) => {
+                        info.dims[2] = vols.volumes[0].len() as u64;
+                        info.echoes = vols.echoes as u64;
+                        info.time_points = vols.time_points as u64;
+                        info.time_step = vols.time_step;
+                        if vols.volumes.len() > 1 {
+                            info.volumes = vols.describe();
+                        }
+                    }
+                    Err(e) => info.problem = Some(problem_text(input, e)),
+                }
+                series.push((info, checked));
+            }
+        }
+        series.sort_by(|a, b| {
+            (a.0.number, &a.0.uid, a.0.sub).cmp(&(b.0.number, &b.0.uid, b.0.sub))
+        });
         Ok(Scan {
             input: input.to_path_buf(),
             series,
@@ -135,9 +237,11 @@ impl Scan {
         &self.skipped
     }
 
-    /// The index of the series `sel` names, tried in this order: its
-    /// whole UID, its SeriesNumber, a prefix of one UID only; with `None`,
-    /// the only series. Anything else is an error listing the candidates.
+    /// The index of the series `sel` names, tried in this order: its id
+    /// (as listed: `3`, `3-2`), its whole UID (with `-K` for a
+    /// sub-series), its SeriesNumber, a prefix of one UID only; with
+    /// `None`, the only series. Anything else is an error listing the
+    /// candidates.
     fn select(&self, sel: Option<&str>) -> CResult<usize> {
         let list = |idx: &[usize]| {
             idx.iter()
@@ -159,7 +263,11 @@ impl Scan {
                 ),
             ));
         };
-        if let Some(i) = self.series.iter().position(|(s, _)| s.uid == sel) {
+        let exact = |i: &usize| {
+            let s = &self.series[*i].0;
+            s.id == sel || s.sub.is_some_and(|k| format!("{}-{k}", s.uid) == sel)
+        };
+        if let Some(i) = all.iter().copied().find(exact) {
             return Ok(i);
         }
         let pick = |found: Vec<usize>, how: &str| -> CResult<Option<usize>> {
@@ -169,12 +277,20 @@ impl Scan {
                 n => Err(bad(
                     &self.input,
                     format!(
-                        "--series {sel} is ambiguous: {n} series {how}: {}; give more of the UID",
+                        "--series {sel} is ambiguous: {n} series {how}: {}; give the id vol-info lists (or more of the UID)",
                         list(&found)
                     ),
                 )),
             }
         };
+        let found = all
+            .iter()
+            .copied()
+            .filter(|&i| self.series[i].0.uid == sel)
+            .collect();
+        if let Some(i) = pick(found, "have this UID")? {
+            return Ok(i);
+        }
         if let Ok(number) = sel.parse::<i64>() {
             let found = all
                 .iter()
@@ -221,12 +337,47 @@ impl Scan {
         Err(bad(&self.input, msg))
     }
 
-    /// Open the series `sel` names (see [`Scan::select`]), whatever else
-    /// the input holds: only the series' own problem is an error, with the
-    /// files skipped named after it (one of them may be its missing slice).
-    pub fn open(mut self, sel: Option<&str>) -> CResult<DicomReader> {
+    /// The series `sel` names (see [`Scan::select`]).
+    pub fn info(&self, sel: Option<&str>) -> CResult<&SeriesInfo> {
+        Ok(&self.series[self.select(sel)?].0)
+    }
+
+    /// Open volume (`echo`, `time`) of the series `sel` names (see
+    /// [`Scan::select`]), whatever else the input holds: only the
+    /// series' own problem is an error, with the files skipped named after
+    /// it (one of them may be its missing slice). A series of several
+    /// volumes needs `time` (and `echo` where echoes are an axis).
+    pub fn open(
+        mut self,
+        sel: Option<&str>,
+        echo: Option<u64>,
+        time: Option<u64>,
+    ) -> CResult<DicomReader> {
         let i = self.select(sel)?;
-        let (_, reader) = self.series.swap_remove(i);
+        let (_, volumes) = self.series.swap_remove(i);
+        let reader = volumes.and_then(|v| {
+            let slices = v.pick(echo, time).map_err(|e| bad(&self.input, e))?;
+            let mut r = DicomReader::new(&self.input, slices.to_vec())?;
+            if v.volumes.len() > 1 {
+                let mut at = Vec::new();
+                if v.echoes > 1 {
+                    at.push(format!("echo {} of {}", echo.unwrap_or(0), v.echoes));
+                }
+                if v.time_points > 1 {
+                    at.push(format!(
+                        "time point {} of {}",
+                        time.unwrap_or(0),
+                        v.time_points
+                    ));
+                }
+                r.info.format = format!(
+                    "{}, {})",
+                    r.info.format.trim_end_matches(')'),
+                    at.join(", ")
+                );
+            }
+            Ok(r)
+        });
         match reader {
             Ok(mut r) => {
                 r.skipped = self.skipped;

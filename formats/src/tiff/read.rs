@@ -644,6 +644,7 @@ pub fn stacks(input: &Path, files: &[PathBuf]) -> CResult<Stacks> {
         time_points: a.t,
         time_step,
         time_unit,
+        ..Stacks::default()
     })
 }
 
