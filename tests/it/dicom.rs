@@ -484,3 +484,204 @@ fn a_rescaled_series_that_does_not_fit_names_the_stored_type() {
         "{err}"
     );
 }
+
+/// Slice `z` of time point `t` and echo `e` (from 1) of an MR run
+/// (SeriesNumber 5): 4x3 u16 pixels that say `z`, `t` and `e`; each slice
+/// acquired at its own second, AcquisitionNumber per time point, TR 2 s.
+fn mr_slice(z: u32, t: u32, e: u32) -> DataSet {
+    let pixels: Vec<u8> = (0..COLS as u32 * ROWS as u32)
+        .flat_map(|i| ((i + z * 16 + t * 256 + e * 4096) as u16).to_le_bytes())
+        .collect();
+    let seconds = 36000 + t * 20 + z;
+    ct_slice(z)
+        .set(0x0008_0016, b"UI", "1.2.840.10008.5.1.4.1.1.4")
+        .set(0x0008_0018, b"UI", format!("{MR_SERIES}.{z}.{t}.{e}"))
+        .set(0x0008_0032, b"TM", tm(seconds))
+        .set(0x0008_0060, b"CS", "MR")
+        .set(0x0018_0080, b"DS", "2000")
+        .set(0x0028_0101, b"US", us(16))
+        .set(0x0028_0102, b"US", us(15))
+        .set(0x0018_0086, b"IS", e.to_string())
+        .set(0x0020_000e, b"UI", MR_SERIES)
+        .set(0x0020_0011, b"IS", "5")
+        .set(0x0020_0012, b"IS", (t + 1).to_string())
+        .without(0x0028_1052)
+        .without(0x0028_1053)
+        .set(0x7fe0_0010, b"OW", pixels)
+}
+
+const MR_SERIES: &str = "1.2.826.0.1.3680043.8.498.64.5";
+
+/// Seconds since midnight as a DICOM TM (`HHMMSS`).
+fn tm(s: u32) -> String {
+    format!("{:02}{:02}{:02}", s / 3600, s / 60 % 60, s % 60)
+}
+
+/// A folder of an MR run: every slice of `times` time points and
+/// `echoes` echoes, in shuffled file order.
+fn mr_folder(dir: &Path, slices: u32, times: u32, echoes: u32) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let mut k = 0u32;
+    for t in 0..times {
+        for e in 1..=echoes {
+            for z in 0..slices {
+                let name = format!("MR{:05}.dcm", (k * 7919) % 100_000);
+                std::fs::write(dir.join(name), mr_slice(z, t, e).file(EXPLICIT_LE)).unwrap();
+                k += 1;
+            }
+        }
+    }
+    dir.to_path_buf()
+}
+
+#[test]
+fn a_time_series_is_volumes_picked_with_time_point() {
+    let d = tempfile::tempdir().unwrap();
+    let run = mr_folder(&d.path().join("run"), 4, 3, 1);
+    // Before issue 64: "A and B lie at the same position".
+    let j = info_json(&run, &[]);
+    assert_eq!(j["time_points"], 3, "{j}");
+    assert_eq!(j["time_step"], 2.0, "{j}");
+    assert_eq!(j["time_unit"], "second", "{j}");
+    assert_eq!(j["dims"], serde_json::json!([4, 3, 4]), "{j}");
+    let text = ok(tool("vol-info").arg(&run));
+    assert!(text.contains("time points: 3 (step 2 s)"), "{text}");
+    assert!(text.contains("--time-point T"), "{text}");
+    // Each time point equals the same slices written as a folder alone.
+    for t in 0..3u32 {
+        let alone = d.path().join(format!("alone{t}"));
+        std::fs::create_dir_all(&alone).unwrap();
+        for z in 0..4 {
+            let f = mr_slice(z, t, 1).set(0x0020_0012, b"IS", "1");
+            std::fs::write(alone.join(format!("{z}.dcm")), f.file(EXPLICIT_LE)).unwrap();
+        }
+        let (want, _) = convert(&alone, &[]);
+        let (got, _) = convert(&run, &["--time-point", &t.to_string()]);
+        assert_eq!(got, want, "time point {t}");
+        assert_eq!(got.len(), 4 * 3 * 4 * 2);
+        // The pixels say which time point they are.
+        assert_eq!(
+            u16::from_le_bytes([got[0], got[1]]),
+            (t * 256 + 4096) as u16
+        );
+    }
+    let mut cmd = tool("vol-convert");
+    cmd.arg(&run).arg("-o").arg(d.path().join("x.raw"));
+    let e = fails(&mut cmd, "pick one with --time-point T (0..2)");
+    assert!(
+        e.contains("3 time points (by AcquisitionNumber), TR 2 s"),
+        "{e}"
+    );
+    assert!(!d.path().join("x.raw").exists());
+    let mut cmd = tool("vol-convert");
+    cmd.arg(&run)
+        .args(["--time-point", "3", "-o"])
+        .arg(d.path().join("x.raw"));
+    fails(&mut cmd, "--time-point 3 asked for");
+    // No echo axis here.
+    let mut cmd = tool("vol-info");
+    cmd.arg(&run).args(["--echo", "1", "--time-point", "0"]);
+    fails(&mut cmd, "no echoes of its own");
+}
+
+#[test]
+fn echoes_are_an_axis_of_their_own() {
+    let d = tempfile::tempdir().unwrap();
+    let run = mr_folder(&d.path().join("me"), 3, 2, 2);
+    let j = info_json(&run, &[]);
+    assert_eq!(
+        (j["echoes"].as_u64(), j["time_points"].as_u64()),
+        (Some(2), Some(2)),
+        "{j}"
+    );
+    let text = ok(tool("vol-info").arg(&run));
+    assert!(
+        text.contains("echoes: 2") && text.contains("--echo E"),
+        "{text}"
+    );
+    for (e, t) in [(0u32, 1u32), (1, 0), (1, 1)] {
+        let (got, _) = convert(
+            &run,
+            &["--echo", &e.to_string(), "--time-point", &t.to_string()],
+        );
+        assert_eq!(
+            u16::from_le_bytes([got[0], got[1]]),
+            (t * 256 + (e + 1) * 4096) as u16,
+            "echo {e} time point {t}"
+        );
+    }
+    let mut cmd = tool("vol-convert");
+    cmd.arg(&run)
+        .args(["--time-point", "0", "-o"])
+        .arg(d.path().join("x.raw"));
+    fails(&mut cmd, "pick one with --echo E (0..1)");
+    // --echo means a DICOM echo: other inputs refuse it as a usage error.
+    let nii = d.path().join("a.nii");
+    ok(tool("vol-convert")
+        .arg(&run)
+        .args(["--echo", "0", "--time-point", "0", "-o"])
+        .arg(&nii));
+    let o = run_cmd(tool("vol-info").arg(&nii).args(["--echo", "0"]));
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("has no echo axis") && err.lines().count() == 1,
+        "{err}"
+    );
+}
+
+fn run_cmd(cmd: &mut std::process::Command) -> std::process::Output {
+    run(cmd)
+}
+
+#[test]
+fn a_series_is_its_uid_with_its_number_and_splits_into_sub_series() {
+    let d = tempfile::tempdir().unwrap();
+    let clean = ct_folder(&d.path().join("clean"), 5);
+    // A localizer in the CT's series: another orientation.
+    let mixed = ct_folder(&d.path().join("mixed"), 5);
+    for k in 0..2u32 {
+        let f = ct_slice(k)
+            .set(0x0008_0018, b"UI", format!("{CT_SERIES}.90{k}"))
+            .set(0x0020_0032, b"DS", format!("{}\\-20\\0", k as f64 * 5.0))
+            .set(0x0020_0037, b"DS", "0\\1\\0\\0\\0\\-1");
+        std::fs::write(mixed.join(format!("loc{k}.dcm")), f.file(EXPLICIT_LE)).unwrap();
+    }
+    let j = json(&ok(tool("vol-info").arg(&mixed).arg("--json")));
+    let ids: Vec<&str> = j["series"]
+        .as_array()
+        .unwrap_or_else(|| panic!("no series list: {j}"))
+        .iter()
+        .map(|s| s["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(ids, ["3-1", "3-2"], "{j}");
+    assert_eq!(j["series"][0]["images"], 5);
+    assert_eq!(j["series"][1]["images"], 2);
+    assert!(j["series"][1]["problem"].is_null(), "{j}");
+    let (want, _) = convert(&clean, &[]);
+    for sel in ["3-1".to_string(), format!("{CT_SERIES}-1")] {
+        let (got, _) = convert(&mixed, &["--series", &sel]);
+        assert_eq!(got, want, "--series {sel}");
+    }
+    let (loc, _) = convert(&mixed, &["--series", "3-2"]);
+    assert_eq!(loc.len(), 4 * 3 * 2 * 2);
+    let mut cmd = tool("vol-convert");
+    cmd.arg(&mixed)
+        .args(["--series", "3", "-o"])
+        .arg(d.path().join("x.raw"));
+    fails(&mut cmd, "is ambiguous");
+    // Two SeriesNumbers under one UID are two series (before: one, and
+    // --series 4 answered "no series 4").
+    let two = ct_folder(&d.path().join("two"), 4);
+    for z in 0..3u32 {
+        let f = ct_slice(z)
+            .set(0x0008_0018, b"UI", format!("{CT_SERIES}.4.{z}"))
+            .set(0x0020_0011, b"IS", "4");
+        std::fs::write(two.join(format!("n4-{z}.dcm")), f.file(EXPLICIT_LE)).unwrap();
+    }
+    let j = info_json(&two, &[]);
+    assert_eq!(j["series"].as_array().map(Vec::len), Some(2), "{j}");
+    let (four, _) = convert(&two, &["--series", "4"]);
+    let (three, _) = convert(&two, &["--series", "3"]);
+    assert_eq!((four.len(), three.len()), (4 * 3 * 3 * 2, 4 * 3 * 4 * 2));
+}

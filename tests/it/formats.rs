@@ -1000,8 +1000,8 @@ fn pacs_folder_lists_its_series_and_skips_what_holds_no_image() {
     assert_eq!(
         rows,
         vec![
-            vec![PACS_CT, "3", "Axial 2.0", "CT", "4", "6x5x4"],
-            vec![PACS_MR, "7", "Axial T1", "MR", "3", "5x4x3"],
+            vec!["3", PACS_CT, "3", "Axial 2.0", "CT", "4", "6x5x4", "1"],
+            vec!["7", PACS_MR, "7", "Axial T1", "MR", "3", "5x4x3", "1"],
         ],
         "{text}"
     );
@@ -1015,8 +1015,8 @@ fn pacs_folder_lists_its_series_and_skips_what_holds_no_image() {
     assert_eq!(
         j["series"],
         serde_json::json!([
-            {"uid": PACS_CT, "number": 3, "description": "Axial 2.0", "modality": "CT", "images": 4, "dims": [6, 5, 4], "problem": null},
-            {"uid": PACS_MR, "number": 7, "description": "Axial T1", "modality": "MR", "images": 3, "dims": [5, 4, 3], "problem": null},
+            {"id": "3", "uid": PACS_CT, "number": 3, "sub": null, "description": "Axial 2.0", "modality": "CT", "images": 4, "dims": [6, 5, 4], "time_points": 1, "echoes": 1, "time_step": null, "volumes": "", "problem": null},
+            {"id": "7", "uid": PACS_MR, "number": 7, "sub": null, "description": "Axial T1", "modality": "MR", "images": 3, "dims": [5, 4, 3], "time_points": 1, "echoes": 1, "time_step": null, "volumes": "", "problem": null},
         ])
     );
     // vol-convert needs a pick, and names the candidates.

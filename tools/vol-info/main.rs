@@ -145,7 +145,9 @@ fn info(cli: &Cli) -> Result<()> {
             time_points: series.time_points,
             echoes: series.echoes,
             time_step: series.time_step,
-            time_unit: series.time_step.map(|_| volformats::stacks::TimeUnit::Second),
+            time_unit: series
+                .time_step
+                .map(|_| volformats::stacks::TimeUnit::Second),
             ..Stacks::default()
         });
         let echo = sel.echo.or((series.echoes > 1).then_some(0));

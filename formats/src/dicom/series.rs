@@ -217,9 +217,8 @@ impl Scan {
                 series.push((info, checked));
             }
         }
-        series.sort_by(|a, b| {
-            (a.0.number, &a.0.uid, a.0.sub).cmp(&(b.0.number, &b.0.uid, b.0.sub))
-        });
+        series
+            .sort_by(|a, b| (a.0.number, &a.0.uid, a.0.sub).cmp(&(b.0.number, &b.0.uid, b.0.sub)));
         Ok(Scan {
             input: input.to_path_buf(),
             series,

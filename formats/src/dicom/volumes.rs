@@ -114,9 +114,16 @@ impl Volumes {
         let e = match echo {
             Some(e) if e as usize >= self.echoes => {
                 return Err(if self.echoes == 1 {
-                    format!("--echo {e} asked for, but the series has no echoes of its own ({})", describe())
+                    format!(
+                        "--echo {e} asked for, but the series has no echoes of its own ({})",
+                        describe()
+                    )
                 } else {
-                    format!("--echo {e} asked for, but the series has echoes 0..{} ({})", self.echoes - 1, describe())
+                    format!(
+                        "--echo {e} asked for, but the series has echoes 0..{} ({})",
+                        self.echoes - 1,
+                        describe()
+                    )
                 })
             }
             Some(e) => e as usize,
@@ -312,9 +319,7 @@ pub(super) fn split(slices: Vec<SliceHeader>) -> Result<Volumes, String> {
     };
     // Echo-major order: the echo key first, then the others in precedence.
     if let Some(e) = echo_key {
-        groups.sort_by(|a, b| {
-            compare(&a.0[e..=e], &b.0[e..=e]).then_with(|| compare(&a.0, &b.0))
-        });
+        groups.sort_by(|a, b| compare(&a.0[e..=e], &b.0[e..=e]).then_with(|| compare(&a.0, &b.0)));
     }
     if groups.len() % echoes != 0 {
         return Err(format!(
@@ -333,7 +338,12 @@ pub(super) fn split(slices: Vec<SliceHeader>) -> Result<Volumes, String> {
     let mut slots: Vec<Option<SliceHeader>> = slices.into_iter().map(Some).collect();
     let volumes = groups
         .into_iter()
-        .map(|(_, members)| members.into_iter().filter_map(|i| slots[i].take()).collect())
+        .map(|(_, members)| {
+            members
+                .into_iter()
+                .filter_map(|i| slots[i].take())
+                .collect()
+        })
         .collect();
     Ok(Volumes {
         volumes,
@@ -432,7 +442,10 @@ mod tests {
                 .all(|s| s.keys.acquisition_number == Some(t as i64 + 1)));
         }
         assert_eq!(v.describe(), "4 time points (by AcquisitionNumber), TR 2 s");
-        assert_eq!(v.pick(None, Some(2)).unwrap()[0].keys.acquisition_number, Some(3));
+        assert_eq!(
+            v.pick(None, Some(2)).unwrap()[0].keys.acquisition_number,
+            Some(3)
+        );
         let e = v.pick(None, None).unwrap_err();
         assert!(e.contains("--time-point T (0..3)"), "{e}");
         let e = v.pick(None, Some(4)).unwrap_err();
@@ -465,14 +478,24 @@ mod tests {
         assert!(vol
             .iter()
             .all(|s| s.keys.echo_number == Some(2) && s.keys.acquisition_number == Some(2)));
-        assert!(v.pick(None, Some(0)).unwrap_err().contains("--echo E (0..1)"));
-        assert_eq!(v.describe(), "2 echoes x 3 time points (by AcquisitionNumber, EchoNumbers)");
+        assert!(v
+            .pick(None, Some(0))
+            .unwrap_err()
+            .contains("--echo E (0..1)"));
+        assert_eq!(
+            v.describe(),
+            "2 echoes x 3 time points (by AcquisitionNumber, EchoNumbers)"
+        );
     }
 
     #[test]
     fn diffusion_directions_and_phases_split() {
         let mut all = Vec::new();
-        for (b, d) in [(0.0, [0.0, 0.0, 0.0]), (1000.0, [1.0, 0.0, 0.0]), (1000.0, [0.0, 1.0, 0.0])] {
+        for (b, d) in [
+            (0.0, [0.0, 0.0, 0.0]),
+            (1000.0, [1.0, 0.0, 0.0]),
+            (1000.0, [0.0, 1.0, 0.0]),
+        ] {
             for z in 0..3 {
                 all.push(slice(
                     z as f64,
@@ -501,7 +524,10 @@ mod tests {
             slice(1.0, VolumeKeys::default()),
         ];
         let e = split(all).unwrap_err();
-        assert!(e.contains("lie at the same position") && e.contains(".dcm and "), "{e}");
+        assert!(
+            e.contains("lie at the same position") && e.contains(".dcm and "),
+            "{e}"
+        );
     }
 
     #[test]
@@ -509,6 +535,9 @@ mod tests {
         let mut all = fmri(3, 4);
         all.remove(0);
         let e = split(all).unwrap_err();
-        assert!(e.contains("do not all cover its 4 positions") && e.contains("has 3 slices"), "{e}");
+        assert!(
+            e.contains("do not all cover its 4 positions") && e.contains("has 3 slices"),
+            "{e}"
+        );
     }
 }
