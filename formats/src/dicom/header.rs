@@ -299,7 +299,7 @@ fn volume_keys(obj: &DefaultDicomObject) -> VolumeKeys {
 pub(super) fn seconds_of_day(tm: &str) -> Option<f64> {
     let t: String = tm.trim().chars().filter(|c| *c != ':').collect();
     let (whole, frac) = t.split_once('.').unwrap_or((&t, ""));
-    if whole.is_empty() || whole.len() > 6 || whole.len() % 2 != 0 {
+    if whole.is_empty() || whole.len() > 6 || !whole.len().is_multiple_of(2) {
         return None;
     }
     if !whole.bytes().all(|b| b.is_ascii_digit()) || !frac.bytes().all(|b| b.is_ascii_digit()) {

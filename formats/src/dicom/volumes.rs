@@ -321,7 +321,7 @@ pub(super) fn split(slices: Vec<SliceHeader>) -> Result<Volumes, String> {
     if let Some(e) = echo_key {
         groups.sort_by(|a, b| compare(&a.0[e..=e], &b.0[e..=e]).then_with(|| compare(&a.0, &b.0)));
     }
-    if groups.len() % echoes != 0 {
+    if !groups.len().is_multiple_of(echoes) {
         return Err(format!(
             "the series' {} volumes do not divide into its {echoes} echoes evenly",
             groups.len()
