@@ -33,11 +33,25 @@ pub struct ReadOptions {
     /// DICOM: the echo to read of a series whose echoes are an axis of
     /// their own (multi-echo), from 0; refused for every other input.
     pub echo: Option<u64>,
+    /// DICOM: the values of a Philips series with a private scale slope.
+    pub philips: crate::dicom::PhilipsScale,
     /// OME-Zarr: the pyramid level to read (`None`: level 0, the full
     /// resolution); refused for every other input.
     pub level: Option<u32>,
     /// How to open `.vvol` files.
     pub vvol: vvol::OpenOptions,
+}
+
+impl ReadOptions {
+    /// What these options pick of a DICOM input.
+    pub fn dicom_pick(&self) -> crate::dicom::Pick<'_> {
+        crate::dicom::Pick {
+            series: self.series.as_deref(),
+            echo: self.echo,
+            time: self.time,
+            philips: self.philips,
+        }
+    }
 }
 
 /// What kind of input a path names.
@@ -321,13 +335,7 @@ pub fn open_input(path: &Path, opts: &ReadOptions) -> CResult<Box<dyn SliceReade
         }
         InputKind::DicomDir | InputKind::Dicom => {
             let files = dicom_files(path, kind)?;
-            Box::new(crate::dicom::open(
-                path,
-                files,
-                opts.series.as_deref(),
-                opts.echo,
-                opts.time,
-            )?)
+            Box::new(crate::dicom::open(path, files, opts.dicom_pick())?)
         }
         InputKind::OmeZarr => {
             let c = match opts.channel {

@@ -35,6 +35,19 @@ pub struct Selection {
     /// lists the echoes); other inputs have no echo axis and refuse it.
     #[cfg_attr(feature = "clap", arg(long, value_name = "E"))]
     pub echo: Option<u64>,
+    /// Philips DICOM with a private scale slope (2005,100E): `displayed`
+    /// values (RescaleSlope/Intercept, DICOM's; the default) or `precise`
+    /// ones (dcm2niix's); a note says which was applied.
+    #[cfg_attr(
+        feature = "clap",
+        arg(
+            long = "philips-scale",
+            value_enum,
+            value_name = "VALUES",
+            default_value_t
+        )
+    )]
+    pub philips_scale: crate::dicom::PhilipsScale,
     /// OME-Zarr pyramid: the level to read, 0 (full resolution, the
     /// default) to the coarsest; other inputs have no levels and refuse it.
     #[cfg_attr(feature = "clap", arg(long, value_name = "N"))]
@@ -72,6 +85,7 @@ impl Selection {
             time: self.time_point,
             series: self.series.clone(),
             echo: self.echo,
+            philips: self.philips_scale,
             level: self.level,
             ..ReadOptions::default()
         })

@@ -164,7 +164,7 @@ mod tests {
     /// A value other than the default for every option a scene prints
     /// (empty: a flag without a value). An option missing here fails
     /// [`every_printed_option_reads_back`]: add it, and it is tested.
-    const SAMPLES: [(&str, &str); 62] = [
+    const SAMPLES: [(&str, &str); 64] = [
         ("volume", "/d/v.raw"),
         ("raw_dims", "4x5x6"),
         ("raw_type", "u16"),
@@ -173,6 +173,8 @@ mod tests {
         ("series", "2"),
         ("channel", "1"),
         ("time_point", "3"),
+        ("echo", "2"),
+        ("philips_scale", "precise"),
         ("level", "2"),
         ("output", "/d/o.png"),
         ("index", "/d/v.vidx"),

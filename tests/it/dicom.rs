@@ -685,3 +685,40 @@ fn a_series_is_its_uid_with_its_number_and_splits_into_sub_series() {
     let (three, _) = convert(&two, &["--series", "3"]);
     assert_eq!((four.len(), three.len()), (4 * 3 * 3 * 2, 4 * 3 * 4 * 2));
 }
+
+#[test]
+fn a_philips_private_scale_is_named_and_either_convention_offered() {
+    let d = tempfile::tempdir().unwrap();
+    let dir = d.path().join("philips");
+    std::fs::create_dir_all(&dir).unwrap();
+    for z in 0..3 {
+        let f = ct_slice(z)
+            .set(0x2005_0010, b"LO", "Philips MR Imaging DD 001 ")
+            .set(0x2005_100e, b"FL", 2.5f32.to_le_bytes());
+        std::fs::write(dir.join(format!("{z}.dcm")), f.file(EXPLICIT_LE)).unwrap();
+    }
+    // Displayed values by default (stored - 1024), and the note says so.
+    let j = info_json(&dir, &[]);
+    assert_eq!(
+        (j["min"].as_f64(), j["max"].as_f64()),
+        (Some(-1024.0), Some(-747.0)),
+        "{j}"
+    );
+    let (_, err) = convert(&dir, &[]);
+    assert!(
+        err.contains("Philips private scale slope (2005,100E) present")
+            && err.contains("--philips-scale precise"),
+        "{err}"
+    );
+    // dcm2niix's precise values: displayed / (RescaleSlope x 2.5).
+    // Stored as f32 samples, so compared within f32 rounding.
+    let j = info_json(&dir, &["--philips-scale", "precise"]);
+    let near = |key: &str, want: f64| j[key].as_f64().is_some_and(|v| (v - want).abs() < 1e-4);
+    assert!(near("min", -409.6) && near("max", -298.8), "{j}");
+    let (_, err) = convert(&dir, &["--philips-scale", "precise"]);
+    assert!(err.contains("applied: wrote the precise values"), "{err}");
+    // Without the private tag: no note.
+    let plain = ct_folder(&d.path().join("plain"), 3);
+    let (_, err) = convert(&plain, &[]);
+    assert!(!err.contains("Philips"), "{err}");
+}

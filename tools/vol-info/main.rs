@@ -152,7 +152,11 @@ fn info(cli: &Cli) -> Result<()> {
         });
         let echo = sel.echo.or((series.echoes > 1).then_some(0));
         let time = sel.time_point.or((series.time_points > 1).then_some(0));
-        let reader = scan.open(sel.series.as_deref(), echo, time)?;
+        let reader = scan.open(volformats::dicom::Pick {
+            echo,
+            time,
+            ..opts.dicom_pick()
+        })?;
         let format = reader.info().format.clone();
         (volformats::open::load(Box::new(reader), None)?, format)
     } else {

@@ -33,6 +33,10 @@ pub(super) struct SliceHeader {
     pub(super) pixels: PixelSource,
     /// What tells this slice's volume from others at the same position.
     pub(super) keys: VolumeKeys,
+    /// Philips' private scale slope (2005,100E), when the file states a
+    /// usable one: the "precise" values are the displayed ones divided by
+    /// RescaleSlope times it.
+    pub(super) philips_scale: Option<f64>,
 }
 
 /// Where one slice's pixels lie in its file: a frame (0 for single-frame
@@ -264,6 +268,9 @@ pub(super) fn read_file(path: &Path) -> Result<Vec<SliceHeader>, SkipReason> {
         signed: int(&obj, tags::PIXEL_REPRESENTATION) == Some(1),
         pixels: PixelSource::default(),
         keys: volume_keys(&obj),
+        philips_scale: floats(&obj, dicom_core::Tag(0x2005, 0x100E))
+            .and_then(|v| v.first().copied())
+            .filter(|v| v.is_finite() && *v != 0.0),
     }])
 }
 

@@ -141,19 +141,45 @@ pub struct DicomReader {
     slices: Vec<SliceHeader>,
     bytes: u64,
     skipped: Vec<Skipped>,
+    /// The convention applied, where a Philips private scale was there to
+    /// apply.
+    philips: Option<PhilipsScale>,
 }
 
-/// Open a volume of the series in `files` (from `input`): the series
-/// `series` names (see [`Scan`]), or the only one; the volume `echo` and
-/// `time` pick where it has several.
-pub fn open(
-    input: &Path,
-    files: Vec<PathBuf>,
-    series: Option<&str>,
-    echo: Option<u64>,
-    time: Option<u64>,
-) -> CResult<DicomReader> {
-    Scan::new(input, &files)?.open(series, echo, time)
+/// Which values a Philips series with a private scale slope (2005,100E)
+/// gives: DICOM's displayed values (RescaleSlope and RescaleIntercept,
+/// what every DICOM viewer shows; the default) or Philips' "precise"
+/// floating-point values, the displayed ones divided by RescaleSlope
+/// times the private slope (what dcm2niix writes).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum, serde::Serialize))]
+#[cfg_attr(feature = "clap", serde(rename_all = "kebab-case"))]
+pub enum PhilipsScale {
+    /// RescaleSlope and RescaleIntercept, as the standard says.
+    #[default]
+    Displayed,
+    /// (stored x RescaleSlope + RescaleIntercept) / (RescaleSlope x
+    /// private scale slope), as dcm2niix writes them.
+    Precise,
+}
+
+/// What to read of a DICOM input: the series, the volume of it, and the
+/// value convention.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Pick<'a> {
+    /// The series (see [`Scan`]); `None`: the only one.
+    pub series: Option<&'a str>,
+    /// The echo of a multi-echo series.
+    pub echo: Option<u64>,
+    /// The time point of a series of several volumes.
+    pub time: Option<u64>,
+    /// Philips series with a private scale: which values.
+    pub philips: PhilipsScale,
+}
+
+/// Open a volume of the series in `files` (from `input`), as `pick` says.
+pub fn open(input: &Path, files: Vec<PathBuf>, pick: Pick) -> CResult<DicomReader> {
+    Scan::new(input, &files)?.open(pick)
 }
 
 impl DicomReader {
@@ -217,6 +243,7 @@ impl DicomReader {
         Ok(DicomReader {
             stored,
             skipped: Vec::new(),
+            philips: None,
             info: InputInfo {
                 nifti_codes: None,
                 path: input.to_path_buf(),
@@ -242,6 +269,21 @@ impl DicomReader {
             slices,
             bytes,
         })
+    }
+}
+
+/// The note that says which Philips convention was applied, and how to
+/// get the other.
+fn philips_note(input: &Path, applied: PhilipsScale) -> String {
+    match applied {
+        PhilipsScale::Displayed => format!(
+            "{}: Philips private scale slope (2005,100E) present: wrote DICOM's displayed values (RescaleSlope/RescaleIntercept); --philips-scale precise gives the floating-point values dcm2niix writes",
+            input.display()
+        ),
+        PhilipsScale::Precise => format!(
+            "{}: Philips private scale slope (2005,100E) applied: wrote the precise values (displayed / (RescaleSlope x scale slope)), as dcm2niix does; --philips-scale displayed gives DICOM's",
+            input.display()
+        ),
     }
 }
 
@@ -326,7 +368,11 @@ impl SliceReader for DicomReader {
         self.bytes
     }
     fn notes(&self) -> Vec<String> {
-        skipped_notes(&self.info.path, &self.skipped)
+        let mut notes = skipped_notes(&self.info.path, &self.skipped);
+        if let Some(p) = self.philips {
+            notes.push(philips_note(&self.info.path, p));
+        }
+        notes
     }
     fn stored_type(&self) -> Option<SliceType> {
         (self.stored != self.info.sample_type).then_some(self.stored)

@@ -6,8 +6,9 @@
 use super::header::{read_file, SliceHeader};
 use super::skip::{skipped_brief, SkipReason, Skipped};
 use super::volumes::{self, Volumes};
-use super::{bad, DicomReader};
+use super::{bad, DicomReader, PhilipsScale, Pick};
 use crate::reader::{CResult, ConvertError};
+use crate::rescale::Rescale;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -341,22 +342,34 @@ impl Scan {
         Ok(&self.series[self.select(sel)?].0)
     }
 
-    /// Open volume (`echo`, `time`) of the series `sel` names (see
+    /// Open the volume `pick` names of the series it names (see
     /// [`Scan::select`]), whatever else the input holds: only the
     /// series' own problem is an error, with the files skipped named after
     /// it (one of them may be its missing slice). A series of several
-    /// volumes needs `time` (and `echo` where echoes are an axis).
-    pub fn open(
-        mut self,
-        sel: Option<&str>,
-        echo: Option<u64>,
-        time: Option<u64>,
-    ) -> CResult<DicomReader> {
+    /// volumes needs a time point (and an echo where echoes are an axis).
+    pub fn open(mut self, pick: Pick) -> CResult<DicomReader> {
+        let Pick {
+            series: sel,
+            echo,
+            time,
+            philips,
+        } = pick;
         let i = self.select(sel)?;
         let (_, volumes) = self.series.swap_remove(i);
         let reader = volumes.and_then(|v| {
-            let slices = v.pick(echo, time).map_err(|e| bad(&self.input, e))?;
-            let mut r = DicomReader::new(&self.input, slices.to_vec())?;
+            let mut slices = v
+                .pick(echo, time)
+                .map_err(|e| bad(&self.input, e))?
+                .to_vec();
+            let scaled = slices.iter().any(|s| s.philips_scale.is_some());
+            if philips == PhilipsScale::Precise {
+                for s in &mut slices {
+                    s.rescale = precise(s)
+                        .ok_or_else(|| bad(&s.path, "--philips-scale precise: the file states no usable private scale slope (2005,100E) with its RescaleSlope"))?;
+                }
+            }
+            let mut r = DicomReader::new(&self.input, slices)?;
+            r.philips = scaled.then_some(philips);
             if v.volumes.len() > 1 {
                 let mut at = Vec::new();
                 if v.echoes > 1 {
@@ -393,4 +406,15 @@ impl Scan {
             )),
         }
     }
+}
+
+/// Slice `s`'s map to Philips' precise values: (stored x RS + RI) / (RS x
+/// SS), for its private scale slope SS; `None` without a usable one.
+fn precise(s: &SliceHeader) -> Option<Rescale> {
+    let ss = s.philips_scale?;
+    let d = s.rescale.slope * ss;
+    (d.is_finite() && d != 0.0).then(|| Rescale {
+        slope: 1.0 / ss,
+        intercept: s.rescale.intercept / d,
+    })
 }

@@ -398,6 +398,7 @@ mod tests {
             signed: false,
             pixels: PixelSource::default(),
             keys,
+            philips_scale: None,
         }
     }
 
