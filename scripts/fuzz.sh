@@ -18,7 +18,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png scene vpart vidxpart nifti dicom omezarr ometiff envmap"
+TARGETS="vvol thesis raw nrrd mhd tiff vidx tf pfm png scene vpart vidxpart nifti dicom omezarr ometiff envmap csa"
 OUT=${FUZZ_OUT:-target/fuzz-out}
 BIN=target/fuzz/release/volkit-fuzz
 # Corpus files kept per target, and their largest size.
@@ -232,6 +232,8 @@ EOF
     "$cv" "$work/t-f32.vvol" -o "$work/b.nii.gz" -q && cp "$work/b.nii.gz" "$c/nifti/f32-gz"
     # DICOM: the middle slice of the target's three-slice series.
     cargo run --quiet -p volkit-fuzz --example dicom -- "$c/dicom/slice"
+    # The Siemens CSA header of a mosaic (its tile count and slice normal).
+    cargo run --quiet -p volkit-fuzz --example csa -- "$c/csa/mosaic"
     # OME-Zarr, NGFF 0.4 and 0.5: group metadata, NUL, array metadata,
     # NUL, chunk 0 (fuzz/src/lib.rs, split_zarr).
     "$cv" "$work/t-u16.vvol" -o "$work/a.ome.zarr" -q

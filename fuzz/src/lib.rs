@@ -76,11 +76,15 @@ pub enum Target {
     /// the input starts with `P`, else OpenEXR; a map that loads is
     /// sampled.
     Envmap,
+    /// The Siemens CSA header (0029,1010) that mosaics are unpacked by:
+    /// parsed, and a header that parses is asked for the mosaic's tile
+    /// count and slice normal.
+    Csa,
 }
 
 impl Target {
     /// Every target, in the order the README lists them.
-    pub const ALL: [Target; 18] = [
+    pub const ALL: [Target; 19] = [
         Target::Vvol,
         Target::Thesis,
         Target::Raw,
@@ -99,6 +103,7 @@ impl Target {
         Target::Omezarr,
         Target::Ometiff,
         Target::Envmap,
+        Target::Csa,
     ];
 
     /// The target's name (its corpus directory, and the driver's argument).
@@ -122,6 +127,7 @@ impl Target {
             Target::Omezarr => "omezarr",
             Target::Ometiff => "ometiff",
             Target::Envmap => "envmap",
+            Target::Csa => "csa",
         }
     }
 
@@ -153,6 +159,7 @@ pub fn run(target: Target, data: &[u8], scratch: &Path) {
         Target::Omezarr => omezarr(data, scratch),
         Target::Ometiff => ometiff(data, scratch),
         Target::Envmap => envmap(data, scratch),
+        Target::Csa => csa(data),
     }
 }
 
@@ -324,6 +331,14 @@ fn vidxpart(data: &[u8]) {
 fn tf(data: &[u8]) {
     let text = String::from_utf8_lossy(data);
     let _ = volrender::tf::parse::parse(&text);
+}
+
+fn csa(data: &[u8]) {
+    use volformats::dicom::csa::CsaHeader;
+    if let Ok(h) = CsaHeader::parse(data) {
+        let _ = h.number("NumberOfImagesInMosaic");
+        let _ = h.vector("SliceNormalVector");
+    }
 }
 
 fn pfm(data: &[u8]) {

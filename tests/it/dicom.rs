@@ -10,26 +10,26 @@ use crate::common::{fails, json, ok, python_json, run, tool};
 use std::path::{Path, PathBuf};
 use volkit_fuzz::dicom_element as element;
 
-const EXPLICIT_LE: &str = "1.2.840.10008.1.2.1";
+pub(crate) const EXPLICIT_LE: &str = "1.2.840.10008.1.2.1";
 const JPEG_2000: &str = "1.2.840.10008.1.2.4.91";
 const CT_CLASS: &str = "1.2.840.10008.5.1.4.1.1.2";
 const SC_CLASS: &str = "1.2.840.10008.5.1.4.1.1.7";
 const CT_SERIES: &str = "1.2.826.0.1.3680043.8.498.53.1";
 const SC_SERIES: &str = "1.2.826.0.1.3680043.8.498.53.2";
-const COLS: u16 = 4;
-const ROWS: u16 = 3;
+pub(crate) const COLS: u16 = 4;
+pub(crate) const ROWS: u16 = 3;
 
 /// A data set: (tag, VR, value) in any order; written sorted.
-struct DataSet(Vec<(u32, [u8; 2], Vec<u8>)>);
+pub(crate) struct DataSet(Vec<(u32, [u8; 2], Vec<u8>)>);
 
 impl DataSet {
-    fn set(mut self, tag: u32, vr: &[u8; 2], value: impl AsRef<[u8]>) -> DataSet {
+    pub(crate) fn set(mut self, tag: u32, vr: &[u8; 2], value: impl AsRef<[u8]>) -> DataSet {
         self.0.retain(|e| e.0 != tag);
         self.0.push((tag, *vr, value.as_ref().to_vec()));
         self
     }
 
-    fn without(mut self, tag: u32) -> DataSet {
+    pub(crate) fn without(mut self, tag: u32) -> DataSet {
         self.0.retain(|e| e.0 != tag);
         self
     }
@@ -37,7 +37,7 @@ impl DataSet {
     /// The Part 10 file, in transfer syntax `ts`: explicit VR little
     /// endian data set; pixel data encapsulated (one fragment) for any
     /// syntax but explicit VR little endian.
-    fn file(mut self, ts: &str) -> Vec<u8> {
+    pub(crate) fn file(mut self, ts: &str) -> Vec<u8> {
         let class = self.get(0x0008_0016);
         let instance = self.get(0x0008_0018);
         let mut meta = Vec::new();
@@ -79,7 +79,7 @@ impl DataSet {
         out
     }
 
-    fn get(&self, tag: u32) -> Vec<u8> {
+    pub(crate) fn get(&self, tag: u32) -> Vec<u8> {
         self.0
             .iter()
             .find(|e| e.0 == tag)
@@ -88,13 +88,13 @@ impl DataSet {
     }
 }
 
-fn us(v: u16) -> [u8; 2] {
+pub(crate) fn us(v: u16) -> [u8; 2] {
     v.to_le_bytes()
 }
 
 /// Slice `z` of the CT series (SeriesNumber 3): 4x3 u16 pixels, 2.5 mm
 /// apart, HU rescale.
-fn ct_slice(z: u32) -> DataSet {
+pub(crate) fn ct_slice(z: u32) -> DataSet {
     let pixels: Vec<u8> = (0..COLS as u32 * ROWS as u32)
         .flat_map(|i| ((i * 7 + z * 100) as u16).to_le_bytes())
         .collect();
@@ -146,7 +146,7 @@ fn ct_folder(dir: &Path, n: u32) -> PathBuf {
 
 /// The bytes vol-convert writes for `input` as raw (with `extra` flags),
 /// and its stderr.
-fn convert(input: &Path, extra: &[&str]) -> (Vec<u8>, String) {
+pub(crate) fn convert(input: &Path, extra: &[&str]) -> (Vec<u8>, String) {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("o.raw");
     let o = run(tool("vol-convert")
@@ -159,12 +159,12 @@ fn convert(input: &Path, extra: &[&str]) -> (Vec<u8>, String) {
     (std::fs::read(&out).unwrap(), err)
 }
 
-fn info_json(input: &Path, extra: &[&str]) -> serde_json::Value {
+pub(crate) fn info_json(input: &Path, extra: &[&str]) -> serde_json::Value {
     json(&ok(tool("vol-info").arg(input).args(extra).arg("--json")))
 }
 
 /// `(file, kind)` of every skipped file vol-info --json lists.
-fn skipped(j: &serde_json::Value) -> Vec<(String, String)> {
+pub(crate) fn skipped(j: &serde_json::Value) -> Vec<(String, String)> {
     j["skipped"]
         .as_array()
         .unwrap_or_else(|| panic!("no skipped list: {j}"))

@@ -11,6 +11,7 @@ mod channels;
 mod common;
 mod convert;
 mod dicom;
+mod dicom_mosaic;
 mod docs;
 mod formats;
 mod gen;

@@ -107,6 +107,11 @@ fn floats(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<Vec<f64>> 
         .and_then(|e| e.to_multi_float64().ok())
 }
 
+/// The first value of a numeric element of `obj`.
+pub(super) fn first_float(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<f64> {
+    floats(obj, tag).and_then(|v| v.first().copied())
+}
+
 fn int(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<i64> {
     obj.element_opt(tag)
         .ok()
@@ -251,7 +256,7 @@ pub(super) fn read_file(path: &Path) -> Result<Vec<SliceHeader>, SkipReason> {
             "RescaleSlope or RescaleIntercept is not usable".into(),
         ));
     }
-    Ok(vec![SliceHeader {
+    let whole = SliceHeader {
         path: path.to_path_buf(),
         series,
         series_number: int(&obj, tags::SERIES_NUMBER),
@@ -271,7 +276,11 @@ pub(super) fn read_file(path: &Path) -> Result<Vec<SliceHeader>, SkipReason> {
         philips_scale: floats(&obj, dicom_core::Tag(0x2005, 0x100E))
             .and_then(|v| v.first().copied())
             .filter(|v| v.is_finite() && *v != 0.0),
-    }])
+    };
+    if super::mosaic::is_mosaic(&whole.keys.image_type) {
+        return super::mosaic::unpack(&obj, whole);
+    }
+    Ok(vec![whole])
 }
 
 /// The keys of [`VolumeKeys`] as `obj` states them.

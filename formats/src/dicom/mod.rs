@@ -36,8 +36,10 @@
 //! summaries of them) and `pixels` (decoding a slice's pixel data, RLE
 //! included).
 
+pub mod csa;
 mod guard;
 mod header;
+mod mosaic;
 mod pixels;
 mod series;
 mod skip;
@@ -53,6 +55,7 @@ use header::SliceHeader;
 use pixels::{stored_type, widest};
 use skip::skipped_notes;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 use volcore::{Dims, Geometry};
 
 /// Relative tolerance of slice gaps (and at least this many mm).
@@ -144,7 +147,13 @@ pub struct DicomReader {
     /// The convention applied, where a Philips private scale was there to
     /// apply.
     philips: Option<PhilipsScale>,
+    /// The frame decoded last (its file and number): the tiles of a
+    /// mosaic, read one after another, decode their frame once.
+    last_frame: Mutex<Option<LastFrame>>,
 }
+
+/// A decoded frame kept for the next slice cut from it.
+type LastFrame = ((PathBuf, u32), Arc<Vec<u8>>);
 
 /// Which values a Philips series with a private scale slope (2005,100E)
 /// gives: DICOM's displayed values (RescaleSlope and RescaleIntercept,
@@ -236,14 +245,18 @@ impl DicomReader {
             .fold(stored, widest);
         let dims =
             Dims::new(first.cols as u64, first.rows as u64, slices.len() as u64).at(input)?;
-        let bytes = slices
+        // A file of several slices (a mosaic) counts once.
+        let files: std::collections::BTreeSet<&Path> =
+            slices.iter().map(|s| s.path.as_path()).collect();
+        let bytes = files
             .iter()
-            .map(|s| std::fs::metadata(&s.path).map(|m| m.len()).unwrap_or(0))
+            .map(|p| std::fs::metadata(p).map(|m| m.len()).unwrap_or(0))
             .sum();
         Ok(DicomReader {
             stored,
             skipped: Vec::new(),
             philips: None,
+            last_frame: Mutex::new(None),
             info: InputInfo {
                 nifti_codes: None,
                 path: input.to_path_buf(),
@@ -362,7 +375,23 @@ impl SliceReader for DicomReader {
                 format!("slice {z} out of range (internal error)"),
             )
         })?;
-        pixels::decode(s, self.info.sample_type)
+        let key = (s.path.clone(), s.pixels.frame);
+        let cached = self.last_frame.lock().ok().and_then(|c| {
+            c.as_ref()
+                .filter(|(k, _)| *k == key)
+                .map(|(_, f)| f.clone())
+        });
+        let frame = match cached {
+            Some(f) => f,
+            None => {
+                let f = Arc::new(pixels::frame_bytes(s)?);
+                if let Ok(mut c) = self.last_frame.lock() {
+                    *c = Some((key, f.clone()));
+                }
+                f
+            }
+        };
+        pixels::slice_from_frame(s, &frame, self.info.sample_type)
     }
     fn bytes_in(&self) -> u64 {
         self.bytes

@@ -31,43 +31,80 @@ pub(super) fn widest(a: SliceType, b: SliceType) -> SliceType {
     }
 }
 
-/// Slice `s` decoded, as samples of type `out` (the series' type).
-pub(super) fn decode(s: &SliceHeader, out: SliceType) -> CResult<SliceData> {
+/// The decoded bytes of the frame slice `s` lies in (the whole frame, a
+/// mosaic's tiles and all), as the file stores its samples.
+pub(super) fn frame_bytes(s: &SliceHeader) -> CResult<Vec<u8>> {
     let obj = dicom_object::open_file(&s.path)
         .map_err(|e| bad(&s.path, format!("not a readable DICOM file: {e}")))?;
-    let t = stored_type(s.bits_allocated, s.signed);
-    let n = s.rows as usize * s.cols as usize;
-    let rle;
-    let px;
-    let bytes: &[u8] = if obj.meta().transfer_syntax().trim_end_matches('\0') == RLE_LOSSLESS {
+    let frame = s.pixels.frame;
+    if obj.meta().transfer_syntax().trim_end_matches('\0') == RLE_LOSSLESS {
         // Decoded here: dicom-rs's RLE decoder panics on damaged
-        // segment tables and short segments.
-        let frame = obj
+        // segment tables and short segments. RLE keeps one fragment per
+        // frame.
+        let fragment = obj
             .element(tags::PIXEL_DATA)
             .ok()
             .and_then(|e| e.value().fragments())
-            .and_then(|f| f.first())
-            .ok_or_else(|| bad(&s.path, "RLE pixel data without fragments"))?;
-        rle = decode_rle(frame, n, t.size())
-            .map_err(|e| bad(&s.path, format!("cannot decode the RLE pixel data: {e}")))?;
-        &rle
-    } else {
-        px = obj
-            .decode_pixel_data()
-            .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?;
-        px.frame_data(s.pixels.frame)
-            .map_err(|e| bad(&s.path, format!("cannot decode the pixel data: {e}")))?
+            .and_then(|f| f.get(frame as usize))
+            .ok_or_else(|| {
+                bad(
+                    &s.path,
+                    format!("RLE pixel data without a fragment for frame {frame}"),
+                )
+            })?;
+        let (rows, cols) = frame_size(&obj, s);
+        let t = stored_type(s.bits_allocated, s.signed);
+        return decode_rle(fragment, rows * cols, t.size())
+            .map_err(|e| bad(&s.path, format!("cannot decode the RLE pixel data: {e}")));
+    }
+    let px = obj.decode_pixel_data_frame(frame).map_err(|e| {
+        bad(
+            &s.path,
+            format!("cannot decode frame {frame} of the pixel data: {e}"),
+        )
+    })?;
+    px.frame_data(0).map(<[u8]>::to_vec).map_err(|e| {
+        bad(
+            &s.path,
+            format!("cannot decode frame {frame} of the pixel data: {e}"),
+        )
+    })
+}
+
+/// The frame's Rows and Columns as the file states them (a mosaic's whole
+/// grid; the slice's own size otherwise).
+fn frame_size(obj: &dicom_object::DefaultDicomObject, s: &SliceHeader) -> (usize, usize) {
+    let get = |tag| {
+        obj.element_opt(tag)
+            .ok()
+            .flatten()
+            .and_then(|e| e.to_int::<usize>().ok())
     };
+    match s.pixels.tile {
+        Some(t) => (get(tags::ROWS).unwrap_or(0), t.frame_cols as usize),
+        None => (s.rows as usize, s.cols as usize),
+    }
+}
+
+/// Slice `s` cut from its decoded `frame` ([`frame_bytes`]), as samples of
+/// type `out` (the series' type).
+pub(super) fn slice_from_frame(
+    s: &SliceHeader,
+    frame: &[u8],
+    out: SliceType,
+) -> CResult<SliceData> {
+    let t = stored_type(s.bits_allocated, s.signed);
+    let n = s.rows as usize * s.cols as usize;
     let tiled;
     let bytes: &[u8] = match s.pixels.tile {
         Some(tile) => {
-            tiled = cut_tile(bytes, tile, s.rows as usize, s.cols as usize, t.size()).ok_or_else(
+            tiled = cut_tile(frame, tile, s.rows as usize, s.cols as usize, t.size()).ok_or_else(
                 || {
                     bad(
                         &s.path,
                         format!(
                             "mosaic frame of {} bytes holds no tile {} of {}x{} pixels",
-                            bytes.len(),
+                            frame.len(),
                             tile.index,
                             s.cols,
                             s.rows
@@ -77,7 +114,7 @@ pub(super) fn decode(s: &SliceHeader, out: SliceType) -> CResult<SliceData> {
             )?;
             &tiled
         }
-        None => bytes,
+        None => frame,
     };
     if bytes.len() < n * t.size() {
         return Err(bad(
