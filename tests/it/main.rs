@@ -11,6 +11,8 @@ mod channels;
 mod common;
 mod convert;
 mod dicom;
+mod dicom_codecs;
+mod dicom_enhanced;
 mod dicom_mosaic;
 mod docs;
 mod formats;

@@ -7,8 +7,9 @@
 use super::guard::check_lengths;
 use super::skip::SkipReason;
 use crate::rescale::Rescale;
+use dicom_core::Tag;
 use dicom_dictionary_std::tags;
-use dicom_object::{DefaultDicomObject, OpenFileOptions};
+use dicom_object::{DefaultDicomObject, InMemDicomObject, OpenFileOptions};
 use std::path::{Path, PathBuf};
 
 /// What one slice of a series says about itself: a single-frame file, a
@@ -92,31 +93,80 @@ pub(super) struct VolumeKeys {
     pub(super) instance_number: Option<i64>,
 }
 
-fn text(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<String> {
-    obj.element_opt(tag)
-        .ok()
-        .flatten()
-        .and_then(|e| e.to_str().ok())
-        .map(|s| s.trim().trim_end_matches('\0').to_string())
+/// Where a slice's attributes are looked up, first to last: for a frame
+/// of an enhanced multi-frame file, the functional-group items of its
+/// per-frame entry, then the shared ones, then the data set; for any other
+/// image, the data set alone.
+pub(super) struct Attrs<'a> {
+    layers: Vec<&'a InMemDicomObject>,
 }
 
-fn floats(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<Vec<f64>> {
-    obj.element_opt(tag)
-        .ok()
-        .flatten()
-        .and_then(|e| e.to_multi_float64().ok())
+impl<'a> Attrs<'a> {
+    /// The data set alone.
+    pub(super) fn of(obj: &'a InMemDicomObject) -> Attrs<'a> {
+        Attrs { layers: vec![obj] }
+    }
+
+    /// Frame `per_frame` (its entry of the Per-frame Functional Groups
+    /// Sequence) of `obj`, with the `shared` functional groups.
+    pub(super) fn frame(
+        obj: &'a InMemDicomObject,
+        per_frame: &'a InMemDicomObject,
+        shared: Option<&'a InMemDicomObject>,
+    ) -> Attrs<'a> {
+        let groups = |item: &'a InMemDicomObject| {
+            item.iter()
+                .filter_map(|e| e.items())
+                .flat_map(|items| items.iter())
+                .collect::<Vec<_>>()
+        };
+        let mut layers = groups(per_frame);
+        layers.extend(shared.map(groups).unwrap_or_default());
+        layers.push(obj);
+        Attrs { layers }
+    }
+
+    fn element(&self, tag: Tag) -> Option<&'a dicom_object::mem::InMemElement> {
+        self.layers
+            .iter()
+            .find_map(|l| l.element_opt(tag).ok().flatten())
+    }
+
+    /// A text attribute, trimmed of padding.
+    pub(super) fn text(&self, tag: Tag) -> Option<String> {
+        self.element(tag)
+            .and_then(|e| e.to_str().ok())
+            .map(|s| s.trim().trim_end_matches('\0').to_string())
+    }
+
+    /// A numeric attribute's values.
+    pub(super) fn floats(&self, tag: Tag) -> Option<Vec<f64>> {
+        self.element(tag).and_then(|e| e.to_multi_float64().ok())
+    }
+
+    /// A numeric attribute's first value.
+    pub(super) fn first_float(&self, tag: Tag) -> Option<f64> {
+        self.floats(tag).and_then(|v| v.first().copied())
+    }
+
+    /// An integer attribute.
+    pub(super) fn int(&self, tag: Tag) -> Option<i64> {
+        self.element(tag).and_then(|e| e.to_int::<i64>().ok())
+    }
+
+    /// The first item of sequence `tag`, as attributes of their own.
+    fn item(&self, tag: Tag) -> Option<Attrs<'a>> {
+        let item = self.element(tag)?.items()?.first()?;
+        Some(Attrs::of(item))
+    }
 }
 
-/// The first value of a numeric element of `obj`.
-pub(super) fn first_float(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<f64> {
-    floats(obj, tag).and_then(|v| v.first().copied())
+fn text(obj: &InMemDicomObject, tag: Tag) -> Option<String> {
+    Attrs::of(obj).text(tag)
 }
 
-fn int(obj: &DefaultDicomObject, tag: dicom_object::Tag) -> Option<i64> {
-    obj.element_opt(tag)
-        .ok()
-        .flatten()
-        .and_then(|e| e.to_int::<i64>().ok())
+fn int(obj: &InMemDicomObject, tag: Tag) -> Option<i64> {
+    Attrs::of(obj).int(tag)
 }
 
 /// The Media Storage Directory (`DICOMDIR`) SOP class.
@@ -196,12 +246,9 @@ pub(super) fn read_file(path: &Path) -> Result<Vec<SliceHeader>, SkipReason> {
         return Err(SkipReason::NoImage(what));
     }
     let frames = int(&obj, tags::NUMBER_OF_FRAMES).unwrap_or(1);
-    if frames > 1 {
-        return Err(SkipReason::MultiFrame(
-            u32::try_from(frames).unwrap_or(u32::MAX),
-        ));
-    }
-    if let Some(syntax) = syntax.filter(|s| !s.can_decode_all()) {
+    // JPEG-LS is decoded by pixels.rs, not through the registry.
+    if let Some(syntax) = syntax.filter(|s| !s.can_decode_all() && !super::pixels::is_jpeg_ls(&ts))
+    {
         return Err(unsupported_ts(Some(syntax.name())));
     }
     let spp = int(&obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1);
@@ -215,18 +262,84 @@ pub(super) fn read_file(path: &Path) -> Result<Vec<SliceHeader>, SkipReason> {
             volcore::text::excerpt(&photometric)
         )));
     }
-    let series = text(&obj, tags::SERIES_INSTANCE_UID)
+    let image = image_of(path, &obj)?;
+    let per_frame_groups = obj
+        .element_opt(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE)
+        .ok()
+        .flatten()
+        .is_some();
+    if frames > 1 || per_frame_groups {
+        return super::enhanced::frames(path, &obj, frames, &image);
+    }
+    let whole = slice_of(&image, &Attrs::of(&obj), PixelSource::default())?;
+    if super::mosaic::is_mosaic(&whole.keys.image_type) {
+        return super::mosaic::unpack(&obj, whole);
+    }
+    Ok(vec![whole])
+}
+
+/// What every slice of one file shares: its series, size and pixel type.
+pub(super) struct Image {
+    path: PathBuf,
+    series: String,
+    series_number: Option<i64>,
+    description: String,
+    modality: String,
+    /// Rows and Columns.
+    pub(super) rows: u16,
+    pub(super) cols: u16,
+    /// BitsAllocated (8, 16 or 32).
+    pub(super) bits_allocated: u16,
+    bits_stored: u16,
+    signed: bool,
+}
+
+/// The attributes of `obj` its slices share, checked.
+fn image_of(path: &Path, obj: &InMemDicomObject) -> Result<Image, SkipReason> {
+    let series = text(obj, tags::SERIES_INSTANCE_UID)
         .filter(|s| !s.is_empty())
         .ok_or(SkipReason::Missing("SeriesInstanceUID"))?;
-    let rows = int(&obj, tags::ROWS).unwrap_or(0);
-    let cols = int(&obj, tags::COLUMNS).unwrap_or(0);
+    let rows = int(obj, tags::ROWS).unwrap_or(0);
+    let cols = int(obj, tags::COLUMNS).unwrap_or(0);
     if !(1..=65535).contains(&rows) || !(1..=65535).contains(&cols) {
         return Err(SkipReason::Missing("Rows and Columns"));
     }
-    let need = |tag, name| floats(&obj, tag).ok_or(SkipReason::Missing(name));
+    let bits_allocated = int(obj, tags::BITS_ALLOCATED).unwrap_or(16);
+    if !matches!(bits_allocated, 8 | 16 | 32) {
+        return Err(SkipReason::Unsupported(format!(
+            "BitsAllocated {bits_allocated} is not supported (8, 16 or 32)"
+        )));
+    }
+    let bits_stored = int(obj, tags::BITS_STORED)
+        .unwrap_or(bits_allocated)
+        .clamp(1, bits_allocated);
+    Ok(Image {
+        path: path.to_path_buf(),
+        series,
+        series_number: int(obj, tags::SERIES_NUMBER),
+        description: text(obj, tags::SERIES_DESCRIPTION).unwrap_or_default(),
+        modality: text(obj, tags::MODALITY).unwrap_or_default(),
+        rows: rows as u16,
+        cols: cols as u16,
+        bits_allocated: bits_allocated as u16,
+        bits_stored: bits_stored as u16,
+        signed: int(obj, tags::PIXEL_REPRESENTATION) == Some(1),
+    })
+}
+
+/// One slice of `image` whose own attributes (position, orientation,
+/// spacing, rescale, volume keys) `a` gives, its pixels at `pixels`.
+pub(super) fn slice_of(
+    image: &Image,
+    a: &Attrs,
+    pixels: PixelSource,
+) -> Result<SliceHeader, SkipReason> {
+    let need = |tag, name| a.floats(tag).ok_or(SkipReason::Missing(name));
     let p = need(tags::IMAGE_POSITION_PATIENT, "ImagePositionPatient")?;
     let o = need(tags::IMAGE_ORIENTATION_PATIENT, "ImageOrientationPatient")?;
-    let s = floats(&obj, tags::PIXEL_SPACING).unwrap_or_else(|| vec![1.0, 1.0]);
+    let s = a
+        .floats(tags::PIXEL_SPACING)
+        .unwrap_or_else(|| vec![1.0, 1.0]);
     if p.len() != 3 || o.len() != 6 || s.len() != 2 {
         return Err(SkipReason::Unsupported(
             "ImagePositionPatient, ImageOrientationPatient or PixelSpacing has the wrong number of values".into(),
@@ -237,76 +350,87 @@ pub(super) fn read_file(path: &Path) -> Result<Vec<SliceHeader>, SkipReason> {
             "position, orientation or spacing is not finite and positive".into(),
         ));
     }
-    let bits_allocated = int(&obj, tags::BITS_ALLOCATED).unwrap_or(16) as u16;
-    if !matches!(bits_allocated, 8 | 16 | 32) {
-        return Err(SkipReason::Unsupported(format!(
-            "BitsAllocated {bits_allocated} is not supported (8, 16 or 32)"
-        )));
-    }
-    let bits_stored = (int(&obj, tags::BITS_STORED).unwrap_or(bits_allocated as i64) as u16)
-        .clamp(1, bits_allocated);
-    let slope = floats(&obj, tags::RESCALE_SLOPE)
-        .and_then(|v| v.first().copied())
-        .unwrap_or(1.0);
-    let intercept = floats(&obj, tags::RESCALE_INTERCEPT)
-        .and_then(|v| v.first().copied())
-        .unwrap_or(0.0);
+    let slope = a.first_float(tags::RESCALE_SLOPE).unwrap_or(1.0);
+    let intercept = a.first_float(tags::RESCALE_INTERCEPT).unwrap_or(0.0);
     if !(slope.is_finite() && intercept.is_finite()) || slope == 0.0 {
         return Err(SkipReason::Unsupported(
             "RescaleSlope or RescaleIntercept is not usable".into(),
         ));
     }
-    let whole = SliceHeader {
-        path: path.to_path_buf(),
-        series,
-        series_number: int(&obj, tags::SERIES_NUMBER),
-        description: text(&obj, tags::SERIES_DESCRIPTION).unwrap_or_default(),
-        modality: text(&obj, tags::MODALITY).unwrap_or_default(),
-        rows: rows as u16,
-        cols: cols as u16,
+    Ok(SliceHeader {
+        path: image.path.clone(),
+        series: image.series.clone(),
+        series_number: image.series_number,
+        description: image.description.clone(),
+        modality: image.modality.clone(),
+        rows: image.rows,
+        cols: image.cols,
         position: [p[0], p[1], p[2]],
         orientation: [o[0], o[1], o[2], o[3], o[4], o[5]],
         pixel_spacing: [s[0], s[1]],
         rescale: Rescale { slope, intercept },
-        bits_allocated,
-        bits_stored,
-        signed: int(&obj, tags::PIXEL_REPRESENTATION) == Some(1),
-        pixels: PixelSource::default(),
-        keys: volume_keys(&obj),
-        philips_scale: floats(&obj, dicom_core::Tag(0x2005, 0x100E))
-            .and_then(|v| v.first().copied())
+        bits_allocated: image.bits_allocated,
+        bits_stored: image.bits_stored,
+        signed: image.signed,
+        pixels,
+        keys: volume_keys(a),
+        philips_scale: a
+            .first_float(Tag(0x2005, 0x100E))
             .filter(|v| v.is_finite() && *v != 0.0),
-    };
-    if super::mosaic::is_mosaic(&whole.keys.image_type) {
-        return super::mosaic::unpack(&obj, whole);
-    }
-    Ok(vec![whole])
+    })
 }
 
-/// The keys of [`VolumeKeys`] as `obj` states them.
-fn volume_keys(obj: &DefaultDicomObject) -> VolumeKeys {
-    use dicom_core::Tag;
-    let first = |tag| floats(obj, tag).and_then(|v| v.first().copied());
-    let b_vector = floats(obj, tags::DIFFUSION_GRADIENT_ORIENTATION)
+/// The keys of [`VolumeKeys`] as `a` states them: the classic attributes,
+/// or an enhanced frame's (FrameContent's TemporalPositionIndex and
+/// FrameAcquisitionDateTime, MREcho's EffectiveEchoTime, MRDiffusion's,
+/// CardiacSynchronization's trigger delay, FrameType).
+fn volume_keys(a: &Attrs) -> VolumeKeys {
+    let diffusion_direction = a
+        .item(tags::DIFFUSION_GRADIENT_DIRECTION_SEQUENCE)
+        .and_then(|d| d.floats(tags::DIFFUSION_GRADIENT_ORIENTATION));
+    let b_vector = a
+        .floats(tags::DIFFUSION_GRADIENT_ORIENTATION)
+        .or(diffusion_direction)
         // Siemens: DiffusionGradientDirection (0019,100E).
-        .or_else(|| floats(obj, Tag(0x0019, 0x100E)))
+        .or_else(|| a.floats(Tag(0x0019, 0x100E)))
         .filter(|v| v.len() == 3 && v.iter().all(|x| x.is_finite()))
         .map(|v| [v[0], v[1], v[2]]);
+    // FrameAcquisitionDateTime is a DT: YYYYMMDD, then the time.
+    let frame_time = a
+        .text(tags::FRAME_ACQUISITION_DATE_TIME)
+        .and_then(|dt| {
+            dt.get(8..)
+                .map(|t| t.split(['+', '-']).next().unwrap_or("").to_string())
+        })
+        .and_then(|t| seconds_of_day(&t));
     VolumeKeys {
-        temporal_position: int(obj, tags::TEMPORAL_POSITION_IDENTIFIER),
-        acquisition_number: int(obj, tags::ACQUISITION_NUMBER),
-        acquisition_time: text(obj, tags::ACQUISITION_TIME).and_then(|t| seconds_of_day(&t)),
-        trigger_time: first(tags::TRIGGER_TIME),
-        b_value: first(tags::DIFFUSION_B_VALUE)
+        temporal_position: a
+            .int(tags::TEMPORAL_POSITION_IDENTIFIER)
+            .or_else(|| a.int(tags::TEMPORAL_POSITION_INDEX)),
+        acquisition_number: a.int(tags::ACQUISITION_NUMBER),
+        acquisition_time: a
+            .text(tags::ACQUISITION_TIME)
+            .and_then(|t| seconds_of_day(&t))
+            .or(frame_time),
+        trigger_time: a
+            .first_float(tags::TRIGGER_TIME)
+            .or_else(|| a.first_float(tags::NOMINAL_CARDIAC_TRIGGER_DELAY_TIME)),
+        b_value: a
+            .first_float(tags::DIFFUSION_B_VALUE)
             // Siemens: B_value (0019,100C), an IS.
-            .or_else(|| first(Tag(0x0019, 0x100C)))
+            .or_else(|| a.first_float(Tag(0x0019, 0x100C)))
             .filter(|b| b.is_finite() && *b >= 0.0),
         b_vector,
-        echo_number: int(obj, tags::ECHO_NUMBERS),
-        echo_time: first(tags::ECHO_TIME),
-        image_type: text(obj, tags::IMAGE_TYPE).unwrap_or_default(),
-        repetition_time: first(tags::REPETITION_TIME),
-        instance_number: int(obj, tags::INSTANCE_NUMBER),
+        echo_number: a.int(tags::ECHO_NUMBERS),
+        echo_time: a
+            .first_float(tags::ECHO_TIME)
+            .or_else(|| a.first_float(tags::EFFECTIVE_ECHO_TIME)),
+        image_type: a
+            .text(tags::FRAME_TYPE)
+            .or_else(|| a.text(tags::IMAGE_TYPE))
+            .unwrap_or_default(),
+        repetition_time: a.first_float(tags::REPETITION_TIME),
+        instance_number: a.int(tags::INSTANCE_NUMBER),
     }
 }
 

@@ -37,6 +37,7 @@
 //! included).
 
 pub mod csa;
+mod enhanced;
 mod guard;
 mod header;
 mod mosaic;
@@ -51,6 +52,7 @@ pub use skip::{shown, SkipReason, Skipped};
 use crate::error::Error;
 use crate::reader::{Access, At, CResult, ConvertError, InputInfo, SliceReader};
 use crate::slice::{SliceData, SliceType};
+use dicom_object::DefaultDicomObject;
 use header::SliceHeader;
 use pixels::{stored_type, widest};
 use skip::skipped_notes;
@@ -150,6 +152,9 @@ pub struct DicomReader {
     /// The frame decoded last (its file and number): the tiles of a
     /// mosaic, read one after another, decode their frame once.
     last_frame: Mutex<Option<LastFrame>>,
+    /// The file opened last: the frames of a multi-frame file, read one
+    /// after another, open it once.
+    last_file: Mutex<Option<(PathBuf, Arc<DefaultDicomObject>)>>,
 }
 
 /// A decoded frame kept for the next slice cut from it.
@@ -257,6 +262,7 @@ impl DicomReader {
             skipped: Vec::new(),
             philips: None,
             last_frame: Mutex::new(None),
+            last_file: Mutex::new(None),
             info: InputInfo {
                 nifti_codes: None,
                 path: input.to_path_buf(),
@@ -361,6 +367,26 @@ fn check_gaps(input: &Path, slices: &[SliceHeader], along: &[f64]) -> CResult<f6
     Ok(median)
 }
 
+impl DicomReader {
+    /// Slice `s`'s file, opened, from the one kept or opened anew (and
+    /// kept).
+    fn opened(&self, s: &SliceHeader) -> CResult<Arc<DefaultDicomObject>> {
+        let kept = self.last_file.lock().ok().and_then(|c| {
+            c.as_ref()
+                .filter(|(p, _)| *p == s.path)
+                .map(|(_, o)| o.clone())
+        });
+        if let Some(obj) = kept {
+            return Ok(obj);
+        }
+        let obj = Arc::new(pixels::open(s)?);
+        if let Ok(mut c) = self.last_file.lock() {
+            *c = Some((s.path.clone(), obj.clone()));
+        }
+        Ok(obj)
+    }
+}
+
 impl SliceReader for DicomReader {
     fn info(&self) -> &InputInfo {
         &self.info
@@ -384,7 +410,8 @@ impl SliceReader for DicomReader {
         let frame = match cached {
             Some(f) => f,
             None => {
-                let f = Arc::new(pixels::frame_bytes(s)?);
+                let obj = self.opened(s)?;
+                let f = Arc::new(pixels::frame_bytes(s, &obj)?);
                 if let Ok(mut c) = self.last_frame.lock() {
                     *c = Some((key, f.clone()));
                 }

@@ -17,10 +17,10 @@
 //! refused, never read as one 2D image.
 
 use super::csa::CsaHeader;
-use super::header::{first_float, SliceHeader, Tile};
+use super::header::{Attrs, SliceHeader, Tile};
 use super::skip::SkipReason;
 use dicom_dictionary_std::tags;
-use dicom_object::DefaultDicomObject;
+use dicom_object::InMemDicomObject;
 
 /// Whether ImageType (its values joined by `\`) marks a mosaic.
 pub(super) fn is_mosaic(image_type: &str) -> bool {
@@ -37,7 +37,7 @@ fn refuse(why: impl std::fmt::Display) -> SkipReason {
 }
 
 /// The CSA image header of `obj`, when it has one that parses.
-fn csa_image_header(obj: &DefaultDicomObject) -> Result<CsaHeader, SkipReason> {
+fn csa_image_header(obj: &InMemDicomObject) -> Result<CsaHeader, SkipReason> {
     let bytes = obj
         .element_opt(dicom_core::Tag(0x0029, 0x1010))
         .ok()
@@ -50,13 +50,14 @@ fn csa_image_header(obj: &DefaultDicomObject) -> Result<CsaHeader, SkipReason> {
 /// The slices of mosaic `whole` (the header read as one image), one per
 /// tile, or why it cannot be unpacked.
 pub(super) fn unpack(
-    obj: &DefaultDicomObject,
+    obj: &InMemDicomObject,
     whole: SliceHeader,
 ) -> Result<Vec<SliceHeader>, SkipReason> {
     let csa = csa_image_header(obj)?;
+    let a = Attrs::of(obj);
     let count = csa
         .number("NumberOfImagesInMosaic")
-        .or_else(|| first_float(obj, dicom_core::Tag(0x0019, 0x100A)))
+        .or_else(|| a.first_float(dicom_core::Tag(0x0019, 0x100A)))
         .ok_or_else(|| refuse("its CSA header has no NumberOfImagesInMosaic"))?;
     if !((1.0..=65535.0).contains(&count) && count.fract() == 0.0) {
         return Err(refuse(format!("NumberOfImagesInMosaic is {count}")));
@@ -88,9 +89,10 @@ pub(super) fn unpack(
         )));
     }
     let normal = normal.map(|v| v / nn);
-    let spacing = first_float(obj, tags::SPACING_BETWEEN_SLICES)
+    let spacing = a
+        .first_float(tags::SPACING_BETWEEN_SLICES)
         .filter(|s| s.is_finite() && *s > 0.0)
-        .or_else(|| first_float(obj, tags::SLICE_THICKNESS))
+        .or_else(|| a.first_float(tags::SLICE_THICKNESS))
         .filter(|s| s.is_finite() && *s > 0.0)
         .ok_or_else(|| refuse("it states neither SpacingBetweenSlices nor SliceThickness"))?;
     // From the frame's corner to the first tile's: half the frame less

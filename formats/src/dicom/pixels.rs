@@ -7,6 +7,7 @@ use super::header::{SliceHeader, Tile};
 use crate::reader::CResult;
 use crate::slice::{SliceData, SliceType};
 use dicom_dictionary_std::tags;
+use dicom_object::DefaultDicomObject;
 use dicom_pixeldata::PixelDecoder;
 
 pub(super) fn stored_type(bits: u16, signed: bool) -> SliceType {
@@ -31,11 +32,16 @@ pub(super) fn widest(a: SliceType, b: SliceType) -> SliceType {
     }
 }
 
+/// The file slice `s` is read from, opened (its pixel data in memory).
+pub(super) fn open(s: &SliceHeader) -> CResult<DefaultDicomObject> {
+    dicom_object::open_file(&s.path)
+        .map_err(|e| bad(&s.path, format!("not a readable DICOM file: {e}")))
+}
+
 /// The decoded bytes of the frame slice `s` lies in (the whole frame, a
-/// mosaic's tiles and all), as the file stores its samples.
-pub(super) fn frame_bytes(s: &SliceHeader) -> CResult<Vec<u8>> {
-    let obj = dicom_object::open_file(&s.path)
-        .map_err(|e| bad(&s.path, format!("not a readable DICOM file: {e}")))?;
+/// mosaic's tiles and all) from its opened file `obj`, as the file stores
+/// its samples.
+pub(super) fn frame_bytes(s: &SliceHeader, obj: &DefaultDicomObject) -> CResult<Vec<u8>> {
     let frame = s.pixels.frame;
     if obj.meta().transfer_syntax().trim_end_matches('\0') == RLE_LOSSLESS {
         // Decoded here: dicom-rs's RLE decoder panics on damaged
@@ -52,10 +58,23 @@ pub(super) fn frame_bytes(s: &SliceHeader) -> CResult<Vec<u8>> {
                     format!("RLE pixel data without a fragment for frame {frame}"),
                 )
             })?;
-        let (rows, cols) = frame_size(&obj, s);
+        let (rows, cols) = frame_size(obj, s);
         let t = stored_type(s.bits_allocated, s.signed);
         return decode_rle(fragment, rows * cols, t.size())
             .map_err(|e| bad(&s.path, format!("cannot decode the RLE pixel data: {e}")));
+    }
+    let syntax = obj.meta().transfer_syntax().trim_end_matches('\0');
+    if is_jpeg_ls(syntax) {
+        let t = stored_type(s.bits_allocated, s.signed);
+        let (rows, cols) = frame_size(obj, s);
+        let data = frame_fragments(obj, frame)
+            .map_err(|e| bad(&s.path, format!("JPEG-LS pixel data: {e}")))?;
+        return decode_jpeg_ls(&data, rows, cols, t.size()).map_err(|e| {
+            bad(
+                &s.path,
+                format!("cannot decode frame {frame} of the JPEG-LS pixel data: {e}"),
+            )
+        });
     }
     let px = obj.decode_pixel_data_frame(frame).map_err(|e| {
         bad(
@@ -73,7 +92,7 @@ pub(super) fn frame_bytes(s: &SliceHeader) -> CResult<Vec<u8>> {
 
 /// The frame's Rows and Columns as the file states them (a mosaic's whole
 /// grid; the slice's own size otherwise).
-fn frame_size(obj: &dicom_object::DefaultDicomObject, s: &SliceHeader) -> (usize, usize) {
+fn frame_size(obj: &DefaultDicomObject, s: &SliceHeader) -> (usize, usize) {
     let get = |tag| {
         obj.element_opt(tag)
             .ok()
@@ -160,6 +179,111 @@ fn cut_tile(frame: &[u8], tile: Tile, rows: usize, cols: usize, size: usize) -> 
         out.extend_from_slice(frame.get(start..start.checked_add(row_bytes)?)?);
     }
     Some(out)
+}
+
+/// Whether `uid` is a JPEG-LS transfer syntax (lossless, or
+/// near-lossless).
+pub(super) fn is_jpeg_ls(uid: &str) -> bool {
+    matches!(
+        uid.trim_end_matches('\0'),
+        "1.2.840.10008.1.2.4.80" | "1.2.840.10008.1.2.4.81"
+    )
+}
+
+/// The encapsulated bytes of `frame`: all fragments of a single-frame
+/// image; one fragment per frame when there are as many as frames; else
+/// the fragments the Basic Offset Table puts in the frame.
+fn frame_fragments(obj: &DefaultDicomObject, frame: u32) -> Result<Vec<u8>, String> {
+    let pixel_data = obj
+        .element(tags::PIXEL_DATA)
+        .map_err(|_| "no pixel data".to_string())?
+        .value();
+    let fragments = pixel_data
+        .fragments()
+        .ok_or("pixel data is not encapsulated")?;
+    let frames = obj
+        .element_opt(tags::NUMBER_OF_FRAMES)
+        .ok()
+        .flatten()
+        .and_then(|e| e.to_int::<u32>().ok())
+        .unwrap_or(1)
+        .max(1);
+    let k = frame as usize;
+    if frames == 1 {
+        return Ok(fragments.concat());
+    }
+    if fragments.len() == frames as usize {
+        return fragments
+            .get(k)
+            .cloned()
+            .ok_or_else(|| format!("no fragment for frame {frame}"));
+    }
+    let table = pixel_data.offset_table().unwrap_or(&[]);
+    if table.len() != frames as usize || k >= table.len() {
+        return Err(format!(
+            "{} fragments for {frames} frames and no offset table to tell them apart",
+            fragments.len()
+        ));
+    }
+    // Offsets count from the first fragment's item tag; each fragment
+    // takes an 8-byte item header besides its bytes.
+    let start = u64::from(table[k]);
+    let end = table.get(k + 1).map_or(u64::MAX, |&e| u64::from(e));
+    let mut at = 0u64;
+    let mut out = Vec::new();
+    for f in fragments {
+        if at >= start && at < end {
+            out.extend_from_slice(f);
+        }
+        at = at.saturating_add(8 + f.len() as u64);
+    }
+    if out.is_empty() {
+        return Err(format!(
+            "the offset table puts no fragment in frame {frame}"
+        ));
+    }
+    Ok(out)
+}
+
+/// Decode one JPEG-LS frame of `rows` x `cols` grey samples of `size`
+/// bytes into little-endian samples.
+fn decode_jpeg_ls(data: &[u8], rows: usize, cols: usize, size: usize) -> Result<Vec<u8>, String> {
+    let w = u32::try_from(cols).map_err(|_| "too wide".to_string())?;
+    let h = u32::try_from(rows).map_err(|_| "too tall".to_string())?;
+    let (samples, _, _) =
+        jpegls::decode(&without_fill_before_eoi(data), w, h).map_err(|e| e.to_string())?;
+    match size {
+        1 => samples
+            .iter()
+            .map(|&v| u8::try_from(v).map_err(|_| format!("sample {v} in 8-bit pixel data")))
+            .collect(),
+        2 => Ok(samples.iter().flat_map(|v| v.to_le_bytes()).collect()),
+        _ => Err("JPEG-LS holds at most 16-bit samples".into()),
+    }
+}
+
+/// `data` with the fill bytes (0xFF) JPEG allows before a marker removed
+/// from before its closing EOI (DCMTK pads its JPEG-LS fragments to an
+/// even length so): pure_jpegls expects EOI right after the scan. Within
+/// a JPEG-LS scan a 0xFF byte is never followed by another, so a run of
+/// them before EOI is fill.
+fn without_fill_before_eoi(data: &[u8]) -> std::borrow::Cow<'_, [u8]> {
+    let end = data.len() - data.iter().rev().take_while(|&&b| b == 0).count();
+    let body = &data[..end];
+    if !body.ends_with(&[0xFF, 0xD9]) {
+        return data.into();
+    }
+    let fill = body[..end - 2]
+        .iter()
+        .rev()
+        .take_while(|&&b| b == 0xFF)
+        .count();
+    if fill == 0 {
+        return data.into();
+    }
+    let mut out = body[..end - 2 - fill].to_vec();
+    out.extend_from_slice(&[0xFF, 0xD9]);
+    out.into()
 }
 
 /// The RLE Lossless transfer syntax.
@@ -283,6 +407,18 @@ fn to_type(d: SliceData, t: SliceType) -> SliceData {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fill_bytes_before_eoi_are_dropped_and_nothing_else() {
+        let strip = |b: &[u8]| without_fill_before_eoi(b).into_owned();
+        assert_eq!(strip(&[1, 0xFF, 0xFF, 0xD9]), [1, 0xFF, 0xD9]);
+        assert_eq!(strip(&[1, 0xFF, 0xFF, 0xFF, 0xD9, 0]), [1, 0xFF, 0xD9]);
+        assert_eq!(strip(&[1, 0xFF, 0xD9]), [1, 0xFF, 0xD9]);
+        assert_eq!(strip(&[1, 0xFF, 0xD9, 0]), [1, 0xFF, 0xD9, 0]);
+        assert_eq!(strip(&[0xFF, 0xD9]), [0xFF, 0xD9]);
+        assert_eq!(strip(&[]), Vec::<u8>::new());
+        assert_eq!(strip(&[0xFF, 0x00, 0x12]), [0xFF, 0x00, 0x12]);
+    }
 
     #[test]
     fn types_widen_to_hold_every_slice() {

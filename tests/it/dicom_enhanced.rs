@@ -1,0 +1,110 @@
+//! Enhanced multi-frame DICOM (issue 64 §5): one file whose frames are
+//! the slices, each placed by its functional groups. nibabel's Philips
+//! Enhanced MR (176 frames of 256x256) given distinct pixels, against
+//! dcm2niix; and the same file with a frame count its functional groups
+//! do not back, refused.
+
+use crate::common::{fails, ok, python_json, tool};
+
+/// Copy nibabel's Philips MPRAGE into `dir` with pixels `(i * 7919) %
+/// 4093`, NumberOfFrames set to `frames` (176 is the file's own), and
+/// convert it with dcm2niix into `reference` when asked.
+fn mprage(dir: &std::path::Path, frames: u32, reference: Option<&std::path::Path>) -> Option<()> {
+    let dcm2niix = reference.map_or(String::new(), |r| {
+        format!(
+            r#"subprocess.run(["dcm2niix", "-z", "n", "-f", "ref", "-o", {r:?}, {dir:?}], check=True, capture_output=True)"#,
+            r = r.to_string_lossy(),
+            dir = dir.to_string_lossy()
+        )
+    });
+    let script = format!(
+        r#"
+import gzip, io, json, os, shutil, subprocess, sys
+try:
+    import nibabel, numpy as np, pydicom
+except ImportError as e:
+    print("SKIP", e); sys.exit(0)
+if {need} and shutil.which("dcm2niix") is None:
+    print("SKIP dcm2niix is not installed"); sys.exit(0)
+data = os.path.join(os.path.dirname(nibabel.__file__), "nicom", "tests", "data")
+with gzip.open(os.path.join(data, "philips_mprage.dcm.gz")) as f:
+    ds = pydicom.dcmread(io.BytesIO(f.read()))
+n = len(ds.PixelData) // 2
+ds.PixelData = ((np.arange(n, dtype=np.uint64) * 7919) % 4093).astype(np.uint16).tobytes()
+ds.NumberOfFrames = {frames}
+ds.save_as(os.path.join({dir:?}, "mprage.dcm"))
+{dcm2niix}
+print(json.dumps({{"ok": True}}))
+"#,
+        need = if reference.is_some() { "True" } else { "False" },
+        dir = dir.to_string_lossy(),
+    );
+    python_json(&script, "pip install nibabel pydicom; apt install dcm2niix").map(|_| ())
+}
+
+#[test]
+fn an_enhanced_mr_equals_dcm2niix_in_world_space() {
+    let d = tempfile::tempdir().unwrap();
+    let (input, reference) = (d.path().join("in"), d.path().join("ref"));
+    std::fs::create_dir_all(&input).unwrap();
+    std::fs::create_dir_all(&reference).unwrap();
+    if mprage(&input, 176, Some(&reference)).is_none() {
+        return;
+    }
+    let text = ok(tool("vol-info").arg(&input));
+    assert!(text.contains("256x256x176"), "{text}");
+    // dcm2niix writes Philips' precise values (the private scale slope);
+    // --philips-scale precise gives the same, the default the displayed.
+    let out = d.path().join("precise.nii");
+    ok(tool("vol-convert")
+        .arg(&input)
+        .args(["--philips-scale", "precise", "--type", "f32", "-o"])
+        .arg(&out));
+    let displayed = d.path().join("displayed.nii");
+    ok(tool("vol-convert")
+        .arg(&input)
+        .args(["--type", "f32", "-o"])
+        .arg(&displayed));
+    let compare = format!(
+        r#"
+import json, nibabel as nib, numpy as np
+ref = nib.as_closest_canonical(nib.load({reference:?} + "/ref.nii"))
+got = nib.as_closest_canonical(nib.load({out:?}))
+shown = nib.as_closest_canonical(nib.load({displayed:?}))
+a, b = got.get_fdata(), ref.get_fdata()
+print(json.dumps({{"shape": list(a.shape), "ref_shape": list(b.shape),
+                  "affine": float(np.abs(got.affine - ref.affine).max()),
+                  "relative": float(np.abs(a - b).max() / np.abs(b).max()),
+                  "ratio": float(shown.get_fdata().max() / a.max())}}))
+"#,
+        reference = reference.to_string_lossy(),
+        out = out.to_string_lossy(),
+        displayed = displayed.to_string_lossy(),
+    );
+    let j = python_json(&compare, "pip install nibabel").unwrap();
+    assert_eq!(j["shape"], j["ref_shape"], "{j}");
+    // Sagittal: canonical (RAS) axes put the 176 frames first.
+    assert_eq!(j["shape"], serde_json::json!([176, 256, 256]), "{j}");
+    assert!(j["affine"].as_f64().unwrap() < 1e-3, "{j}");
+    // f32 against dcm2niix's int16 x scl_slope: equal within rounding.
+    assert!(j["relative"].as_f64().unwrap() < 1e-5, "{j}");
+    // The displayed values are RescaleSlope x scale slope times the
+    // precise ones (2.10794 x 0.00026825 here).
+    let ratio = j["ratio"].as_f64().unwrap();
+    assert!((ratio - 2.10794 * 0.00026825).abs() < 1e-6, "{j}");
+}
+
+#[test]
+fn frames_the_functional_groups_do_not_back_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    if mprage(d.path(), 177, None).is_none() {
+        return;
+    }
+    let err = fails(tool("vol-info").arg(d.path()), "mprage.dcm");
+    assert!(
+        err.contains(
+            "NumberOfFrames is 177 but the Per-frame Functional Groups Sequence holds 176 items"
+        ),
+        "{err}"
+    );
+}
