@@ -10,6 +10,17 @@ use crate::common::{fails, ok, python_json, tool};
 /// 4093`, NumberOfFrames set to `frames` (176 is the file's own), and
 /// convert it with dcm2niix into `reference` when asked.
 fn mprage(dir: &std::path::Path, frames: u32, reference: Option<&std::path::Path>) -> Option<()> {
+    mprage_with(dir, frames, reference, "")
+}
+
+/// [`mprage`], with `more` (Python run on the data set `ds`) before it is
+/// saved.
+fn mprage_with(
+    dir: &std::path::Path,
+    frames: u32,
+    reference: Option<&std::path::Path>,
+    more: &str,
+) -> Option<()> {
     let dcm2niix = reference.map_or(String::new(), |r| {
         format!(
             r#"subprocess.run(["dcm2niix", "-z", "n", "-f", "ref", "-o", {r:?}, {dir:?}], check=True, capture_output=True)"#,
@@ -32,6 +43,7 @@ with gzip.open(os.path.join(data, "philips_mprage.dcm.gz")) as f:
 n = len(ds.PixelData) // 2
 ds.PixelData = ((np.arange(n, dtype=np.uint64) * 7919) % 4093).astype(np.uint16).tobytes()
 ds.NumberOfFrames = {frames}
+{more}
 ds.save_as(os.path.join({dir:?}, "mprage.dcm"))
 {dcm2niix}
 print(json.dumps({{"ok": True}}))
@@ -107,4 +119,38 @@ fn frames_the_functional_groups_do_not_back_are_refused() {
         ),
         "{err}"
     );
+}
+
+/// Two stacks in one file (StackID 1 for the first 88 frames, 2 for the
+/// rest) are two sub-series, though their frames would line up into one
+/// evenly spaced volume (dcm2niix merges them).
+#[test]
+fn two_stacks_of_one_file_are_two_sub_series() {
+    let d = tempfile::tempdir().unwrap();
+    let stacks = r#"
+for k, f in enumerate(ds.PerFrameFunctionalGroupsSequence):
+    f.FrameContentSequence[0].StackID = "1" if k < 88 else "2"
+"#;
+    if mprage_with(d.path(), 176, None, stacks).is_none() {
+        return;
+    }
+    let j = crate::dicom::info_json(d.path(), &[]);
+    let series: Vec<(String, u64)> = j["series"]
+        .as_array()
+        .unwrap_or_else(|| panic!("{j}"))
+        .iter()
+        .map(|s| {
+            (
+                s["id"].as_str().unwrap().to_string(),
+                s["images"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        series,
+        vec![("301-1".to_string(), 88), ("301-2".to_string(), 88)],
+        "{j}"
+    );
+    let j = crate::dicom::info_json(d.path(), &["--series", "301-2"]);
+    assert_eq!(j["dims"], serde_json::json!([256, 256, 88]), "{j}");
 }

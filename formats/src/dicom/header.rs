@@ -34,6 +34,9 @@ pub(super) struct SliceHeader {
     pub(super) pixels: PixelSource,
     /// What tells this slice's volume from others at the same position.
     pub(super) keys: VolumeKeys,
+    /// StackID (0020,9056): an enhanced file's frames of one stack. Two
+    /// stacks are two sub-series, even where their frames would line up.
+    pub(super) stack: Option<String>,
     /// Philips' private scale slope (2005,100E), when the file states a
     /// usable one: the "precise" values are the displayed ones divided by
     /// RescaleSlope times it.
@@ -374,6 +377,7 @@ pub(super) fn slice_of(
         signed: image.signed,
         pixels,
         keys: volume_keys(a),
+        stack: a.text(tags::STACK_ID).filter(|s| !s.is_empty()),
         philips_scale: a
             .first_float(Tag(0x2005, 0x100E))
             .filter(|v| v.is_finite() && *v != 0.0),

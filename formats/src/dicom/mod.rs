@@ -1,20 +1,28 @@
 //! DICOM series (a directory of files, a glob or a list file) read as one
 //! volume, through dicom-rs (`dicom-object` for the data sets,
 //! `dicom-pixeldata` for the pixel data and its codecs: native, RLE,
-//! JPEG, deflate).
+//! JPEG, JPEG 2000, deflate; JPEG-LS through `pure_jpegls`).
 //!
-//! - Every file either joins a series or is skipped with its reason
+//! - Every file yields slices or is skipped with its reason
 //!   ([`SkipReason`]): not DICOM, unreadable, truncated or damaged, no
 //!   image (a `DICOMDIR`, and objects without Rows and Columns whose SOP
 //!   class is no image storage class: reports, presentation states, RT
-//!   structure sets), multi-frame, an undecodable transfer syntax, colour,
-//!   or an image without SeriesInstanceUID, Rows and Columns,
+//!   structure sets), a multi-frame image without per-frame functional
+//!   groups, an undecodable transfer syntax, colour, a mosaic that cannot
+//!   be unpacked, or an image without SeriesInstanceUID, Rows and Columns,
 //!   ImagePositionPatient or ImageOrientationPatient. Only an input left
 //!   without a series is refused.
-//! - Files are grouped by SeriesInstanceUID ([`Scan`]); with several
-//!   series `--series` picks one by its SeriesNumber, its whole UID or a
-//!   unique prefix of it, and without it the error lists them. Only the
-//!   chosen series' own inconsistencies (below) are an error.
+//! - A single-frame image is one slice; a Siemens mosaic one slice per
+//!   tile (`mosaic`, by its CSA header, `csa`); an enhanced multi-frame
+//!   image one slice per frame, placed by its functional groups
+//!   (`enhanced`).
+//! - A series is its SeriesInstanceUID with its SeriesNumber ([`Scan`]);
+//!   slices that cannot share a volume (another size, orientation or
+//!   pixel type) form sub-series. `--series` picks one by any ID vol-info
+//!   lists, its number, its whole UID or a unique prefix of it.
+//! - Slices at one position are volumes of a time series (`volumes`),
+//!   told apart by dcm2niix's keys in its order, picked with
+//!   `--time-point` and `--echo`.
 //! - Slices are sorted by ImagePositionPatient projected on the slice
 //!   normal (the cross product of the ImageOrientationPatient rows), not by
 //!   file name or InstanceNumber.
@@ -22,19 +30,22 @@
 //!   measured positions. Gaps that differ from the median by more than 1%
 //!   (or 0.01 mm) are refused: a whole multiple of the spacing is reported
 //!   as missing slices, anything else as uneven spacing. Positions that do
-//!   not follow the normal (gantry tilt), mixed sizes or orientations, and
-//!   two slices at one position are refused too.
+//!   not follow the normal (gantry tilt) are refused too.
 //! - RescaleSlope/RescaleIntercept are applied per slice: CT pixels become
 //!   Hounsfield units (integers, so `i16` when they fit, else `f32`).
+//!   A Philips private scale (2005,100E) is named, and applied with
+//!   `--philips-scale precise` ([`PhilipsScale`]).
 //! - Geometry: origin at the first slice's ImagePositionPatient, axes
 //!   along the row, column and normal directions (DICOM is LPS, like volkit).
 //!
 //! The reader is here; its jobs are in `guard` (refusing files whose
 //! element lengths would make dicom-rs allocate more than the file
-//! holds), `series` (reading each file's header, grouping the files by
-//! series and picking one), `skip` (why a file was skipped, and the
-//! summaries of them) and `pixels` (decoding a slice's pixel data, RLE
-//! included).
+//! holds), `header` (one file's header as its slices), `mosaic`, `csa`
+//! and `enhanced` (the files of several slices), `series` (grouping the
+//! slices into series and sub-series and picking one), `volumes` (the
+//! volumes at one position), `skip` (why a file was skipped, and the
+//! summaries of them) and `pixels` (decoding a slice's pixel data, RLE and
+//! JPEG-LS included).
 
 pub mod csa;
 mod enhanced;

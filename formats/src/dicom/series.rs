@@ -82,9 +82,10 @@ impl SeriesInfo {
 }
 
 /// Whether two slices can share a volume: one size, orientation, pixel
-/// spacing and pixel type.
+/// spacing, pixel type and (in an enhanced file) stack.
 fn same_shape(a: &SliceHeader, b: &SliceHeader) -> bool {
     (a.rows, a.cols, a.bits_allocated, a.signed) == (b.rows, b.cols, b.bits_allocated, b.signed)
+        && a.stack == b.stack
         && !super::differ(&a.orientation, &b.orientation)
         && !super::differ(&a.pixel_spacing, &b.pixel_spacing)
 }

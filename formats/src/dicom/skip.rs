@@ -19,7 +19,8 @@ pub enum SkipReason {
     Damaged(String),
     /// It holds no image: a DICOMDIR, or an object of the SOP class named.
     NoImage(String),
-    /// A multi-frame image (its NumberOfFrames).
+    /// A multi-frame image without per-frame functional groups (its
+    /// NumberOfFrames): no frame states where it lies.
     MultiFrame(u32),
     /// A transfer syntax this build cannot decode: its UID and, when the
     /// registry knows it, its name.
@@ -87,11 +88,11 @@ impl fmt::Display for SkipReason {
             SkipReason::NoImage(what) => write!(f, "holds no image: {what}"),
             SkipReason::MultiFrame(n) => write!(
                 f,
-                "multi-frame image ({n} frames): volkit reads series of single-frame images"
+                "multi-frame image ({n} frames) without per-frame functional groups: no frame states its position (volkit reads enhanced multi-frame images and series of single-frame images)"
             ),
             SkipReason::TransferSyntax { uid, name: Some(name) } => write!(
                 f,
-                "transfer syntax {name} ({uid}) cannot be decoded by volkit: convert it to an uncompressed, RLE or JPEG transfer syntax first (e.g. with dcmdjpeg or gdcmconv --raw)"
+                "transfer syntax {name} ({uid}) cannot be decoded by volkit: convert it to an uncompressed, RLE, JPEG, JPEG-LS or JPEG 2000 transfer syntax first (e.g. with gdcmconv --raw)"
             ),
             SkipReason::TransferSyntax { uid, name: None } => {
                 write!(f, "unknown transfer syntax {uid}")

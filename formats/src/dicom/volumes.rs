@@ -398,6 +398,7 @@ mod tests {
             signed: false,
             pixels: PixelSource::default(),
             keys,
+            stack: None,
             philips_scale: None,
         }
     }
