@@ -35,7 +35,8 @@ if [ ! -f "$series/.done-$DIMS" ]; then
     echo "bench-dicom-j2k: writing the $DIMS series (pydicom, then gdcmconv --j2k)" >&2
     rm -rf "$DIR/plain" "$series"
     mkdir -p "$DIR/plain" "$series"
-    "$B/vol-gen" phantom --dims "$DIMS" --spacing 0.5,0.5,1 -o "$DIR/ct.nii" -q
+    "$B/vol-gen" phantom --dims "$DIMS" --spacing 0.5,0.5,1 -o "$DIR/ct.vvol" -q
+    "$B/vol-convert" "$DIR/ct.vvol" -o "$DIR/ct.nii" -q
     python3 - "$DIR/ct.nii" "$DIR/plain" <<'EOF'
 import sys, numpy as np, nibabel as nib, pydicom
 from pydicom.dataset import Dataset, FileMetaDataset

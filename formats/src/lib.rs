@@ -77,7 +77,7 @@ pub use fingerprint::fingerprint;
 pub use open::{open, open_input, open_volume, ReadOptions};
 pub use output_kind::FileKind;
 pub use prepflags::PrepFlags;
-pub use select::Selection;
+pub use select::{Selection, TimePoint};
 
 #[cfg(test)]
 mod tests;

@@ -29,8 +29,9 @@ pub struct Selection {
     /// Input with a time axis (4D NIfTI, ImageJ hyperstack, OME-TIFF,
     /// OME-Zarr, a DICOM time series: fMRI, diffusion, cardiac phases):
     /// the time point to read, from 0.
-    #[cfg_attr(feature = "clap", arg(long = "time-point", value_name = "T"))]
-    pub time_point: Option<u64>,
+    /// `all` (vol-convert): every volume, into one 4D NIfTI.
+    #[cfg_attr(feature = "clap", arg(long = "time-point", value_name = "T|all"))]
+    pub time_point: Option<TimePoint>,
     /// Multi-echo DICOM series: the echo to read, from 0 (`vol-info`
     /// lists the echoes); other inputs have no echo axis and refuse it.
     #[cfg_attr(feature = "clap", arg(long, value_name = "E"))]
@@ -67,6 +68,52 @@ pub struct Selection {
     pub old_time: Option<String>,
 }
 
+/// `--time-point`: one time point (from 0), or every one (`all`, which
+/// only vol-convert writes: one 4D NIfTI).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimePoint {
+    /// This time point, from 0.
+    At(u64),
+    /// Every time point.
+    All,
+}
+
+impl std::str::FromStr for TimePoint {
+    type Err = String;
+    fn from_str(s: &str) -> Result<TimePoint, String> {
+        if s.eq_ignore_ascii_case("all") {
+            return Ok(TimePoint::All);
+        }
+        s.parse()
+            .map(TimePoint::At)
+            .map_err(|_| format!("{s:?} is no time point: give one from 0, or all"))
+    }
+}
+
+impl std::fmt::Display for TimePoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TimePoint::At(t) => write!(f, "{t}"),
+            TimePoint::All => write!(f, "all"),
+        }
+    }
+}
+
+/// A time point prints as its number, `all` as the word (a printed
+/// scene's `time-point`).
+#[cfg(feature = "clap")]
+impl serde::Serialize for TimePoint {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            TimePoint::At(t) => s.serialize_u64(*t),
+            TimePoint::All => s.serialize_str("all"),
+        }
+    }
+}
+
+/// Why `--time-point all` is refused by every tool but vol-convert.
+pub const ALL_TIME_POINTS_CONVERT_ONLY: &str = "--time-point all writes every volume and is vol-convert's (into one 4D NIfTI); here pick one: --time-point T";
+
 /// The one-line answer to `--time` (or a scene file's `time`): what it
 /// was split into.
 pub const TIME_RENAMED: &str = "--time is gone: use --time-point T to pick a time point of 4D data, or --seconds S for vol-render's path-tracing time budget";
@@ -79,16 +126,36 @@ impl Selection {
         if self.old_time.is_some() {
             return Err(TIME_RENAMED.to_string());
         }
+        if self.time_point == Some(TimePoint::All) {
+            return Err(ALL_TIME_POINTS_CONVERT_ONLY.to_string());
+        }
         Ok(ReadOptions {
             raw: self.raw,
             channel: self.channel.map_or(ChannelSel::Single, ChannelSel::Channel),
-            time: self.time_point,
+            time: self.time_index(),
             series: self.series.clone(),
             echo: self.echo,
             philips: self.philips_scale,
             level: self.level,
             ..ReadOptions::default()
         })
+    }
+
+    /// The one time point asked for, `None` without `--time-point` (or
+    /// with `all`).
+    pub fn time_index(&self) -> Option<u64> {
+        match self.time_point {
+            Some(TimePoint::At(t)) => Some(t),
+            _ => None,
+        }
+    }
+
+    /// These flags with time point `t` instead of `--time-point all`.
+    pub fn at_time(&self, t: u64) -> Selection {
+        Selection {
+            time_point: Some(TimePoint::At(t)),
+            ..self.clone()
+        }
     }
 
     /// Whether any selection was given (beyond the raw defaults).
@@ -117,10 +184,17 @@ mod tests {
         assert!(e.contains("--time-point") && e.contains("--seconds"), "{e}");
         let s = Selection {
             channel: Some(2),
-            time_point: Some(1),
+            time_point: Some(TimePoint::At(1)),
             ..Selection::default()
         };
         let o = s.read_options().unwrap();
         assert_eq!((o.channel, o.time), (ChannelSel::Channel(2), Some(1)));
+        let all = Selection {
+            time_point: Some("all".parse().unwrap()),
+            ..Selection::default()
+        };
+        assert!(all.read_options().unwrap_err().contains("vol-convert"));
+        assert_eq!(all.at_time(4).read_options().unwrap().time, Some(4));
+        assert!("x".parse::<TimePoint>().is_err());
     }
 }

@@ -82,6 +82,20 @@ impl TimeUnit {
         }
     }
 
+    /// Seconds in one of this unit (a 4D NIfTI states its time step in
+    /// seconds).
+    pub fn seconds(self) -> f64 {
+        match self {
+            TimeUnit::Day => 86_400.0,
+            TimeUnit::Hour => 3_600.0,
+            TimeUnit::Minute => 60.0,
+            TimeUnit::Second => 1.0,
+            TimeUnit::Millisecond => 1e-3,
+            TimeUnit::Microsecond => 1e-6,
+            TimeUnit::Nanosecond => 1e-9,
+        }
+    }
+
     /// The symbol, as text reports give it (`s`, `ms`, `µs`, ...).
     pub fn symbol(self) -> &'static str {
         match self {

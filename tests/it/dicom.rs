@@ -521,7 +521,7 @@ fn tm(s: u32) -> String {
 
 /// A folder of an MR run: every slice of `times` time points and
 /// `echoes` echoes, in shuffled file order.
-fn mr_folder(dir: &Path, slices: u32, times: u32, echoes: u32) -> PathBuf {
+pub(crate) fn mr_folder(dir: &Path, slices: u32, times: u32, echoes: u32) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let mut k = 0u32;
     for t in 0..times {

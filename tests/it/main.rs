@@ -27,6 +27,7 @@ mod render;
 mod scene;
 mod shard;
 mod stats;
+mod time_series;
 mod units;
 mod vocabulary;
 

@@ -118,7 +118,7 @@ fn info(cli: &Cli) -> Result<()> {
     if sizes.channels > 1 && sel.channel.is_none() {
         opts.channel = ChannelSel::Channel(0);
     }
-    if sizes.time_points > 1 && sel.time_point.is_none() {
+    if sizes.time_points > 1 && sel.time_index().is_none() {
         opts.time = Some(0);
     }
     // A DICOM input's skipped files, listed after the description.
@@ -151,7 +151,7 @@ fn info(cli: &Cli) -> Result<()> {
             ..Stacks::default()
         });
         let echo = sel.echo.or((series.echoes > 1).then_some(0));
-        let time = sel.time_point.or((series.time_points > 1).then_some(0));
+        let time = sel.time_index().or((series.time_points > 1).then_some(0));
         let reader = scan.open(volformats::dicom::Pick {
             echo,
             time,
@@ -186,12 +186,12 @@ fn info(cli: &Cli) -> Result<()> {
             .map_or(0, u64::from)
             .min(sizes.channels.saturating_sub(1)),
         time_point: sel
-            .time_point
+            .time_index()
             .unwrap_or(0)
             .min(sizes.time_points.saturating_sub(1)),
         echo: sel.echo.unwrap_or(0).min(sizes.echoes.saturating_sub(1)),
         channel_given: sel.channel.is_some(),
-        time_point_given: sel.time_point.is_some(),
+        time_point_given: sel.time_index().is_some(),
         echo_given: sel.echo.is_some(),
     };
     let levels = match kind {

@@ -1,0 +1,175 @@
+//! `--time-point all`: every volume of a 4D input (a DICOM time series,
+//! 4D NIfTI, a hyperstack, an OME-Zarr time series) into one 4D NIfTI.
+//!
+//! Each volume goes through the one conversion path (its stages
+//! included) into a NIfTI of its own in a scratch directory beside the
+//! output, so memory stays one volume's slab; then the volumes' data are
+//! joined behind one header whose `dim[4]` counts them and whose
+//! `pixdim[4]` is the time step. Every volume must come out with the same
+//! grid, type and scaling; the output appears only when complete.
+
+use anyhow::{anyhow, Result};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+/// What the volumes of a 4D input are: how many, and the time between
+/// them (seconds) where the input states it.
+pub struct TimeAxis {
+    /// Volumes.
+    pub count: u64,
+    /// Seconds from one to the next.
+    pub step_s: Option<f64>,
+}
+
+/// The 4D NIfTI header: volume 0's header (`head`, NIfTI-1 or NIfTI-2,
+/// up to its data) with four dimensions, `count` volumes and `step_s`
+/// seconds between them.
+pub fn header_4d(head: &[u8], count: u64, step_s: Option<f64>) -> Result<Vec<u8>> {
+    let mut h = head.to_vec();
+    let size = h
+        .get(..4)
+        .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .ok_or_else(|| anyhow!("volume 0's NIfTI header is short"))?;
+    // (dim offset, dim width, pixdim offset, pixdim width, xyzt_units
+    // offset) of NIfTI-1 and NIfTI-2.
+    let (dim, dw, pixdim, pw, units) = match size {
+        348 => (40, 2, 76, 4, 123),
+        540 => (16, 8, 104, 8, 500),
+        _ => return Err(anyhow!("volume 0 is no NIfTI written by volkit")),
+    };
+    if h.len() < units + 1 {
+        return Err(anyhow!("volume 0's NIfTI header is short"));
+    }
+    let put_int = |h: &mut Vec<u8>, at: usize, v: i64| {
+        if dw == 2 {
+            h[at..at + 2].copy_from_slice(&(v as i16).to_le_bytes());
+        } else {
+            h[at..at + 8].copy_from_slice(&v.to_le_bytes());
+        }
+    };
+    if dw == 2 && count > i16::MAX as u64 {
+        return Err(anyhow!(
+            "{count} volumes do not fit NIfTI-1's 16-bit dim[4] (at most {})",
+            i16::MAX
+        ));
+    }
+    put_int(&mut h, dim, 4);
+    put_int(&mut h, dim + 4 * dw, count as i64);
+    let step = step_s.filter(|s| s.is_finite() && *s > 0.0).unwrap_or(0.0);
+    if pw == 4 {
+        h[pixdim + 16..pixdim + 20].copy_from_slice(&(step as f32).to_le_bytes());
+    } else {
+        h[pixdim + 32..pixdim + 40].copy_from_slice(&step.to_le_bytes());
+    }
+    // The spatial unit's bits kept; seconds (NIFTI_UNITS_SEC, 8) for time.
+    let seconds = if step > 0.0 { 8 } else { 0 };
+    h[units] = (h[units] & 0x07) | seconds;
+    Ok(h)
+}
+
+/// The NIfTI file `part`, split into its header (up to `vox_offset`) and
+/// a reader of its data.
+fn open_part(part: &Path) -> Result<(Vec<u8>, std::fs::File)> {
+    let mut f = std::fs::File::open(part).map_err(|e| anyhow!("{}: {e}", part.display()))?;
+    let mut size = [0u8; 4];
+    f.read_exact(&mut size)?;
+    let offset_at: (u64, usize) = match i32::from_le_bytes(size) {
+        348 => (108, 4),
+        540 => (168, 8),
+        _ => return Err(anyhow!("{}: no NIfTI header", part.display())),
+    };
+    let mut head = size.to_vec();
+    let mut rest = vec![0u8; offset_at.0 as usize + offset_at.1 - 4];
+    f.read_exact(&mut rest)?;
+    head.extend_from_slice(&rest);
+    let at = offset_at.0 as usize;
+    let vox_offset = if offset_at.1 == 4 {
+        f32::from_le_bytes([head[at], head[at + 1], head[at + 2], head[at + 3]]) as u64
+    } else {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&head[at..at + 8]);
+        f64::from_le_bytes(b) as u64
+    };
+    let len = vox_offset
+        .checked_sub(head.len() as u64)
+        .ok_or_else(|| anyhow!("{}: vox_offset inside the header", part.display()))?;
+    let mut tail = vec![0u8; len as usize];
+    f.read_exact(&mut tail)?;
+    head.extend_from_slice(&tail);
+    Ok((head, f))
+}
+
+/// Join the volume files `parts` (NIfTI, in time order, each with the
+/// same header) into the 4D NIfTI `output` (gzip for `.gz`, at
+/// `compress`'s level), under a temporary name renamed when complete.
+pub fn join(
+    parts: &[PathBuf],
+    axis: &TimeAxis,
+    output: &Path,
+    compress: volformats::convert::CompressArg,
+) -> Result<()> {
+    let first = parts
+        .first()
+        .ok_or_else(|| anyhow!("{}: no volumes to write", output.display()))?;
+    let (head0, _) = open_part(first)?;
+    let header = header_4d(&head0, parts.len() as u64, axis.step_s)?;
+    let body = |out: &mut dyn Write| -> Result<()> {
+        out.write_all(&header)?;
+        for (t, part) in parts.iter().enumerate() {
+            let (head, mut data) = open_part(part)?;
+            if head != head0 {
+                return Err(anyhow!(
+                    "volume {t} came out with another grid, type or scaling than volume 0: give --type (and --window) so every volume takes one"
+                ));
+            }
+            std::io::copy(&mut data, out)?;
+        }
+        Ok(())
+    };
+    // .nii.gz's level: --compress gzip:LEVEL, else gzip's default.
+    let level = match compress {
+        volformats::convert::CompressArg::Gzip(l) => l,
+        _ => 6,
+    };
+    let write = || -> Result<()> {
+        let atomic = volformats::output::AtomicFile::create(output)?;
+        let mut handle = std::io::BufWriter::new(atomic.handle()?);
+        if output
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("gz"))
+        {
+            let mut gz = flate2::write::GzEncoder::new(handle, flate2::Compression::new(level));
+            body(&mut gz)?;
+            gz.finish()?.flush()?;
+        } else {
+            body(&mut handle)?;
+            handle.flush()?;
+        }
+        atomic.commit()?;
+        Ok(())
+    };
+    write().map_err(|e| anyhow!("{}: {e}", output.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_nifti_1_header_gains_a_time_axis_and_keeps_its_space_unit() {
+        let mut h = vec![0u8; 352];
+        h[..4].copy_from_slice(&348i32.to_le_bytes());
+        h[40..42].copy_from_slice(&3i16.to_le_bytes());
+        h[123] = 2; // mm
+        let four = header_4d(&h, 120, Some(2.0)).unwrap();
+        assert_eq!(i16::from_le_bytes([four[40], four[41]]), 4);
+        assert_eq!(i16::from_le_bytes([four[48], four[49]]), 120);
+        assert_eq!(
+            f32::from_le_bytes([four[92], four[93], four[94], four[95]]),
+            2.0
+        );
+        assert_eq!(four[123], 2 | 8);
+        assert!(header_4d(&h, 40_000, None).is_err());
+        assert!(header_4d(&h[..100], 2, None).is_err());
+    }
+}
