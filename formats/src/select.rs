@@ -17,8 +17,10 @@ pub struct Selection {
     #[cfg_attr(feature = "clap", command(flatten))]
     #[cfg_attr(feature = "clap", serde(flatten))]
     pub raw: RawSpec,
-    /// DICOM folder with several series: the series to read, by series
-    /// number, SeriesInstanceUID, or a unique prefix of it.
+    /// DICOM folder with several series: the series to read, by any ID
+    /// vol-info lists, series number, SeriesInstanceUID, or a unique
+    /// prefix of it; `all` (vol-convert): every series, each into the
+    /// file `-o`'s template names.
     #[cfg_attr(feature = "clap", arg(long, value_name = "SERIES"))]
     pub series: Option<String>,
     /// Multichannel input (colour TIFF samples, the C axis of an ImageJ
@@ -114,6 +116,9 @@ impl serde::Serialize for TimePoint {
 /// Why `--time-point all` is refused by every tool but vol-convert.
 pub const ALL_TIME_POINTS_CONVERT_ONLY: &str = "--time-point all writes every volume and is vol-convert's (into one 4D NIfTI); here pick one: --time-point T";
 
+/// Why `--series all` is refused by every tool but vol-convert.
+pub const ALL_SERIES_CONVERT_ONLY: &str = "--series all converts every series and is vol-convert's (one file per series, named by a template); here pick one: --series ID";
+
 /// The one-line answer to `--time` (or a scene file's `time`): what it
 /// was split into.
 pub const TIME_RENAMED: &str = "--time is gone: use --time-point T to pick a time point of 4D data, or --seconds S for vol-render's path-tracing time budget";
@@ -128,6 +133,9 @@ impl Selection {
         }
         if self.time_point == Some(TimePoint::All) {
             return Err(ALL_TIME_POINTS_CONVERT_ONLY.to_string());
+        }
+        if self.series.as_deref() == Some("all") {
+            return Err(ALL_SERIES_CONVERT_ONLY.to_string());
         }
         Ok(ReadOptions {
             raw: self.raw,

@@ -124,7 +124,7 @@ pub(crate) fn ct_slice(z: u32) -> DataSet {
 
 /// A secondary capture (a dose report's screenshot): an image of its own
 /// series without ImagePositionPatient or ImageOrientationPatient.
-fn secondary_capture() -> DataSet {
+pub(crate) fn secondary_capture() -> DataSet {
     ct_slice(0)
         .set(0x0008_0016, b"UI", SC_CLASS)
         .set(0x0008_0018, b"UI", format!("{SC_SERIES}.1"))
@@ -136,7 +136,7 @@ fn secondary_capture() -> DataSet {
 }
 
 /// A folder of the CT series' `n` slices (shuffled names).
-fn ct_folder(dir: &Path, n: u32) -> PathBuf {
+pub(crate) fn ct_folder(dir: &Path, n: u32) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     for z in 0..n {
         let name = format!("IM{:04}.dcm", (z * 7) % n);

@@ -13,6 +13,7 @@ mod convert;
 mod dicom;
 mod dicom_codecs;
 mod dicom_enhanced;
+mod dicom_export;
 mod dicom_mosaic;
 mod docs;
 mod formats;

@@ -171,6 +171,7 @@ const EXAMPLES: &str = "Examples:
 Preprocessing (one pass; the stages apply in the order of the help's heading):
   vol-convert ct/ --series 3 --orient RAS --resample spacing:1 -o ct-1mm.nii.gz
   vol-convert fmri/ --time-point all --orient RAS -o run.nii.gz       # every volume, one 4D NIfTI
+  vol-convert export/ --series all -o 'nifti/{number}_{description}.nii.gz'   # every series
   vol-convert ct.nii --resample spacing:0.5,0.5,1 --kernel bspline3 -o fine.nii
   vol-convert labels.nii --resample like:ct-1mm.nii.gz --kernel label -o labels-1mm.nii
   vol-convert ct.nii --smooth gauss:1 --clamp -1000:2000 -o smooth.nii
@@ -234,6 +235,7 @@ fn stop_on_signals() {
 #[cfg(not(unix))]
 fn stop_on_signals() {}
 
+mod export;
 mod time_series;
 
 fn main() -> ExitCode {
@@ -316,113 +318,6 @@ fn merge_cmd(cli: &Cli) -> Result<()> {
     Ok(())
 }
 
-/// `--time-point all`: each volume converted as `--time-point T` converts
-/// it (stages and all) into a NIfTI in a scratch directory beside the
-/// output, then joined into one 4D NIfTI (time_series.rs).
-fn convert_time_series(cli: &Cli, input: &Path) -> Result<()> {
-    let start = Instant::now();
-    let out = &cli.output;
-    let name = out.to_string_lossy().to_ascii_lowercase();
-    if !(name.ends_with(".nii") || name.ends_with(".nii.gz")) {
-        return Err(usage_at(
-            out,
-            "--time-point all writes one 4D NIfTI: name it .nii or .nii.gz (4D OME-Zarr and NRRD are not written yet: convert one --time-point T at a time)",
-        ));
-    }
-    if cli.shard.is_some() {
-        return Err(usage_at(
-            out,
-            "--time-point all is not sharded: shard one --time-point T at a time",
-        ));
-    }
-    let first = cli.input_sel.at_time(0);
-    let opts = volkit_cli::select::read_options(&first, &[input])?;
-    let axis = time_axis(input, &first, &opts)?;
-    // Notes (skipped files, a value convention) are the same for every
-    // volume: said once, after the output is written.
-    let notes = open_input(input, &opts)?.notes();
-    let dir = volformats::output::parent_dir(out);
-    let (scratch, _lock) = volformats::output::temp_dir_in(
-        &dir,
-        &volformats::output::temp_prefix(out),
-        volformats::output::PARTIAL,
-    )
-    .map_err(|e| at(&dir, format!("cannot make a scratch directory: {e}")))?;
-    let mut parts = Vec::new();
-    let bar =
-        volkit_cli::progress::count_bar(Some(axis.count), "vol-convert", "time points", cli.quiet);
-    for t in 0..axis.count {
-        bar.set_position(t);
-        let part = scratch.path().join(format!("{t}.nii"));
-        let one = Cli {
-            input_sel: cli.input_sel.at_time(t),
-            output: part.clone(),
-            compress: CompressArg::Vvol(Compression::None),
-            json: false,
-            quiet: true,
-            ..cli.clone()
-        };
-        convert_cmd(&one).map_err(|e| e.context(format!("time point {t}")))?;
-        parts.push(part);
-    }
-    bar.set_position(axis.count);
-    time_series::join(&parts, &axis, out, cli.compress)?;
-    bar.finish_and_clear();
-    let seconds = start.elapsed().as_secs_f64();
-    let bytes = std::fs::metadata(out).map(|m| m.len()).unwrap_or(0);
-    if cli.json {
-        let v = serde_json::json!({
-            "tool": "vol-convert",
-            "input": input.display().to_string(),
-            "output": out.display().to_string(),
-            "time_points": axis.count,
-            "time_step": axis.step_s,
-            "time_unit": axis.step_s.map(|_| "second"),
-            "bytes": bytes,
-            "seconds": seconds,
-        });
-        json::emit(&v, false)?;
-    } else if !cli.quiet {
-        for note in &notes {
-            noteln!("vol-convert: {note}");
-        }
-        noteln!(
-            "vol-convert: wrote {} ({} time points, {bytes} bytes) in {seconds:.2} s",
-            out.display(),
-            axis.count
-        );
-    }
-    Ok(())
-}
-
-/// How many volumes `input` holds along time, and their time step in
-/// seconds: a DICOM series' from its scan, any other input's from its
-/// header.
-fn time_axis(
-    input: &Path,
-    sel: &volformats::Selection,
-    opts: &volformats::ReadOptions,
-) -> Result<time_series::TimeAxis> {
-    let dicom = volformats::dicom::is_dicom_file(input)
-        || (input.is_dir() && volformats::dicom::list_files(input, None).is_ok());
-    if dicom {
-        let scan = volformats::open::dicom_scan(input, opts)?;
-        let series = scan.info(sel.series.as_deref())?;
-        return Ok(time_series::TimeAxis {
-            count: series.time_points,
-            step_s: series.time_step,
-        });
-    }
-    let stacks = volformats::open::stacks(input, opts)?;
-    Ok(time_series::TimeAxis {
-        count: stacks.time_points,
-        step_s: stacks
-            .time_step
-            .zip(stacks.time_unit)
-            .map(|(s, u)| s * u.seconds()),
-    })
-}
-
 /// An error about `path`, as `path: message`.
 fn at(path: &Path, msg: impl std::fmt::Display) -> anyhow::Error {
     anyhow!("{}: {msg}", path.display())
@@ -475,9 +370,26 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     let Some(input) = &cli.input else {
         return Err(usage("no INPUT given (or --merge PARTS...)"));
     };
-    if cli.input_sel.time_point == Some(volformats::TimePoint::All) {
-        return convert_time_series(cli, input);
+    if cli.input_sel.series.as_deref() == Some("all") {
+        return export::convert_all_series(cli, input);
     }
+    if cli.input_sel.time_point == Some(volformats::TimePoint::All) {
+        let w = time_series::convert(cli, input, None, &cli.output)?;
+        return time_series::report(cli, input, &w, start);
+    }
+    // Check the output first: a bad output name should not cost a scan.
+    let (window, target) = prepare_output(cli, input)?;
+    let mut opts = volkit_cli::select::read_options(&cli.input_sel, &[input])?;
+    if cli.luma {
+        opts.channel = ChannelSel::Luma;
+    }
+    let reader = open_input(input, &opts)?;
+    convert_opened(cli, input, reader, window, target, start)
+}
+
+/// The output side of a conversion, checked before any input is read:
+/// the window's syntax and the target (`-o` with the output options).
+fn prepare_output(cli: &Cli, input: &Path) -> Result<(Option<Window>, Target)> {
     let window: Option<Window> = match &cli.window {
         Some(w) => Some(
             w.parse()
@@ -488,15 +400,23 @@ fn convert_cmd(cli: &Cli) -> Result<()> {
     // Malformed values and a missing companion flag are usage errors
     // (exit 2), as clap's own are.
     convert::check_window(window.as_ref(), cli.sample_type).map_err(|e| usage_at(input, e))?;
-    // Check the output first: a bad output name should not cost a scan.
     let out_opts = output_options(cli);
     let target = target(cli, &out_opts)?;
     target.preflight().map_err(anyhow::Error::new)?;
-    let mut opts = volkit_cli::select::read_options(&cli.input_sel, &[input])?;
-    if cli.luma {
-        opts.channel = ChannelSel::Luma;
-    }
-    let reader = open_input(input, &opts)?;
+    Ok((window, target))
+}
+
+/// Convert the volume `reader` opened from `input` into `target`, as the
+/// flags say, and report it.
+fn convert_opened(
+    cli: &Cli,
+    input: &Path,
+    reader: Box<dyn volformats::convert::SliceReader>,
+    window: Option<Window>,
+    target: Target,
+    start: Instant,
+) -> Result<()> {
+    let out_opts = output_options(cli);
     // Told once the conversion succeeds: an error stays one line.
     let notes = reader.notes();
     let info = reader.info().clone();

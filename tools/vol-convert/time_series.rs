@@ -8,9 +8,158 @@
 //! `pixdim[4]` is the time step. Every volume must come out with the same
 //! grid, type and scaling; the output appears only when complete.
 
+use super::{convert_opened, prepare_output, usage_at, Cli};
 use anyhow::{anyhow, Result};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
+use std::time::Instant;
+use volcore::Compression;
+use volformats::convert::{CompressArg, SliceReader};
+use volformats::dicom::Scan;
+use volformats::open::InputKind;
+use volkit_cli::{json, noteln};
+
+/// What a 4D conversion wrote.
+pub struct Written {
+    /// Volumes.
+    pub count: u64,
+    /// Seconds between them, where the input states it.
+    pub step_s: Option<f64>,
+    /// Bytes of the output.
+    pub bytes: u64,
+    /// The input's notes (skipped files, a value convention), from its
+    /// first volume: the same for every one.
+    pub notes: Vec<String>,
+}
+
+/// Convert every volume of `input` (a DICOM input through `scan` when
+/// one was made, else scanned here once) into the 4D NIfTI `out`.
+pub fn convert(cli: &Cli, input: &Path, scan: Option<&Scan>, out: &Path) -> Result<Written> {
+    let name = out.to_string_lossy().to_ascii_lowercase();
+    if !(name.ends_with(".nii") || name.ends_with(".nii.gz")) {
+        return Err(usage_at(
+            out,
+            "--time-point all writes one 4D NIfTI: name it .nii or .nii.gz (4D OME-Zarr and NRRD are not written yet: convert one --time-point T at a time)",
+        ));
+    }
+    if cli.shard.is_some() {
+        return Err(usage_at(
+            out,
+            "--time-point all is not sharded: shard one --time-point T at a time",
+        ));
+    }
+    let first = cli.input_sel.at_time(0);
+    let opts = volkit_cli::select::read_options(&first, &[input])?;
+    let owned;
+    let scan = match scan {
+        Some(s) => Some(s),
+        None if matches!(
+            volformats::open::input_kind(input, &opts)?,
+            InputKind::DicomDir | InputKind::Dicom
+        ) =>
+        {
+            owned = volformats::open::dicom_scan(input, &opts)?;
+            Some(&owned)
+        }
+        None => None,
+    };
+    let axis = match scan {
+        Some(s) => {
+            let info = s.info(first.series.as_deref())?;
+            TimeAxis {
+                count: info.time_points,
+                step_s: info.time_step,
+            }
+        }
+        None => {
+            let stacks = volformats::open::stacks(input, &opts)?;
+            TimeAxis {
+                count: stacks.time_points,
+                step_s: stacks
+                    .time_step
+                    .zip(stacks.time_unit)
+                    .map(|(s, u)| s * u.seconds()),
+            }
+        }
+    };
+    let open = |t: u64| -> Result<Box<dyn SliceReader>> {
+        let sel = cli.input_sel.at_time(t);
+        let opts = volkit_cli::select::read_options(&sel, &[input])?;
+        Ok(match scan {
+            Some(s) => Box::new(s.open(opts.dicom_pick())?),
+            None => volformats::open_input(input, &opts)?,
+        })
+    };
+    let dir = volformats::output::parent_dir(out);
+    let (scratch, _lock) = volformats::output::temp_dir_in(
+        &dir,
+        &volformats::output::temp_prefix(out),
+        volformats::output::PARTIAL,
+    )
+    .map_err(|e| anyhow!("{}: cannot make a scratch directory: {e}", dir.display()))?;
+    let bar =
+        volkit_cli::progress::count_bar(Some(axis.count), "vol-convert", "time points", cli.quiet);
+    let mut parts = Vec::new();
+    let mut notes = Vec::new();
+    for t in 0..axis.count {
+        bar.set_position(t);
+        let reader = open(t).map_err(|e| e.context(format!("time point {t}")))?;
+        if t == 0 {
+            notes = reader.notes();
+        }
+        let part = scratch.path().join(format!("{t}.nii"));
+        let one = Cli {
+            input_sel: cli.input_sel.at_time(t),
+            output: part.clone(),
+            compress: CompressArg::Vvol(Compression::None),
+            json: false,
+            quiet: true,
+            ..cli.clone()
+        };
+        let (window, target) = prepare_output(&one, input)?;
+        convert_opened(&one, input, reader, window, target, Instant::now())
+            .map_err(|e| e.context(format!("time point {t}")))?;
+        parts.push(part);
+    }
+    bar.set_position(axis.count);
+    join(&parts, &axis, out, cli.compress)?;
+    bar.finish_and_clear();
+    Ok(Written {
+        count: axis.count,
+        step_s: axis.step_s,
+        bytes: std::fs::metadata(out).map(|m| m.len()).unwrap_or(0),
+        notes,
+    })
+}
+
+/// Say what [`convert`] wrote: the notes and a line, or `--json`'s object.
+pub fn report(cli: &Cli, input: &Path, w: &Written, start: Instant) -> Result<()> {
+    let seconds = start.elapsed().as_secs_f64();
+    if cli.json {
+        let v = serde_json::json!({
+            "tool": "vol-convert",
+            "input": input.display().to_string(),
+            "output": cli.output.display().to_string(),
+            "time_points": w.count,
+            "time_step": w.step_s,
+            "time_unit": w.step_s.map(|_| "second"),
+            "bytes": w.bytes,
+            "seconds": seconds,
+        });
+        json::emit(&v, false)?;
+    } else if !cli.quiet {
+        for note in &w.notes {
+            noteln!("vol-convert: {note}");
+        }
+        noteln!(
+            "vol-convert: wrote {} ({} time points, {} bytes) in {seconds:.2} s",
+            cli.output.display(),
+            w.count,
+            w.bytes
+        );
+    }
+    Ok(())
+}
 
 /// What the volumes of a 4D input are: how many, and the time between
 /// them (seconds) where the input states it.

@@ -348,7 +348,9 @@ impl Scan {
     /// series' own problem is an error, with the files skipped named after
     /// it (one of them may be its missing slice). A series of several
     /// volumes needs a time point (and an echo where echoes are an axis).
-    pub fn open(mut self, pick: Pick) -> CResult<DicomReader> {
+    /// The scan is kept: one scan opens every series of a folder
+    /// (`vol-convert --series all`) and every volume of a series.
+    pub fn open(&self, pick: Pick) -> CResult<DicomReader> {
         let Pick {
             series: sel,
             echo,
@@ -356,7 +358,13 @@ impl Scan {
             philips,
         } = pick;
         let i = self.select(sel)?;
-        let (_, volumes) = self.series.swap_remove(i);
+        let volumes = match &self.series[i].1 {
+            Ok(v) => Ok(v),
+            Err(e) => Err(ConvertError::new(
+                &e.path,
+                crate::error::Error::invalid(e.error.to_string()),
+            )),
+        };
         let reader = volumes.and_then(|v| {
             let mut slices = v
                 .pick(echo, time)
@@ -393,7 +401,7 @@ impl Scan {
         });
         match reader {
             Ok(mut r) => {
-                r.skipped = self.skipped;
+                r.skipped = self.skipped.clone();
                 Ok(r)
             }
             Err(e) if self.skipped.is_empty() => Err(e),
