@@ -221,6 +221,28 @@ mod tests {
     }
 
     #[test]
+    fn every_byte_of_a_header_set_to_an_extreme_parses_or_is_refused() {
+        // Counts and lengths at 0, 0x7F, 0x80 and 0xFF in every byte: the
+        // parser returns (bounded loops, checked lengths), whatever it
+        // makes of them, and what it reads stays within the bytes.
+        let whole = sample();
+        for i in 0..whole.len() {
+            for v in [0x00, 0x7F, 0x80, 0xFF] {
+                let mut b = whole.clone();
+                b[i] = v;
+                if let Ok(h) = CsaHeader::parse(&b) {
+                    let total: usize = h.elements.values().map(Vec::len).sum();
+                    assert!(total <= b.len(), "byte {i} = {v:#x}");
+                    let _ = (
+                        h.number("NumberOfImagesInMosaic"),
+                        h.vector("SliceNormalVector"),
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn counts_past_the_bound_are_refused_before_any_loop() {
         let mut b = b"SV10\x04\x03\x02\x01".to_vec();
         b.extend_from_slice(&u32::MAX.to_le_bytes());
