@@ -25,13 +25,7 @@ pub(super) fn frames(
     frames: i64,
     image: &Image,
 ) -> Result<Vec<SliceHeader>, SkipReason> {
-    let items = |tag| {
-        obj.element_opt(tag)
-            .ok()
-            .flatten()
-            .and_then(|e| e.items())
-            .unwrap_or(&[])
-    };
+    let items = |tag| obj.get(tag).and_then(|e| e.items()).unwrap_or(&[]);
     let per_frame = items(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE);
     let count = u32::try_from(frames.max(1)).unwrap_or(u32::MAX);
     if per_frame.is_empty() {
@@ -76,9 +70,7 @@ fn check_frames_fit(
     image: &Image,
 ) -> Result<(), SkipReason> {
     let encapsulated = obj
-        .element_opt(tags::PIXEL_DATA)
-        .ok()
-        .flatten()
+        .get(tags::PIXEL_DATA)
         .is_some_and(|e| e.value().fragments().is_some());
     let per_frame = if encapsulated {
         8

@@ -130,9 +130,7 @@ impl<'a> Attrs<'a> {
     }
 
     fn element(&self, tag: Tag) -> Option<&'a dicom_object::mem::InMemElement> {
-        self.layers
-            .iter()
-            .find_map(|l| l.element_opt(tag).ok().flatten())
+        self.layers.iter().find_map(|l| l.get(tag))
     }
 
     /// A text attribute, trimmed of padding.
@@ -267,9 +265,7 @@ pub(super) fn read_file(path: &Path) -> Result<Vec<SliceHeader>, SkipReason> {
     }
     let image = image_of(path, &obj)?;
     let per_frame_groups = obj
-        .element_opt(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE)
-        .ok()
-        .flatten()
+        .get(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE)
         .is_some();
     if frames > 1 || per_frame_groups {
         return super::enhanced::frames(path, &obj, frames, &image);

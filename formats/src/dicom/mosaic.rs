@@ -39,9 +39,7 @@ fn refuse(why: impl std::fmt::Display) -> SkipReason {
 /// The CSA image header of `obj`, when it has one that parses.
 fn csa_image_header(obj: &InMemDicomObject) -> Result<CsaHeader, SkipReason> {
     let bytes = obj
-        .element_opt(dicom_core::Tag(0x0029, 0x1010))
-        .ok()
-        .flatten()
+        .get(dicom_core::Tag(0x0029, 0x1010))
         .and_then(|e| e.to_bytes().ok())
         .ok_or_else(|| refuse("it has no Siemens CSA image header (0029,1010)"))?;
     CsaHeader::parse(&bytes).map_err(|e| refuse(format!("its CSA header (0029,1010) {e}")))

@@ -93,12 +93,7 @@ pub(super) fn frame_bytes(s: &SliceHeader, obj: &DefaultDicomObject) -> CResult<
 /// The frame's Rows and Columns as the file states them (a mosaic's whole
 /// grid; the slice's own size otherwise).
 fn frame_size(obj: &DefaultDicomObject, s: &SliceHeader) -> (usize, usize) {
-    let get = |tag| {
-        obj.element_opt(tag)
-            .ok()
-            .flatten()
-            .and_then(|e| e.to_int::<usize>().ok())
-    };
+    let get = |tag| obj.get(tag).and_then(|e| e.to_int::<usize>().ok());
     match s.pixels.tile {
         Some(t) => (get(tags::ROWS).unwrap_or(0), t.frame_cols as usize),
         None => (s.rows as usize, s.cols as usize),
@@ -202,9 +197,7 @@ fn frame_fragments(obj: &DefaultDicomObject, frame: u32) -> Result<Vec<u8>, Stri
         .fragments()
         .ok_or("pixel data is not encapsulated")?;
     let frames = obj
-        .element_opt(tags::NUMBER_OF_FRAMES)
-        .ok()
-        .flatten()
+        .get(tags::NUMBER_OF_FRAMES)
         .and_then(|e| e.to_int::<u32>().ok())
         .unwrap_or(1)
         .max(1);
