@@ -149,6 +149,12 @@ pub trait SliceReader: Send + Sync {
     fn stored_type(&self) -> Option<SliceType> {
         None
     }
+    /// What the input states about its acquisition, under BIDS's names
+    /// (a DICOM series: the sidecar dcm2niix writes); `None` for inputs
+    /// that state none.
+    fn sidecar(&self) -> Option<serde_json::Map<String, serde_json::Value>> {
+        None
+    }
 }
 
 /// A reader of samples a header describes (raw data at an offset, a

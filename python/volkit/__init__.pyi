@@ -105,12 +105,17 @@ def open(
     luma: bool = ...,
     time_point: Optional[int] = ...,
     series: Union[None, int, str] = ...,
+    echo: Optional[int] = ...,
+    philips_scale: Optional[str] = ...,
     level: Optional[int] = ...,
     in_memory: bool = ...,
 ) -> Volume:
     """Open anything vol-convert reads, with its selection options
     (``raw_dims`` is vol-convert's text ``"X,Y,Z"``; ``shape`` the same in
-    numpy order; ``level`` a level of an OME-Zarr pyramid, 0 by default).
+    numpy order; ``echo`` an echo of a multi-echo DICOM series;
+    ``philips_scale`` ``"displayed"`` or ``"precise"`` for a Philips
+    series with a private scale slope; ``level`` a level of an OME-Zarr
+    pyramid, 0 by default).
     A keyword the input has nothing to pick with (``channel`` of a NIfTI,
     ``series`` of anything but DICOM, ``level`` of anything but OME-Zarr)
     raises ValueError."""

@@ -154,3 +154,66 @@ for k, f in enumerate(ds.PerFrameFunctionalGroupsSequence):
     let j = crate::dicom::info_json(d.path(), &["--series", "301-2"]);
     assert_eq!(j["dims"], serde_json::json!([256, 256, 88]), "{j}");
 }
+
+/// `--sidecar` writes what the series states about its acquisition under
+/// BIDS's names and units, as dcm2niix's sidecar does: the fields both
+/// write agree (times in seconds; dcm2niix rounds to six digits). Where
+/// they differ legitimately: dcm2niix shortens Manufacturer ("Philips"
+/// for "Philips Medical Systems") and adds fields volkit does not write.
+#[test]
+fn a_sidecar_states_the_acquisition_as_dcm2niix_does() {
+    let d = tempfile::tempdir().unwrap();
+    let (input, reference) = (d.path().join("in"), d.path().join("ref"));
+    std::fs::create_dir_all(&input).unwrap();
+    std::fs::create_dir_all(&reference).unwrap();
+    if mprage(&input, 176, Some(&reference)).is_none() {
+        return;
+    }
+    let out = d.path().join("run.nii.gz");
+    ok(tool("vol-convert")
+        .arg(&input)
+        .arg("--sidecar")
+        .arg("-o")
+        .arg(&out));
+    let ours: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("run.json")).unwrap()).unwrap();
+    let theirs: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(reference.join("ref.json")).unwrap())
+            .unwrap();
+    for key in [
+        "Modality",
+        "ManufacturersModelName",
+        "SeriesDescription",
+        "ProtocolName",
+        "BodyPartExamined",
+        "PatientPosition",
+        "ScanningSequence",
+        "SeriesNumber",
+        "AcquisitionTime",
+        "MagneticFieldStrength",
+        "SliceThickness",
+        "SpacingBetweenSlices",
+        "FlipAngle",
+        "EchoTime",
+        "RepetitionTime",
+    ] {
+        let (a, b) = (&ours[key], &theirs[key]);
+        let same = match (a.as_f64(), b.as_f64()) {
+            (Some(x), Some(y)) => (x - y).abs() <= 1e-6 * y.abs().max(1.0),
+            _ => a == b && !a.is_null(),
+        };
+        assert!(same, "{key}: ours {a}, dcm2niix {b}");
+    }
+    assert_eq!(ours["ConversionSoftware"], "volkit vol-convert");
+    // Not DICOM: refused, and nothing written.
+    let plain = d.path().join("plain.nii");
+    ok(tool("vol-convert").arg(&out).arg("-o").arg(&plain));
+    crate::common::fails(
+        tool("vol-convert")
+            .arg(&plain)
+            .args(["--sidecar", "-o"])
+            .arg(d.path().join("again.nii")),
+        "states none",
+    );
+    assert!(!d.path().join("again.nii").exists() && !d.path().join("again.json").exists());
+}

@@ -148,6 +148,12 @@ struct Cli {
     /// one --channel).
     #[arg(long, conflicts_with = "channel", help_heading = "Input")]
     luma: bool,
+    /// DICOM input: write what the series states about its acquisition
+    /// (EchoTime, RepetitionTime, FlipAngle, ConvolutionKernel, ...) as
+    /// a BIDS sidecar beside the output, as dcm2niix does: OUT.nii.gz gets
+    /// OUT.json.
+    #[arg(long)]
+    sidecar: bool,
     /// Print one JSON object with what was done (to stderr when -o -).
     #[arg(long)]
     json: bool,
@@ -236,6 +242,7 @@ fn stop_on_signals() {
 fn stop_on_signals() {}
 
 mod export;
+mod sidecar;
 mod time_series;
 
 fn main() -> ExitCode {
@@ -417,6 +424,10 @@ fn convert_opened(
     start: Instant,
 ) -> Result<()> {
     let out_opts = output_options(cli);
+    let acquisition = match cli.sidecar {
+        true => Some(sidecar_fields(cli, input, reader.as_ref())?),
+        false => None,
+    };
     // Told once the conversion succeeds: an error stays one line.
     let notes = reader.notes();
     let info = reader.info().clone();
@@ -529,7 +540,30 @@ fn convert_opened(
         }
     }
     raw_note(cli, &report);
+    if let Some(fields) = acquisition {
+        sidecar::write(&cli.output, fields)?;
+    }
     Ok(())
+}
+
+/// What `reader` states of its acquisition, for `--sidecar`; a usage
+/// error for inputs that state none or an output on stdout.
+fn sidecar_fields(
+    cli: &Cli,
+    input: &Path,
+    reader: &dyn volformats::convert::SliceReader,
+) -> Result<serde_json::Map<String, serde_json::Value>> {
+    if cli.output.as_os_str() == "-" {
+        return Err(usage(
+            "--sidecar writes a file beside the output: give -o a file",
+        ));
+    }
+    reader.sidecar().ok_or_else(|| {
+        usage_at(
+            input,
+            "--sidecar writes what a DICOM series states about its acquisition; this input states none",
+        )
+    })
 }
 
 /// A raw output whose name does not say its dims and type: tell how to

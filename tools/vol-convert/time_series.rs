@@ -101,11 +101,15 @@ pub fn convert(cli: &Cli, input: &Path, scan: Option<&Scan>, out: &Path) -> Resu
         volkit_cli::progress::count_bar(Some(axis.count), "vol-convert", "time points", cli.quiet);
     let mut parts = Vec::new();
     let mut notes = Vec::new();
+    let mut acquisition = None;
     for t in 0..axis.count {
         bar.set_position(t);
         let reader = open(t).map_err(|e| e.context(format!("time point {t}")))?;
         if t == 0 {
             notes = reader.notes();
+            if cli.sidecar {
+                acquisition = Some(super::sidecar_fields(cli, input, reader.as_ref())?);
+            }
         }
         let part = scratch.path().join(format!("{t}.nii"));
         let one = Cli {
@@ -114,6 +118,7 @@ pub fn convert(cli: &Cli, input: &Path, scan: Option<&Scan>, out: &Path) -> Resu
             compress: CompressArg::Vvol(Compression::None),
             json: false,
             quiet: true,
+            sidecar: false,
             ..cli.clone()
         };
         let (window, target) = prepare_output(&one, input)?;
@@ -123,6 +128,9 @@ pub fn convert(cli: &Cli, input: &Path, scan: Option<&Scan>, out: &Path) -> Resu
     }
     bar.set_position(axis.count);
     join(&parts, &axis, out, cli.compress)?;
+    if let Some(fields) = acquisition {
+        super::sidecar::write(out, fields)?;
+    }
     bar.finish_and_clear();
     Ok(Written {
         count: axis.count,

@@ -41,6 +41,8 @@ pub(super) struct SliceHeader {
     /// usable one: the "precise" values are the displayed ones divided by
     /// RescaleSlope times it.
     pub(super) philips_scale: Option<f64>,
+    /// The acquisition as a BIDS sidecar states it (see `sidecar`).
+    pub(super) sidecar: std::sync::Arc<serde_json::Map<String, serde_json::Value>>,
 }
 
 /// Where one slice's pixels lie in its file: a frame (0 for single-frame
@@ -374,6 +376,7 @@ pub(super) fn slice_of(
         pixels,
         keys: volume_keys(a),
         stack: a.text(tags::STACK_ID).filter(|s| !s.is_empty()),
+        sidecar: std::sync::Arc::new(super::sidecar::of(a)),
         philips_scale: a
             .first_float(Tag(0x2005, 0x100E))
             .filter(|v| v.is_finite() && *v != 0.0),

@@ -54,6 +54,7 @@ mod header;
 mod mosaic;
 mod pixels;
 mod series;
+mod sidecar;
 mod skip;
 mod volumes;
 
@@ -443,5 +444,8 @@ impl SliceReader for DicomReader {
     }
     fn stored_type(&self) -> Option<SliceType> {
         (self.stored != self.info.sample_type).then_some(self.stored)
+    }
+    fn sidecar(&self) -> Option<serde_json::Map<String, serde_json::Value>> {
+        self.slices.first().map(|s| (*s.sidecar).clone())
     }
 }

@@ -399,6 +399,7 @@ mod tests {
             pixels: PixelSource::default(),
             keys,
             stack: None,
+            sidecar: Default::default(),
             philips_scale: None,
         }
     }
