@@ -67,21 +67,7 @@ fn fill(template: &str, s: &SeriesInfo) -> String {
 /// `path` with `_ID` before its extension (`.nii.gz` counts as one):
 /// the name of a second series the template names the same.
 fn with_id(path: &str, id: &str) -> String {
-    let lower = path.to_ascii_lowercase();
-    let file_start = path.rfind('/').map_or(0, |i| i + 1);
-    let ext = [
-        ".nii.gz",
-        ".ome.zarr",
-        ".nrrd",
-        ".nii",
-        ".vvol",
-        ".mha",
-        ".tif",
-    ]
-    .iter()
-    .find(|e| lower.ends_with(*e) && path.len() - e.len() > file_start)
-    .map_or(0, |e| e.len());
-    let (stem, ext) = path.split_at(path.len() - ext);
+    let (stem, ext) = super::sidecar::split_extension(path);
     format!("{stem}_{}{ext}", name_part(id))
 }
 

@@ -7,12 +7,11 @@ use serde_json::{Map, Value};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The sidecar's path for output `out`: its name less its format's
-/// extension (`.nii.gz` and `.ome.zarr` count as one), plus `.json`.
-pub fn path_for(out: &Path) -> PathBuf {
-    let name = out.to_string_lossy();
-    let lower = name.to_ascii_lowercase();
-    let file_start = name.rfind('/').map_or(0, |i| i + 1);
+/// `path` split before its format's extension (`.nii.gz` and
+/// `.ome.zarr` count as one; a name that is all extension keeps it).
+pub fn split_extension(path: &str) -> (&str, &str) {
+    let lower = path.to_ascii_lowercase();
+    let file_start = path.rfind('/').map_or(0, |i| i + 1);
     let cut = [
         ".nii.gz",
         ".ome.zarr",
@@ -29,9 +28,16 @@ pub fn path_for(out: &Path) -> PathBuf {
         ".vol",
     ]
     .iter()
-    .find(|e| lower.ends_with(*e) && name.len() - e.len() > file_start)
+    .find(|e| lower.ends_with(*e) && path.len() - e.len() > file_start)
     .map_or(0, |e| e.len());
-    PathBuf::from(format!("{}.json", &name[..name.len() - cut]))
+    path.split_at(path.len() - cut)
+}
+
+/// The sidecar's path for output `out`: its name less its format's
+/// extension, plus `.json`.
+pub fn path_for(out: &Path) -> PathBuf {
+    let name = out.to_string_lossy();
+    PathBuf::from(format!("{}.json", split_extension(&name).0))
 }
 
 /// Write `fields` (with the converting software named) beside `out`,
