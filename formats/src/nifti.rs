@@ -606,6 +606,45 @@ pub enum NiftiLayout {
     Pair,
 }
 
+/// NIFTI_UNITS_SEC: time in seconds, in bits 3-5 of `xyzt_units`.
+const NIFTI_UNITS_SEC: u8 = 8;
+
+/// `header` (a little-endian NIfTI-1 or NIfTI-2 header as
+/// [`encode_header`] writes it, up to its data) made 4D: `count` volumes
+/// along `dim[4]`, `step_s` seconds apart in `pixdim[4]` (with seconds as
+/// the time unit; none stated without a step). The spatial fields are
+/// kept; the data that follows is the volumes one after another.
+pub fn with_time_axis(header: &[u8], count: u64, step_s: Option<f64>) -> Result<Vec<u8>> {
+    let h = NiftiHeader::decode(header)?;
+    if h.big_endian || h.dim[0] != 3 {
+        return Err(Error::invalid(
+            "a time axis is added to volkit's own little-endian 3D NIfTI headers only",
+        ));
+    }
+    let mut b = header.to_vec();
+    let step = step_s.filter(|s| s.is_finite() && *s > 0.0).unwrap_or(0.0);
+    let units = if h.version == 1 {
+        if count > i16::MAX as u64 {
+            return Err(Error::invalid(format!(
+                "{count} volumes do not fit NIfTI-1's 16-bit dim[4] (at most {})",
+                i16::MAX
+            )));
+        }
+        LittleEndian::write_i16(&mut b[40..], 4);
+        LittleEndian::write_i16(&mut b[48..], count as i16);
+        LittleEndian::write_f32(&mut b[92..], step as f32);
+        123
+    } else {
+        LittleEndian::write_i64(&mut b[16..], 4);
+        LittleEndian::write_i64(&mut b[48..], count as i64);
+        LittleEndian::write_f64(&mut b[136..], step);
+        500
+    };
+    let time = if step > 0.0 { NIFTI_UNITS_SEC } else { 0 };
+    b[units] = (b[units] & 0x07) | time;
+    Ok(b)
+}
+
 /// Encode the header volkit writes for a volume: NIfTI-1, or NIfTI-2 when
 /// a dimension does not fit 16 bits. Returns the header bytes (with the
 /// 4-byte extension flag for [`NiftiLayout::Single`]) — the data follows.
@@ -727,6 +766,39 @@ pub fn encode_header(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_header_gains_a_time_axis_and_keeps_its_space_unit() {
+        let g = Geometry::default().with_unit(LengthUnit::Millimeter);
+        for dims in [Dims::new(4, 3, 2).unwrap(), Dims::new(40000, 2, 2).unwrap()] {
+            let b = encode_header(
+                dims,
+                SampleType::U16,
+                [1.0, 1.0, 2.0],
+                &g,
+                NiftiCodes::SCANNER,
+                NiftiLayout::Single,
+            );
+            let four = NiftiHeader::decode(&with_time_axis(&b, 120, Some(2.0)).unwrap()).unwrap();
+            assert_eq!((four.dim[0], four.dim[4]), (4, 120));
+            assert_eq!(four.pixdim[4], 2.0);
+            assert_eq!(four.xyzt_units, NIFTI_UNITS_MM | i32::from(NIFTI_UNITS_SEC));
+            assert_eq!(four.shape().unwrap(), (dims, 120));
+            assert_eq!(four.vox_offset, NiftiHeader::decode(&b).unwrap().vox_offset);
+            let none = NiftiHeader::decode(&with_time_axis(&b, 3, None).unwrap()).unwrap();
+            assert_eq!((none.pixdim[4], none.xyzt_units), (0.0, NIFTI_UNITS_MM));
+        }
+        let small = encode_header(
+            Dims::new(4, 3, 2).unwrap(),
+            SampleType::U16,
+            [1.0; 3],
+            &g,
+            NiftiCodes::SCANNER,
+            NiftiLayout::Single,
+        );
+        assert!(with_time_axis(&small, 40_000, None).is_err());
+        assert!(with_time_axis(&small[..100], 2, None).is_err());
+    }
 
     fn close(a: [f64; 3], b: [f64; 3]) -> bool {
         a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5)

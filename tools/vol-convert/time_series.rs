@@ -10,7 +10,7 @@
 
 use super::{convert_opened, prepare_output, usage_at, Cli};
 use anyhow::{anyhow, Result};
-use std::io::{Read, Write};
+use std::io::{Read, Seek, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use volcore::Compression;
@@ -178,81 +178,20 @@ pub struct TimeAxis {
     pub step_s: Option<f64>,
 }
 
-/// The 4D NIfTI header: volume 0's header (`head`, NIfTI-1 or NIfTI-2,
-/// up to its data) with four dimensions, `count` volumes and `step_s`
-/// seconds between them.
-pub fn header_4d(head: &[u8], count: u64, step_s: Option<f64>) -> Result<Vec<u8>> {
-    let mut h = head.to_vec();
-    let size = h
-        .get(..4)
-        .map(|b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .ok_or_else(|| anyhow!("volume 0's NIfTI header is short"))?;
-    // (dim offset, dim width, pixdim offset, pixdim width, xyzt_units
-    // offset) of NIfTI-1 and NIfTI-2.
-    let (dim, dw, pixdim, pw, units) = match size {
-        348 => (40, 2, 76, 4, 123),
-        540 => (16, 8, 104, 8, 500),
-        _ => return Err(anyhow!("volume 0 is no NIfTI written by volkit")),
-    };
-    if h.len() < units + 1 {
-        return Err(anyhow!("volume 0's NIfTI header is short"));
-    }
-    let put_int = |h: &mut Vec<u8>, at: usize, v: i64| {
-        if dw == 2 {
-            h[at..at + 2].copy_from_slice(&(v as i16).to_le_bytes());
-        } else {
-            h[at..at + 8].copy_from_slice(&v.to_le_bytes());
-        }
-    };
-    if dw == 2 && count > i16::MAX as u64 {
-        return Err(anyhow!(
-            "{count} volumes do not fit NIfTI-1's 16-bit dim[4] (at most {})",
-            i16::MAX
-        ));
-    }
-    put_int(&mut h, dim, 4);
-    put_int(&mut h, dim + 4 * dw, count as i64);
-    let step = step_s.filter(|s| s.is_finite() && *s > 0.0).unwrap_or(0.0);
-    if pw == 4 {
-        h[pixdim + 16..pixdim + 20].copy_from_slice(&(step as f32).to_le_bytes());
-    } else {
-        h[pixdim + 32..pixdim + 40].copy_from_slice(&step.to_le_bytes());
-    }
-    // The spatial unit's bits kept; seconds (NIFTI_UNITS_SEC, 8) for time.
-    let seconds = if step > 0.0 { 8 } else { 0 };
-    h[units] = (h[units] & 0x07) | seconds;
-    Ok(h)
-}
-
 /// The NIfTI file `part`, split into its header (up to `vox_offset`) and
 /// a reader of its data.
 fn open_part(part: &Path) -> Result<(Vec<u8>, std::fs::File)> {
-    let mut f = std::fs::File::open(part).map_err(|e| anyhow!("{}: {e}", part.display()))?;
-    let mut size = [0u8; 4];
-    f.read_exact(&mut size)?;
-    let offset_at: (u64, usize) = match i32::from_le_bytes(size) {
-        348 => (108, 4),
-        540 => (168, 8),
-        _ => return Err(anyhow!("{}: no NIfTI header", part.display())),
-    };
-    let mut head = size.to_vec();
-    let mut rest = vec![0u8; offset_at.0 as usize + offset_at.1 - 4];
-    f.read_exact(&mut rest)?;
-    head.extend_from_slice(&rest);
-    let at = offset_at.0 as usize;
-    let vox_offset = if offset_at.1 == 4 {
-        f32::from_le_bytes([head[at], head[at + 1], head[at + 2], head[at + 3]]) as u64
-    } else {
-        let mut b = [0u8; 8];
-        b.copy_from_slice(&head[at..at + 8]);
-        f64::from_le_bytes(b) as u64
-    };
-    let len = vox_offset
-        .checked_sub(head.len() as u64)
-        .ok_or_else(|| anyhow!("{}: vox_offset inside the header", part.display()))?;
-    let mut tail = vec![0u8; len as usize];
-    f.read_exact(&mut tail)?;
-    head.extend_from_slice(&tail);
+    let at = |e: &dyn std::fmt::Display| anyhow!("{}: {e}", part.display());
+    let mut f = std::fs::File::open(part).map_err(|e| at(&e))?;
+    let mut head = vec![0u8; volformats::nifti::NIFTI2_LEN];
+    let n = f.read(&mut head).map_err(|e| at(&e))?;
+    head.truncate(n);
+    let vox_offset = volformats::nifti::NiftiHeader::decode(&head)
+        .map_err(|e| at(&e))?
+        .vox_offset as u64;
+    f.seek(std::io::SeekFrom::Start(0)).map_err(|e| at(&e))?;
+    let mut head = vec![0u8; vox_offset as usize];
+    f.read_exact(&mut head).map_err(|e| at(&e))?;
     Ok((head, f))
 }
 
@@ -269,7 +208,8 @@ pub fn join(
         .first()
         .ok_or_else(|| anyhow!("{}: no volumes to write", output.display()))?;
     let (head0, _) = open_part(first)?;
-    let header = header_4d(&head0, parts.len() as u64, axis.step_s)?;
+    let header = volformats::nifti::with_time_axis(&head0, parts.len() as u64, axis.step_s)
+        .map_err(|e| anyhow!("{}: {e}", output.display()))?;
     let body = |out: &mut dyn Write| -> Result<()> {
         out.write_all(&header)?;
         for (t, part) in parts.iter().enumerate() {
@@ -306,27 +246,4 @@ pub fn join(
         Ok(())
     };
     write().map_err(|e| anyhow!("{}: {e}", output.display()))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_nifti_1_header_gains_a_time_axis_and_keeps_its_space_unit() {
-        let mut h = vec![0u8; 352];
-        h[..4].copy_from_slice(&348i32.to_le_bytes());
-        h[40..42].copy_from_slice(&3i16.to_le_bytes());
-        h[123] = 2; // mm
-        let four = header_4d(&h, 120, Some(2.0)).unwrap();
-        assert_eq!(i16::from_le_bytes([four[40], four[41]]), 4);
-        assert_eq!(i16::from_le_bytes([four[48], four[49]]), 120);
-        assert_eq!(
-            f32::from_le_bytes([four[92], four[93], four[94], four[95]]),
-            2.0
-        );
-        assert_eq!(four[123], 2 | 8);
-        assert!(header_4d(&h, 40_000, None).is_err());
-        assert!(header_4d(&h[..100], 2, None).is_err());
-    }
 }
