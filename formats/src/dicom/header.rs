@@ -249,9 +249,7 @@ pub(super) fn read_file(path: &Path) -> Result<Vec<SliceHeader>, SkipReason> {
         return Err(SkipReason::NoImage(what));
     }
     let frames = int(&obj, tags::NUMBER_OF_FRAMES).unwrap_or(1);
-    // JPEG-LS is decoded by pixels.rs, not through the registry.
-    if let Some(syntax) = syntax.filter(|s| !s.can_decode_all() && !super::pixels::is_jpeg_ls(&ts))
-    {
+    if let Some(syntax) = syntax.filter(|s| !super::pixels::decodes(&ts, s.can_decode_all())) {
         return Err(unsupported_ts(Some(syntax.name())));
     }
     let spp = int(&obj, tags::SAMPLES_PER_PIXEL).unwrap_or(1);

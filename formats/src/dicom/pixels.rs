@@ -43,7 +43,8 @@ pub(super) fn open(s: &SliceHeader) -> CResult<DefaultDicomObject> {
 /// its samples.
 pub(super) fn frame_bytes(s: &SliceHeader, obj: &DefaultDicomObject) -> CResult<Vec<u8>> {
     let frame = s.pixels.frame;
-    if obj.meta().transfer_syntax().trim_end_matches('\0') == RLE_LOSSLESS {
+    let syntax = obj.meta().transfer_syntax().trim_end_matches('\0');
+    if syntax == RLE_LOSSLESS {
         // Decoded here: dicom-rs's RLE decoder panics on damaged
         // segment tables and short segments. RLE keeps one fragment per
         // frame.
@@ -63,7 +64,6 @@ pub(super) fn frame_bytes(s: &SliceHeader, obj: &DefaultDicomObject) -> CResult<
         return decode_rle(fragment, rows * cols, t.size())
             .map_err(|e| bad(&s.path, format!("cannot decode the RLE pixel data: {e}")));
     }
-    let syntax = obj.meta().transfer_syntax().trim_end_matches('\0');
     if is_jpeg_ls(syntax) {
         let t = stored_type(s.bits_allocated, s.signed);
         let (rows, cols) = frame_size(obj, s);
@@ -176,9 +176,16 @@ fn cut_tile(frame: &[u8], tile: Tile, rows: usize, cols: usize, size: usize) -> 
     Some(out)
 }
 
+/// Whether slices of transfer syntax `uid` decode, where dicom-rs's
+/// registry says whether it decodes them (`registry_decodes`): JPEG-LS
+/// is decoded here, whatever the registry says.
+pub(super) fn decodes(uid: &str, registry_decodes: bool) -> bool {
+    registry_decodes || is_jpeg_ls(uid)
+}
+
 /// Whether `uid` is a JPEG-LS transfer syntax (lossless, or
 /// near-lossless).
-pub(super) fn is_jpeg_ls(uid: &str) -> bool {
+fn is_jpeg_ls(uid: &str) -> bool {
     matches!(
         uid.trim_end_matches('\0'),
         "1.2.840.10008.1.2.4.80" | "1.2.840.10008.1.2.4.81"
