@@ -54,15 +54,22 @@ print(json.dumps({{"ok": True}}))
     python_json(&script, "pip install nibabel pydicom; apt install dcm2niix").map(|_| ())
 }
 
+/// `dir/in` holding the MPRAGE and `dir/ref` dcm2niix's conversion of
+/// it; `None` without the Python modules or dcm2niix outside CI.
+fn mprage_and_dcm2niix(dir: &std::path::Path) -> Option<(std::path::PathBuf, std::path::PathBuf)> {
+    let (input, reference) = (dir.join("in"), dir.join("ref"));
+    std::fs::create_dir_all(&input).unwrap();
+    std::fs::create_dir_all(&reference).unwrap();
+    mprage(&input, 176, Some(&reference))?;
+    Some((input, reference))
+}
+
 #[test]
 fn an_enhanced_mr_equals_dcm2niix_in_world_space() {
     let d = tempfile::tempdir().unwrap();
-    let (input, reference) = (d.path().join("in"), d.path().join("ref"));
-    std::fs::create_dir_all(&input).unwrap();
-    std::fs::create_dir_all(&reference).unwrap();
-    if mprage(&input, 176, Some(&reference)).is_none() {
+    let Some((input, reference)) = mprage_and_dcm2niix(d.path()) else {
         return;
-    }
+    };
     let text = ok(tool("vol-info").arg(&input));
     assert!(text.contains("256x256x176"), "{text}");
     // dcm2niix writes Philips' precise values (the private scale slope);
@@ -163,12 +170,9 @@ for k, f in enumerate(ds.PerFrameFunctionalGroupsSequence):
 #[test]
 fn a_sidecar_states_the_acquisition_as_dcm2niix_does() {
     let d = tempfile::tempdir().unwrap();
-    let (input, reference) = (d.path().join("in"), d.path().join("ref"));
-    std::fs::create_dir_all(&input).unwrap();
-    std::fs::create_dir_all(&reference).unwrap();
-    if mprage(&input, 176, Some(&reference)).is_none() {
+    let Some((input, reference)) = mprage_and_dcm2niix(d.path()) else {
         return;
-    }
+    };
     let out = d.path().join("run.nii.gz");
     ok(tool("vol-convert")
         .arg(&input)
